@@ -1,0 +1,2 @@
+"""Analysis: compute data first (functions returning numbers and arrays),
+plot second (functions taking that data)."""

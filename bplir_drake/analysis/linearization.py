@@ -1,0 +1,45 @@
+"""Linearisation of diagrams with Drake's ``Linearize``."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..diagrams import build_plant_with_friction
+from ..params import BplirParams
+
+
+@dataclass(frozen=True)
+class Linearization:
+    A: np.ndarray
+    B: np.ndarray
+    C: np.ndarray
+    D: np.ndarray
+    eigenvalues: np.ndarray
+
+    def modes(self):
+        """(natural frequency rad/s, damping ratio) of each eigenvalue."""
+        lam = self.eigenvalues
+        wn = np.abs(lam)
+        zeta = np.where(wn > 0, -lam.real / np.where(wn > 0, wn, 1.0), 1.0)
+        return wn, zeta
+
+
+def linearize_plant(params: BplirParams, x0=(0.0, 0.0, 0.0, 0.0), u0=0.0, *,
+                    nominal: bool = False) -> Linearization:
+    """Linearise plant + friction (templated, so AutoDiff works) at (x0, u0)."""
+    from pydrake.systems.primitives import Linearize
+
+    built = build_plant_with_friction(params, nominal=nominal)
+    ctx = built.diagram.CreateDefaultContext()
+    built.diagram.get_input_port(0).FixValue(ctx, [float(u0)])
+    ctx.SetContinuousState(np.asarray(x0, dtype=float))
+    lin = Linearize(built.diagram, ctx)
+    A = np.array(lin.A())
+    return Linearization(A, np.array(lin.B()), np.array(lin.C()), np.array(lin.D()),
+                         np.linalg.eigvals(A))
+
+
+def hanging_linearization(params: BplirParams) -> Linearization:
+    """Plant + friction at the hanging rest state (0, 0, 0, 0)."""
+    return linearize_plant(params)

@@ -1,0 +1,491 @@
+"""One typed source of truth for every BPLIR parameter.
+
+Every block is a frozen dataclass.  Each field carries its unit and allowed
+range in ``field(metadata=...)``; ``__post_init__`` validates the block and
+raises :class:`ParameterError` with a one-line message naming the field and
+the allowed range.  Presets are looked up by name (:func:`preset`) and whole
+parameter sets are read from / written to TOML (:func:`load_toml`,
+:func:`to_toml`).
+
+Nominal versus true: ``BplirParams.plant`` and ``BplirParams.friction`` are the
+*nominal* model that controllers and estimators are built from.  The simulated
+robot uses ``true_plant`` / ``true_friction`` when given (otherwise the
+nominal blocks).  Controllers never receive the ``true_*`` blocks.
+
+Dissertation sources: Table 4.3 (plant, friction), Table 4.2 and
+(4.12)-(4.14) (motor), Table 5.1 and (5.36)-(5.40) (IMU, estimator), chapter
+6 (controller), chapter 7 (path), SPEC.md (scenario and success criteria).
+"""
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass, field, fields, replace
+from pathlib import Path
+from typing import Any
+
+INF = math.inf
+
+
+class ParameterError(ValueError):
+    """A parameter, preset or parameter file is invalid (one-line message)."""
+
+
+def _p(default, unit: str, lo: float = -INF, hi: float = INF, *, lo_open=False,
+       hi_open=False, doc: str = ""):
+    """A numeric field with unit and allowed range ``[lo, hi]`` (or open)."""
+    return field(default=default, metadata=dict(unit=unit, lo=lo, hi=hi,
+                                                lo_open=lo_open, hi_open=hi_open,
+                                                doc=doc))
+
+
+def _range_text(md) -> str:
+    lo, hi = md["lo"], md["hi"]
+    left = "(" if md["lo_open"] or lo == -INF else "["
+    right = ")" if md["hi_open"] or hi == INF else "]"
+    unit = f" {md['unit']}" if md["unit"] else ""
+    return f"{left}{lo:g}, {hi:g}{right}{unit}"
+
+
+def _validate_block(block, name: str) -> None:
+    for f in fields(block):
+        md = f.metadata
+        value = getattr(block, f.name)
+        if "lo" not in md:
+            continue
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise ParameterError(
+                f"{name}.{f.name} = {value!r} is not a number; allowed range "
+                f"{_range_text(md)}")
+        if not math.isfinite(value):
+            raise ParameterError(
+                f"{name}.{f.name} = {value} is not finite; allowed range "
+                f"{_range_text(md)}")
+        lo, hi = md["lo"], md["hi"]
+        bad_lo = value <= lo if md["lo_open"] else value < lo
+        bad_hi = value >= hi if md["hi_open"] else value > hi
+        if bad_lo or bad_hi:
+            raise ParameterError(
+                f"{name}.{f.name} = {value:g} is out of range; allowed "
+                f"{_range_text(md)}")
+
+
+class _Block:
+    """Mixin: validation on construction, conversion to/from dicts."""
+
+    _name = "block"
+
+    def __post_init__(self):
+        _validate_block(self, self._name)
+        self._check()
+
+    def _check(self) -> None:  # cross-field checks
+        pass
+
+    def as_dict(self) -> dict[str, Any]:
+        return {f.name: getattr(self, f.name) for f in fields(self)}
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any], base=None):
+        base = base if base is not None else cls()
+        known = {f.name for f in fields(cls)}
+        for key in data:
+            if key not in known:
+                raise ParameterError(
+                    f"unknown parameter '{cls._name}.{key}'; allowed: "
+                    + ", ".join(sorted(known)))
+        values = {}
+        for f in fields(cls):
+            if f.name in data:
+                v = data[f.name]
+                if "lo" in f.metadata and isinstance(v, int) and not isinstance(v, bool):
+                    v = float(v)
+                expected = type(getattr(base, f.name))
+                if expected is bool and not isinstance(v, bool):
+                    raise ParameterError(
+                        f"{cls._name}.{f.name} = {v!r} must be true or false")
+                if expected is str and not isinstance(v, str):
+                    raise ParameterError(
+                        f"{cls._name}.{f.name} = {v!r} must be a string")
+                values[f.name] = v
+        return replace(base, **values)
+
+    def describe(self) -> list[tuple[str, Any, str, str]]:
+        """(name, value, unit, doc) rows for documentation and reports."""
+        return [(f.name, getattr(self, f.name), f.metadata.get("unit", ""),
+                 f.metadata.get("doc", "")) for f in fields(self)]
+
+
+# ---------------------------------------------------------------- plant
+@dataclass(frozen=True)
+class PlantParams(_Block):
+    """Rigid-body parameters of the two-link acrobot (Table 4.3)."""
+
+    _name = "plant"
+    m1: float = _p(3.2287, "kg", 0, lo_open=True, doc="mass of link 1 (gripper-side link)")
+    m2: float = _p(1.5155, "kg", 0, lo_open=True, doc="mass of link 2 (free link)")
+    l1: float = _p(0.9091, "m", 0, lo_open=True, doc="length of link 1 (pivot to elbow)")
+    l2: float = _p(1.2451, "m", 0, lo_open=True, doc="length of link 2 (elbow to free gripper)")
+    lc1: float = _p(0.2167, "m", 0, doc="pivot to centre of mass of link 1")
+    lc2: float = _p(0.5459, "m", 0, doc="elbow to centre of mass of link 2")
+    I1: float = _p(0.1539, "kg m^2", 0, lo_open=True, doc="inertia of link 1 about its CoM")
+    I2: float = _p(0.2191, "kg m^2", 0, lo_open=True, doc="inertia of link 2 about its CoM")
+    g: float = _p(9.81, "m/s^2", 0, 30, lo_open=True, doc="gravitational acceleration")
+
+    def _check(self):
+        if self.lc1 > self.l1:
+            raise ParameterError(
+                f"plant.lc1 = {self.lc1:g} m exceeds plant.l1 = {self.l1:g} m; "
+                f"allowed [0, l1]")
+        if self.lc2 > self.l2:
+            raise ParameterError(
+                f"plant.lc2 = {self.lc2:g} m exceeds plant.l2 = {self.l2:g} m; "
+                f"allowed [0, l2]")
+
+
+# ---------------------------------------------------------------- friction
+@dataclass(frozen=True)
+class FrictionParams(_Block):
+    """Joint friction (4.10)/(4.11) per joint: viscous, Coulomb, drag.
+
+    The drag term is ``0.5*rho_air*cd*area_i*qd*|qd|`` (a lumped coefficient;
+    the dissertation gives no values, so the areas default to zero: the
+    Table 4.3 calibration already lumps drag into fv and fc).
+    """
+
+    _name = "friction"
+    fv1: float = _p(0.1706, "N m s/rad", 0, doc="viscous friction, joint 1 (gripper)")
+    fv2: float = _p(0.0765, "N m s/rad", 0, doc="viscous friction, joint 2 (elbow)")
+    fc1: float = _p(0.0124, "N m", 0, doc="Coulomb friction, joint 1")
+    fc2: float = _p(0.7681, "N m", 0, doc="Coulomb friction, joint 2")
+    b: float = _p(0.01, "rad/s", 0, 10, lo_open=True,
+                  doc="arctan smoothing velocity of (4.11)")
+    rho_air: float = _p(1.225, "kg/m^3", 0, doc="air density")
+    cd: float = _p(1.0, "", 0, doc="drag coefficient")
+    area1: float = _p(0.0, "m^2 (lumped)", 0, doc="effective drag area, joint 1")
+    area2: float = _p(0.0, "m^2 (lumped)", 0, doc="effective drag area, joint 2")
+    enabled: bool = True
+
+    def drag_coefficients(self) -> tuple[float, float]:
+        k = 0.5 * self.rho_air * self.cd
+        return k * self.area1, k * self.area2
+
+    def scaled(self, viscous: float = 1.0, coulomb: float = 1.0) -> "FrictionParams":
+        return replace(self, fv1=self.fv1 * viscous, fv2=self.fv2 * viscous,
+                       fc1=self.fc1 * coulomb, fc2=self.fc2 * coulomb)
+
+
+# ---------------------------------------------------------------- motor
+@dataclass(frozen=True)
+class MotorParams(_Block):
+    """Motor, gearbox and ESCON 50/5 driver (Table 4.2, (4.12)-(4.14)).
+
+    ``km`` is the motor torque constant.  Table 4.2 prints 0.634 N m/A, which
+    would make 15 A worth 456 N m at the output; the datasheet's own stall
+    torque / stall current (3.43 N m / 124 A = 0.02766 N m/A) gives 19.9 N m
+    at 15 A (the "theoretical 20 N m") and 0.836 N m at the 0.63 A dead-band
+    current (the printed 0.82336 N m of (4.14)), so that value is used.
+    """
+
+    _name = "motor"
+    km: float = _p(3.43 / 124.0, "N m/A", 0, lo_open=True, doc="motor torque constant")
+    gear_ratio: float = _p(74.0, "", 0, lo_open=True, doc="gearbox ratio N")
+    eta_g: float = _p(0.72, "", 0, 1, lo_open=True, doc="gearbox efficiency")
+    eta_m: float = _p(0.90, "", 0, 1, lo_open=True, doc="motor efficiency")
+    i_peak: float = _p(15.0, "A", 0, lo_open=True, doc="driver peak current")
+    t_peak: float = _p(2.675, "s", 0, lo_open=True, doc="time the driver holds peak current")
+    i_cont: float = _p(5.0, "A", 0, lo_open=True, doc="driver continuous current")
+    tau_current: float = _p(0.005, "s", 0, 0.01, lo_open=True,
+                            doc="current-loop time constant (<= 10 ms, 4.4)")
+    deadband: float = _p(0.82336, "N m", 0, doc="torque dead-band (4.14)")
+    torque_limit: float = _p(20.0, "N m", 0, lo_open=True,
+                             doc="torque saturation (20 theoretical, 15 practical)")
+    power_rating: float = _p(220.0, "W", 0, lo_open=True, doc="motor power rating")
+    driver_period: float = _p(0.01, "s", 0, 1, lo_open=True,
+                              doc="update period of the driver's i^2 t interlock")
+
+    def _check(self):
+        if self.i_cont > self.i_peak:
+            raise ParameterError(
+                f"motor.i_cont = {self.i_cont:g} A exceeds motor.i_peak = "
+                f"{self.i_peak:g} A; allowed (0, i_peak]")
+
+    @property
+    def torque_per_amp(self) -> float:
+        """(4.12): tau = Km N eta_g eta_m i."""
+        return self.km * self.gear_ratio * self.eta_g * self.eta_m
+
+
+# ---------------------------------------------------------------- IMU
+@dataclass(frozen=True)
+class ImuParams(_Block):
+    """Two planar IMUs (Table 5.1).  ``r_i`` is the distance of IMU i from
+    the proximal joint of link i (the true mounting position).
+
+    Noise is given per sample at the sampling rate.  Table 5.1 prints
+    0.02156 m/s^2 (= 220 ug/sqrt(Hz) at 100 Hz) and 0.0166 rad/s; note that
+    0.03 dps/sqrt(Hz) at 100 Hz is 0.0052 rad/s: 0.0166 corresponds to a
+    1 kHz bandwidth.  The published (larger) value is the default.
+    """
+
+    _name = "imu"
+    r1: float = _p(0.5, "m", 0, lo_open=True, doc="IMU 1 distance from the gripper joint along link 1")
+    r2: float = _p(0.5, "m", 0, lo_open=True, doc="IMU 2 distance from the elbow along link 2")
+    rate_hz: float = _p(100.0, "Hz", 1, 10000, doc="sampling rate (zero-order hold)")
+    accel_sigma: float = _p(0.02156, "m/s^2", 0, doc="accelerometer white noise per sample (5.36)")
+    gyro_sigma: float = _p(0.0166, "rad/s", 0, doc="gyro white noise per sample (5.37)")
+    gyro_bias1: float = _p(0.0, "rad/s", -1, 1, doc="constant gyro bias, IMU 1")
+    gyro_bias2: float = _p(0.0, "rad/s", -1, 1, doc="constant gyro bias, IMU 2")
+    gyro_drift: float = _p(0.0, "rad/s/sqrt(s)", 0, 1, doc="gyro bias random-walk density")
+    misalign1: float = _p(0.0, "rad", -0.2, 0.2, doc="accelerometer misalignment, IMU 1 (5.38)")
+    misalign2: float = _p(0.0, "rad", -0.2, 0.2, doc="accelerometer misalignment, IMU 2")
+    accel_scale1: float = _p(0.0, "", -0.2, 0.2, doc="accelerometer scale error, IMU 1")
+    accel_scale2: float = _p(0.0, "", -0.2, 0.2, doc="accelerometer scale error, IMU 2")
+    noise: bool = True
+
+    @property
+    def period(self) -> float:
+        return 1.0 / self.rate_hz
+
+
+def sigma_from_density(density: float, rate_hz: float) -> float:
+    """Per-sample standard deviation of white noise with the given density."""
+    return density * math.sqrt(rate_hz)
+
+
+# ---------------------------------------------------------------- estimator
+@dataclass(frozen=True)
+class EstimatorParams(_Block):
+    """Kinematic EKF (chapter 5): geometry and noise only.
+
+    No mass, inertia or friction may appear here (the filter is kinematic).
+    """
+
+    _name = "estimator"
+    r1: float = _p(0.5, "m", 0, lo_open=True, doc="IMU 1 distance from joint 1 (filter geometry)")
+    r2: float = _p(0.5, "m", 0, lo_open=True, doc="IMU 2 distance from the elbow")
+    l1: float = _p(0.9091, "m", 0, lo_open=True, doc="link 1 length (filter geometry)")
+    g: float = _p(9.81, "m/s^2", 0, 30, lo_open=True, doc="gravity used by the filter")
+    period: float = _p(0.01, "s", 0, 1, lo_open=True, doc="filter period (100 Hz)")
+    accel_process_sigma: float = _p(0.427, "m/s^2", 0, lo_open=True, doc="(5.39) process noise")
+    gyro_meas_sigma: float = _p(0.02, "rad/s", 0, lo_open=True, doc="(5.40) gyro measurement noise")
+    accel_meas_sigma: float = _p(0.427, "m/s^2", 0, lo_open=True, doc="accelerometer measurement noise")
+    p0_angle: float = _p(1.0, "rad", 0, lo_open=True, doc="initial angle standard deviation")
+    p0_rate: float = _p(0.5, "rad/s", 0, lo_open=True, doc="initial rate standard deviation")
+    estimate_bias: bool = True
+    bias_sigma0: float = _p(0.05, "rad/s", 0, lo_open=True, doc="initial gyro-bias standard deviation")
+    bias_walk: float = _p(1e-3, "rad/s/sqrt(s)", 0, lo_open=True, doc="gyro-bias random walk")
+
+
+# ---------------------------------------------------------------- controller
+CONTROLLER_PRESETS = ("qft", "dissertation", "lab")
+
+
+@dataclass(frozen=True)
+class ControllerParams(_Block):
+    """CPFL inner loop + outer loop (chapter 6).  ``preset`` picks the outer
+    loop; the numbers here are shared by all presets."""
+
+    _name = "controller"
+    preset: str = "qft"
+    period: float = _p(0.01, "s", 0, 1, lo_open=True, doc="controller sample time Ts")
+    torque_limit: float = _p(20.0, "N m", 0, lo_open=True, doc="saturation in the controller")
+    aw_gain: float = _p(100.0, "", 0, lo_open=True, doc="anti-windup gain X >> 1 (Fig. 6.7)")
+    friction_compensation: bool = False
+
+    def _check(self):
+        if self.preset not in CONTROLLER_PRESETS:
+            raise ParameterError(
+                f"controller.preset = '{self.preset}' is unknown; allowed: "
+                + ", ".join(CONTROLLER_PRESETS))
+
+
+# ---------------------------------------------------------------- path
+@dataclass(frozen=True)
+class PathParams(_Block):
+    """Online path generator (chapter 7)."""
+
+    _name = "path"
+    blend_start: float = _p(0.0, "", 0, 1, doc="fraction of |q1f| after the vertical where the blend (7.20) starts")
+    pump_torque: float = _p(15.0, "N m", 0, lo_open=True, doc="energy-pumping torque bound for inclined lines")
+
+
+# ---------------------------------------------------------------- scenario
+@dataclass(frozen=True)
+class ScenarioParams(_Block):
+    """One swing: geometry of the line, thresholds of success, noise seeds."""
+
+    _name = "scenario"
+    grip_spacing: float = _p(1.2, "m", 0, lo_open=True, doc="distance D between the grippers on the line")
+    incline_deg: float = _p(0.0, "deg", -90, 90, lo_open=True, hi_open=True,
+                            doc="line incline (positive: rising in the direction of travel)")
+    max_time: float = _p(3.0, "s", 0, 60, lo_open=True, doc="timeout of one swing")
+    capture_distance: float = _p(0.02, "m", 0, lo_open=True, doc="gripper-to-line distance that counts as arrival")
+    capture_speed: float = _p(0.5, "m/s", 0, lo_open=True, doc="largest gripper speed at arrival (faster is a crash)")
+    min_travel_fraction: float = _p(0.8, "", 0, 2, lo_open=True, doc="arrival must be at least this fraction of D along the line")
+    friction_uncertainty: float = _p(0.2, "", 0, 0.99, doc="simulated friction drawn within +/- this fraction of nominal")
+    seed: int = 0
+    use_estimator: bool = True
+
+    def _check(self):
+        if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
+            raise ParameterError(
+                f"scenario.seed = {self.seed!r} must be a whole number >= 0")
+
+
+@dataclass(frozen=True)
+class BplirParams:
+    """Everything one run needs.  ``plant``/``friction`` are the nominal
+    model; ``true_plant``/``true_friction`` (optional) are the simulated robot."""
+
+    plant: PlantParams = field(default_factory=PlantParams)
+    friction: FrictionParams = field(default_factory=FrictionParams)
+    motor: MotorParams = field(default_factory=MotorParams)
+    imu: ImuParams = field(default_factory=ImuParams)
+    estimator: EstimatorParams = field(default_factory=EstimatorParams)
+    controller: ControllerParams = field(default_factory=ControllerParams)
+    path: PathParams = field(default_factory=PathParams)
+    scenario: ScenarioParams = field(default_factory=ScenarioParams)
+    true_plant: PlantParams | None = None
+    true_friction: FrictionParams | None = None
+    preset_name: str = "dissertation"
+
+    def __post_init__(self):
+        if (self.imu.r1 > (self.true_plant or self.plant).l1
+                or self.imu.r2 > (self.true_plant or self.plant).l2):
+            p = self.true_plant or self.plant
+            raise ParameterError(
+                f"imu.r1 = {self.imu.r1:g} m / imu.r2 = {self.imu.r2:g} m must lie on "
+                f"the links; allowed (0, {p.l1:g}] / (0, {p.l2:g}] m")
+        if self.estimator.r1 > self.estimator.l1:
+            raise ParameterError(
+                f"estimator.r1 = {self.estimator.r1:g} m exceeds estimator.l1 = "
+                f"{self.estimator.l1:g} m; allowed (0, l1]")
+
+    @property
+    def simulated_plant(self) -> PlantParams:
+        return self.true_plant if self.true_plant is not None else self.plant
+
+    @property
+    def simulated_friction(self) -> FrictionParams:
+        return self.true_friction if self.true_friction is not None else self.friction
+
+    def with_(self, **blocks) -> "BplirParams":
+        return replace(self, **blocks)
+
+
+BLOCKS = {
+    "plant": PlantParams, "friction": FrictionParams, "motor": MotorParams,
+    "imu": ImuParams, "estimator": EstimatorParams, "controller": ControllerParams,
+    "path": PathParams, "scenario": ScenarioParams,
+    "true_plant": PlantParams, "true_friction": FrictionParams,
+}
+
+
+# ---------------------------------------------------------------- presets
+def _dissertation() -> BplirParams:
+    return BplirParams(preset_name="dissertation")
+
+
+def _lab() -> BplirParams:
+    """The lab prototype: the estimator geometry of the firmware (r1 = r2 =
+    0.5 m, l1 = 0.8 m while the calibrated link is 0.9091 m) and the firmware
+    controller (SPEC.md, "The lab firmware")."""
+    return BplirParams(
+        estimator=EstimatorParams(r1=0.5, r2=0.5, l1=0.8),
+        controller=ControllerParams(preset="lab", torque_limit=20.0),
+        preset_name="lab",
+    )
+
+
+PRESETS = {"dissertation": _dissertation, "lab": _lab}
+
+
+def preset(name: str = "dissertation") -> BplirParams:
+    """A named parameter set: ``dissertation`` (Table 4.3) or ``lab``."""
+    try:
+        return PRESETS[name]()
+    except KeyError:
+        raise ParameterError(
+            f"unknown preset '{name}'; allowed: " + ", ".join(PRESETS)) from None
+
+
+# ---------------------------------------------------------------- TOML
+def from_dict(data: dict[str, Any], base: BplirParams | None = None) -> BplirParams:
+    """Build parameters from a nested dict (as read from TOML).
+
+    A top-level ``preset = "name"`` selects the base; every table overrides
+    fields of the block of the same name.
+    """
+    if not isinstance(data, dict):
+        raise ParameterError("parameter data must be a table of tables")
+    data = dict(data)
+    name = data.pop("preset", None)
+    if name is not None and not isinstance(name, str):
+        raise ParameterError(f"preset = {name!r} must be a string naming a preset")
+    params = preset(name) if name else (base or preset("dissertation"))
+    updates: dict[str, Any] = {}
+    for key, table in data.items():
+        if key not in BLOCKS:
+            raise ParameterError(
+                f"unknown parameter table '[{key}]'; allowed: " + ", ".join(BLOCKS))
+        if not isinstance(table, dict):
+            raise ParameterError(f"'{key}' must be a table ([{key}]), got {table!r}")
+        cls = BLOCKS[key]
+        if key.startswith("true_"):
+            current = getattr(params, key) or getattr(params, key[len("true_"):])
+        else:
+            current = getattr(params, key)
+        try:
+            updates[key] = cls.from_dict(table, base=current)
+        except TypeError as exc:  # pragma: no cover - defensive
+            raise ParameterError(f"[{key}]: {exc}") from None
+    try:
+        return replace(params, **updates)
+    except TypeError as exc:  # pragma: no cover - defensive
+        raise ParameterError(str(exc)) from None
+
+
+def load_toml(path: str | Path) -> BplirParams:
+    """Read a parameter file; errors name the file and the problem."""
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except OSError as exc:
+        raise ParameterError(f"cannot read parameter file {path}: {exc.strerror}") from None
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ParameterError(f"malformed TOML in {path}: {exc}") from None
+    return from_dict(data)
+
+
+def to_dict(params: BplirParams) -> dict[str, Any]:
+    out: dict[str, Any] = {"preset": params.preset_name}
+    for key in BLOCKS:
+        block = getattr(params, key)
+        if block is not None:
+            out[key] = block.as_dict()
+    return out
+
+
+def to_toml(params: BplirParams) -> str:
+    import tomli_w
+
+    return tomli_w.dumps(to_dict(params))
+
+
+def save_toml(params: BplirParams, path: str | Path) -> None:
+    Path(path).write_text(to_toml(params))
+
+
+def as_jsonable(params: BplirParams) -> dict[str, Any]:
+    return to_dict(params)
+
+
+__all__ = [
+    "ParameterError", "PlantParams", "FrictionParams", "MotorParams", "ImuParams",
+    "EstimatorParams", "ControllerParams", "PathParams", "ScenarioParams",
+    "BplirParams", "preset", "PRESETS", "from_dict", "load_toml", "to_toml",
+    "save_toml", "to_dict", "sigma_from_density",
+]

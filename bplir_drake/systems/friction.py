@@ -1,0 +1,72 @@
+"""Joint friction (4.10)/(4.11) as a scalar-templated Drake system.
+
+``ForceElement`` cannot be subclassed from Python, so friction is a
+``LeafSystem_[T]`` that reads the plant state and writes the generalized
+force ``-f(qd)`` into the plant's applied-generalized-force port.  The state
+output has no direct feedthrough, so there is no algebraic loop, and because
+the system is templated (double, AutoDiffXd, Expression) a diagram
+containing it still linearises with ``Linearize``.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pydrake.math as dmath
+from pydrake.systems.framework import LeafSystem_
+from pydrake.systems.scalar_conversion import TemplateSystem
+
+from ..params import FrictionParams
+
+
+def joint_friction(qd, fv: float, fc: float, b: float, k_drag: float = 0.0):
+    """Candidate function (4.11) for one joint; drag opposes motion.
+
+    ``f = fv*qd + fc*(2/pi)*atan(qd/b) + k_drag*qd*|qd|`` with
+    ``k_drag = 0.5*rho*Cd*A``.  Works for floats, numpy arrays, AutoDiffXd and
+    Expression.
+    """
+    if isinstance(qd, np.ndarray) and qd.dtype != object:
+        return fv * qd + fc * (2.0 / math.pi) * np.arctan(qd / b) + k_drag * qd * np.abs(qd)
+    return fv * qd + fc * (2.0 / math.pi) * dmath.atan(qd / b) + k_drag * qd * abs(qd)
+
+
+def joint_friction_discontinuous(qd, fv: float, fc: float, k_drag: float = 0.0):
+    """Reference model (4.10): ``fc*sgn(qd) + fv*qd + drag`` (drag opposes motion)."""
+    qd = np.asarray(qd, dtype=float)
+    return fc * np.sign(qd) + fv * qd + k_drag * qd * np.abs(qd)
+
+
+def friction_torques(qd, p: FrictionParams):
+    """(f1, f2) of (4.11) for both joints (zero when friction is disabled)."""
+    if not p.enabled:
+        return np.array([0.0 * qd[0], 0.0 * qd[1]])
+    k1, k2 = p.drag_coefficients()
+    return np.array([joint_friction(qd[0], p.fv1, p.fc1, p.b, k1),
+                     joint_friction(qd[1], p.fv2, p.fc2, p.b, k2)])
+
+
+@TemplateSystem.define("JointFriction_")
+def JointFriction_(T):
+    class Impl(LeafSystem_[T]):
+        """Input ``state`` (q1, q2, q1d, q2d); output ``generalized_force`` = -f(qd)."""
+
+        def _construct(self, params: FrictionParams, converter=None):
+            LeafSystem_[T].__init__(self, converter)
+            self.params = params
+            self.DeclareVectorInputPort("state", 4)
+            self.DeclareVectorOutputPort("generalized_force", 2, self._calc,
+                                         {self.all_input_ports_ticket()})
+
+        def _construct_copy(self, other, converter=None):
+            Impl._construct(self, other.params, converter=converter)
+
+        def _calc(self, context, output):
+            x = self.get_input_port(0).Eval(context)
+            f = friction_torques(x[2:4], self.params)
+            output.SetFromVector(np.array([-f[0], -f[1]]))
+
+    return Impl
+
+
+JointFriction = JointFriction_[None]

@@ -1,0 +1,254 @@
+"""The BPLIR acrobot as a Drake ``MultibodyPlant`` plus its closed form.
+
+Conventions (SPEC.md): the line is the x axis through the fixed gripper
+(origin), y is up, gravity is -y.  ``q1`` is link 1's angle from the downward
+vertical (passive joint at the fixed gripper), ``q2`` the elbow angle of link
+2 relative to link 1 (actuated).  Both joints rotate about +z, so positive
+angles are counter-clockwise in the x-y plane.  Forward kinematics (A.3):
+elbow ``(l1 s1, -l1 c1)``, free gripper ``(l1 s1 + l2 s12, -l1 c1 - l2 c12)``.
+
+The closed-form manipulator terms are (4.6)-(4.8) *corrected*: the printed
+M21 lacks the ``c2`` factor of M12 and (A.9) leaves ``lc2`` unsquared; the
+mass matrix below is symmetric and is tested against the plant.
+
+The pure functions accept floats, ``AutoDiffXd`` or symbolic ``Expression``
+(they use ``pydrake.math``), so the controller can call them in any scalar
+type.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pydrake.math as dmath
+
+from ..params import ParameterError, PlantParams
+
+# ----------------------------------------------------------- closed form
+
+
+def mass_matrix(q, p: PlantParams):
+    """M(q) of (4.6), corrected to be symmetric."""
+    c2 = dmath.cos(q[1])
+    a = p.I2 + p.m2 * p.lc2 ** 2
+    m12 = a + p.m2 * p.l1 * p.lc2 * c2
+    m11 = (p.m1 * p.lc1 ** 2 + p.I1 + p.m2 * p.l1 ** 2 + a
+           + 2.0 * p.m2 * p.l1 * p.lc2 * c2)
+    return np.array([[m11, m12], [m12, a]])
+
+
+def coriolis_matrix(q, v, p: PlantParams):
+    """C(q, v) of (4.7)."""
+    h = -p.m2 * p.l1 * p.lc2 * dmath.sin(q[1])
+    return np.array([[h * v[1], h * (v[0] + v[1])], [-h * v[0], 0.0 * h]])
+
+
+def bias_term(q, v, p: PlantParams):
+    """C(q, v) v: Coriolis and centrifugal generalized forces."""
+    h = p.m2 * p.l1 * p.lc2 * dmath.sin(q[1])
+    return np.array([-h * (2.0 * v[0] * v[1] + v[1] ** 2), h * v[0] ** 2])
+
+
+def gravity_vector(q, p: PlantParams):
+    """g(q) of (4.8): M qdd + C qd + g = tau - f."""
+    s1 = dmath.sin(q[0])
+    s12 = dmath.sin(q[0] + q[1])
+    return np.array([p.m1 * p.g * p.lc1 * s1 + p.m2 * p.g * (p.l1 * s1 + p.lc2 * s12),
+                     p.m2 * p.g * p.lc2 * s12])
+
+
+def potential_energy(q, p: PlantParams):
+    """V(q) of (4.4), zero with the links on the line's height."""
+    c1 = dmath.cos(q[0])
+    c12 = dmath.cos(q[0] + q[1])
+    return -p.m1 * p.g * p.lc1 * c1 - p.m2 * p.g * (p.l1 * c1 + p.lc2 * c12)
+
+
+def kinetic_energy(q, v, p: PlantParams):
+    v = np.asarray(v)
+    return 0.5 * v @ mass_matrix(q, p) @ v
+
+
+def forward_dynamics(q, v, tau2, f, p: PlantParams):
+    """qdd from (4.5) with elbow torque ``tau2`` and friction ``f`` (2-vector)."""
+    M = mass_matrix(q, p)
+    rhs = np.array([0.0, tau2]) - bias_term(q, v, p) - gravity_vector(q, p) - np.asarray(f)
+    det = M[0, 0] * M[1, 1] - M[0, 1] * M[1, 0]
+    return np.array([(M[1, 1] * rhs[0] - M[0, 1] * rhs[1]) / det,
+                     (-M[1, 0] * rhs[0] + M[0, 0] * rhs[1]) / det])
+
+
+# ----------------------------------------------------------- kinematics
+
+
+def elbow_position(q, l1):
+    return np.array([l1 * dmath.sin(q[0]), -l1 * dmath.cos(q[0])])
+
+
+def gripper_position(q, l1, l2):
+    """Free gripper position (A.3) in the line frame (x along the line)."""
+    s1, c1 = dmath.sin(q[0]), dmath.cos(q[0])
+    s12, c12 = dmath.sin(q[0] + q[1]), dmath.cos(q[0] + q[1])
+    return np.array([l1 * s1 + l2 * s12, -l1 * c1 - l2 * c12])
+
+
+def gripper_velocity(q, v, l1, l2):
+    c1, s1 = dmath.cos(q[0]), dmath.sin(q[0])
+    c12, s12 = dmath.cos(q[0] + q[1]), dmath.sin(q[0] + q[1])
+    w12 = v[0] + v[1]
+    return np.array([l1 * c1 * v[0] + l2 * c12 * w12, l1 * s1 * v[0] + l2 * s12 * w12])
+
+
+def absolute_from_relative(q_rel):
+    """(q1, q2[, q1d, q2d]) -> (theta1, theta2[, omega1, omega2]), chapter 5."""
+    q_rel = np.asarray(q_rel)
+    out = np.array(q_rel, dtype=q_rel.dtype)
+    out[..., 1] = q_rel[..., 0] + q_rel[..., 1]
+    if q_rel.shape[-1] == 4:
+        out[..., 3] = q_rel[..., 2] + q_rel[..., 3]
+    return out
+
+
+def relative_from_absolute(theta):
+    """Inverse of :func:`absolute_from_relative`."""
+    theta = np.asarray(theta)
+    out = np.array(theta, dtype=theta.dtype)
+    out[..., 1] = theta[..., 1] - theta[..., 0]
+    if theta.shape[-1] == 4:
+        out[..., 3] = theta[..., 3] - theta[..., 2]
+    return out
+
+
+def line_frame(alpha: float):
+    """Unit vectors along and normal (upward) to a line inclined by alpha."""
+    return (np.array([math.cos(alpha), math.sin(alpha)]),
+            np.array([-math.sin(alpha), math.cos(alpha)]))
+
+
+def initial_configuration(grip_spacing: float, p: PlantParams,
+                          incline: float = 0.0) -> np.ndarray:
+    """Start configuration with both grippers on the line, elbow below it.
+
+    The fixed gripper is at the origin and the free gripper at distance D
+    behind it along a line inclined by ``incline`` (rad; positive rises in
+    the direction of travel, +x), i.e. at ``-D (cos a, sin a)``.  With the
+    Table 4.3 links and D = 1.2 m this is about (-0.334, -1.997) rad.
+    """
+    l1, l2, D = p.l1, p.l2, grip_spacing
+    lo, hi = abs(l1 - l2), l1 + l2
+    if not (lo < D < hi):
+        raise ParameterError(
+            f"scenario.grip_spacing = {D:g} m is out of reach of the links; "
+            f"allowed ({lo:.4g}, {hi:.4g}) m")
+    # interior angle at the elbow from the law of cosines
+    cos_e = (l1 ** 2 + l2 ** 2 - D ** 2) / (2 * l1 * l2)
+    q2 = -(math.pi - math.acos(max(-1.0, min(1.0, cos_e))))
+    # angle of link 1 from the downward vertical: gripper at (-D, 0)
+    # with q2 < 0 the elbow hangs below the line
+    cos_b = (l1 ** 2 + D ** 2 - l2 ** 2) / (2 * l1 * D)
+    beta = math.acos(max(-1.0, min(1.0, cos_b)))  # angle at the pivot
+    q1 = -(math.pi / 2 - beta)
+    return np.array([q1 + incline, q2])
+
+
+def target_configuration(grip_spacing: float, p: PlantParams,
+                         incline: float = 0.0) -> np.ndarray:
+    """Mirror configuration (7.1) about the line's normal through the pivot."""
+    q0 = initial_configuration(grip_spacing, p, 0.0)
+    return np.array([-q0[0] + incline, -q0[1]])
+
+
+# ----------------------------------------------------------- Drake plant
+
+
+def add_acrobot_plant(builder, p: PlantParams, *, scene_graph: bool = False):
+    """Add the continuous-time BPLIR ``MultibodyPlant`` to ``builder``.
+
+    The elbow actuator has no effort limit (Drake >= 1.51 would clamp
+    silently); saturation lives in the motor model and the controller.
+    Returns the finalized plant (and the scene graph when requested).
+    """
+    from pydrake.multibody.plant import AddMultibodyPlantSceneGraph, MultibodyPlant
+
+    if scene_graph:
+        plant, sg = AddMultibodyPlantSceneGraph(builder, 0.0)
+    else:
+        plant, sg = builder.AddSystem(MultibodyPlant(0.0)), None
+    _populate(plant, p, sg)
+    plant.Finalize()
+    plant.set_name("bplir_plant")
+    return (plant, sg) if scene_graph else plant
+
+
+def make_plant(p: PlantParams):
+    """A stand-alone finalized plant (for closed-form checks and tools)."""
+    from pydrake.multibody.plant import MultibodyPlant
+
+    plant = MultibodyPlant(0.0)
+    _populate(plant, p, None)
+    plant.Finalize()
+    return plant
+
+
+def _link_inertia(m, lc, I):
+    from pydrake.multibody.tree import RotationalInertia, SpatialInertia
+
+    # a slender link along -y: inertia I about x and z, small about y
+    Irot = RotationalInertia(I, 1e-4 * I, I)
+    return SpatialInertia.MakeFromCentralInertia(m, [0.0, -lc, 0.0], Irot)
+
+
+def _populate(plant, p: PlantParams, scene_graph) -> None:
+    from pydrake.multibody.tree import RevoluteJoint
+
+    plant.mutable_gravity_field().set_gravity_vector([0.0, -p.g, 0.0])
+    link1 = plant.AddRigidBody("link1", _link_inertia(p.m1, p.lc1, p.I1))
+    link2 = plant.AddRigidBody("link2", _link_inertia(p.m2, p.lc2, p.I2))
+    world = plant.world_frame()
+    j1 = plant.AddJoint(RevoluteJoint("gripper_joint", world, link1.body_frame(),
+                                      [0.0, 0.0, 1.0], damping=0.0))
+    elbow_frame = plant.AddFrame(_fixed_frame("elbow", link1, [0.0, -p.l1, 0.0]))
+    j2 = plant.AddJoint(RevoluteJoint("elbow_joint", elbow_frame, link2.body_frame(),
+                                      [0.0, 0.0, 1.0], damping=0.0))
+    plant.AddJointActuator("elbow_motor", j2, effort_limit=math.inf)
+    # gripper frame at the free end of link 2
+    plant.AddFrame(_fixed_frame("free_gripper", link2, [0.0, -p.l2, 0.0]))
+    for j in (j1, j2):
+        j.set_position_limits([-math.inf], [math.inf])
+    if scene_graph is not None:
+        _register_geometry(plant, scene_graph, p, link1, link2)
+
+
+def _fixed_frame(name, body, offset):
+    from pydrake.math import RigidTransform
+    from pydrake.multibody.tree import FixedOffsetFrame
+
+    return FixedOffsetFrame(name, body.body_frame(), RigidTransform(offset))
+
+
+def _register_geometry(plant, scene_graph, p, link1, link2) -> None:
+    from pydrake.geometry import Box, Cylinder, Sphere
+    from pydrake.math import RigidTransform
+
+    blue = np.array([0.15, 0.35, 0.8, 1.0])
+    orange = np.array([0.9, 0.45, 0.1, 1.0])
+    for link, length, color in ((link1, p.l1, blue), (link2, p.l2, orange)):
+        plant.RegisterVisualGeometry(
+            link, RigidTransform([0.0, -length / 2, 0.0]), Box(0.04, length, 0.04),
+            f"{link.name()}_box", color)
+        plant.RegisterVisualGeometry(
+            link, RigidTransform([0.0, -length, 0.0]), Sphere(0.05),
+            f"{link.name()}_tip", color)
+    plant.RegisterVisualGeometry(
+        plant.world_body(), RigidTransform([0.0, 0.0, 0.0]), Cylinder(0.01, 0.01),
+        "pivot", np.array([0.2, 0.2, 0.2, 1.0]))
+
+
+def drake_manipulator_terms(plant, context, q, v):
+    """(M, C v, g) from a Drake plant at (q, v), in the closed-form convention."""
+    plant.SetPositions(context, q)
+    plant.SetVelocities(context, v)
+    M = plant.CalcMassMatrix(context)
+    Cv = plant.CalcBiasTerm(context)
+    g = -plant.CalcGravityGeneralizedForces(context)
+    return M, Cv, g

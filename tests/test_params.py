@@ -1,0 +1,101 @@
+"""Parameter blocks: defaults from the dissertation, validation, presets, TOML."""
+import math
+
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from bplir_drake import params as P
+
+
+def test_table_4_3_defaults(params):
+    p, f = params.plant, params.friction
+    assert (p.m1, p.m2, p.l1, p.l2) == (3.2287, 1.5155, 0.9091, 1.2451)
+    assert (p.lc1, p.lc2, p.I1, p.I2) == (0.2167, 0.5459, 0.1539, 0.2191)
+    assert (f.fv1, f.fv2, f.fc1, f.fc2, f.b) == (0.1706, 0.0765, 0.0124, 0.7681, 0.01)
+
+
+def test_motor_torque_constant_consistent_with_deadband_and_limit(params):
+    m = params.motor
+    # 15 A is the theoretical 20 N m; 0.63 A is the 0.82336 N m dead-band (4.14)
+    assert m.torque_per_amp * 15.0 == pytest.approx(20.0, rel=0.01)
+    assert m.torque_per_amp * 0.63 == pytest.approx(0.82336, rel=0.02)
+
+
+def test_lab_preset_geometry():
+    lab = P.preset("lab")
+    assert (lab.estimator.r1, lab.estimator.r2, lab.estimator.l1) == (0.5, 0.5, 0.8)
+    assert lab.controller.preset == "lab"
+    assert lab.plant == P.preset("dissertation").plant
+
+
+@pytest.mark.parametrize("block, kwargs, words", [
+    (P.PlantParams, {"m1": -1.0}, ["plant.m1", "(0, inf)"]),
+    (P.PlantParams, {"lc1": 1.0}, ["plant.lc1", "plant.l1"]),
+    (P.PlantParams, {"lc2": 2.0}, ["plant.lc2"]),
+    (P.PlantParams, {"I2": math.nan}, ["plant.I2", "not finite"]),
+    (P.FrictionParams, {"fc2": -0.1}, ["friction.fc2"]),
+    (P.FrictionParams, {"b": 0.0}, ["friction.b"]),
+    (P.MotorParams, {"tau_current": 0.05}, ["motor.tau_current", "0.01"]),
+    (P.MotorParams, {"i_cont": 20.0}, ["motor.i_cont"]),
+    (P.ImuParams, {"misalign1": 1.0}, ["imu.misalign1"]),
+    (P.ScenarioParams, {"incline_deg": 90.0}, ["scenario.incline_deg", "90"]),
+    (P.ScenarioParams, {"seed": -3}, ["scenario.seed"]),
+    (P.ControllerParams, {"preset": "pid"}, ["controller.preset", "qft"]),
+])
+def test_bad_parameters_name_field_and_range(block, kwargs, words):
+    with pytest.raises(P.ParameterError) as err:
+        block(**kwargs)
+    msg = str(err.value)
+    assert "\n" not in msg
+    for w in words:
+        assert w in msg
+
+
+def test_imu_must_sit_on_the_link():
+    with pytest.raises(P.ParameterError, match="imu.r1"):
+        P.BplirParams(imu=P.ImuParams(r1=1.5))
+
+
+def test_unknown_preset():
+    with pytest.raises(P.ParameterError, match="unknown preset 'x'; allowed: dissertation, lab"):
+        P.preset("x")
+
+
+def test_toml_round_trip(tmp_path, params):
+    changed = params.with_(plant=P.PlantParams(m1=3.0),
+                           true_friction=params.friction.scaled(1.2, 0.8))
+    path = tmp_path / "p.toml"
+    P.save_toml(changed, path)
+    back = P.load_toml(path)
+    assert back == changed
+    assert back.simulated_friction.fc2 == pytest.approx(0.7681 * 0.8)
+    assert back.friction.fc2 == 0.7681  # the nominal model is untouched
+
+
+@pytest.mark.parametrize("text, words", [
+    ("[plant\nm1 = 1", "malformed TOML"),
+    ("[plnt]\nm1 = 1\n", "unknown parameter table '[plnt]'"),
+    ("[plant]\nmass = 1\n", "unknown parameter 'plant.mass'"),
+    ("[plant]\nm1 = 'heavy'\n", "plant.m1 = 'heavy' is not a number"),
+    ("preset = 'moon'\n", "unknown preset 'moon'"),
+    ("plant = 3\n", "'plant' must be a table"),
+])
+def test_malformed_toml(tmp_path, text, words):
+    path = tmp_path / "bad.toml"
+    path.write_text(text)
+    with pytest.raises(P.ParameterError) as err:
+        P.load_toml(path)
+    assert words in str(err.value)
+
+
+@settings(max_examples=60, deadline=None)
+@given(m=st.floats(allow_nan=True, allow_infinity=True))
+def test_any_mass_is_accepted_or_rejected_cleanly(m):
+    try:
+        p = P.PlantParams(m1=m)
+    except P.ParameterError as exc:
+        assert "plant.m1" in str(exc)
+        assert not (m > 0 and math.isfinite(m))
+    else:
+        assert p.m1 > 0 and math.isfinite(p.m1)

@@ -1,0 +1,106 @@
+"""The MultibodyPlant against the corrected closed form (4.6)-(4.8), kinematics."""
+import math
+
+import numpy as np
+import pytest
+
+from bplir_drake.params import ParameterError, PlantParams
+from bplir_drake.systems import plant as K
+
+
+def test_mass_bias_gravity_match_closed_form_at_100_states(params):
+    p = params.plant
+    pl = K.make_plant(p)
+    ctx = pl.CreateDefaultContext()
+    rng = np.random.default_rng(1)
+    worst = 0.0
+    for _ in range(100):
+        q = rng.uniform(-math.pi, math.pi, 2)
+        v = rng.uniform(-6, 6, 2)
+        M, Cv, g = K.drake_manipulator_terms(pl, ctx, q, v)
+        worst = max(worst, np.abs(M - K.mass_matrix(q, p)).max(),
+                    np.abs(Cv - K.bias_term(q, v, p)).max(),
+                    np.abs(Cv - K.coriolis_matrix(q, v, p) @ v).max(),
+                    np.abs(g - K.gravity_vector(q, p)).max())
+    assert worst < 1e-9
+
+
+def test_printed_mass_matrix_is_not_symmetric_but_plant_is(params):
+    p = params.plant
+    q = [0.3, 1.1]
+    M = K.mass_matrix(q, p)
+    printed_m21 = p.I2 + p.m2 * p.lc2 ** 2 + p.m2 * p.l1 * p.lc2  # (4.6), no c2
+    assert M[1, 0] == pytest.approx(M[0, 1])
+    assert abs(printed_m21 - M[1, 0]) > 0.1
+
+
+def test_skew_symmetry_of_mdot_minus_2c(params):
+    """(7.12): qd^T (Mdot - 2C) qd = 0, the property behind (7.13)."""
+    p = params.plant
+    rng = np.random.default_rng(2)
+    for _ in range(20):
+        q, v = rng.uniform(-3, 3, 2), rng.uniform(-5, 5, 2)
+        dq = 1e-6
+        Mdot = (K.mass_matrix(q + dq * v, p) - K.mass_matrix(q - dq * v, p)) / (2 * dq)
+        assert v @ (Mdot - 2 * K.coriolis_matrix(q, v, p)) @ v == pytest.approx(0, abs=1e-6)
+
+
+def test_initial_configuration_for_default_spacing(params):
+    q0 = K.initial_configuration(1.2, params.plant)
+    np.testing.assert_allclose(q0, [-0.334, -1.997], atol=1e-3)
+    np.testing.assert_allclose(K.gripper_position(q0, params.plant.l1, params.plant.l2),
+                               [-1.2, 0.0], atol=1e-12)
+    # elbow hangs below the line
+    assert K.elbow_position(q0, params.plant.l1)[1] < 0
+    qT = K.target_configuration(1.2, params.plant)
+    np.testing.assert_allclose(qT, -q0)
+
+
+def test_inclined_start_lies_on_the_inclined_line(params):
+    p = params.plant
+    a = math.radians(20)
+    q0 = K.initial_configuration(1.2, p, a)
+    qT = K.target_configuration(1.2, p, a)
+    np.testing.assert_allclose(K.gripper_position(q0, p.l1, p.l2),
+                               [-1.2 * math.cos(a), -1.2 * math.sin(a)], atol=1e-12)
+    np.testing.assert_allclose(K.gripper_position(qT, p.l1, p.l2),
+                               [1.2 * math.cos(a), 1.2 * math.sin(a)], atol=1e-12)
+
+
+@pytest.mark.parametrize("D", [0.2, 2.2, 3.0, -1.0])
+def test_unreachable_grip_spacing(params, D):
+    with pytest.raises(ParameterError, match="grip_spacing .* out of reach.*allowed"):
+        K.initial_configuration(D, params.plant)
+
+
+def test_absolute_relative_round_trip():
+    x = np.array([0.3, -1.2, 0.5, 2.0])
+    th = K.absolute_from_relative(x)
+    np.testing.assert_allclose(th, [0.3, -0.9, 0.5, 2.5])
+    np.testing.assert_allclose(K.relative_from_absolute(th), x)
+
+
+def test_gripper_velocity_is_derivative_of_position(params):
+    p = params.plant
+    q, v, h = np.array([0.4, -0.7]), np.array([1.3, -2.1]), 1e-6
+    num = (K.gripper_position(q + h * v, p.l1, p.l2)
+           - K.gripper_position(q - h * v, p.l1, p.l2)) / (2 * h)
+    np.testing.assert_allclose(K.gripper_velocity(q, v, p.l1, p.l2), num, atol=1e-8)
+
+
+def test_no_effort_limit_on_elbow(params):
+    pl = K.make_plant(params.plant)
+    act = pl.get_joint_actuator(pl.GetJointActuatorIndices()[0])
+    assert math.isinf(act.effort_limit())
+
+
+def test_forward_dynamics_matches_plant(params):
+    p = PlantParams()
+    pl = K.make_plant(p)
+    ctx = pl.CreateDefaultContext()
+    q, v = np.array([0.2, -1.0]), np.array([0.5, 1.5])
+    pl.SetPositions(ctx, q)
+    pl.SetVelocities(ctx, v)
+    pl.get_actuation_input_port().FixValue(ctx, [3.0])
+    xd = pl.EvalTimeDerivatives(ctx).CopyToVector()
+    np.testing.assert_allclose(K.forward_dynamics(q, v, 3.0, [0, 0], p), xd[2:], atol=1e-10)

@@ -18,9 +18,16 @@ from pydrake.systems.primitives import (ConstantVectorSource, LogVectorOutput,
                                         TrajectorySource)
 
 from .params import BplirParams, FrictionParams, PlantParams
+from .systems.ekf import KinematicEkf
 from .systems.friction import JointFriction
+from .systems.imu import ImuSampler
+from .systems.logging import SampleLogger
 from .systems.motor import MotorDriver
 from .systems.plant import add_acrobot_plant
+
+#: the EKF (and the controller after it) run this long after the IMU sample
+#: of the same tick, so they use it without a full period of delay
+COMPUTE_OFFSET = 1e-4
 
 
 @dataclass
@@ -51,16 +58,60 @@ def _torque_source(builder, elbow_torque):
 
 
 def add_plant_with_friction(builder, plant_params: PlantParams,
-                            friction_params: FrictionParams, *, scene_graph=False):
-    """Plant + friction force element wired into the applied-force port."""
+                            friction_params: FrictionParams, *, scene_graph=False,
+                            disturbance=None):
+    """Plant + friction force element wired into the applied-force port.
+
+    ``disturbance`` (optional) is an output port of 2 generalized forces
+    (e.g. wind or a knock) added to the friction force.
+    """
+    from pydrake.systems.primitives import Adder
+
     out = add_acrobot_plant(builder, plant_params, scene_graph=scene_graph)
     plant = out[0] if scene_graph else out
     friction = builder.AddSystem(JointFriction(friction_params))
     friction.set_name("joint_friction")
     builder.Connect(plant.get_state_output_port(), friction.get_input_port(0))
-    builder.Connect(friction.get_output_port(0),
-                    plant.get_applied_generalized_force_input_port())
+    if disturbance is None:
+        builder.Connect(friction.get_output_port(0),
+                        plant.get_applied_generalized_force_input_port())
+    else:
+        add = builder.AddSystem(Adder(2, 2))
+        add.set_name("external_forces")
+        builder.Connect(friction.get_output_port(0), add.get_input_port(0))
+        builder.Connect(disturbance, add.get_input_port(1))
+        builder.Connect(add.get_output_port(0),
+                        plant.get_applied_generalized_force_input_port())
     return out, friction
+
+
+def add_imus(builder, plant, params: BplirParams, seed: int):
+    """Drake Gyroscope/Accelerometer on each link + the sampling/noise model."""
+    from pydrake.math import RigidTransform
+    from pydrake.systems.sensors import Accelerometer, Gyroscope
+
+    sampler = builder.AddSystem(ImuSampler(params.imu, seed))
+    sampler.set_name("imu")
+    g = params.simulated_plant.g
+    for i, (link, r) in enumerate((("link1", params.imu.r1), ("link2", params.imu.r2)), 1):
+        body = plant.GetBodyByName(link)
+        X_BS = RigidTransform([0.0, -r, 0.0])
+        gyro = builder.AddSystem(Gyroscope(body, X_BS))
+        acc = builder.AddSystem(Accelerometer(body, X_BS, [0.0, -g, 0.0]))
+        gyro.set_name(f"gyroscope{i}")
+        acc.set_name(f"accelerometer{i}")
+        builder.Connect(plant.get_body_poses_output_port(), gyro.get_body_poses_input_port())
+        builder.Connect(plant.get_body_spatial_velocities_output_port(),
+                        gyro.get_body_velocities_input_port())
+        for port, sys_port in ((plant.get_body_poses_output_port(), acc.get_body_poses_input_port()),
+                               (plant.get_body_spatial_velocities_output_port(),
+                                acc.get_body_velocities_input_port()),
+                               (plant.get_body_spatial_accelerations_output_port(),
+                                acc.get_body_accelerations_input_port())):
+            builder.Connect(port, sys_port)
+        builder.Connect(gyro.get_measurement_output_port(), sampler.GetInputPort(f"gyro{i}"))
+        builder.Connect(acc.get_measurement_output_port(), sampler.GetInputPort(f"accel{i}"))
+    return sampler
 
 
 def build_free_swing(params: BplirParams, elbow_torque=0.0, *, friction: bool = True,
@@ -117,3 +168,56 @@ def build_plant_with_friction(params: BplirParams, *, nominal: bool = False) -> 
     diagram = builder.Build()
     diagram.set_name("plant_with_friction")
     return Built(diagram, plant, {"friction": fr}, {}, params)
+
+
+def _sample_logger(builder, port, period, offset):
+    lg = builder.AddSystem(SampleLogger(port.size(), period, offset))
+    builder.Connect(port, lg.get_input_port(0))
+    return lg
+
+
+def _pulse_source(builder, knock):
+    """Generalized-force pulse on joint 1: ``knock = (t_start, duration, torque)``."""
+    from pydrake.trajectories import PiecewisePolynomial
+
+    t0, dur, tq = knock
+    times = np.array([0.0, t0, t0 + dur, t0 + dur + 1.0])
+    vals = np.array([[0.0, tq, 0.0, 0.0], [0.0, 0.0, 0.0, 0.0]])
+    return builder.AddSystem(TrajectorySource(PiecewisePolynomial.ZeroOrderHold(times, vals)))
+
+
+def build_sensor_swing(params: BplirParams, x0_estimate=(0.0, 0.0, 0.0, 0.0), *,
+                       elbow_torque=0.0, knock=None, ekf: bool = True, seed: int | None = None,
+                       log_period: float = 0.01) -> Built:
+    """Open loop: plant + friction + two IMUs (+ EKF).
+
+    ``elbow_torque`` as in :func:`build_free_swing`; ``knock = (t, duration,
+    torque)`` applies a torque pulse on link 1 (the "knock" of 5.5).
+    ``x0_estimate`` is the filter's initial absolute state.  Loggers:
+    ``state``, ``imu`` (sampled IMU, at the IMU rate), ``estimate`` and
+    ``covariance`` (at the filter rate) when the EKF is present.
+    """
+    builder = DiagramBuilder()
+    seed = params.scenario.seed if seed is None else seed
+    dist = _pulse_source(builder, knock).get_output_port(0) if knock else None
+    plant, fr = add_plant_with_friction(builder, params.simulated_plant,
+                                        params.simulated_friction, disturbance=dist)
+    src = _torque_source(builder, elbow_torque)
+    builder.Connect(src.get_output_port(0), plant.get_actuation_input_port())
+    sampler = add_imus(builder, plant, params, seed)
+    systems = {"friction": fr, "imu": sampler, "source": src}
+    loggers = {"state": LogVectorOutput(plant.get_state_output_port(), builder, log_period),
+               "imu": _sample_logger(builder, sampler.get_output_port(0), params.imu.period,
+                                     COMPUTE_OFFSET / 2)}
+    if ekf:
+        est = builder.AddSystem(KinematicEkf(params.estimator, x0_estimate, COMPUTE_OFFSET))
+        est.set_name("ekf")
+        builder.Connect(sampler.get_output_port(0), est.get_input_port(0))
+        systems["ekf"] = est
+        for name, port in (("estimate", "estimate"), ("covariance", "covariance_diagonal"),
+                           ("bias", "gyro_bias")):
+            loggers[name] = _sample_logger(builder, est.GetOutputPort(port),
+                                           params.estimator.period, 2 * COMPUTE_OFFSET)
+    diagram = builder.Build()
+    diagram.set_name("sensor_swing")
+    return Built(diagram, plant, systems, loggers, params)

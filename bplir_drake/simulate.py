@@ -21,6 +21,8 @@ class Log:
 
     @classmethod
     def from_logger(cls, logger, context) -> "Log":
+        if hasattr(logger, "arrays"):  # SampleLogger
+            return cls(*logger.arrays())
         log = logger.FindLog(context)
         return cls(np.array(log.sample_times()), np.array(log.data()).T)
 

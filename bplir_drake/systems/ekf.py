@@ -1,0 +1,214 @@
+"""Kinematic extended Kalman filter (chapter 5) as a discrete Drake system.
+
+State ``(theta1, theta2, omega1, omega2[, b1, b2])`` in absolute angles, with
+optional gyro-bias states (the dissertation's recommended extension).
+Prediction (5.10) discretised by explicit Euler (5.3) with the measured
+tangential accelerations ``u = (mu_x1, mu_x2)`` as inputs; measurement
+``z = (gyro1, gyro2, mu_y1, mu_y2)`` (5.11)-(5.12).  The filter uses geometry
+only (``r1``, ``r2``, ``l1``, ``g``): no mass, inertia or friction.
+
+Jacobians are computed from the model functions with AutoDiffXd, never typed
+from the printed (5.15)/(5.28).  Erratum: the printed output ``e`` of (5.11)
+carries a spurious factor ``l1/r1`` on the centripetal term ``omega2^2 r2``;
+the measurement model here is derived from (5.6)-(5.9) (see
+:func:`bplir_drake.systems.imu.imu_kinematics`) and tested against the
+simulated IMUs.
+
+Process noise enters through the accelerometer inputs:
+``W = d f_d / d u = Ts d f / d u`` with ``Q = sigma_mu^2 I`` ((5.26), (5.39));
+measurement noise ``R = diag(sigma_w^2, sigma_w^2, sigma_mu^2, sigma_mu^2)``
+((5.34), (5.39)-(5.40)).  The covariance update uses the Joseph form.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import pydrake.math as dmath
+from pydrake.autodiffutils import AutoDiffXd, ExtractGradient, ExtractValue, InitializeAutoDiff
+from pydrake.systems.framework import LeafSystem
+
+from ..params import EstimatorParams
+
+
+# ----------------------------------------------------------- model functions
+
+def kinematic_f(x, u, p: EstimatorParams):
+    """Continuous kinematic model (5.10); ``x`` may carry bias states."""
+    t1, t2, w1, w2 = x[0], x[1], x[2], x[3]
+    s1, s2 = dmath.sin(t1), dmath.sin(t2)
+    s21, c21 = dmath.sin(t2 - t1), dmath.cos(t2 - t1)
+    a1 = (u[0] - p.g * s1) / p.r1
+    a2 = (-p.l1 * c21 * a1 + u[1] - p.g * s2 - p.l1 * w1 ** 2 * s21) / p.r2
+    out = [w1, w2, a1, a2]
+    out += [0.0 * x[i] for i in range(4, len(x))]  # biases: random walk
+    return np.array(out)
+
+
+def kinematic_h(x, u, p: EstimatorParams):
+    """Measurement model: gyro rates (+ bias) and the radial specific forces."""
+    t1, t2, w1, w2 = x[0], x[1], x[2], x[3]
+    c1, c2 = dmath.cos(t1), dmath.cos(t2)
+    s21, c21 = dmath.sin(t2 - t1), dmath.cos(t2 - t1)
+    a1 = (u[0] - p.g * dmath.sin(t1)) / p.r1
+    b1 = x[4] if len(x) > 4 else 0.0
+    b2 = x[5] if len(x) > 4 else 0.0
+    return np.array([
+        w1 + b1,
+        w2 + b2,
+        p.r1 * w1 ** 2 + p.g * c1,
+        p.l1 * (-a1 * s21 + w1 ** 2 * c21) + p.r2 * w2 ** 2 + p.g * c2,
+    ])
+
+
+def kinematic_h_printed(x, u, p: EstimatorParams):
+    """(5.11) exactly as printed (with the l1/r1 factor on omega2^2 r2), for
+    documenting the erratum only."""
+    t1, t2, w1, w2 = x[0], x[1], x[2], x[3]
+    c1, c2 = math.cos(t1), math.cos(t2)
+    s21, c21 = math.sin(t2 - t1), math.cos(t2 - t1)
+    k = p.l1 / p.r1
+    e = (k * c21 * (w1 ** 2 * p.r1 + p.g * c1) + k * w2 ** 2 * p.r2
+         + (1 - k) * p.g * c2 - k * s21 * u[0])
+    return np.array([w1, w2, w1 ** 2 * p.r1 + p.g * c1, e])
+
+
+def jacobians(fun, x, u, p: EstimatorParams):
+    """(value, d/dx, d/du) of ``fun(x, u, p)`` by forward AutoDiff."""
+    n = len(x)
+    xu = InitializeAutoDiff(np.concatenate([x, u]))[:, 0]
+    val = fun(xu[:n], xu[n:], p)
+    val = np.array([v if isinstance(v, AutoDiffXd) else AutoDiffXd(float(v)) for v in val])
+    J = ExtractGradient(val)
+    if J.shape[1] != n + len(u):  # constant outputs carry empty gradients
+        J = np.array([v.derivatives() if v.derivatives().size else np.zeros(n + len(u))
+                      for v in val])
+    return ExtractValue(val)[:, 0], J[:, :n], J[:, n:]
+
+
+# ----------------------------------------------------------- the filter step
+
+@dataclass
+class EkfState:
+    x: np.ndarray   # (n,)
+    P: np.ndarray   # (n, n)
+
+
+def noise_matrices(p: EstimatorParams):
+    """(Q_u (2x2) on the accelerometer inputs, R (4x4), Q_bias per second)."""
+    Qu = p.accel_process_sigma ** 2 * np.eye(2)
+    R = np.diag([p.gyro_meas_sigma ** 2] * 2 + [p.accel_meas_sigma ** 2] * 2)
+    return Qu, R, p.bias_walk ** 2
+
+
+def initial_state(p: EstimatorParams, x0) -> EkfState:
+    n = 6 if p.estimate_bias else 4
+    x = np.zeros(n)
+    x[:4] = np.asarray(x0, dtype=float)[:4]
+    if p.estimate_bias and len(x0) >= 6:
+        x[4:6] = x0[4:6]
+    sd = [p.p0_angle] * 2 + [p.p0_rate] * 2 + ([p.bias_sigma0] * 2 if p.estimate_bias else [])
+    return EkfState(x, np.diag(np.square(sd)))
+
+
+def ekf_predict(s: EkfState, u, p: EstimatorParams) -> EkfState:
+    """(5.23)-(5.24): explicit-Euler prediction over one period."""
+    Ts = p.period
+    f, Fx, Fu = jacobians(kinematic_f, s.x, np.asarray(u, dtype=float), p)
+    n = len(s.x)
+    A = np.eye(n) + Ts * Fx
+    W = Ts * Fu
+    Qu, _, qb = noise_matrices(p)
+    P = A @ s.P @ A.T + W @ Qu @ W.T
+    if n > 4:
+        P[4:, 4:] += qb * Ts * np.eye(2)
+    return EkfState(s.x + Ts * f, P)
+
+
+def ekf_update(s: EkfState, z, u, p: EstimatorParams) -> EkfState:
+    """(5.29)-(5.31), Joseph form."""
+    h, H, _ = jacobians(kinematic_h, s.x, np.asarray(u, dtype=float), p)
+    _, R, _ = noise_matrices(p)
+    S = H @ s.P @ H.T + R
+    K = np.linalg.solve(S, H @ s.P).T
+    x = s.x + K @ (np.asarray(z, dtype=float) - h)
+    IKH = np.eye(len(s.x)) - K @ H
+    P = IKH @ s.P @ IKH.T + K @ R @ K.T
+    return EkfState(x, 0.5 * (P + P.T))
+
+
+def split_sample(sample):
+    """IMU 6-vector -> (z = gyro1, gyro2, mu_y1, mu_y2; u = mu_x1, mu_x2)."""
+    g1, g2, a1x, a1y, a2x, a2y = sample
+    return np.array([g1, g2, a1y, a2y]), np.array([a1x, a2x])
+
+
+def ekf_step(s: EkfState, u_prev, sample, p: EstimatorParams, *, first: bool = False):
+    """One filter period: predict with the previous input, update with the
+    new sample.  Returns (new state, new input)."""
+    z, u = split_sample(sample)
+    if not first:
+        s = ekf_predict(s, u_prev, p)
+    return ekf_update(s, z, u, p), u
+
+
+# ----------------------------------------------------------- Drake system
+
+class KinematicEkf(LeafSystem):
+    """Discrete EKF at ``params.period``.
+
+    Input ``imu`` (6, see :data:`bplir_drake.systems.imu.IMU_COLUMNS`).
+    Outputs ``estimate`` (theta1, theta2, omega1, omega2: absolute),
+    ``estimate_relative`` (q1, q2, q1d, q2d), ``covariance_diagonal`` (n) and
+    ``gyro_bias`` (2).  ``offset`` shifts the update after the IMU sample of
+    the same tick (so the filter uses it without a period of delay).
+    """
+
+    def __init__(self, params: EstimatorParams, x0=(0.0, 0.0, 0.0, 0.0), offset: float = 0.0):
+        super().__init__()
+        if not isinstance(params, EstimatorParams):
+            raise TypeError("KinematicEkf takes EstimatorParams (geometry and noise only)")
+        self.params = params
+        init = initial_state(params, x0)
+        self.n = n = len(init.x)
+        self.DeclareVectorInputPort("imu", 6)
+        packed = np.concatenate([init.x, init.P.ravel(), [0.0, 0.0], [1.0]])
+        self._state = self.DeclareDiscreteState(packed)
+        self.DeclarePeriodicDiscreteUpdateEvent(params.period, offset, self._update)
+        xd = {self.xd_ticket()}
+        self.DeclareVectorOutputPort("estimate", 4, self._out_abs, xd)
+        self.DeclareVectorOutputPort("estimate_relative", 4, self._out_rel, xd)
+        self.DeclareVectorOutputPort("covariance_diagonal", n, self._out_cov, xd)
+        self.DeclareVectorOutputPort("gyro_bias", 2, self._out_bias, xd)
+
+    def _unpack(self, v):
+        n = self.n
+        return EkfState(v[:n].copy(), v[n:n + n * n].reshape(n, n).copy()), v[n + n * n:n + n * n + 2], v[-1] > 0.5
+
+    def _update(self, context, discrete_state):
+        v = context.get_discrete_state(self._state).get_value()
+        s, u_prev, first = self._unpack(v)
+        sample = self.get_input_port(0).Eval(context)
+        s, u = ekf_step(s, u_prev, sample, self.params, first=first)
+        discrete_state.get_mutable_vector(self._state).SetFromVector(
+            np.concatenate([s.x, s.P.ravel(), u, [0.0]]))
+
+    def _x(self, context):
+        return context.get_discrete_state(self._state).get_value()[:self.n]
+
+    def _out_abs(self, context, out):
+        out.SetFromVector(self._x(context)[:4])
+
+    def _out_rel(self, context, out):
+        x = self._x(context)
+        out.SetFromVector([x[0], x[1] - x[0], x[2], x[3] - x[2]])
+
+    def _out_cov(self, context, out):
+        v = context.get_discrete_state(self._state).get_value()
+        n = self.n
+        out.SetFromVector(np.diag(v[n:n + n * n].reshape(n, n)))
+
+    def _out_bias(self, context, out):
+        x = self._x(context)
+        out.SetFromVector(x[4:6] if self.n > 4 else [0.0, 0.0])

@@ -1,0 +1,114 @@
+"""Two planar IMUs (chapter 5, Table 5.1) on Drake's Gyroscope/Accelerometer.
+
+IMU i sits on link i at distance ``r_i`` from the link's proximal joint.  Its
+body frame: ``x`` tangential (positive toward increasing theta_i), ``y``
+along the link toward the proximal joint, which is the link's own body frame
+in :mod:`bplir_drake.systems.plant`.  The accelerometer reads specific force
+(hanging at rest ``mu_y = +g``), the gyro the absolute rate ``omega_i``.
+
+Drake's sensors give continuous signals; :class:`ImuSampler` samples them
+with a zero-order hold at the IMU rate (which also breaks the accelerometer's
+direct feedthrough from the actuation input) and adds, per Table 5.1 and
+(5.21)-(5.22), (5.38): white noise, constant gyro bias, gyro bias random walk,
+accelerometer misalignment and scale error.  Noise of sample ``k`` is drawn
+from ``numpy.random.default_rng((seed, k))``, so a run is reproducible from
+its seed alone.
+
+Output order (also the CSV log order): ``gyro1, gyro2, acc1_x, acc1_y,
+acc2_x, acc2_y``.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from pydrake.systems.framework import LeafSystem
+
+from ..params import ImuParams
+
+IMU_COLUMNS = ("gyro1", "gyro2", "acc1_x", "acc1_y", "acc2_x", "acc2_y")
+
+
+def imu_kinematics(theta, omega, omega_dot, r1: float, r2: float, l1: float, g: float):
+    """Noise-free IMU readings from absolute angles, rates and accelerations.
+
+    From differentiating (5.6)-(5.7) twice and (5.9):
+    ``mu1 = (r1 w1' + g s1, r1 w1^2 + g c1)`` and
+    ``mu2x = l1 (w1' c21 + w1^2 s21) + r2 w2' + g s2``,
+    ``mu2y = l1 (-w1' s21 + w1^2 c21) + r2 w2^2 + g c2`` with
+    ``c21 = cos(theta2 - theta1)``, ``s21 = sin(theta2 - theta1)``.
+    """
+    t1, t2 = theta
+    w1, w2 = omega
+    a1, a2 = omega_dot
+    s1, c1, s2, c2 = math.sin(t1), math.cos(t1), math.sin(t2), math.cos(t2)
+    s21, c21 = math.sin(t2 - t1), math.cos(t2 - t1)
+    return np.array([
+        w1, w2,
+        r1 * a1 + g * s1, r1 * w1 ** 2 + g * c1,
+        l1 * (a1 * c21 + w1 ** 2 * s21) + r2 * a2 + g * s2,
+        l1 * (-a1 * s21 + w1 ** 2 * c21) + r2 * w2 ** 2 + g * c2,
+    ])
+
+
+def corrupt(ideal, params: ImuParams, bias, rng) -> np.ndarray:
+    """Apply misalignment, scale error, gyro bias and white noise to one sample.
+
+    ``ideal`` is the noise-free 6-vector, ``bias`` the current gyro bias
+    (constant + random walk).
+    """
+    out = np.array(ideal, dtype=float)
+    for i, (eps, scale) in enumerate(((params.misalign1, params.accel_scale1),
+                                      (params.misalign2, params.accel_scale2))):
+        mx, my = out[2 + 2 * i], out[3 + 2 * i]
+        c, s = math.cos(eps), math.sin(eps)
+        # sensor axes rotated by eps about z relative to the link frame
+        out[2 + 2 * i] = (1.0 + scale) * (c * mx + s * my)
+        out[3 + 2 * i] = (1.0 + scale) * (-s * mx + c * my)
+    out[0:2] += bias
+    if params.noise:
+        n = rng.standard_normal(6)
+        out[0:2] += params.gyro_sigma * n[0:2]
+        out[2:6] += params.accel_sigma * n[2:6]
+    return out
+
+
+class ImuSampler(LeafSystem):
+    """Samples Drake's four sensor outputs at the IMU rate (zero-order hold).
+
+    Inputs ``gyro1``, ``gyro2`` (angular velocity in the sensor frame) and
+    ``accel1``, ``accel2`` (specific force in the sensor frame); output
+    ``imu`` (6).  Discrete state: ``[held sample (6), gyro bias walk (2),
+    sample index]``.
+    """
+
+    def __init__(self, params: ImuParams, seed: int = 0):
+        super().__init__()
+        self.params = params
+        self.seed = int(seed)
+        for name in ("gyro1", "gyro2", "accel1", "accel2"):
+            self.DeclareVectorInputPort(name, 3)
+        self._state = self.DeclareDiscreteState(9)
+        self.DeclarePeriodicDiscreteUpdateEvent(params.period, 0.0, self._sample)
+        self.DeclareVectorOutputPort("imu", 6, self._output, {self.xd_ticket()})
+
+    def _sample(self, context, discrete_state):
+        p = self.params
+        s = context.get_discrete_state(self._state).get_value()
+        k = int(round(s[8]))
+        g1 = self.get_input_port(0).Eval(context)
+        g2 = self.get_input_port(1).Eval(context)
+        a1 = self.get_input_port(2).Eval(context)
+        a2 = self.get_input_port(3).Eval(context)
+        ideal = np.array([g1[2], g2[2], a1[0], a1[1], a2[0], a2[1]])
+        rng = np.random.default_rng((self.seed, k))
+        walk = s[6:8]
+        if p.gyro_drift > 0.0:
+            walk = walk + p.gyro_drift * math.sqrt(p.period) * rng.standard_normal(2)
+        bias = np.array([p.gyro_bias1, p.gyro_bias2]) + walk
+        sample = corrupt(ideal, p, bias, rng)
+        discrete_state.get_mutable_vector(self._state).SetFromVector(
+            np.concatenate([sample, walk, [k + 1]]))
+
+    def _output(self, context, out):
+        out.SetFromVector(context.get_discrete_state(self._state).get_value()[:6])

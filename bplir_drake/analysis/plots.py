@@ -17,6 +17,13 @@ def _plt():
     return plt
 
 
+def _save(fig, path, title=None) -> Path:
+    import matplotlib.pyplot as plt
+
+    if title:
+        return _save(fig, path, title)
+
+
 def plot_free_swing(result, path) -> Path:
     """Angles, rates and energy of a free swing (data from simulate_free_swing)."""
     plt = _plt()
@@ -38,12 +45,7 @@ def plot_free_swing(result, path) -> Path:
     axes[2].legend(loc="upper right")
     for ax in axes:
         ax.grid(True, alpha=0.3)
-    fig.suptitle("BPLIR free swing")
-    fig.tight_layout()
-    path = Path(path)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return _save(fig, path, "BPLIR free swing")
 
 
 def plot_estimate(t, estimate, gyro_integral, path, *, truth=None, title="Kinematic EKF") -> Path:
@@ -76,12 +78,7 @@ def plot_estimate(t, estimate, gyro_integral, path, *, truth=None, title="Kinema
         ax.legend(loc="upper right", fontsize=8, ncol=2)
         ax.grid(True, alpha=0.3)
     axes[-1].set_xlabel("time [s]")
-    fig.suptitle(title)
-    fig.tight_layout()
-    path = Path(path)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return _save(fig, path, title)
 
 
 def plot_observability(result, path) -> Path:
@@ -106,9 +103,4 @@ def plot_observability(result, path) -> Path:
     ax.set_xlabel("time [s]")
     ax.legend(loc="upper right", fontsize=8)
     ax.grid(True, alpha=0.3)
-    fig.suptitle("Observability along the swing (red: gyro-only rank loss, (5.17))")
-    fig.tight_layout()
-    path = Path(path)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return _save(fig, path, "Observability along the swing (red: gyro-only rank loss, (5.17))")

@@ -21,7 +21,12 @@ def _save(fig, path, title=None) -> Path:
     import matplotlib.pyplot as plt
 
     if title:
-        return _save(fig, path, title)
+        fig.suptitle(title)
+    fig.tight_layout()
+    path = Path(path)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
 
 
 def plot_free_swing(result, path) -> Path:

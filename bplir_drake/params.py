@@ -98,6 +98,10 @@ class _Block:
         for f in fields(cls):
             if f.name in data:
                 v = data[f.name]
+                if isinstance(getattr(base, f.name), tuple):
+                    if not isinstance(v, list):
+                        raise ParameterError(f"{cls._name}.{f.name} = {v!r} must be a list")
+                    v = tuple(v)
                 if "lo" in f.metadata and isinstance(v, int) and not isinstance(v, bool):
                     v = float(v)
                 expected = type(getattr(base, f.name))
@@ -280,24 +284,94 @@ class EstimatorParams(_Block):
 # ---------------------------------------------------------------- controller
 CONTROLLER_PRESETS = ("qft", "dissertation", "lab")
 
+#: Outer-loop designs as continuous-time transfer functions (numerator,
+#: denominator coefficients, highest power first) of ``K(s)`` acting on
+#: ``e = F(r) - y`` and of the prefilter ``F(s)``.  ``dissertation`` is
+#: (6.23)-(6.24) as published (for the measured family (4.16), whose sign
+#: is negative); ``lab`` is the firmware's proportional law (sign corrected
+#: for the simulated plant q2'' = v, see SPEC.md); ``qft`` is designed for
+#: the plant family of the simulated CPFL loop by :mod:`bplir_drake.analysis.qft`
+#: (``bplir qft --family diagram`` re-verifies it).
+OUTER_LOOP_DESIGNS = {
+    "dissertation": {"k_num": (-216.0,), "k_den": (1.0,),
+                     "f_num": (10.61,), "f_den": (1.0, 8.616)},
+    "lab": {"k_num": (95.0,), "k_den": (1.0,), "f_num": (1.0,), "f_den": (1.0,)},
+    # design_qft on diagram_family(seed=0, 60 plants); verified on seed 1
+    "qft": {"k_num": (18.25195, 159.3015, 46.14857), "k_den": (0.004000074, 1.0, 0.0),
+            "f_num": (860.6985,), "f_den": (1.0, 117.9063, 868.9110)},
+}
+
 
 @dataclass(frozen=True)
 class ControllerParams(_Block):
     """CPFL inner loop + outer loop (chapter 6).  ``preset`` picks the outer
-    loop; the numbers here are shared by all presets."""
+    loop design (see :data:`OUTER_LOOP_DESIGNS`); non-empty ``k_num`` ...
+    ``f_den`` override it."""
 
     _name = "controller"
     preset: str = "qft"
     period: float = _p(0.01, "s", 0, 1, lo_open=True, doc="controller sample time Ts")
     torque_limit: float = _p(20.0, "N m", 0, lo_open=True, doc="saturation in the controller")
-    aw_gain: float = _p(100.0, "", 0, lo_open=True, doc="anti-windup gain X >> 1 (Fig. 6.7)")
+    aw_gain: float = _p(100.0, "", 0, doc="anti-windup gain X >> 1 (Fig. 6.7); 0 disables")
+    delay_samples: float = _p(0.0, "samples", 0, 1, doc="command applied this many samples late (0 or 1)")
+    torque_quantum: float = _p(0.0, "N m", 0, 5, doc="truncate the torque to multiples of this (firmware: 1)")
     friction_compensation: bool = False
+    sign_correct: bool = True
+    k_num: tuple = ()
+    k_den: tuple = ()
+    f_num: tuple = ()
+    f_den: tuple = ()
 
     def _check(self):
         if self.preset not in CONTROLLER_PRESETS:
             raise ParameterError(
                 f"controller.preset = '{self.preset}' is unknown; allowed: "
                 + ", ".join(CONTROLLER_PRESETS))
+        if self.delay_samples not in (0.0, 1.0):
+            raise ParameterError(
+                f"controller.delay_samples = {self.delay_samples:g} must be 0 or 1")
+        for name in ("k_num", "k_den", "f_num", "f_den"):
+            v = getattr(self, name)
+            if not isinstance(v, (tuple, list)) or not all(
+                    isinstance(c, (int, float)) and not isinstance(c, bool)
+                    and math.isfinite(c) for c in v):
+                raise ParameterError(
+                    f"controller.{name} = {v!r} must be a list of finite numbers")
+            object.__setattr__(self, name, tuple(float(c) for c in v))
+        for num, den in (("k_num", "k_den"), ("f_num", "f_den")):
+            n, d = getattr(self, num), getattr(self, den)
+            if bool(n) != bool(d):
+                raise ParameterError(f"controller.{num} and controller.{den} must be given together")
+            if d and (d[0] == 0 or len(n) > len(d)):
+                raise ParameterError(
+                    f"controller.{num}/{den} must be a proper transfer function with a "
+                    "non-zero leading denominator coefficient")
+        f_den = self.design["f_den"]
+        if len(f_den) > 1:
+            import numpy as _np
+
+            poles = _np.roots(f_den)
+            if _np.any(poles.real >= 0):
+                raise ParameterError(
+                    f"controller prefilter F has poles {poles.tolist()} not in the open left "
+                    "half plane; an unstable prefilter is not allowed")
+
+    @classmethod
+    def preset_named(cls, name: str, **overrides) -> "ControllerParams":
+        """Controller parameters of a named preset (with its firmware quirks)."""
+        if name not in CONTROLLER_PRESETS:
+            raise ParameterError(
+                f"unknown controller preset '{name}'; allowed: " + ", ".join(CONTROLLER_PRESETS))
+        extra = {"lab": dict(aw_gain=0.0, delay_samples=1.0, torque_quantum=1.0)}.get(name, {})
+        return cls(preset=name, **(extra | overrides))
+
+    @property
+    def design(self) -> dict:
+        d = dict(OUTER_LOOP_DESIGNS[self.preset])
+        for key in ("k_num", "k_den", "f_num", "f_den"):
+            if getattr(self, key):
+                d[key] = getattr(self, key)
+        return d
 
 
 # ---------------------------------------------------------------- path
@@ -393,7 +467,7 @@ def _lab() -> BplirParams:
     controller (SPEC.md, "The lab firmware")."""
     return BplirParams(
         estimator=EstimatorParams(r1=0.5, r2=0.5, l1=0.8),
-        controller=ControllerParams(preset="lab", torque_limit=20.0),
+        controller=ControllerParams.preset_named("lab"),
         preset_name="lab",
     )
 

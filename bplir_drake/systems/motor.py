@@ -55,7 +55,8 @@ def interlock_budget(p: MotorParams) -> float:
 class MotorDriver(LeafSystem):
     """Inputs ``torque_command`` (1) and ``state`` (4, plant state for power);
     outputs ``torque`` (delivered elbow torque), ``power`` (tau*q2d, W),
-    ``current`` (A) and ``tripped`` (1 while the driver limits to i_cont)."""
+    ``current`` (A), ``tripped`` (1 while the driver limits to i_cont) and
+    ``available`` (the torque the driver can deliver now, for anti-windup)."""
 
     def __init__(self, params: MotorParams):
         super().__init__()
@@ -75,6 +76,8 @@ class MotorDriver(LeafSystem):
                 self.get_input_port(1).get_index())})
         self.DeclareVectorOutputPort("current", 1, self._calc_current, xc)
         self.DeclareVectorOutputPort("tripped", 1, self._calc_tripped,
+                                     {self.xd_ticket()})
+        self.DeclareVectorOutputPort("available", 1, self._calc_available,
                                      {self.xd_ticket()})
 
     def _tripped(self, context) -> bool:
@@ -106,6 +109,11 @@ class MotorDriver(LeafSystem):
 
     def _calc_current(self, context, out: BasicVector):
         out.SetAtIndex(0, context.get_continuous_state_vector().GetAtIndex(0))
+
+    def _calc_available(self, context, out: BasicVector):
+        """Torque the driver can deliver now (current limit, saturation)."""
+        i_lim = self.params.i_cont if self._tripped(context) else self.params.i_peak
+        out.SetAtIndex(0, min(self.params.torque_limit, self._kt * i_lim))
 
     def _calc_tripped(self, context, out: BasicVector):
         out.SetAtIndex(0, 1.0 if self._tripped(context) else 0.0)

@@ -1,0 +1,565 @@
+"""A small Quantitative Feedback Theory (QFT) toolkit on python-control.
+
+No maintained Python QFT toolbox exists; this module computes what the
+MATLAB QFT toolbox used in chapter 6 does, as data:
+
+* plant families (:class:`PlantFamily`): transfer functions with optional
+  pure delay; the parametric family (4.16) and families obtained by
+  linearising the CPFL loop of the diagram (:func:`diagram_family`);
+* templates (the family's frequency response at design frequencies);
+* specifications (:class:`QftSpecs`): tracking bounds (6.17), robust stability
+  ``|1/(1+L)| <= 3 dB`` (6.18), control effort ``|F K/(1+L)| <= 220`` (6.20),
+  input-disturbance rejection ``|P/(1+L)|``;
+* bounds on the Nichols chart (:func:`compute_bounds`): for every design
+  frequency, the set of nominal open-loop values ``L0 = |L0| e^{j phase}`` on
+  a phase x magnitude grid for which each specification holds for every
+  plant of the template (``L_i = L0 P_i/P_0``);
+* checks of a loop against the bounds (:func:`check_loop`), and closed-loop
+  verification of every plant in frequency and time (:func:`verify`): step
+  tracking, input and output disturbance (Figs 6.10-6.12);
+* a loop-shaping design by constrained optimisation (:func:`design_qft`).
+
+Compute functions return data; :mod:`bplir_drake.analysis.qft_plots` plots it.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import control
+import numpy as np
+
+
+class QftError(ValueError):
+    """Bad family, specification or design (one-line message)."""
+
+
+# ----------------------------------------------------------- plants
+
+@dataclass
+class Plant:
+    tf: control.TransferFunction
+    delay: float = 0.0
+    label: str = ""
+
+    def __call__(self, w) -> np.ndarray:
+        w = np.asarray(w, dtype=float)
+        return np.asarray(self.tf(1j * w)) * np.exp(-1j * w * self.delay)
+
+    def rational(self, pade_order: int = 6) -> control.TransferFunction:
+        """The plant with its delay replaced by a Pade approximation."""
+        if self.delay <= 0:
+            return self.tf
+        num, den = control.pade(self.delay, pade_order)
+        return self.tf * control.tf(num, den)
+
+
+@dataclass
+class PlantFamily:
+    plants: list[Plant]
+    name: str = "family"
+    nominal: int = 0
+
+    def __post_init__(self):
+        if not self.plants:
+            raise QftError(f"plant family '{self.name}' is empty; it needs at least one plant")
+        if not 0 <= self.nominal < len(self.plants):
+            raise QftError(f"nominal index {self.nominal} out of range [0, {len(self.plants) - 1}]")
+
+    def __len__(self):
+        return len(self.plants)
+
+    def response(self, w) -> np.ndarray:
+        """(n_plants, n_w) complex frequency responses."""
+        return np.array([p(w) for p in self.plants])
+
+
+def _check_omegas(omegas) -> np.ndarray:
+    w = np.atleast_1d(np.asarray(omegas, dtype=float))
+    if w.size == 0 or not np.all(np.isfinite(w)) or np.any(w <= 0):
+        raise QftError(f"design frequencies must be finite and positive, got {w.tolist()}")
+    return w
+
+
+def dissertation_family(k=(0.013, 0.035), a=(0.19, 0.22), td=(0.15, 0.3), n: int = 3,
+                        sign: float = -1.0) -> PlantFamily:
+    """(4.16): ``-k e^{-s Td}/(a s + 1)`` on an n x n x n grid (Td = 0 if
+    ``td`` is None)."""
+    ks = np.linspace(*k, n)
+    as_ = np.linspace(*a, n)
+    tds = np.linspace(*td, n) if td is not None else [0.0]
+    plants = [Plant(control.tf([sign * kk], [aa, 1.0]), float(dd), f"k={kk:.4g} a={aa:.3g} Td={dd:.3g}")
+              for kk in ks for aa in as_ for dd in tds]
+    # nominal: the middle plant
+    return PlantFamily(plants, "dissertation (4.16)" + ("" if td is not None else " without delay"),
+                       nominal=len(plants) // 2)
+
+
+# ----------------------------------------------------------- specifications
+
+def _s():
+    return control.tf("s")
+
+
+def default_tracking_bounds():
+    s = _s()
+    lower = 0.9 / ((s / 10) ** 2 + 0.15 * s + 1)
+    upper = 1.1 / ((s / 26) ** 2 + 0.077 * s + 1)
+    return lower, upper
+
+
+@dataclass
+class QftSpecs:
+    """Specifications of 6.3.  ``tracking_lower``/``upper`` are (6.17),
+    ``stability_db`` (6.18), ``effort_max`` (6.20) for a unit reference step,
+    ``input_disturbance`` bounds ``|P/(1+L)|`` (rad per rad/s^2),
+    ``settling_time`` the time by which a unit step stays in the
+    ``steady_band``, ``disturbance_settling`` the time by which a unit step
+    output disturbance has decayed below ``steady_band``.  The tracking
+    bounds apply up to ``tracking_band_max`` (100 rad/s, where the lower
+    bound is already below -40 dB); stability and effort apply at all
+    frequencies."""
+
+    tracking_lower: control.TransferFunction = None
+    tracking_upper: control.TransferFunction = None
+    stability_db: float = 3.0
+    effort_max: float = 220.0
+    input_disturbance: float | None = None
+    settling_time: float = 0.39
+    steady_band: float = 0.1
+    disturbance_settling: float = 0.39
+    tracking_band_max: float = 100.0
+    omegas: np.ndarray = field(default_factory=lambda: np.array([0.5, 1, 2, 5, 10, 20, 40, 80]))
+
+    def __post_init__(self):
+        lo, up = default_tracking_bounds()
+        self.tracking_lower = self.tracking_lower if self.tracking_lower is not None else lo
+        self.tracking_upper = self.tracking_upper if self.tracking_upper is not None else up
+        self.omegas = _check_omegas(self.omegas)
+        for name in ("stability_db", "effort_max", "settling_time", "steady_band",
+                     "disturbance_settling"):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and v > 0):
+                raise QftError(f"specification {name} = {v} must be a positive number")
+        if self.input_disturbance is not None and not self.input_disturbance > 0:
+            raise QftError(f"specification input_disturbance = {self.input_disturbance} must be > 0")
+        w = np.logspace(-2, 3, 200)
+        if np.any(np.abs(self.tracking_lower(1j * w)) > np.abs(self.tracking_upper(1j * w)) + 1e-12):
+            raise QftError("tracking lower bound exceeds the upper bound at some frequency")
+
+    @property
+    def stability_max(self) -> float:
+        return 10 ** (self.stability_db / 20)
+
+    def tracking_spread_db(self, w) -> np.ndarray:
+        return 20 * np.log10(np.abs(self.tracking_upper(1j * np.asarray(w)))
+                             / np.abs(self.tracking_lower(1j * np.asarray(w))))
+
+
+# ----------------------------------------------------------- templates and bounds
+
+def templates(family: PlantFamily, omegas) -> np.ndarray:
+    """(n_w, n_plants) complex values P_i(j w)."""
+    return family.response(_check_omegas(omegas)).T
+
+
+@dataclass
+class Bounds:
+    omegas: np.ndarray
+    phases_deg: np.ndarray
+    mags_db: np.ndarray
+    masks: dict[str, np.ndarray]   # spec -> (n_w, n_phase, n_mag) bool: allowed
+    nominal_response: np.ndarray   # P0(j w)
+
+    @property
+    def combined(self) -> np.ndarray:
+        out = np.ones_like(next(iter(self.masks.values())))
+        for m in self.masks.values():
+            out &= m
+        return out
+
+
+def compute_bounds(family: PlantFamily, specs: QftSpecs, omegas=None,
+                   phases_deg=None, mags_db=None) -> Bounds:
+    """Allowed nominal-loop values per design frequency and specification."""
+    w = _check_omegas(specs.omegas if omegas is None else omegas)
+    ph = np.arange(-360.0, 0.01, 2.0) if phases_deg is None else np.asarray(phases_deg)
+    mg = np.arange(-40.0, 80.01, 0.5) if mags_db is None else np.asarray(mags_db)
+    P = templates(family, w)                        # (n_w, n_p)
+    P0 = P[:, family.nominal]
+    ratio = P / P0[:, None]                         # L_i = L0 * ratio_i
+    L0 = (10 ** (mg[None, :] / 20)) * np.exp(1j * np.radians(ph))[:, None]   # (n_ph, n_mg)
+    Li = L0[None, :, :, None] * ratio[:, None, None, :]                      # (w, ph, mg, p)
+    S = 1.0 / (1.0 + Li)
+    masks = {"stability": np.all(np.abs(S) <= specs.stability_max, axis=-1)}
+    T = np.abs(Li * S)
+    spread = 20 * np.log10(T.max(axis=-1) / np.maximum(T.min(axis=-1), 1e-300))
+    masks["tracking"] = spread <= specs.tracking_spread_db(w)[:, None, None]
+    if specs.input_disturbance is not None:
+        PS = np.abs(P[:, None, None, :] * S)
+        masks["input_disturbance"] = np.all(PS <= specs.input_disturbance, axis=-1)
+    return Bounds(w, ph, mg, masks, P0)
+
+
+def check_loop(bounds: Bounds, L0_values) -> dict:
+    """Is the nominal loop inside the allowed region at each design
+    frequency?  Returns per spec a list of booleans and the worst margin in
+    dB (distance in magnitude to the nearest forbidden cell at that phase;
+    negative when violated)."""
+    L0 = np.asarray(L0_values)
+    out = {}
+    for name, mask in list(bounds.masks.items()) + [("all", bounds.combined)]:
+        ok, margins = [], []
+        for k, val in enumerate(L0):
+            phase = np.degrees(np.angle(val))
+            phase = phase - 360.0 if phase > 0 else phase
+            ip = int(np.argmin(np.abs(bounds.phases_deg - phase)))
+            mdb = 20 * np.log10(abs(val))
+            im = int(np.argmin(np.abs(bounds.mags_db - mdb)))
+            row = mask[k, ip]
+            ok.append(bool(row[im]))
+            bad = np.nonzero(~row)[0]
+            if row[im]:
+                margins.append(float(np.min(np.abs(bounds.mags_db[bad] - mdb))) if bad.size else math.inf)
+            else:
+                good = np.nonzero(row)[0]
+                margins.append(-float(np.min(np.abs(bounds.mags_db[good] - mdb))) if good.size else -math.inf)
+        out[name] = {"inside": ok, "worst_margin_db": min(margins)}
+    return out
+
+
+# ----------------------------------------------------------- verification
+
+@dataclass
+class Verification:
+    family: str
+    n_plants: int
+    checks: dict          # spec -> {"holds": bool, "worst": float, "limit": float, "worst_plant": str}
+    responses: dict       # for plotting: t, step outputs, controls, disturbances, bode data
+
+    @property
+    def all_hold(self) -> bool:
+        return all(c["holds"] for c in self.checks.values())
+
+    def summary(self) -> dict:
+        return {"family": self.family, "plants": self.n_plants, "all_hold": self.all_hold,
+                "specifications": self.checks}
+
+
+def _closed_loops(plant_tf, K, F):
+    """Closed-loop maps built in state space (transfer-function arithmetic
+    of high order is numerically fragile)."""
+    G, Ks, Fs = control.ss(plant_tf), control.ss(K), control.ss(F)
+    L = G * Ks
+    S = control.feedback(control.ss([], [], [], [[1.0]]), L)
+    T = control.feedback(L, control.ss([], [], [], [[1.0]]))
+    return L, S, T, T * Fs, Ks * S * Fs, control.feedback(G, Ks)
+
+
+def _settling_time(t, y, final, band, step: float = 1.0) -> float:
+    """First time after which ``y`` stays within ``band`` (relative to the
+    larger of the final value and the step size) of ``final``."""
+    outside = np.abs(y - final) > band * max(abs(final), step)
+    if not outside.any():
+        return 0.0
+    k = int(np.nonzero(outside)[0][-1])
+    return float(t[k + 1]) if k + 1 < len(t) else math.inf
+
+
+def verify(family: PlantFamily, K: control.TransferFunction, F: control.TransferFunction,
+           specs: QftSpecs, *, t_final: float = 2.0, n_t: int = 2001,
+           pade_order: int = 6) -> Verification:
+    """Check every plant of the family in the frequency and the time domain."""
+    w = np.logspace(-1, 3, 600)
+    lo = np.abs(specs.tracking_lower(1j * w))
+    up = np.abs(specs.tracking_upper(1j * w))
+    Kw, Fw = np.asarray(K(1j * w)), np.asarray(F(1j * w))
+    t = np.linspace(0, t_final, n_t)
+    rec = {k: [] for k in ("stable", "S_peak", "track_margin_db", "effort_peak_freq", "PS_peak",
+                           "steady_error", "settling", "effort_peak_time", "out_dist_settling",
+                           "in_dist_peak")}
+    resp = {"t": t, "w": w, "step": [], "u": [], "in_dist": [], "out_dist": [], "TF_mag": [],
+            "labels": [], "bounds": (lo, up)}
+    for pl in family.plants:
+        Pw = pl(w)
+        Lw = Pw * Kw
+        Sw = 1 / (1 + Lw)
+        TFw = Fw * Lw * Sw
+        rec["S_peak"].append(float(np.abs(Sw).max()))
+        m = np.abs(TFw)
+        band = w <= specs.tracking_band_max
+        rec["track_margin_db"].append(float(min(
+            np.min(20 * np.log10(up / np.maximum(m, 1e-300))[band]),
+            np.min(20 * np.log10(np.maximum(m, 1e-300) / lo)[band]))))
+        rec["effort_peak_freq"].append(float(np.abs(Fw * Kw * Sw).max()))
+        rec["PS_peak"].append(float(np.abs(Pw * Sw).max()))
+        resp["TF_mag"].append(m)
+        resp["labels"].append(pl.label)
+        G = pl.rational(pade_order)
+        L, S, T, TF, U, PS = _closed_loops(G, K, F)
+        poles = np.linalg.eigvals(np.asarray(T.A)) if T.nstates else np.zeros(0)
+        stable = bool(np.all(poles.real < 0))
+        rec["stable"].append(stable)
+        if not stable:
+            for key in ("steady_error", "settling", "effort_peak_time", "out_dist_settling",
+                        "in_dist_peak"):
+                rec[key].append(math.inf)
+            for key in ("step", "u", "in_dist", "out_dist"):
+                resp[key].append(np.full_like(t, np.nan))
+            continue
+        y = control.step_response(TF, t).outputs
+        u = control.step_response(U, t).outputs
+        yd = control.step_response(PS, t).outputs
+        yo = control.step_response(S, t).outputs
+        final = float(np.real(control.dcgain(TF)))
+        rec["steady_error"].append(abs(final - 1.0))
+        rec["settling"].append(_settling_time(t, y, 1.0, specs.steady_band))
+        rec["effort_peak_time"].append(float(np.abs(u).max()))
+        rec["out_dist_settling"].append(_settling_time(t, yo, 0.0, specs.steady_band))
+        rec["in_dist_peak"].append(float(np.abs(yd).max()))
+        for key, val in (("step", y), ("u", u), ("in_dist", yd), ("out_dist", yo)):
+            resp[key].append(np.asarray(val))
+    labels = [p.label for p in family.plants]
+
+    def worst(key, mode, limit):
+        vals = np.asarray(rec[key], dtype=float)
+        i = int(np.argmax(vals) if mode == "max" else np.argmin(vals))
+        v = float(vals[i])
+        holds = bool(v <= limit) if mode == "max" else bool(v >= limit)
+        return {"holds": holds, "worst": v, "limit": limit, "worst_plant": labels[i]}
+
+    checks = {
+        "closed_loop_stable": {"holds": all(rec["stable"]),
+                               "worst": int(sum(not s for s in rec["stable"])), "limit": 0,
+                               "worst_plant": next((labels[i] for i, s in enumerate(rec["stable"])
+                                                    if not s), "")},
+        "robust_stability_6_18": worst("S_peak", "max", specs.stability_max),
+        "tracking_6_17_freq_margin_db": worst("track_margin_db", "min", 0.0),
+        "effort_6_20_freq": worst("effort_peak_freq", "max", specs.effort_max),
+        "steady_state_error": worst("steady_error", "max", specs.steady_band),
+        "settling_time_s": worst("settling", "max", specs.settling_time),
+        "effort_6_20_time": worst("effort_peak_time", "max", specs.effort_max),
+        "output_disturbance_settling_s": worst("out_dist_settling", "max", specs.disturbance_settling),
+    }
+    if specs.input_disturbance is not None:
+        checks["input_disturbance_peak"] = worst("in_dist_peak", "max", specs.input_disturbance)
+    else:
+        checks["input_disturbance_peak"] = worst("in_dist_peak", "max", math.inf)
+    return Verification(family.name, len(family), checks, resp)
+
+
+def delay_margin(plant_tf: control.TransferFunction, K: control.TransferFunction) -> float:
+    """Largest pure delay the loop ``K P`` tolerates (phase margin / crossover),
+    over all gain crossovers; 0 when unstable without delay, inf without
+    crossover."""
+    w = np.logspace(-2, 4, 20000)
+    L = np.asarray((plant_tf * K)(1j * w))
+    T = control.feedback(plant_tf * K, 1)
+    if np.any(control.poles(T).real >= 0):
+        return 0.0
+    mag = np.abs(L)
+    cross = np.nonzero(np.diff(np.sign(mag - 1.0)) != 0)[0]
+    if cross.size == 0:
+        return math.inf
+    dms = []
+    for k in cross:
+        wc = w[k]
+        pm = (np.angle(L[k]) + math.pi) % (2 * math.pi)
+        dms.append(pm / wc)
+    return float(min(dms))
+
+
+def max_stable_delay(family: PlantFamily, K: control.TransferFunction) -> dict:
+    """Delay margin of each plant (its own delay removed) and the family minimum."""
+    dm = [delay_margin(p.tf, K) for p in family.plants]
+    i = int(np.argmin(dm))
+    return {"largest_delay_all_plants_s": float(dm[i]), "limiting_plant": family.plants[i].label,
+            "per_plant_s": [float(x) for x in dm]}
+
+
+# ----------------------------------------------------------- design
+
+def lead_pid(k, zi, z, p):
+    """``K(s) = k (s + zi)(s + z) / (s (s/p + 1))``: integral + lead."""
+    return control.tf([k, k * (zi + z), k * zi * z], [1.0 / p, 1.0, 0.0])
+
+
+def second_order_prefilter(wf, zeta, gain=1.0):
+    return control.tf([gain * wf ** 2], [1.0, 2 * zeta * wf, wf ** 2])
+
+
+#: search box of :func:`design_qft`: k, zi, z, p (rad/s), wf, zeta_f, F gain
+DESIGN_BOUNDS = ((1.0, 300.0), (0.3, 20.0), (1.0, 60.0), (10.0, 250.0),
+                 (2.0, 60.0), (0.4, 2.0), (0.8, 1.25))
+
+
+def spec_violation(family: PlantFamily, specs: QftSpecs, K, F, w=None,
+                   crossover_max: float | None = None) -> dict:
+    """Ratios to the limits on a frequency grid (<= 1: the spec holds for
+    every plant): robust stability (6.18), tracking (6.17) inside the
+    tracking band, effort (6.20), and (optional) the nominal loop crossing
+    over below ``crossover_max``."""
+    w = np.logspace(-1, 4, 400) if w is None else w
+    P = family.response(w)
+    Kw, Fw = np.asarray(K(1j * w)), np.asarray(F(1j * w))
+    return _violation(P, Kw, Fw, w, specs, crossover_max)
+
+
+def _violation(P, Kw, Fw, w, specs, crossover_max):
+    L = P * Kw
+    S = 1 / (1 + L)
+    TF = np.abs(Fw * L * S)
+    band = w <= specs.tracking_band_max
+    lo = np.abs(specs.tracking_lower(1j * w[band]))
+    up = np.abs(specs.tracking_upper(1j * w[band]))
+    out = {"stability": float(np.abs(S).max() / specs.stability_max),
+           "tracking": float(max(np.max(TF[:, band] / up), np.max(lo / TF[:, band]))),
+           "effort": float(np.abs(Fw * Kw * S).max() / specs.effort_max)}
+    if crossover_max is not None:
+        out["crossover"] = float(np.max(np.abs(L[0])[w >= crossover_max]))
+    return out
+
+
+def design_qft(family: PlantFamily, specs: QftSpecs, *, crossover_max: float = 25.0,
+               seed: int = 0, maxiter: int = 300) -> dict:
+    """Loop shaping as a min-max problem, solved by differential evolution:
+    the integral + lead ``K`` (:func:`lead_pid`) and second-order prefilter
+    ``F`` minimising the worst ratio of every plant's response to the bounds
+    (6.17), (6.18), (6.20), with the nominal loop crossing over below
+    ``crossover_max`` (well below the Nyquist frequency pi/Ts, where the
+    half-sample delay model of the zero-order hold holds).  A result below 1
+    meets every specification on the frequency grid."""
+    from scipy.optimize import differential_evolution
+
+    w = np.logspace(-1, 4, 400)
+    P = family.response(w)
+    s = 1j * w
+
+    def build(x):
+        k, zi, z, p, wf, zf, g = np.exp(x)
+        return k * (s + zi) * (s + z) / (s * (s / p + 1)), g * wf ** 2 / (s ** 2 + 2 * zf * wf * s + wf ** 2)
+
+    def cost(x):
+        Kw, Fw = build(x)
+        return max(_violation(P, Kw, Fw, w, specs, crossover_max).values())
+
+    res = differential_evolution(cost, [(math.log(a), math.log(b)) for a, b in DESIGN_BOUNDS],
+                                 seed=seed, maxiter=maxiter, popsize=20, tol=1e-10, polish=True)
+    k, zi, z, p, wf, zf, g = np.exp(res.x)
+    K, F = lead_pid(k, zi, z, p), second_order_prefilter(wf, zf, g)
+    return {"K": K, "F": F, "worst_ratio": float(res.fun),
+            "violation": spec_violation(family, specs, K, F, w, crossover_max),
+            "params": {"k": k, "zi": zi, "z": z, "p": p, "wf": wf, "zeta_f": zf, "f_gain": g}}
+
+
+def tf_coefficients(sys: control.TransferFunction) -> tuple[tuple, tuple]:
+    num = np.atleast_1d(np.squeeze(sys.num[0][0]))
+    den = np.atleast_1d(np.squeeze(sys.den[0][0]))
+    return tuple(float(c) for c in num), tuple(float(c) for c in den)
+
+
+# ----------------------------------------------------------- the diagram's family
+
+def perturbed(params, rng, friction_spread: float = 0.2, mass_spread: float = 0.1):
+    """Parameters whose *simulated* plant differs from the nominal one: each
+    friction coefficient within +/- friction_spread, masses and inertias
+    within +/- mass_spread (uniform)."""
+    from dataclasses import replace
+
+    f, p = params.friction, params.plant
+    u = rng.uniform(1 - friction_spread, 1 + friction_spread, 4)
+    m = rng.uniform(1 - mass_spread, 1 + mass_spread, 4)
+    tf_ = replace(f, fv1=f.fv1 * u[0], fv2=f.fv2 * u[1], fc1=f.fc1 * u[2], fc2=f.fc2 * u[3])
+    tp = replace(p, m1=p.m1 * m[0], m2=p.m2 * m[1], I1=p.I1 * m[2], I2=p.I2 * m[3])
+    return params.with_(true_plant=tp, true_friction=tf_)
+
+
+STATE_BOX = ((-math.pi / 2, math.pi / 2), (-math.pi, math.pi), (-4.0, 4.0), (-4.0, 4.0))
+#: states a brachiation swing visits (D = 1.2 m, inclines to +/-20 deg, with
+#: margin): the default region of the diagram family
+SWING_BOX = ((-0.8, 0.8), (-2.6, 2.6), (-1.6, 1.6), (-5.0, 5.0))
+
+
+def linearized_cpfl_plant(params, x0) -> control.TransferFunction:
+    """Elbow channel q2/v of the nominal-CPFL loop around
+    ``params.simulated_plant`` at x0.
+
+    The loop is linearised with Drake (``FirstOrderTaylorApproximation``; x0
+    need not be an equilibrium).  Its q2'' row is ``b_v v + a_s q2 + a_d q2'
+    + (coupling to q1, q1')``; the family keeps the elbow channel
+    ``b_v/(s^2 - a_d s - a_s)`` and treats the coupling through the passive
+    link as a disturbance: the q1 modes of the full 4-state model are the
+    zero dynamics (Figs 6.2-6.3), which the outer loop neither can nor should
+    act on (at non-equilibrium points their local Jacobian can be unstable,
+    e.g. with link 1 falling near the horizontal)."""
+    from pydrake.systems.primitives import FirstOrderTaylorApproximation
+
+    from ..diagrams import build_cpfl_plant
+
+    built = build_cpfl_plant(params)
+    ctx = built.diagram.CreateDefaultContext()
+    built.diagram.get_input_port(0).FixValue(ctx, [0.0])
+    ctx.SetContinuousState(np.asarray(x0, dtype=float))
+    lin = FirstOrderTaylorApproximation(built.diagram, ctx)
+    A, B = np.asarray(lin.A()), np.asarray(lin.B())
+    return control.tf([B[3, 0]], [1.0, -A[3, 3], -A[3, 1]])
+
+
+def diagram_family(params, n_samples: int = 60, seed: int = 0, *, friction_spread: float = 0.2,
+                   mass_spread: float = 0.1, min_elbow_rate: float | None = None,
+                   actuator: bool = True, box=SWING_BOX) -> PlantFamily:
+    """Plant family of the simulated CPFL loop: ``n_samples`` plants, each
+    with its own perturbed true plant (friction +/-20 %, masses and inertias
+    +/-10 %) linearised at a random operating point of ``box`` (default: the
+    states a swing visits, :data:`SWING_BOX`; :data:`STATE_BOX` is the wider
+    box of 6.3).
+    Points with ``|q2d| < min_elbow_rate`` (default 20 b = 0.2 rad/s) are
+    skipped: there the slope of the *smoothed* Coulomb law (4.11),
+    ``2 fc/(pi b)/(1 + (qd/b)^2)`` (49 N m s at rest, still 1.9 N m s at
+    5 b), is an artefact of the smoothing -- the discontinuous law (4.10) has
+    no slope -- and the friction acts as stiction, an input disturbance the
+    integrator of K handles, not as damping of the plant.  With
+    ``actuator`` the motor's current lag and the half-sample delay of the
+    zero-order hold (6.21) are appended."""
+    if n_samples < 1:
+        raise QftError(f"n_samples = {n_samples} must be at least 1")
+    rng = np.random.default_rng(seed)
+    min_rate = 20 * params.friction.b if min_elbow_rate is None else min_elbow_rate
+    lag = control.tf([1.0], [params.motor.tau_current, 1.0]) if actuator else 1
+    delay = params.controller.period / 2 if actuator else 0.0
+    plants = []
+    while len(plants) < n_samples:
+        pp = perturbed(params, rng, friction_spread, mass_spread)
+        x0 = np.array([rng.uniform(*b) for b in box])
+        if abs(x0[3]) < min_rate:
+            continue
+        G = linearized_cpfl_plant(pp, x0)
+        plants.append(Plant(G * lag, delay, f"x0=({', '.join(f'{v:.2f}' for v in x0)})"))
+    # nominal: 1/s^2 with the same actuator
+    nominal = Plant(control.tf([1.0], [1.0, 0.0, 0.0]) * lag, delay, "nominal 1/s^2")
+    return PlantFamily([nominal] + plants, f"diagram CPFL loop ({n_samples} sampled plants)", 0)
+
+
+def v_max_over_box(params, n: int = 9, torque_limit: float | None = None) -> dict:
+    """(6.19): the outer-loop signal the torque limit allows,
+    ``|v| = |(tau_max - b)/a|`` (nominal model with its friction, as (6.19)
+    includes f), over a grid of the state box of 6.3.  Returns the largest
+    |v| reachable anywhere (the dissertation's "|v_max| <= 220"; we get
+    less) and the smallest |v| guaranteed in both directions at every state
+    (zero: in parts of the box 20 N m is not even enough to hold the elbow
+    against b(q, qd))."""
+    from ..systems.controller import cpfl_terms
+
+    tmax = params.controller.torque_limit if torque_limit is None else torque_limit
+    grids = [np.linspace(lo, hi, n) for lo, hi in STATE_BOX]
+    worst, best = math.inf, 0.0
+    for q1 in grids[0]:
+        for q2 in grids[1]:
+            for w1 in grids[2]:
+                for w2 in grids[3]:
+                    a, b = cpfl_terms([q1, q2], [w1, w2], params.plant, params.friction)
+                    vp, vm = (tmax - b) / a, (-tmax - b) / a
+                    worst = min(worst, max(0.0, min(vp, -vm)))
+                    best = max(best, abs(vp), abs(vm))
+    return {"v_max_guaranteed": float(worst), "v_max_largest": float(best), "torque_limit_Nm": tmax,
+            "grid_points_per_axis": n}

@@ -1,0 +1,242 @@
+"""CPFL inner loop + outer loop K, prefilter F, saturation and anti-windup.
+
+Collocated partial feedback linearisation (6.7)-(6.8) from the *nominal*
+model: ``tau = a(q) v + b(q, qd)`` with ``a = det(M)/M11`` and
+``b = h2 + g2 (+ f2) - (M21/M11)(h1 + g1 (+ f1))`` makes ``q2'' = v`` on the
+nominal plant.  The outer loop is Fig. 6.1: ``v = K(F(r) - y) + v_ff`` with
+``y = q2``; ``K`` and ``F`` are transfer functions from
+:data:`bplir_drake.params.OUTER_LOOP_DESIGNS`, discretised at ``Ts`` with the
+bilinear transform (6.21)-(6.22) (python-control ``sample_system``), or kept
+continuous (``continuous=True``) so the loop can be linearised.
+
+Saturation and conventional anti-windup (Kothare et al., Fig. 6.7): the
+torque is limited to ``min(torque_limit, torque_available)`` where
+``torque_available`` is an input (the motor/driver model's deliverable
+torque: its peak-current or interlocked continuous-current limit).  The
+outer-loop value the saturated torque realises is ``v_hat = (tau_hat -
+b)/a``; K is driven by ``e_tilde = e - X (v - v_hat)``.  With a direct
+feedthrough ``D`` in K the algebraic loop is solved in closed form.
+
+Errata: ``K = -216`` is negative to match the sign of the *measured* plant
+(4.16).  After CPFL the simulated plant is ``q2'' = v`` (positive); with
+``sign_correct`` (default) a K with negative gain is negated before use.
+The scalar-templated system converts to AutoDiffXd (for ``Linearize``); it
+is not offered as symbolic ``Expression`` because saturation needs
+comparisons.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from pydrake.autodiffutils import AutoDiffXd
+from pydrake.systems.framework import LeafSystem_
+from pydrake.systems.scalar_conversion import TemplateSystem
+
+from ..params import ControllerParams, FrictionParams, PlantParams
+from .friction import friction_torques
+from .plant import bias_term, gravity_vector, mass_matrix
+
+
+# ----------------------------------------------------------- pure functions
+
+def cpfl_terms(q, qd, p: PlantParams, friction: FrictionParams | None = None):
+    """(a, b) with ``tau = a v + b`` giving ``q2'' = v`` on the model (6.8)."""
+    M = mass_matrix(q, p)
+    h = bias_term(q, qd, p)
+    g = gravity_vector(q, p)
+    r1, r2 = h[0] + g[0], h[1] + g[1]
+    if friction is not None:
+        f = friction_torques(qd, friction)
+        r1, r2 = r1 + f[0], r2 + f[1]
+    det = M[0, 0] * M[1, 1] - M[0, 1] * M[1, 0]
+    return det / M[0, 0], r2 - M[1, 0] / M[0, 0] * r1
+
+
+def cpfl_torque(q, qd, v, p: PlantParams, friction: FrictionParams | None = None):
+    a, b = cpfl_terms(q, qd, p, friction)
+    return a * v + b
+
+
+@dataclass(frozen=True)
+class StateSpace:
+    A: np.ndarray
+    B: np.ndarray
+    C: np.ndarray
+    D: np.ndarray
+
+    @property
+    def n(self) -> int:
+        return self.A.shape[0]
+
+
+def tf_to_ss(num, den, period: float = 0.0) -> StateSpace:
+    """SISO transfer function -> state space; discretised (Tustin) when
+    ``period > 0``."""
+    import control
+
+    num = np.atleast_1d(np.asarray(num, dtype=float))
+    den = np.atleast_1d(np.asarray(den, dtype=float))
+    if len(den) == 1:  # static gain
+        return StateSpace(np.zeros((0, 0)), np.zeros((0, 1)), np.zeros((1, 0)),
+                          np.array([[num[0] / den[0]]]))
+    sys = control.tf2ss(control.tf(num, den))
+    if period > 0:
+        sys = control.sample_system(sys, period, method="tustin")
+    return StateSpace(np.array(sys.A), np.array(sys.B), np.array(sys.C), np.array(sys.D))
+
+
+def outer_loop(ctrl: ControllerParams, period: float = 0.0):
+    """(K, F) state-space realisations of the configured design."""
+    d = ctrl.design
+    k_num = np.asarray(d["k_num"], dtype=float)
+    if ctrl.sign_correct and k_num[np.nonzero(k_num)[0][0]] < 0:
+        k_num = -k_num
+    return (tf_to_ss(k_num, d["k_den"], period), tf_to_ss(d["f_num"], d["f_den"], period))
+
+
+def saturate_with_antiwindup(e, xK, K: StateSpace, a, b, limit, X: float):
+    """Kothare's conventional anti-windup for one evaluation.
+
+    Returns (tau_hat, v, v_hat, e_tilde, tau_unsat).  ``v`` excludes the
+    feed-forward; ``b`` must already include it (``b + a v_ff``).
+    """
+    CxK = (K.C @ xK)[0] if K.n else 0.0 * e
+    D = K.D[0, 0]
+    u0 = CxK + D * e
+    tau0 = a * u0 + b
+    if tau0 > limit:
+        tau_hat = 0.0 * tau0 + limit
+    elif tau0 < -limit:
+        tau_hat = 0.0 * tau0 - limit
+    else:
+        return tau0, u0, u0, e, tau0
+    v_hat = (tau_hat - b) / a
+    if X <= 0:
+        return tau_hat, u0, v_hat, e, tau0
+    # e~ = e - X (v - v_hat),  v = C x + D e~   ->  closed form
+    v = (u0 + D * X * v_hat) / (1.0 + D * X)
+    return tau_hat, v, v_hat, e - X * (v - v_hat), tau0
+
+
+# ----------------------------------------------------------- the system
+
+@TemplateSystem.define("CpflController_", T_list=(float, AutoDiffXd))
+def CpflController_(T):
+    class Impl(LeafSystem_[T]):
+        """Inputs ``state`` (q1, q2, q1d, q2d: relative, estimated or true),
+        ``reference`` (q2_ref), ``feedforward`` (v_ff, rad/s^2),
+        ``torque_available`` (N m).  Outputs ``torque`` (saturated command),
+        ``v`` (outer-loop signal realised), ``torque_unsaturated``.
+
+        ``continuous=True``: K and F continuous-time (for linearisation).
+        Otherwise discrete at ``ctrl.period`` with the update at ``offset``
+        and, for ``ctrl.delay_samples = 1``, the command applied one sample
+        later (the lab firmware).
+        """
+
+        def _construct(self, plant: PlantParams, ctrl: ControllerParams,
+                       friction: FrictionParams | None = None, continuous: bool = False,
+                       offset: float = 0.0, converter=None):
+            LeafSystem_[T].__init__(self, converter)
+            self.plant_params, self.ctrl, self.friction = plant, ctrl, friction
+            self.continuous, self.offset = continuous, offset
+            self.K, self.F = outer_loop(ctrl, 0.0 if continuous else ctrl.period)
+            self.nK, self.nF = self.K.n, self.F.n
+            self.DeclareVectorInputPort("state", 4)
+            self.DeclareVectorInputPort("reference", 1)
+            self.DeclareVectorInputPort("feedforward", 1)
+            self.DeclareVectorInputPort("torque_available", 1)
+            n = self.nF + self.nK
+            if continuous:
+                if n:
+                    self.DeclareContinuousState(n)
+                self.DeclareVectorOutputPort("torque", 1, self._out_torque)
+                self.DeclareVectorOutputPort("v", 1, self._out_v)
+                self.DeclareVectorOutputPort("torque_unsaturated", 1, self._out_tau0)
+            else:
+                # [xF, xK, tau_hat, v, tau0, pending tau (delay)]
+                self._xd = self.DeclareDiscreteState(n + 4)
+                self.DeclarePeriodicDiscreteUpdateEvent(ctrl.period, offset, self._update)
+                xd = {self.xd_ticket()}
+                self.DeclareVectorOutputPort("torque", 1, self._held(n), xd)
+                self.DeclareVectorOutputPort("v", 1, self._held(n + 1), xd)
+                self.DeclareVectorOutputPort("torque_unsaturated", 1, self._held(n + 2), xd)
+
+        def _construct_copy(self, other, converter=None):
+            Impl._construct(self, other.plant_params, other.ctrl, other.friction,
+                            other.continuous, other.offset, converter=converter)
+
+        # -- the law, shared by both modes
+        def _law(self, context, xF, xK):
+            x = self.get_input_port(0).Eval(context)
+            r = self.get_input_port(1).Eval(context)[0]
+            v_ff = self.get_input_port(2).Eval(context)[0]
+            avail = self.get_input_port(3).Eval(context)[0]
+            F, K = self.F, self.K
+            rf = ((F.C @ xF)[0] if self.nF else 0.0 * r) + F.D[0, 0] * r
+            e = rf - x[1]
+            a, b = cpfl_terms(x[0:2], x[2:4], self.plant_params,
+                              self.friction if self.ctrl.friction_compensation else None)
+            limit = min(self.ctrl.torque_limit, avail) if avail > 0 else 0.0 * avail
+            tau_hat, v, v_hat, e_t, tau0 = saturate_with_antiwindup(
+                e, xK, K, a, b + a * v_ff, limit, self.ctrl.aw_gain)
+            q = self.ctrl.torque_quantum
+            if q > 0:  # firmware: truncate to whole units toward zero
+                tau_hat = np.trunc(tau_hat / q) * q
+            return r, e_t, tau_hat, v_hat + v_ff, tau0
+
+        def _split(self, vec):
+            return vec[:self.nF], vec[self.nF:self.nF + self.nK]
+
+        # -- continuous mode
+        def _xc(self, context):
+            if self.nF + self.nK == 0:
+                return np.zeros(0)
+            return context.get_continuous_state_vector().CopyToVector()
+
+        def DoCalcTimeDerivatives(self, context, derivatives):
+            if not self.continuous or self.nF + self.nK == 0:
+                return
+            xF, xK = self._split(self._xc(context))
+            r, e_t, *_ = self._law(context, xF, xK)
+            dF = self.F.A @ xF + self.F.B[:, 0] * r
+            dK = self.K.A @ xK + self.K.B[:, 0] * e_t
+            derivatives.get_mutable_vector().SetFromVector(np.concatenate([dF, dK]))
+
+        def _out_torque(self, context, out):
+            xF, xK = self._split(self._xc(context))
+            out.SetAtIndex(0, self._law(context, xF, xK)[2])
+
+        def _out_v(self, context, out):
+            xF, xK = self._split(self._xc(context))
+            out.SetAtIndex(0, self._law(context, xF, xK)[3])
+
+        def _out_tau0(self, context, out):
+            xF, xK = self._split(self._xc(context))
+            out.SetAtIndex(0, self._law(context, xF, xK)[4])
+
+        # -- discrete mode
+        def _update(self, context, discrete_state):
+            s = context.get_discrete_state(self._xd).get_value()
+            n = self.nF + self.nK
+            xF, xK = self._split(s[:n])
+            r, e_t, tau_hat, v, tau0 = self._law(context, xF, xK)
+            xF = self.F.A @ xF + self.F.B[:, 0] * r
+            xK = self.K.A @ xK + self.K.B[:, 0] * e_t
+            if self.ctrl.delay_samples:
+                applied, pending = s[n + 3], tau_hat
+            else:
+                applied, pending = tau_hat, tau_hat
+            discrete_state.get_mutable_vector(self._xd).SetFromVector(
+                np.concatenate([xF, xK, [applied, v, tau0, pending]]))
+
+        def _held(self, index):
+            def calc(context, out):
+                out.SetAtIndex(0, context.get_discrete_state(self._xd).get_value()[index])
+            return calc
+
+    return Impl
+
+
+CpflController = CpflController_[None]

@@ -12,6 +12,7 @@ import math
 import sys
 from pathlib import Path
 
+from .analysis.qft import QftError
 from .estimation import LogError
 from .params import ParameterError
 
@@ -213,6 +214,90 @@ def cmd_observability(args) -> int:
     return 0
 
 
+# ------------------------------------------------------------------ qft
+def cmd_qft(args) -> int:
+    import control
+    import numpy as np
+
+    from .analysis import qft as Q
+    from .analysis.qft_plots import (plot_family_responses, plot_nichols, plot_tracking,
+                                     plot_zero_dynamics)
+    from .analysis.zero_dynamics import zero_dynamics_portrait
+    from .params import ControllerParams
+
+    params = _load_params(args)
+    ctrl = ControllerParams.preset_named(args.controller) if args.controller else params.controller
+    specs = Q.QftSpecs()
+    out_dir = Path(args.out)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    report = {"family": args.family, "controller": ctrl.preset}
+    if args.family == "dissertation":
+        fam_nodelay = Q.dissertation_family(td=None)
+        fam = Q.dissertation_family()
+        d = ctrl.design
+        K = control.tf(d["k_num"], d["k_den"])  # as published: negative for (4.16)
+        F = control.tf(d["f_num"], d["f_den"])
+        v0 = Q.verify(fam_nodelay, K, F, specs)
+        vd = Q.verify(fam, K, F, specs)
+        dc = [float(np.real(control.dcgain(F * control.feedback(p.tf * K, 1))))
+              for p in fam_nodelay.plants]
+        report |= {
+            "without_delay": v0.summary(),
+            "with_delay_0.15_0.3_s": vd.summary(),
+            "dc_tracking_band_without_delay": [min(dc), max(dc)],
+            "largest_delay_published_K_keeps_stable": Q.max_stable_delay(fam_nodelay, K),
+        }
+        ver, fam_plot = v0, fam_nodelay
+    else:
+        fam = Q.diagram_family(params, args.plants, seed=args.seed)
+        d = ctrl.design
+        k_num = np.asarray(d["k_num"])
+        if ctrl.sign_correct and k_num[np.nonzero(k_num)[0][0]] < 0:
+            k_num = -k_num
+        K = control.tf(k_num, d["k_den"])
+        F = control.tf(d["f_num"], d["f_den"])
+        if args.design:
+            des = Q.design_qft(fam, specs, seed=args.seed)
+            K, F = des["K"], des["F"]
+            report["design"] = {"K": Q.tf_coefficients(K), "F": Q.tf_coefficients(F),
+                                "worst_ratio": des["worst_ratio"], "params": des["params"]}
+        ver = Q.verify(fam, K, F, specs)
+        report |= {"verification": ver.summary(),
+                   "v_max_6_19": Q.v_max_over_box(params),
+                   "largest_delay_K_keeps_stable": Q.max_stable_delay(fam, K)}
+        fam_plot = fam
+    bounds = Q.compute_bounds(fam_plot, specs)
+    w_dense = np.logspace(-1, 3, 500)
+    P0 = fam_plot.plants[fam_plot.nominal]
+    L0 = P0(w_dense) * np.asarray(K(1j * w_dense))
+    L0_at = P0(bounds.omegas) * np.asarray(K(1j * bounds.omegas))
+    report["nominal_loop_vs_bounds"] = Q.check_loop(bounds, L0_at)
+    figs = {
+        "nichols": plot_nichols(bounds, Q.templates(fam_plot, bounds.omegas), L0, w_dense,
+                                out_dir / "nichols.png"),
+        "tracking": plot_tracking(ver, out_dir / "tracking_bode.png"),
+        "responses": plot_family_responses(ver, out_dir / "family_responses.png"),
+        "zero_dynamics": plot_zero_dynamics(
+            [zero_dynamics_portrait(params.plant, None),
+             zero_dynamics_portrait(params.plant, params.friction, duration=40.0)],
+            out_dir / "zero_dynamics.png"),
+    }
+    report["figures"] = {k: str(v) for k, v in figs.items()}
+    (out_dir / "qft.json").write_text(json.dumps(report, indent=2, default=_jsonable))
+    lines = [f"family: {fam_plot.name}, {len(fam_plot)} plants, controller {ctrl.preset}"]
+    for name, c in ver.checks.items():
+        lines.append(f"  {name}: {'holds' if c['holds'] else 'FAILS'} (worst {c['worst']:.4g}, "
+                     f"limit {c['limit']:.4g})")
+    if args.family == "dissertation":
+        m = report["largest_delay_published_K_keeps_stable"]
+        lines.append(f"  with Td in [0.15, 0.3] s: all specs hold: "
+                     f"{report['with_delay_0.15_0.3_s']['all_hold']}; largest delay K = -216 "
+                     f"keeps every plant stable: {m['largest_delay_all_plants_s']:.4f} s")
+    lines.append(f"figures in {out_dir}")
+    _emit(report, args.json, lines)
+    return 0
+
+
 # ------------------------------------------------------------------ main
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="bplir", description="Brachiating Power Line Inspection Robot tools")
@@ -258,6 +343,16 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--threshold", type=float, default=1e-3, help="relative rank threshold")
     p.add_argument("--out", default="out/observability")
     p.set_defaults(func=cmd_observability)
+
+    p = sub.add_parser("qft", help="QFT design/verification on a plant family")
+    common(p)
+    p.add_argument("--family", choices=("dissertation", "diagram"), default="diagram")
+    p.add_argument("--controller", default=None, help="controller preset (qft, dissertation, lab)")
+    p.add_argument("--plants", type=int, default=60, help="sampled plants of the diagram family")
+    p.add_argument("--seed", type=int, default=1, help="seed of the sampled family")
+    p.add_argument("--design", action="store_true", help="re-run the loop-shaping design")
+    p.add_argument("--out", default="out/qft")
+    p.set_defaults(func=cmd_qft)
     return parser
 
 
@@ -266,7 +361,7 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     try:
         return args.func(args)
-    except (ParameterError, InputError, LogError) as exc:
+    except (ParameterError, InputError, LogError, QftError) as exc:
         sys.stderr.write(f"bplir: error: {exc}\n")
         return 2
 

@@ -1,0 +1,61 @@
+"""Zero dynamics of the CPFL loop (Figs 6.2-6.3).
+
+With the actuated elbow held at ``q2 = q2*`` (q2' = q2'' = 0) the passive
+link obeys the first row of (4.5): ``M11(q2*) q1'' + g1(q1, q2*) = -f1(q1')``
+-- a pendulum with the elbow locked.  Without friction the orbits are closed
+curves (limit cycles around the hanging equilibrium, Fig. 6.2); with the
+friction (4.11) they spiral into a stable focus at the origin (Fig. 6.3).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.integrate import solve_ivp
+
+from ..params import FrictionParams, PlantParams
+from ..systems.friction import friction_torques
+from ..systems.plant import gravity_vector, mass_matrix
+
+
+@dataclass
+class PhasePortrait:
+    q2_star: float
+    friction: bool
+    trajectories: list  # each (t, q1, q1d)
+
+    def final_radius(self) -> np.ndarray:
+        return np.array([np.hypot(q1[-1], qd[-1]) for _, q1, qd in self.trajectories])
+
+    def energy_like(self, p: PlantParams) -> list[np.ndarray]:
+        """``0.5 M11 q1'^2 + V(q1)`` along each orbit (conserved without friction)."""
+        M11 = mass_matrix([0.0, self.q2_star], p)[0, 0]
+        out = []
+        for _, q1, qd in self.trajectories:
+            V = np.array([_potential(q, self.q2_star, p) for q in q1])
+            out.append(0.5 * M11 * qd ** 2 + V)
+        return out
+
+
+def _potential(q1, q2, p):
+    c1, c12 = np.cos(q1), np.cos(q1 + q2)
+    return -p.m1 * p.g * p.lc1 * c1 - p.m2 * p.g * (p.l1 * c1 + p.lc2 * c12)
+
+
+def zero_dynamics_portrait(p: PlantParams, friction: FrictionParams | None, *, q2_star=0.0,
+                           initial=None, duration: float = 12.0) -> PhasePortrait:
+    """Orbits of the zero dynamics from a set of initial (q1, q1')."""
+    if initial is None:
+        initial = [(a, 0.0) for a in (0.3, 0.8, 1.3, 1.8, 2.4)] + [(0.0, w) for w in (2.0, 4.0)]
+    M11 = mass_matrix([0.0, q2_star], p)[0, 0]
+
+    def rhs(t, x):
+        g1 = gravity_vector([x[0], q2_star], p)[0]
+        f1 = friction_torques([x[1], 0.0], friction)[0] if friction is not None else 0.0
+        return [x[1], (-g1 - f1) / M11]
+
+    trajs = []
+    for q10, w0 in initial:
+        sol = solve_ivp(rhs, (0.0, duration), [q10, w0], max_step=0.01, rtol=1e-9, atol=1e-11)
+        trajs.append((sol.t, sol.y[0], sol.y[1]))
+    return PhasePortrait(q2_star, friction is not None, trajs)

@@ -298,6 +298,64 @@ def cmd_qft(args) -> int:
     return 0
 
 
+# ------------------------------------------------------------------ swing
+def _swing_params(args):
+    import dataclasses as dc
+
+    from .params import ControllerParams
+
+    params = _load_params(args)
+    sc = params.scenario
+    changes = {}
+    if args.incline is not None:
+        changes["incline_deg"] = args.incline
+    if args.seed is not None:
+        changes["seed"] = args.seed
+    if args.true_state:
+        changes["use_estimator"] = False
+    try:
+        sc = dc.replace(sc, **changes)
+    except TypeError as exc:  # pragma: no cover - defensive
+        raise InputError(str(exc)) from None
+    params = params.with_(scenario=sc)
+    if args.controller:
+        path = params.path
+        if args.controller == "lab":
+            path = dc.replace(path, mode="lab")
+        params = params.with_(controller=ControllerParams.preset_named(args.controller),
+                              path=path)
+    from .diagrams import swing_geometry
+
+    swing_geometry(params)  # validates grip spacing / incline for this robot
+    return params
+
+
+def cmd_swing(args) -> int:
+    from .analysis.swing import run_swing, summary_with_params, write_log_csv
+    from .analysis.swing_plots import animate_swing, plot_swing
+
+    params = _swing_params(args)
+    res = run_swing(params)
+    out_dir = Path(args.out)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    files = {"figure": str(plot_swing(res, out_dir / "swing.png")),
+             "log_csv": str(write_log_csv(res, out_dir / "swing_log.csv"))}
+    if not args.no_animation:
+        files["animation"] = str(animate_swing(res, out_dir / "swing.gif"))
+    summary = summary_with_params(res) | {"files": files}
+    (out_dir / "summary.json").write_text(json.dumps(summary, indent=2, default=_jsonable))
+    s = res.summary
+    _emit(res.summary | {"files": files}, args.json, [
+        f"{s['outcome']}: t = {s['swing_time_s']:.3f} s, capture speed "
+        f"{s['capture_speed_mps']:.3f} m/s (limit {s['thresholds']['capture_speed_mps']}), "
+        f"distance {s['capture_distance_m']:.4f} m",
+        f"peak torque {s['peak_torque_Nm']:.2f} N m, peak motor power "
+        f"{s['peak_motor_power_W']:.1f} W (rating {s['motor_power_rating_W']:.0f} W), "
+        f"max estimation error {s['max_estimation_error_rad']:.4f} rad, seed {s['seed']}",
+        f"files in {out_dir}: " + ", ".join(Path(f).name for f in files.values())])
+    return 0
+
+
 # ------------------------------------------------------------------ main
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="bplir", description="Brachiating Power Line Inspection Robot tools")
@@ -343,6 +401,16 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--threshold", type=float, default=1e-3, help="relative rank threshold")
     p.add_argument("--out", default="out/observability")
     p.set_defaults(func=cmd_observability)
+
+    p = sub.add_parser("swing", help="one brachiation swing (the main job)")
+    common(p)
+    p.add_argument("--incline", type=float, default=None, help="line incline in degrees")
+    p.add_argument("--controller", default=None, help="controller preset (qft, dissertation, lab)")
+    p.add_argument("--seed", type=int, default=None, help="seed of friction draw and sensor noise")
+    p.add_argument("--true-state", action="store_true", help="control from the true state")
+    p.add_argument("--no-animation", action="store_true", help="skip the GIF")
+    p.add_argument("--out", default="out/swing")
+    p.set_defaults(func=cmd_swing)
 
     p = sub.add_parser("qft", help="QFT design/verification on a plant family")
     common(p)

@@ -318,3 +318,114 @@ def build_control_loop(params: BplirParams, reference=0.0, *, continuous: bool =
     diagram = builder.Build()
     diagram.set_name("control_loop")
     return Built(diagram, plant, systems, loggers, params)
+
+
+def swing_geometry(params: BplirParams):
+    """(initial q, target q, path geometry, line geometry) of the scenario,
+    from the *nominal* link lengths (what the robot believes) -- the start
+    pose of the simulated robot uses its true lengths."""
+    import math
+
+    from .systems.gripper import LineGeometry
+    from .systems.path import PathGeometry
+    from .systems.plant import initial_configuration, target_configuration
+
+    sc = params.scenario
+    alpha = math.radians(sc.incline_deg)
+    true_p = params.simulated_plant
+    q0 = initial_configuration(sc.grip_spacing, true_p, alpha)
+    qT = target_configuration(sc.grip_spacing, true_p, alpha)
+    initial_configuration(sc.grip_spacing, params.plant, alpha)  # validates for the model too
+    pg = PathGeometry.from_scenario(params.plant, sc.grip_spacing, alpha, sc.capture_distance)
+    lg = LineGeometry(true_p.l1, true_p.l2, alpha, sc.grip_spacing)
+    return q0, qT, pg, lg
+
+
+def build_swing(params: BplirParams, *, seed: int | None = None, use_estimator: bool | None = None,
+                log_period: float = 0.005) -> Built:
+    """The full closed loop of one swing.
+
+    True (possibly perturbed) plant + friction + wind, motor/driver, two IMUs,
+    kinematic EKF (nominal geometry), path generator and CPFL controller
+    (nominal plant), gripper interlock (true contact sensing), loggers.  With
+    ``use_estimator=False`` the path and controller read the true state
+    (sampled at their tick) instead of the estimate.
+    """
+    from dataclasses import replace
+
+    from .systems.gripper import GripperInterlock
+    from .systems.path import PathGenerator
+    from .systems.plant import absolute_from_relative
+
+    sc = params.scenario
+    seed = sc.seed if seed is None else seed
+    use_est = sc.use_estimator if use_estimator is None else use_estimator
+    q0, _, pg, lg = swing_geometry(params)
+    builder = DiagramBuilder()
+    wind = None
+    if sc.wind_torque1 or sc.wind_torque2:
+        wind = builder.AddSystem(ConstantVectorSource([sc.wind_torque1, sc.wind_torque2]))
+        wind.set_name("wind")
+        wind = wind.get_output_port(0)
+    plant, fr = add_plant_with_friction(builder, params.simulated_plant,
+                                        params.simulated_friction, disturbance=wind)
+    ctrl_p = params.controller
+    motor = builder.AddSystem(MotorDriver(replace(params.motor,
+                                                  torque_limit=min(params.motor.torque_limit,
+                                                                   ctrl_p.torque_limit))))
+    motor.set_name("motor")
+    builder.Connect(plant.get_state_output_port(), motor.GetInputPort("state"))
+    builder.Connect(motor.GetOutputPort("torque"), plant.get_actuation_input_port())
+    sampler = add_imus(builder, plant, params, seed)
+    est = params.estimator.for_loop()
+    x0_abs = absolute_from_relative(np.array([q0[0], q0[1], 0.0, 0.0]))
+    ekf = builder.AddSystem(KinematicEkf(est, x0_abs, COMPUTE_OFFSET,
+                                         sigmas=(est.start_angle_sigma, est.start_rate_sigma,
+                                                 est.start_bias_sigma)))
+    ekf.set_name("ekf")
+    builder.Connect(sampler.get_output_port(0), ekf.get_input_port(0))
+    state_port = ekf.GetOutputPort("estimate_relative") if use_est else plant.get_state_output_port()
+    fv1 = params.friction.fv1 if params.path.predict_friction else 0.0
+    path = builder.AddSystem(PathGenerator(params.plant, params.path, pg, ctrl_p.period,
+                                           2 * COMPUTE_OFFSET, fv1))
+    path.set_name("path")
+    builder.Connect(state_port, path.get_input_port(0))
+    ctrl = builder.AddSystem(CpflController(params.plant, ctrl_p, params.friction,
+                                            offset=3 * COMPUTE_OFFSET, use_prefilter=False))
+    ctrl.set_name("controller")
+    builder.Connect(state_port, ctrl.GetInputPort("state"))
+    builder.Connect(path.GetOutputPort("reference"), ctrl.GetInputPort("reference"))
+    builder.Connect(path.GetOutputPort("feedforward"), ctrl.GetInputPort("feedforward"))
+    builder.Connect(motor.GetOutputPort("available"), ctrl.GetInputPort("torque_available"))
+    builder.Connect(ctrl.GetOutputPort("torque"), motor.GetInputPort("torque_command"))
+    lock = builder.AddSystem(GripperInterlock(lg, sc))
+    lock.set_name("interlock")
+    builder.Connect(plant.get_state_output_port(), lock.GetInputPort("state"))
+    builder.Connect(motor.GetOutputPort("tripped"), lock.GetInputPort("tripped"))
+    builder.Connect(ekf.GetOutputPort("estimate_relative"), lock.GetInputPort("estimate"))
+    builder.Connect(motor.GetOutputPort("torque"), lock.GetInputPort("torque"))
+    T = ctrl_p.period
+    loggers = {
+        "state": LogVectorOutput(plant.get_state_output_port(), builder, log_period),
+        "torque": LogVectorOutput(motor.GetOutputPort("torque"), builder, log_period),
+        "power": LogVectorOutput(motor.GetOutputPort("power"), builder, log_period),
+        "current": LogVectorOutput(motor.GetOutputPort("current"), builder, log_period),
+        "friction": LogVectorOutput(fr.get_output_port(0), builder, log_period),
+        "estimate": _sample_logger(builder, ekf.GetOutputPort("estimate_relative"), T,
+                                   2 * COMPUTE_OFFSET),
+        "command": _sample_logger(builder, ctrl.GetOutputPort("torque"), T, 4 * COMPUTE_OFFSET),
+        "v": _sample_logger(builder, ctrl.GetOutputPort("v"), T, 4 * COMPUTE_OFFSET),
+        "reference": _sample_logger(builder, path.GetOutputPort("reference"), T,
+                                    4 * COMPUTE_OFFSET),
+        "blend_end": _sample_logger(builder, path.GetOutputPort("blend_end"), T,
+                                    4 * COMPUTE_OFFSET),
+        "imu": _sample_logger(builder, sampler.get_output_port(0), params.imu.period,
+                              COMPUTE_OFFSET / 2),
+    }
+    diagram = builder.Build()
+    diagram.set_name("brachiation_swing")
+    systems = {"friction": fr, "motor": motor, "imu": sampler, "ekf": ekf, "path": path,
+               "controller": ctrl, "interlock": lock}
+    built = Built(diagram, plant, systems, loggers, params)
+    built.q0 = q0
+    return built

@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from .params import EstimatorParams
-from .systems.ekf import EkfState, ekf_predict, ekf_update, initial_state, split_sample
+from .systems.ekf import EkfState, ekf_predict, ekf_step, initial_state
 from .systems.imu import IMU_COLUMNS
 
 LOG_COLUMNS = ("t",) + IMU_COLUMNS
@@ -168,11 +168,7 @@ def estimate(t, samples, params: EstimatorParams, x0=(0.0, 0.0, 0.0, 0.0), *,
         if skip[k]:
             s = ekf_predict(s, u_prev, params)
         else:
-            z, u = split_sample(samples[k])
-            if u_prev is not None:
-                s = ekf_predict(s, u_prev, params)
-            s = ekf_update(s, z, u, params)
-            u_prev = u
+            s, u_prev = ekf_step(s, u_prev, samples[k], params, first=u_prev is None)
         xs[k] = s.x[:4]
         covs[k] = np.diag(s.P)
         biases[k] = s.x[4:6] if n > 4 else 0.0

@@ -263,22 +263,54 @@ class EstimatorParams(_Block):
     """Kinematic EKF (chapter 5): geometry and noise only.
 
     No mass, inertia or friction may appear here (the filter is kinematic).
+
+    Two tunings, both here.  The defaults are the dissertation's (5.39)-
+    (5.40) with explicit Euler (5.3): robust from an unknown initial pose
+    (1 rad errors converge in ~0.25 s).  Inside the control loop of a swing
+    they lag (~30 ms in the rates) and the rectangle-rule angle update drifts
+    during the fast elbow motion, which destabilises the loop; a swing starts
+    from its known pose on the line, so :meth:`for_loop` applies the
+    ``loop_*`` tuning (gyro-trusting rates, second-order angle step): about
+    7x smaller angle errors, but it can lock onto a wrong solution from a
+    1 rad initial error, so it is only used from a known start.
     """
 
     _name = "estimator"
+
+    def _check(self):
+        for name in ("integration", "loop_integration"):
+            if getattr(self, name) not in ("euler", "trapezoid"):
+                raise ParameterError(f"estimator.{name} = '{getattr(self, name)}' is unknown; "
+                                     "allowed: euler, trapezoid")
+
     r1: float = _p(0.5, "m", 0, lo_open=True, doc="IMU 1 distance from joint 1 (filter geometry)")
     r2: float = _p(0.5, "m", 0, lo_open=True, doc="IMU 2 distance from the elbow")
     l1: float = _p(0.9091, "m", 0, lo_open=True, doc="link 1 length (filter geometry)")
     g: float = _p(9.81, "m/s^2", 0, 30, lo_open=True, doc="gravity used by the filter")
     period: float = _p(0.01, "s", 0, 1, lo_open=True, doc="filter period (100 Hz)")
-    accel_process_sigma: float = _p(0.427, "m/s^2", 0, lo_open=True, doc="(5.39) process noise")
+    accel_process_sigma: float = _p(0.427, "m/s^2", 0, lo_open=True, doc="(5.39) process noise on the accelerometer inputs")
     gyro_meas_sigma: float = _p(0.02, "rad/s", 0, lo_open=True, doc="(5.40) gyro measurement noise")
-    accel_meas_sigma: float = _p(0.427, "m/s^2", 0, lo_open=True, doc="accelerometer measurement noise")
+    accel_meas_sigma: float = _p(0.427, "m/s^2", 0, lo_open=True, doc="accelerometer measurement noise (5.39)")
+    integration: str = "euler"
+    loop_accel_process_sigma: float = _p(2.0, "m/s^2", 0, lo_open=True, doc="in-loop tuning: process noise")
+    loop_gyro_meas_sigma: float = _p(0.0166, "rad/s", 0, lo_open=True, doc="in-loop tuning: gyro noise (Table 5.1)")
+    loop_accel_meas_sigma: float = _p(0.05, "m/s^2", 0, lo_open=True, doc="in-loop tuning: accelerometer noise")
+    loop_integration: str = "trapezoid"
     p0_angle: float = _p(1.0, "rad", 0, lo_open=True, doc="initial angle standard deviation")
     p0_rate: float = _p(0.5, "rad/s", 0, lo_open=True, doc="initial rate standard deviation")
+    start_angle_sigma: float = _p(0.02, "rad", 0, lo_open=True, doc="initial angle sd when a swing starts from its known pose on the line")
+    start_rate_sigma: float = _p(0.05, "rad/s", 0, lo_open=True, doc="initial rate sd at a swing start (at rest)")
+    start_bias_sigma: float = _p(0.002, "rad/s", 0, lo_open=True, doc="gyro-bias sd at a swing start (calibrated while held on the line)")
     estimate_bias: bool = True
     bias_sigma0: float = _p(0.05, "rad/s", 0, lo_open=True, doc="initial gyro-bias standard deviation")
     bias_walk: float = _p(1e-3, "rad/s/sqrt(s)", 0, lo_open=True, doc="gyro-bias random walk")
+
+    def for_loop(self) -> "EstimatorParams":
+        """The same filter with the in-loop tuning (used by the swing)."""
+        return replace(self, accel_process_sigma=self.loop_accel_process_sigma,
+                       gyro_meas_sigma=self.loop_gyro_meas_sigma,
+                       accel_meas_sigma=self.loop_accel_meas_sigma,
+                       integration=self.loop_integration)
 
 
 # ---------------------------------------------------------------- controller
@@ -375,13 +407,46 @@ class ControllerParams(_Block):
 
 
 # ---------------------------------------------------------------- path
+PATH_MODES = ("adaptive", "rts", "lab")
+
+
 @dataclass(frozen=True)
 class PathParams(_Block):
-    """Online path generator (chapter 7)."""
+    """Online path generator (chapter 7).  ``mode``: ``adaptive`` (RTS +
+    blend to line seeking with the adaptive blend end), ``rts`` (the RTS path
+    with the blend (7.20)-(7.21) at its printed end, no adaptation) or
+    ``lab`` (the firmware's ``1.5 q1 q2f/q1f``)."""
 
     _name = "path"
-    blend_start: float = _p(0.0, "", 0, 1, doc="fraction of |q1f| after the vertical where the blend (7.20) starts")
-    pump_torque: float = _p(15.0, "N m", 0, lo_open=True, doc="energy-pumping torque bound for inclined lines")
+    mode: str = "adaptive"
+    blend_exponent: float = _p(2.0, "", 1, 10, doc="exponent n of the blend weight F = (s/s_e)^n (7.20)")
+    arrival_rate: float = _p(0.55, "rad/s", 0, 2, lo_open=True, doc="link-1 rate aimed for where the gripper enters the capture band")
+    adapt_window: float = _p(0.3, "", 0, 1, doc="s_e adapts from s > -adapt_window * s_f ...")
+    adapt_stop: float = _p(0.8, "", 0, 1, doc="... until s > adapt_stop * s_e")
+    adapt_rate: float = _p(0.3, "rad/s", 0, lo_open=True, doc="largest rate of change of s_e")
+    blend_end_min: float = _p(0.75, "", 0.1, 1, doc="s_e >= this * s_f")
+    blend_end_max: float = _p(1.5, "", 1, 3, doc="s_e <= this * s_f")
+    bisection_steps: float = _p(20.0, "", 1, 60, doc="bisection steps of the s_e search")
+    latch_rate: float = _p(0.3, "rad/s", 0, doc="latch to pure line seeking when q1' falls below this")
+    latch_fraction: float = _p(0.85, "", 0, 1, doc="... and s >= this * s_e")
+    latch_ramp: float = _p(2.0, "1/s", 0, lo_open=True, doc="after the latch the blend weight rises to 1 at this rate")
+    landing: bool = False
+    landing_start: float = _p(0.9, "", 0, 1, doc="anticipatory landing from s > this * s_e")
+    landing_height: float = _p(0.0, "m", -0.02, 0.05, doc="aimed gripper depth below the line at the turning point (negative: above)")
+    landing_rate: float = _p(8.0, "1/s", 0, lo_open=True, doc="largest rate of change of the landing blend floor")
+    lead_time: float = _p(0.01, "s", 0, 0.1, doc="path evaluated at s + q1' * lead_time (ZOH + motor lag)")
+    predict_friction: bool = True
+    calibrate: bool = True
+    calibrate_start: float = _p(0.2, "rad/s", 0, doc="record the calibration start once q1' exceeds this")
+    calibrate_at: float = _p(0.35, "", 0, 1, doc="fit the effective damping at s = -calibrate_at * s_f")
+    pump_gain: float = _p(1.0, "", 0.5, 3, doc="RTS gain lam in the first half (energy pumping for inclines)")
+    pump_torque: float = _p(15.0, "N m", 0, lo_open=True, doc="torque bound of the energy pumping")
+    lab_gain: float = _p(1.5, "", 0, 5, doc="gain of the lab firmware path")
+
+    def _check(self):
+        if self.mode not in PATH_MODES:
+            raise ParameterError(f"path.mode = '{self.mode}' is unknown; allowed: "
+                                 + ", ".join(PATH_MODES))
 
 
 # ---------------------------------------------------------------- scenario
@@ -398,6 +463,8 @@ class ScenarioParams(_Block):
     capture_speed: float = _p(0.5, "m/s", 0, lo_open=True, doc="largest gripper speed at arrival (faster is a crash)")
     min_travel_fraction: float = _p(0.8, "", 0, 2, lo_open=True, doc="arrival must be at least this fraction of D along the line")
     friction_uncertainty: float = _p(0.2, "", 0, 0.99, doc="simulated friction drawn within +/- this fraction of nominal")
+    wind_torque1: float = _p(0.0, "N m", -20, 20, doc="constant external torque on joint 1 (wind)")
+    wind_torque2: float = _p(0.0, "N m", -20, 20, doc="constant external torque on joint 2 (wind)")
     seed: int = 0
     use_estimator: bool = True
 

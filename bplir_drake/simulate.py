@@ -57,3 +57,25 @@ def run(sim, duration: float) -> None:
 def logs(built, sim) -> dict[str, Log]:
     ctx = sim.get_context()
     return {name: Log.from_logger(lg, ctx) for name, lg in built.loggers.items()}
+
+
+def run_until_outcome(sim, built, max_time: float) -> str:
+    """Advance until the gripper interlock reports an outcome (the simulator
+    monitor ends the run) or ``max_time`` (plus one interlock period)."""
+    from pydrake.systems.framework import EventStatus
+
+    lock = built.systems["interlock"]
+
+    def monitor(root_context):
+        if lock.outcome(root_context) != "swinging":
+            return EventStatus.ReachedTermination(lock, "swing ended")
+        return EventStatus.DidNothing()
+
+    sim.set_monitor(monitor)
+    try:
+        sim.AdvanceTo(max_time + 2 * lock.period)
+    except RuntimeError as exc:
+        raise SimulationError(f"simulation failed: {exc}") from None
+    finally:
+        sim.clear_monitor()
+    return lock.outcome(sim.get_context())

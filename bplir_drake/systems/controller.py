@@ -132,16 +132,20 @@ def CpflController_(T):
         ``continuous=True``: K and F continuous-time (for linearisation).
         Otherwise discrete at ``ctrl.period`` with the update at ``offset``
         and, for ``ctrl.delay_samples = 1``, the command applied one sample
-        later (the lab firmware).
+        later (the lab firmware).  ``use_prefilter=False`` bypasses F (path
+        tracking: the smooth path comes with its own feed-forward; a step
+        prefilter would only add lag).
         """
 
         def _construct(self, plant: PlantParams, ctrl: ControllerParams,
                        friction: FrictionParams | None = None, continuous: bool = False,
-                       offset: float = 0.0, converter=None):
+                       offset: float = 0.0, use_prefilter: bool = True, converter=None):
             LeafSystem_[T].__init__(self, converter)
             self.plant_params, self.ctrl, self.friction = plant, ctrl, friction
-            self.continuous, self.offset = continuous, offset
+            self.continuous, self.offset, self.use_prefilter = continuous, offset, use_prefilter
             self.K, self.F = outer_loop(ctrl, 0.0 if continuous else ctrl.period)
+            if not use_prefilter:
+                self.F = tf_to_ss((1.0,), (1.0,))
             self.nK, self.nF = self.K.n, self.F.n
             self.DeclareVectorInputPort("state", 4)
             self.DeclareVectorInputPort("reference", 1)
@@ -165,7 +169,8 @@ def CpflController_(T):
 
         def _construct_copy(self, other, converter=None):
             Impl._construct(self, other.plant_params, other.ctrl, other.friction,
-                            other.continuous, other.offset, converter=converter)
+                            other.continuous, other.offset, other.use_prefilter,
+                            converter=converter)
 
         # -- the law, shared by both modes
         def _law(self, context, xF, xK):

@@ -102,28 +102,43 @@ def noise_matrices(p: EstimatorParams):
     return Qu, R, p.bias_walk ** 2
 
 
-def initial_state(p: EstimatorParams, x0) -> EkfState:
+def initial_state(p: EstimatorParams, x0, sigmas=None) -> EkfState:
+    """Initial filter state; ``sigmas`` = (angle, rate[, bias]) overrides p0."""
     n = 6 if p.estimate_bias else 4
     x = np.zeros(n)
     x[:4] = np.asarray(x0, dtype=float)[:4]
     if p.estimate_bias and len(x0) >= 6:
         x[4:6] = x0[4:6]
-    sd = [p.p0_angle] * 2 + [p.p0_rate] * 2 + ([p.bias_sigma0] * 2 if p.estimate_bias else [])
+    a, r, b = (tuple(sigmas) + (p.bias_sigma0,))[:3] if sigmas is not None else \
+        (p.p0_angle, p.p0_rate, p.bias_sigma0)
+    sd = [a] * 2 + [r] * 2 + ([b] * 2 if p.estimate_bias else [])
     return EkfState(x, np.diag(np.square(sd)))
 
 
-def ekf_predict(s: EkfState, u, p: EstimatorParams) -> EkfState:
-    """(5.23)-(5.24): explicit-Euler prediction over one period."""
+def discrete_f(x, u, p: EstimatorParams):
+    """One period of (5.10): explicit Euler (5.3), or with ``integration =
+    "trapezoid"`` a second-order step for the angles
+    ``theta + T omega + T^2/2 omega'`` (the Euler angle update is the
+    rectangle rule, which drifts during the fast elbow motion of a swing)."""
     Ts = p.period
-    f, Fx, Fu = jacobians(kinematic_f, s.x, np.asarray(u, dtype=float), p)
+    f = kinematic_f(x, u, p)
+    out = x + Ts * f
+    if p.integration == "trapezoid":
+        out = np.array([out[0] + 0.5 * Ts * Ts * f[2], out[1] + 0.5 * Ts * Ts * f[3],
+                        *out[2:]])
+    return out
+
+
+def ekf_predict(s: EkfState, u, p: EstimatorParams) -> EkfState:
+    """(5.23)-(5.24): prediction over one period; ``A = df_d/dx`` and
+    ``W = df_d/du`` by AutoDiff of :func:`discrete_f`."""
+    x_new, A, W = jacobians(discrete_f, s.x, np.asarray(u, dtype=float), p)
     n = len(s.x)
-    A = np.eye(n) + Ts * Fx
-    W = Ts * Fu
     Qu, _, qb = noise_matrices(p)
     P = A @ s.P @ A.T + W @ Qu @ W.T
     if n > 4:
-        P[4:, 4:] += qb * Ts * np.eye(2)
-    return EkfState(s.x + Ts * f, P)
+        P[4:, 4:] += qb * p.period * np.eye(2)
+    return EkfState(x_new, P)
 
 
 def ekf_update(s: EkfState, z, u, p: EstimatorParams) -> EkfState:
@@ -149,7 +164,11 @@ def ekf_step(s: EkfState, u_prev, sample, p: EstimatorParams, *, first: bool = F
     new sample.  Returns (new state, new input)."""
     z, u = split_sample(sample)
     if not first:
-        s = ekf_predict(s, u_prev, p)
+        # (5.3): explicit Euler with the previous accelerations; "trapezoid"
+        # averages the accelerations at both ends of the period and steps the
+        # angles to second order
+        u_pred = u_prev if p.integration == "euler" else 0.5 * (np.asarray(u_prev) + u)
+        s = ekf_predict(s, u_pred, p)
     return ekf_update(s, z, u, p), u
 
 
@@ -165,12 +184,13 @@ class KinematicEkf(LeafSystem):
     the same tick (so the filter uses it without a period of delay).
     """
 
-    def __init__(self, params: EstimatorParams, x0=(0.0, 0.0, 0.0, 0.0), offset: float = 0.0):
+    def __init__(self, params: EstimatorParams, x0=(0.0, 0.0, 0.0, 0.0), offset: float = 0.0,
+                 sigmas=None):
         super().__init__()
         if not isinstance(params, EstimatorParams):
             raise TypeError("KinematicEkf takes EstimatorParams (geometry and noise only)")
         self.params = params
-        init = initial_state(params, x0)
+        init = initial_state(params, x0, sigmas)
         self.n = n = len(init.x)
         self.DeclareVectorInputPort("imu", 6)
         packed = np.concatenate([init.x, init.P.ravel(), [0.0, 0.0], [1.0]])

@@ -1,0 +1,158 @@
+"""One brachiation swing: simulate, summarise, export.
+
+:func:`run_swing` builds the full closed loop (:func:`bplir_drake.diagrams.
+build_swing`), draws the simulated robot's friction within
+``+/- scenario.friction_uncertainty`` from the seed (unless ``true_friction``
+is given), runs until the gripper interlock reports an outcome, and returns
+the logs and a summary with the success criteria of SPEC.md and the
+thresholds and seed used.
+"""
+from __future__ import annotations
+
+import dataclasses as dc
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..diagrams import build_swing, swing_geometry
+from ..params import BplirParams, to_dict
+from ..simulate import Log, logs, make_simulator, run_until_outcome
+from ..systems.plant import gripper_position, gripper_velocity, kinetic_energy, potential_energy
+
+
+def draw_true_friction(params: BplirParams, seed: int) -> BplirParams:
+    """Simulated friction: each coefficient uniform within +/- the scenario's
+    friction uncertainty of nominal (as in 3.3), from ``seed``.  Kept as is
+    when ``true_friction`` is already set."""
+    if params.true_friction is not None or params.scenario.friction_uncertainty == 0:
+        return params
+    u = params.scenario.friction_uncertainty
+    rng = np.random.default_rng([seed, 1])
+    k = rng.uniform(1 - u, 1 + u, 4)
+    f = params.friction
+    tf = dc.replace(f, fv1=f.fv1 * k[0], fv2=f.fv2 * k[1], fc1=f.fc1 * k[2], fc2=f.fc2 * k[3])
+    return params.with_(true_friction=tf)
+
+
+@dataclass
+class SwingResult:
+    summary: dict
+    logs: dict[str, Log]
+    params: BplirParams
+
+    @property
+    def success(self) -> bool:
+        return bool(self.summary["success"])
+
+
+def _interp(log: Log, t):
+    return np.column_stack([np.interp(t, log.t, log.data[:, i]) for i in range(log.data.shape[1])])
+
+
+def run_swing(params: BplirParams, *, seed: int | None = None, use_estimator: bool | None = None,
+              accuracy: float = 1e-5) -> SwingResult:
+    sc = params.scenario
+    seed = sc.seed if seed is None else int(seed)
+    use_est = sc.use_estimator if use_estimator is None else use_estimator
+    p = draw_true_friction(params, seed)
+    built = build_swing(p, seed=seed, use_estimator=use_est)
+    sim = make_simulator(built, built.q0, accuracy=accuracy)
+    run_until_outcome(sim, built, sc.max_time)
+    status = built.systems["interlock"].status(sim.get_context())
+    lg = logs(built, sim)
+    summary = summarize(p, lg, status, seed, use_est)
+    return SwingResult(summary, lg, p)
+
+
+def summarize(p: BplirParams, lg: dict[str, Log], status: dict, seed: int, use_est: bool) -> dict:
+    sc = p.scenario
+    st = lg["state"]
+    x, t = st.data, st.t
+    tp = p.simulated_plant
+    q0, qT, _, geo = swing_geometry(p)
+    tau = lg["torque"].data[:, 0]
+    power = lg["power"].data[:, 0]
+    energy_in = float(np.sum(0.5 * (power[1:] + power[:-1]) * np.diff(lg["power"].t)))
+    est = lg["estimate"]
+    n = min(len(est.t), np.searchsorted(est.t, t[-1], side="right"))
+    truth = _interp(st, est.t[:n])
+    est_err = float(np.abs(est.data[:n, :2] - truth[:, :2]).max()) if n else math.nan
+    captured = status["outcome"] == "captured"
+    x_end = x[-1]
+    mirror_err = float(np.abs(x_end[:2] - qT).max())
+    summary = {
+        "success": captured,
+        "outcome": status["outcome"],
+        "swing_time_s": status["event_time_s"],
+        "capture_distance_m": status["capture_distance_m"],
+        "capture_speed_mps": status["capture_speed_mps"],
+        "closest_distance_m": status["closest_distance_m"],
+        "travel_m": status["travel_m"],
+        "fixed_gripper_open": status["fixed_gripper_open"],
+        "peak_torque_Nm": float(np.abs(tau).max()),
+        "peak_motor_power_W": float(np.abs(power).max()),
+        "motor_power_rating_W": p.motor.power_rating,
+        "within_power_rating": bool(np.abs(power).max() <= p.motor.power_rating),
+        "energy_in_J": energy_in,
+        "max_estimation_error_rad": est_err,
+        "final_configuration_rad": x_end[:2].tolist(),
+        "target_configuration_rad": qT.tolist(),
+        "mirror_error_rad": mirror_err,
+        "estimator_in_loop": use_est,
+        "controller": p.controller.preset,
+        "path_mode": p.path.mode,
+        "incline_deg": sc.incline_deg,
+        "grip_spacing_m": sc.grip_spacing,
+        "seed": seed,
+        "thresholds": {"capture_distance_m": sc.capture_distance,
+                       "capture_speed_mps": sc.capture_speed,
+                       "min_travel_fraction": sc.min_travel_fraction,
+                       "max_time_s": sc.max_time,
+                       "torque_limit_Nm": min(p.controller.torque_limit, p.motor.torque_limit)},
+        "true_friction": dc.asdict(p.simulated_friction),
+        "start_configuration_rad": list(map(float, q0)),
+    }
+    return summary
+
+
+# ----------------------------------------------------------- exports
+
+LOG_COLUMNS = ("t", "q1", "q2", "q1d", "q2d", "q1_est", "q2_est", "q1d_est", "q2d_est",
+               "q2_ref", "torque_cmd", "torque", "power", "current", "f1", "f2",
+               "gripper_x", "gripper_y", "kinetic", "potential", "energy")
+
+
+def log_table(result: SwingResult) -> tuple[list[str], np.ndarray]:
+    lg, p = result.logs, result.params
+    st = lg["state"]
+    t, x = st.t, st.data
+    est = _interp(lg["estimate"], t)
+    ref = _interp(lg["reference"], t)
+    cmd = _interp(lg["command"], t)
+    tp = p.simulated_plant
+    gp = np.array([gripper_position(r[:2], tp.l1, tp.l2) for r in x])
+    ke = np.array([kinetic_energy(r[:2], r[2:], tp) for r in x])
+    pe = np.array([potential_energy(r[:2], tp) for r in x])
+    fr = -lg["friction"].data
+    cols = [t[:, None], x, est, ref, cmd, lg["torque"].data, lg["power"].data, lg["current"].data,
+            fr, gp, ke[:, None], pe[:, None], (ke + pe)[:, None]]
+    return list(LOG_COLUMNS), np.hstack(cols)
+
+
+def write_log_csv(result: SwingResult, path) -> Path:
+    cols, data = log_table(result)
+    path = Path(path)
+    np.savetxt(path, data, delimiter=",", header=",".join(cols), comments="", fmt="%.7g")
+    return path
+
+
+def summary_with_params(result: SwingResult) -> dict:
+    return result.summary | {"parameters": to_dict(result.params)}
+
+
+def gripper_speed(result: SwingResult) -> np.ndarray:
+    tp = result.params.simulated_plant
+    return np.array([np.linalg.norm(gripper_velocity(r[:2], r[2:], tp.l1, tp.l2))
+                     for r in result.logs["state"].data])

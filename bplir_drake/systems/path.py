@@ -1,0 +1,402 @@
+"""Online path generator (chapter 7): time-independent, driven by the
+(estimated) state, never the clock.
+
+Coordinates: ``s = q1 - alpha`` is link 1's angle from the normal of a line
+inclined by ``alpha`` (0 for a horizontal line).  The swing starts at
+``s0 = -s_f`` and the mirror target (7.1) is at ``s_f``; ``k_f = q2_f/s_f``.
+
+* Reverse-time-symmetric path (7.6)-(7.7): ``q2 = lam k_f s`` while
+  ``s <= 0`` (``lam = 1``; ``lam > 1`` pumps energy for an uphill line, (7.14)
+  -(7.15), (7.25); the lab firmware used 1.5).
+* Line-seeking path (7.18), derived for an inclined line: the gripper's
+  distance to the line ``y' = -l1 cos(q1 - alpha) - l2 cos(q1 + q2 - alpha)``
+  vanishes for ``q2_T(s) = arccos(-(l1/l2) cos s) - s`` (erratum: (7.26)-
+  (7.27) use l1 for both links and put q_line inside the arccos).
+* Blend (7.20)-(7.21) after the vertical: ``q2 = (1 - F) q2_sym,e + F q2_T``
+  with ``F = clip(s/s_e, 0, 1)^n``.  ``q2_sym,e`` is the RTS path re-targeted
+  to reach the line at ``s_e`` (slope blended smoothly from ``k_f`` to
+  ``q2_T(s_e)/s_e``), so the path meets the line-seeking path tangentially.
+  Erratum: with the printed linear blend (n = 1) the early pull toward the
+  line-seeking path (q2_T(0) = 2.39 rad) breaks the reverse-time symmetry and
+  pumps energy; ``n = 2`` keeps the RTS character through the vertical.
+* Adaptation (ours): ``s_e`` is steered, from shortly before the vertical
+  until the robot is close to it, by the reduced dynamics of the virtual
+  constraint ``q2 = phi(q1)`` (nominal model):
+  ``alpha(q1) q1'' + beta(q1) q1'^2 + gamma(q1) = -f1`` is integrated in q1 to
+  predict ``q1'`` on reaching ``s_e``, starting from the on-path rate with
+  the measured mechanical energy; ``s_e`` moves (rate-limited, so the path
+  never jumps) toward the value with a slow arrival.  The path latches to
+  the pure line-seeking path once ``q1'`` is small near ``s_e`` ("hang
+  time").
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import pydrake.math as dmath
+
+from ..params import PathParams, PlantParams
+from .plant import gravity_vector, initial_configuration, mass_matrix, bias_term
+
+
+@dataclass(frozen=True)
+class PathGeometry:
+    l1: float
+    l2: float
+    alpha: float      # line incline (rad)
+    s_f: float        # target s (> 0)
+    q2_f: float       # target elbow angle
+    band: float = 0.02  # capture distance the arrival is aimed at (m)
+
+    @property
+    def k_f(self) -> float:
+        return self.q2_f / self.s_f
+
+    @classmethod
+    def from_scenario(cls, plant: PlantParams, grip_spacing: float, incline: float,
+                      band: float = 0.02):
+        q0 = initial_configuration(grip_spacing, plant, 0.0)
+        return cls(plant.l1, plant.l2, incline, -q0[0], -q0[1], band)
+
+
+# ----------------------------------------------------------- path functions
+
+def q2_line_seeking(s, l1: float, l2: float):
+    """(7.18) for a line inclined by alpha, in ``s = q1 - alpha``."""
+    u = -(l1 / l2) * dmath.cos(s)
+    return dmath.acos(u) - s
+
+
+def smoothstep(x):
+    return 3.0 * x * x - 2.0 * x * x * x
+
+
+def path_q2(s, s_e: float, g: PathGeometry, n: float, lam: float = 1.0, floor: float = 0.0):
+    """The blended path value ``q2_ref(s)`` for a given blend end ``s_e``;
+    ``floor`` is a lower bound of the blend weight F (the soft latch)."""
+    if s <= 0 and floor <= 0:
+        return lam * g.k_f * s
+    x = s / s_e
+    if x >= 1.0 or floor >= 1.0:
+        return q2_line_seeking(s, g.l1, g.l2)
+    k_e = q2_line_seeking(s_e, g.l1, g.l2) / s_e
+    k = lam * g.k_f + (k_e - lam * g.k_f) * smoothstep(x)
+    sym = k * s
+    F = x ** n if x > 0 else 0.0 * x
+    if F < floor:
+        F = 0.0 * F + floor
+    return sym + F * (q2_line_seeking(s, g.l1, g.l2) - sym)
+
+
+def path_derivatives(s, s_e: float, g: PathGeometry, n: float, lam: float = 1.0,
+                     floor: float = 0.0, h: float = 1e-4):
+    """(phi, phi', phi'') by central differences (works for any scalar type)."""
+    f = lambda x: path_q2(x, s_e, g, n, lam, floor)  # noqa: E731
+    a, b, c = f(s - h), f(s), f(s + h)
+    return b, (c - a) / (2 * h), (c - 2 * b + a) / (h * h)
+
+
+def constraint_acceleration(q, qd1, d1, d2, p: PlantParams):
+    """q1'' and the feed-forward q2'' of the exact virtual constraint
+    ``q2 = phi(q1)`` on the nominal model (friction-free)."""
+    M = mass_matrix(q, p)
+    v = [qd1, d1 * qd1]
+    h = bias_term(q, v, p)
+    gv = gravity_vector(q, p)
+    q1dd = -(M[0, 1] * d2 * qd1 * qd1 + h[0] + gv[0]) / (M[0, 0] + M[0, 1] * d1)
+    return q1dd, d1 * q1dd + d2 * qd1 * qd1
+
+
+def _reduced_rhs(s, Y, s_e, g, n, lam, p: PlantParams, fv1: float):
+    """dY/ds for Y = q1'^2 under the path (nominal model, viscous link-1 friction)."""
+    _, d1, d2 = path_derivatives(s, s_e, g, n, lam)
+    q = [s + g.alpha, path_q2(s, s_e, g, n, lam)]
+    M = mass_matrix(q, p)
+    s2 = math.sin(q[1])
+    a = M[0, 0] + M[0, 1] * d1
+    b = M[0, 1] * d2 - p.m2 * p.l1 * p.lc2 * s2 * (2 * d1 + d1 * d1)
+    gam = gravity_vector(q, p)[0]
+    return 2.0 * (-gam - b * Y - fv1 * math.sqrt(max(Y, 0.0))) / a
+
+
+def predict_rate_squared(s, qd1, s_e, g, n, lam, p: PlantParams, fv1: float = 0.0,
+                         step: float = 0.01) -> float:
+    """Predicted q1'^2 on reaching ``s_e`` from (s, q1') (RK4 in s)."""
+    Y, x = qd1 * qd1, s
+    m = max(1, int(math.ceil((s_e - x) / step)))
+    hh = (s_e - x) / m
+    for _ in range(m):
+        k1 = _reduced_rhs(x, Y, s_e, g, n, lam, p, fv1)
+        k2 = _reduced_rhs(x + hh / 2, Y + hh / 2 * k1, s_e, g, n, lam, p, fv1)
+        k3 = _reduced_rhs(x + hh / 2, Y + hh / 2 * k2, s_e, g, n, lam, p, fv1)
+        k4 = _reduced_rhs(x + hh, Y + hh * k3, s_e, g, n, lam, p, fv1)
+        Y += hh / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+        x += hh
+    return Y
+
+
+def projected_rate(x, s_e, g: PathGeometry, pp: PathParams, p: PlantParams) -> float:
+    """q1' of the state on the path with the same mechanical energy as ``x``
+    (the elbow carries much of the kinetic energy, so small tracking errors
+    move energy between the links; the energy is the robust quantity)."""
+    from .plant import kinetic_energy, potential_energy
+
+    s = x[0] - g.alpha
+    phi, d1, _ = path_derivatives(s, s_e, g, pp.blend_exponent, pp.pump_gain)
+    E = kinetic_energy(x[:2], x[2:4], p) + potential_energy(x[:2], p)
+    qm = [x[0], phi]
+    M = mass_matrix(qm, p)
+    m = M[0, 0] + 2 * M[0, 1] * d1 + M[1, 1] * d1 * d1
+    return math.copysign(math.sqrt(max(0.0, 2.0 * (E - potential_energy(qm, p)) / m)), x[2])
+
+
+def path_height(s, s_e, g: PathGeometry, n: float, lam: float = 1.0) -> float:
+    """Normal distance of the gripper to the line on the path (negative below)."""
+    q2 = path_q2(s, s_e, g, n, lam)
+    return -g.l1 * math.cos(s) - g.l2 * math.cos(s + q2)
+
+
+def path_height_floor(s, s_e, g: PathGeometry, n: float, lam: float, floor: float) -> float:
+    q2 = path_q2(s, s_e, g, n, lam, floor)
+    return -g.l1 * math.cos(s) - g.l2 * math.cos(s + q2)
+
+
+def band_entry(s_from, s_e, g: PathGeometry, n: float, lam: float = 1.0) -> float:
+    """First s in (s_from, s_e] where the path's gripper is within ``g.band``
+    of the line (bisection on the rising height; ``s_e`` if never)."""
+    lo, hi = max(s_from, 0.0), s_e
+    if path_height(lo, s_e, g, n, lam) >= -g.band:
+        return lo
+    for _ in range(16):
+        mid = 0.5 * (lo + hi)
+        if path_height(mid, s_e, g, n, lam) >= -g.band:
+            hi = mid
+        else:
+            lo = mid
+    return hi
+
+
+def arrival_gap(e, s, qd1, g: PathGeometry, pp: PathParams, p: PlantParams, fv1: float = 0.0,
+                step: float = 0.02) -> float:
+    """Predicted q1'^2 where the gripper enters the capture band, minus the
+    aimed ``arrival_rate^2`` (decreasing in the blend end ``e``)."""
+    s_b = band_entry(s, e, g, pp.blend_exponent)
+    if s_b <= s:
+        return qd1 * qd1 - pp.arrival_rate ** 2
+    return predict_rate_squared(s, qd1, s_b, g, pp.blend_exponent, 1.0, p, fv1, step) \
+        - pp.arrival_rate ** 2
+
+
+def step_blend_end(s_e, s, qd1, g: PathGeometry, pp: PathParams, p: PlantParams,
+                   fv1: float, max_step: float) -> float:
+    """Move ``s_e`` toward the root of :func:`arrival_gap` by one secant step,
+    at most ``max_step``, within the allowed bracket."""
+    lo = max(max(s, 0.0) + 0.02, pp.blend_end_min * g.s_f)
+    hi = pp.blend_end_max * g.s_f
+    e0 = min(max(s_e, lo), hi)
+    d = 0.005
+    g0 = arrival_gap(e0, s, qd1, g, pp, p, fv1)
+    g1 = arrival_gap(e0 + d, s, qd1, g, pp, p, fv1)
+    slope = (g1 - g0) / d
+    delta = -g0 / slope if slope < 0 else (max_step if g0 > 0 else -max_step)
+    return min(max(e0 + min(max(delta, -max_step), max_step), lo), hi)
+
+
+def choose_blend_end(s, qd1, g: PathGeometry, pp: PathParams, p: PlantParams,
+                     fv1: float = 0.0) -> float:
+    """``s_e`` with predicted rate ``pp.arrival_rate`` where the gripper
+    enters the capture band (bisection in [max(s, lo), hi] x s_f; an end of
+    the bracket when no root)."""
+    lo = max(max(s, 0.0) + 0.02, pp.blend_end_min * g.s_f)
+    hi = pp.blend_end_max * g.s_f
+    target = pp.arrival_rate ** 2
+
+    def gap(e):  # predicted q1'^2 where the gripper enters the capture band
+        s_b = band_entry(s, e, g, pp.blend_exponent)
+        if s_b <= s:
+            return qd1 * qd1 - target
+        return predict_rate_squared(s, qd1, s_b, g, pp.blend_exponent, 1.0, p, fv1) - target
+
+    if lo >= hi:
+        return hi
+    glo, ghi = gap(lo), gap(hi)
+    if ghi >= 0:
+        return hi
+    if glo <= 0:
+        return lo
+    for _ in range(int(pp.bisection_steps)):
+        mid = 0.5 * (lo + hi)
+        if gap(mid) > 0:
+            lo = mid
+        else:
+            hi = mid
+    return 0.5 * (lo + hi)
+
+
+# ----------------------------------------------------------- the system
+
+from pydrake.autodiffutils import AutoDiffXd  # noqa: E402
+from pydrake.systems.framework import LeafSystem_  # noqa: E402
+from pydrake.systems.scalar_conversion import TemplateSystem  # noqa: E402
+
+
+@TemplateSystem.define("PathGenerator_", T_list=(float, AutoDiffXd))
+def PathGenerator_(T):
+    class Impl(LeafSystem_[T]):
+        """Input ``state`` (q1, q2, q1d, q2d: estimated, relative).  Outputs
+        ``reference`` (q2_ref), ``feedforward`` (q2'' of the constraint,
+        rad/s^2) and ``blend_end`` (s_e, blend floor).  Discrete state
+        ``[s_e, blend floor, passed_vertical, latched]`` updated at
+        ``period``/``offset``;
+        the outputs are direct functions of the state input and the discrete
+        state, so the controller of the same tick sees them at once."""
+
+        def _construct(self, plant: PlantParams, path: PathParams, geometry: PathGeometry,
+                       period: float, offset: float = 0.0, fv1: float = 0.0, converter=None):
+            """``fv1``: nominal viscous friction of joint 1 used by the predictor."""
+            LeafSystem_[T].__init__(self, converter)
+            self.plant_params, self.path, self.geometry = plant, path, geometry
+            self.period, self.offset, self.fv1 = period, offset, fv1
+            self.DeclareVectorInputPort("state", 4)
+            # [s_e, blend floor, passed vertical, latched,
+            #  calibration: s0, Y0 (nan until recorded), effective link-1 damping]
+            self._xd = self.DeclareDiscreteState(
+                np.array([geometry.s_f, 0.0, 0.0, 0.0, np.nan, np.nan, fv1]))
+            self.DeclarePeriodicDiscreteUpdateEvent(period, offset, self._update)
+            self.DeclareVectorOutputPort("reference", 1, self._out_ref)
+            self.DeclareVectorOutputPort("feedforward", 1, self._out_ff)
+            self.DeclareVectorOutputPort("blend_end", 2, self._out_blend,
+                                         {self.xd_ticket()})
+
+        def _construct_copy(self, other, converter=None):
+            Impl._construct(self, other.plant_params, other.path, other.geometry, other.period,
+                            other.offset, other.fv1, converter=converter)
+
+        def _phi(self, context):
+            x = self.get_input_port(0).Eval(context)
+            d = context.get_discrete_state(self._xd).CopyToVector()
+            g, pp = self.geometry, self.path
+            s = x[0] - g.alpha + x[2] * pp.lead_time
+            if pp.mode == "lab":
+                k = pp.lab_gain * g.k_f
+                return x, s, k * s, k, 0.0 * s
+            lam = pp.pump_gain
+            s_e = d[0] if pp.mode == "adaptive" else g.s_f
+            floor = d[1]
+            phi, d1, d2 = path_derivatives(s, s_e, g, pp.blend_exponent, lam, floor)
+            return x, s, phi, d1, d2
+
+        def _out_ref(self, context, out):
+            out.SetAtIndex(0, self._phi(context)[2])
+
+        def _out_ff(self, context, out):
+            x, s, phi, d1, d2 = self._phi(context)
+            if self.path.mode == "lab":
+                out.SetAtIndex(0, 0.0 * s)
+                return
+            _, ff = constraint_acceleration([x[0], x[1]], x[2], d1, d2, self.plant_params)
+            out.SetAtIndex(0, ff)
+
+        def _calibrate(self, x, s, w, s_e, cal_s, cal_Y, fv):
+            """Online calibration in the RTS half: the effective link-1
+            damping that makes the nominal reduced dynamics reproduce the
+            measured on-path energy between two points of the swing."""
+            g, pp = self.geometry, self.path
+            if math.isnan(cal_s):
+                if w > pp.calibrate_start:
+                    wp = projected_rate(x, s_e, g, pp, self.plant_params)
+                    return s, wp * wp, fv
+                return cal_s, cal_Y, fv
+            if cal_Y < 0 or s < -pp.calibrate_at * g.s_f or w <= 0:
+                return cal_s, cal_Y, fv
+            wp = projected_rate(x, s_e, g, pp, self.plant_params)
+            target = wp * wp
+
+            def err(c):
+                return predict_rate_squared(cal_s, math.sqrt(cal_Y), s, g, pp.blend_exponent,
+                                            pp.pump_gain, self.plant_params, c) - target
+
+            lo, hi = -2.0, 4.0
+            elo, ehi = err(lo), err(hi)
+            if elo * ehi > 0:  # no bracket: keep the nominal damping
+                return cal_s, -1.0, fv
+            for _ in range(20):
+                mid = 0.5 * (lo + hi)
+                if err(mid) * elo > 0:
+                    lo, elo = mid, err(mid)
+                else:
+                    hi = mid
+            return cal_s, -1.0, 0.5 * (lo + hi)
+
+        def _landing_floor(self, x, s, w, s_e, floor):
+            """Anticipatory line seeking: blend floor F such that the gripper
+            is ``landing_height`` below the line at the local turning point
+            ``s + w^2 / (2 |q1''|)`` (rate-limited)."""
+            g, pp = self.geometry, self.path
+            n = pp.blend_exponent
+            _, d1, d2 = path_derivatives(s, s_e, g, n, pp.pump_gain, floor)
+            q1dd, _ = constraint_acceleration([x[0], x[1]], w, d1, d2, self.plant_params)
+            if q1dd >= 0:
+                return floor
+            s_t = min(s + w * w / (-2.0 * q1dd), s_e)
+
+            def height(F):
+                return path_height_floor(s_t, s_e, g, n, pp.pump_gain, F)
+
+            F_path = min(max(s_t / s_e, 0.0), 1.0) ** n
+            if height(F_path) >= -pp.landing_height:
+                target = 0.0  # already reaches the band: no extra lift
+            elif height(1.0) < -pp.landing_height:
+                target = 1.0
+            else:
+                lo, hi = F_path, 1.0
+                for _ in range(12):
+                    mid = 0.5 * (lo + hi)
+                    if height(mid) >= -pp.landing_height:
+                        hi = mid
+                    else:
+                        lo = mid
+                target = hi
+            step = pp.landing_rate * self.period
+            return min(max(target, floor - step), floor + step)
+
+        def _out_blend(self, context, out):
+            d = context.get_discrete_state(self._xd).CopyToVector()
+            out.SetFromVector(d[:2])
+
+        def _update(self, context, discrete_state):
+            x = np.array([float(_value(v)) for v in self.get_input_port(0).Eval(context)])
+            d = np.array([float(_value(v)) for v in context.get_discrete_state(self._xd).CopyToVector()])
+            s_e, floor, passed, latched, cal_s, cal_Y, fv = d
+            g, pp = self.geometry, self.path
+            s, w = x[0] - g.alpha, x[2]
+            if pp.mode == "adaptive" and pp.calibrate and s < 0:
+                cal_s, cal_Y, fv = self._calibrate(x, s, w, s_e, cal_s, cal_Y, fv)
+            if latched > 0.5:
+                if floor <= 0.0:  # start the ramp from the current blend weight
+                    floor = min(max(s / s_e, 0.0), 1.0) ** pp.blend_exponent
+                floor = min(1.0, floor + pp.latch_ramp * self.period)
+            elif pp.mode == "adaptive" and pp.landing and w > 0 and s > pp.landing_start * s_e:
+                floor = self._landing_floor(x, s, w, s_e, floor)
+            if latched < 0.5 and pp.mode == "adaptive" and w > 0:
+                if -pp.adapt_window * g.s_f < s < pp.adapt_stop * s_e:
+                    wp = projected_rate(x, s_e, g, pp, self.plant_params)
+                    s_e = step_blend_end(s_e, s, wp, g, pp, self.plant_params, fv,
+                                         pp.adapt_rate * self.period)
+                if s > pp.latch_fraction * s_e and w < pp.latch_rate:
+                    latched = 1.0
+            if s > 0:
+                passed = 1.0
+            discrete_state.get_mutable_vector(self._xd).SetFromVector(
+                [s_e, floor, passed, latched, cal_s, cal_Y, fv])
+
+    return Impl
+
+
+def _value(v):
+    return v.value() if hasattr(v, "value") else v
+
+
+PathGenerator = PathGenerator_[None]

@@ -426,6 +426,7 @@ class PathParams(_Block):
     adapt_rate: float = _p(0.3, "rad/s", 0, lo_open=True, doc="largest rate of change of s_e")
     blend_end_min: float = _p(0.75, "", 0.1, 1, doc="s_e >= this * s_f")
     blend_end_max: float = _p(1.5, "", 1, 3, doc="s_e <= this * s_f")
+    predict_step: float = _p(0.005, "rad", 1e-4, 0.1, doc="RK4 step of the reduced-dynamics prediction")
     bisection_steps: float = _p(20.0, "", 1, 60, doc="bisection steps of the s_e search")
     latch_rate: float = _p(0.3, "rad/s", 0, doc="latch to pure line seeking when q1' falls below this")
     latch_fraction: float = _p(0.85, "", 0, 1, doc="... and s >= this * s_e")

@@ -60,6 +60,8 @@ def run_swing(params: BplirParams, *, seed: int | None = None, use_estimator: bo
     built = build_swing(p, seed=seed, use_estimator=use_est)
     sim = make_simulator(built, built.q0, accuracy=accuracy)
     run_until_outcome(sim, built, sc.max_time)
+    # record the state at the moment the interlock decided
+    built.diagram.ForcedPublish(sim.get_context())
     status = built.systems["interlock"].status(sim.get_context())
     lg = logs(built, sim)
     summary = summarize(p, lg, status, seed, use_est)

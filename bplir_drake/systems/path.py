@@ -5,9 +5,10 @@ Coordinates: ``s = q1 - alpha`` is link 1's angle from the normal of a line
 inclined by ``alpha`` (0 for a horizontal line).  The swing starts at
 ``s0 = -s_f`` and the mirror target (7.1) is at ``s_f``; ``k_f = q2_f/s_f``.
 
-* Reverse-time-symmetric path (7.6)-(7.7): ``q2 = lam k_f s`` while
-  ``s <= 0`` (``lam = 1``; ``lam > 1`` pumps energy for an uphill line, (7.14)
-  -(7.15), (7.25); the lab firmware used 1.5).
+* Reverse-time-symmetric path (7.6)-(7.7): ``q2 = k_f s`` while ``s <= 0``.
+  For an uphill line the first half pumps energy ((7.14)-(7.15), (7.25)):
+  ``q2 = k_f s (1 + (lam - 1)(1 - (s/s_f)^2))`` amplifies the elbow swing by
+  up to ``lam`` near the vertical while keeping the start pose.
 * Line-seeking path (7.18), derived for an inclined line: the gripper's
   distance to the line ``y' = -l1 cos(q1 - alpha) - l2 cos(q1 + q2 - alpha)``
   vanishes for ``q2_T(s) = arccos(-(l1/l2) cos s) - s`` (erratum: (7.26)-
@@ -77,10 +78,13 @@ def path_q2(s, s_e: float, g: PathGeometry, n: float, lam: float = 1.0, floor: f
     """The blended path value ``q2_ref(s)`` for a given blend end ``s_e``;
     ``floor`` is a lower bound of the blend weight F (the soft latch)."""
     if s <= 0 and floor <= 0:
-        return lam * g.k_f * s
+        # RTS (7.6); lam > 1 amplifies the elbow swing in the first half
+        # (energy pumping, (7.14)-(7.15)) while keeping q2(-s_f) = q2_0, q2(0) = 0
+        return g.k_f * s * (1.0 + (lam - 1.0) * (1.0 - (s / g.s_f) ** 2))
     x = s / s_e
     if x >= 1.0 or floor >= 1.0:
         return q2_line_seeking(s, g.l1, g.l2)
+    # (the blend below is evaluated for 0 < s < s_e)
     k_e = q2_line_seeking(s_e, g.l1, g.l2) / s_e
     k = lam * g.k_f + (k_e - lam * g.k_f) * smoothstep(x)
     sym = k * s
@@ -92,9 +96,19 @@ def path_q2(s, s_e: float, g: PathGeometry, n: float, lam: float = 1.0, floor: f
 
 def path_derivatives(s, s_e: float, g: PathGeometry, n: float, lam: float = 1.0,
                      floor: float = 0.0, h: float = 1e-4):
-    """(phi, phi', phi'') by central differences (works for any scalar type)."""
+    """(phi, phi', phi'') by finite differences (any scalar type).  The path
+    changes branch at the vertical (s = 0) and at the blend end (s = s_e),
+    where its curvature jumps: next to them the stencil is one-sided, on the
+    side of ``s``."""
     f = lambda x: path_q2(x, s_e, g, n, lam, floor)  # noqa: E731
-    a, b, c = f(s - h), f(s), f(s + h)
+    b = f(s)
+    if floor < 1.0 and ((s <= 0 < s + h) or (s < s_e <= s + h)):
+        b1, b2, b3 = f(s - h), f(s - 2 * h), f(s - 3 * h)   # backward
+        return b, (3 * b - 4 * b1 + b2) / (2 * h), (2 * b - 5 * b1 + 4 * b2 - b3) / (h * h)
+    if floor < 1.0 and ((s - h <= 0 < s) or (s - h < s_e <= s)):
+        b1, b2, b3 = f(s + h), f(s + 2 * h), f(s + 3 * h)   # forward
+        return b, (-3 * b + 4 * b1 - b2) / (2 * h), (2 * b - 5 * b1 + 4 * b2 - b3) / (h * h)
+    a, c = f(s - h), f(s + h)
     return b, (c - a) / (2 * h), (c - 2 * b + a) / (h * h)
 
 
@@ -123,17 +137,22 @@ def _reduced_rhs(s, Y, s_e, g, n, lam, p: PlantParams, fv1: float):
 
 def predict_rate_squared(s, qd1, s_e, g, n, lam, p: PlantParams, fv1: float = 0.0,
                          step: float = 0.01) -> float:
-    """Predicted q1'^2 on reaching ``s_e`` from (s, q1') (RK4 in s)."""
-    Y, x = qd1 * qd1, s
-    m = max(1, int(math.ceil((s_e - x) / step)))
-    hh = (s_e - x) / m
-    for _ in range(m):
-        k1 = _reduced_rhs(x, Y, s_e, g, n, lam, p, fv1)
-        k2 = _reduced_rhs(x + hh / 2, Y + hh / 2 * k1, s_e, g, n, lam, p, fv1)
-        k3 = _reduced_rhs(x + hh / 2, Y + hh / 2 * k2, s_e, g, n, lam, p, fv1)
-        k4 = _reduced_rhs(x + hh, Y + hh * k3, s_e, g, n, lam, p, fv1)
-        Y += hh / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-        x += hh
+    """Predicted q1'^2 on reaching ``s_e`` from (s, q1') (RK4 in s; the
+    path's curvature jumps at the vertical, so the integration is split
+    there to keep fourth order)."""
+    Y = qd1 * qd1
+    end = s_e - 1e-9  # the left limit: the path changes branch at s_e
+    knots = [s] + ([0.0] if s < 0.0 < end else []) + [end]
+    for a, b in zip(knots[:-1], knots[1:]):
+        m = max(1, int(math.ceil((b - a) / step)))
+        hh, x = (b - a) / m, a
+        for _ in range(m):
+            k1 = _reduced_rhs(x, Y, s_e, g, n, lam, p, fv1)
+            k2 = _reduced_rhs(x + hh / 2, Y + hh / 2 * k1, s_e, g, n, lam, p, fv1)
+            k3 = _reduced_rhs(x + hh / 2, Y + hh / 2 * k2, s_e, g, n, lam, p, fv1)
+            k4 = _reduced_rhs(x + hh, Y + hh * k3, s_e, g, n, lam, p, fv1)
+            Y += hh / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+            x += hh
     return Y
 
 
@@ -179,12 +198,13 @@ def band_entry(s_from, s_e, g: PathGeometry, n: float, lam: float = 1.0) -> floa
 
 
 def arrival_gap(e, s, qd1, g: PathGeometry, pp: PathParams, p: PlantParams, fv1: float = 0.0,
-                step: float = 0.02) -> float:
+                step: float | None = None) -> float:
     """Predicted q1'^2 where the gripper enters the capture band, minus the
     aimed ``arrival_rate^2`` (decreasing in the blend end ``e``)."""
     s_b = band_entry(s, e, g, pp.blend_exponent)
     if s_b <= s:
         return qd1 * qd1 - pp.arrival_rate ** 2
+    step = pp.predict_step if step is None else step
     return predict_rate_squared(s, qd1, s_b, g, pp.blend_exponent, 1.0, p, fv1, step) \
         - pp.arrival_rate ** 2
 

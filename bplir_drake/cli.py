@@ -12,6 +12,7 @@ import math
 import sys
 from pathlib import Path
 
+from .analysis.calibration import CalibrationError
 from .analysis.qft import QftError
 from .estimation import LogError
 from .params import ParameterError
@@ -367,6 +368,35 @@ def cmd_swing(args) -> int:
     return 0
 
 
+# ------------------------------------------------------------------ calibrate
+def cmd_calibrate(args) -> int:
+    from .analysis.calibration import (calibrate, identify_deadband, identify_plant_family,
+                                       plot_calibration, read_calibration_csv,
+                                       write_calibrated_toml)
+
+    params = _load_params(args)
+    log = read_calibration_csv(args.log, params.motor.torque_per_amp)
+    fit = tuple(n.strip() for n in args.fit.split(",") if n.strip())
+    res = calibrate(params, log, fit)
+    out_dir = Path(args.out)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    summary = res.summary() | {
+        "toml": str(write_calibrated_toml(res, out_dir / "calibrated.toml")),
+        "plot": str(plot_calibration(res, out_dir / "calibration.png"))}
+    if args.deadband:
+        summary["deadband"] = identify_deadband(res.params)
+    if args.family:
+        fam = identify_plant_family(res.params)
+        summary["plant_family"] = {"ranges": fam.ranges, "fits": fam.fits}
+    (out_dir / "calibration.json").write_text(json.dumps(summary, indent=2, default=_jsonable))
+    lines = [f"RMSE {res.rmse_before:.4f} -> {res.rmse_after:.4f} rad after {res.nfev} simulations"]
+    lines += [f"  {n} = {v:.6g} +/- {se:.2g}" for n, v, se in
+              zip(res.names, res.values, res.std_errors)]
+    lines.append(f"calibrated parameters: {summary['toml']} (use with --config)")
+    _emit(summary, args.json, lines)
+    return 0
+
+
 # ------------------------------------------------------------------ main
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="bplir", description="Brachiating Power Line Inspection Robot tools")
@@ -425,6 +455,18 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", default="out/swing")
     p.set_defaults(func=cmd_swing)
 
+    p = sub.add_parser("calibrate", help="fit the plant model to a logged run (4.5)")
+    common(p)
+    p.add_argument("log", help="CSV with t,q1,q2 and tau (N m) or i_cmd (A)")
+    p.add_argument("--fit", default="fv1,fv2,fc1,fc2",
+                   help="parameters to fit (fv1,fv2,fc1,fc2,I1,I2,lc1,lc2,m1,m2)")
+    p.add_argument("--deadband", action="store_true",
+                   help="also identify the dead-band of the calibrated model (4.6)")
+    p.add_argument("--family", action="store_true",
+                   help="also identify the CPFL plant family of the calibrated model (4.7)")
+    p.add_argument("--out", default="out/calibration")
+    p.set_defaults(func=cmd_calibrate)
+
     p = sub.add_parser("qft", help="QFT design/verification on a plant family")
     common(p)
     p.add_argument("--family", choices=("dissertation", "diagram"), default="diagram")
@@ -442,7 +484,7 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     try:
         return args.func(args)
-    except (ParameterError, InputError, LogError, QftError) as exc:
+    except (ParameterError, InputError, LogError, QftError, CalibrationError) as exc:
         sys.stderr.write(f"bplir: error: {exc}\n")
         return 2
 

@@ -429,3 +429,31 @@ def build_swing(params: BplirParams, *, seed: int | None = None, use_estimator: 
     built = Built(diagram, plant, systems, loggers, params)
     built.q0 = q0
     return built
+
+
+def build_cpfl_step(params: BplirParams, v_schedule, log_period: float = 0.002) -> Built:
+    """Step tests of the CPFL loop (4.7): simulated plant + friction + motor,
+    the *discrete* nominal CPFL controller with no outer loop (K = 0, F = 1)
+    and the outer-loop signal ``v`` from a schedule (times, values)."""
+    from dataclasses import replace
+
+    builder = DiagramBuilder()
+    plant, fr = add_plant_with_friction(builder, params.simulated_plant,
+                                        params.simulated_friction)
+    ctrl = replace(params.controller, k_num=(0.0,), k_den=(1.0,), f_num=(1.0,), f_den=(1.0,),
+                   aw_gain=0.0, sign_correct=False)
+    c = builder.AddSystem(CpflController(params.plant, ctrl, params.friction))
+    motor = builder.AddSystem(MotorDriver(params.motor))
+    builder.Connect(plant.get_state_output_port(), c.GetInputPort("state"))
+    builder.Connect(builder.AddSystem(ConstantVectorSource([0.0])).get_output_port(0),
+                    c.GetInputPort("reference"))
+    builder.Connect(_torque_source(builder, v_schedule).get_output_port(0),
+                    c.GetInputPort("feedforward"))
+    builder.Connect(motor.GetOutputPort("available"), c.GetInputPort("torque_available"))
+    builder.Connect(c.GetOutputPort("torque"), motor.GetInputPort("torque_command"))
+    builder.Connect(plant.get_state_output_port(), motor.GetInputPort("state"))
+    builder.Connect(motor.GetOutputPort("torque"), plant.get_actuation_input_port())
+    loggers = {"state": LogVectorOutput(plant.get_state_output_port(), builder, log_period)}
+    diagram = builder.Build()
+    diagram.set_name("cpfl_step")
+    return Built(diagram, plant, {"controller": c, "motor": motor}, loggers, params)

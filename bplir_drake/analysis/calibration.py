@@ -1,0 +1,414 @@
+"""System identification (4.5)-(4.7): calibrate the plant to logged runs,
+identify the dead-band, identify the CPFL plant family.
+
+* :func:`calibrate` fits friction (and optionally inertias, CoM distances,
+  masses within bounds) to a logged run -- a free swing followed by elbow
+  torque, as in Fig. 4.7 -- by least squares (scipy) on the joint angles of
+  Drake simulations driven by the logged torque.  Approximate standard errors
+  come from the Jacobian at the optimum: ``cov = s^2 (J^T J)^-1`` with
+  ``s^2 = SSR / (N - p)``.
+* :func:`identify_deadband` ramps the elbow torque command slowly through the
+  motor/driver model and reports the command at which the elbow starts to
+  move, forward and reverse (4.6).
+* :func:`identify_plant_family` runs step tests of the simulated CPFL loop
+  (outer-loop signal ``v`` through the zero-order hold and the motor) and fits
+  ``q2(s)/v(s) = g e^{-s Td} / (s (s + c))`` to each response -- after CPFL
+  the elbow is an integrator with a friction-damped lag (the velocity
+  responds like (4.16)'s first-order-with-delay model ``k/(a s + 1)`` with
+  ``g = k/a``, ``c = 1/a``; this form stays well conditioned when the
+  damping is small, as it is here: within a step test the elbow is nearly a
+  double integrator) -- returning the parameter ranges for the QFT toolkit.
+  Steps smaller than the dead-band (|a v| < 0.82 N m) produce no motion.
+
+Log format (CSV, header required, extra columns ignored): ``t,q1,q2`` plus
+``tau`` (elbow torque, N m) or ``i_cmd`` (current command, A; converted with
+the motor's torque constant).  Optional ``q1d,q2d``: their first row gives
+the initial rates (otherwise a quadratic fit over the first 0.15 s).
+"""
+from __future__ import annotations
+
+import csv
+import dataclasses as dc
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..params import BplirParams
+
+CALIBRATION_COLUMNS = ("t", "q1", "q2")
+FITTABLE = {
+    "fv1": ("friction", 0.0, 2.0), "fv2": ("friction", 0.0, 2.0),
+    "fc1": ("friction", 0.0, 2.0), "fc2": ("friction", 0.0, 3.0),
+    "I1": ("plant", 0.01, 1.0), "I2": ("plant", 0.01, 1.0),
+    "lc1": ("plant", 0.0, None), "lc2": ("plant", 0.0, None),
+    "m1": ("plant", 0.1, 20.0), "m2": ("plant", 0.1, 20.0),
+}
+DEFAULT_FIT = ("fv1", "fv2", "fc1", "fc2")
+
+
+class CalibrationError(ValueError):
+    """A malformed or unusable calibration log, or a bad fit request."""
+
+
+@dataclass
+class CalibrationLog:
+    t: np.ndarray
+    q: np.ndarray          # (N, 2)
+    tau: np.ndarray        # (N,) elbow torque
+    qd0: np.ndarray        # (2,) initial rates
+
+
+def read_calibration_csv(path, torque_per_amp: float) -> CalibrationLog:
+    path = Path(path)
+    try:
+        with path.open(newline="") as fh:
+            rows = list(csv.reader(fh))
+    except OSError as exc:
+        raise CalibrationError(f"cannot read log {path}: {exc.strerror}") from None
+    if not rows:
+        raise CalibrationError(f"log {path} is empty; expected header t,q1,q2,tau (or i_cmd)")
+    header = [h.strip() for h in rows[0]]
+    missing = [c for c in CALIBRATION_COLUMNS if c not in header]
+    if missing or not ({"tau", "i_cmd"} & set(header)):
+        need = missing + ([] if {"tau", "i_cmd"} & set(header) else ["tau or i_cmd"])
+        raise CalibrationError(f"log {path} lacks column(s) {', '.join(need)}; required: "
+                               "t,q1,q2 and tau (N m) or i_cmd (A)")
+    data = []
+    for lineno, row in enumerate(rows[1:], start=2):
+        if not any(c.strip() for c in row):
+            continue
+        try:
+            data.append([float(c) for c in row])
+        except ValueError:
+            raise CalibrationError(f"log {path} line {lineno}: non-numeric cell") from None
+    data = np.array(data) if data else np.zeros((0, len(header)))
+    idx = {h: i for i, h in enumerate(header)}
+    t = data[:, idx["t"]] if len(data) else np.zeros(0)
+    q = data[:, [idx["q1"], idx["q2"]]] if len(data) else np.zeros((0, 2))
+    tau = (data[:, idx["tau"]] if "tau" in idx else data[:, idx["i_cmd"]] * torque_per_amp) \
+        if len(data) else np.zeros(0)
+    qd0 = (np.array([data[0, idx["q1d"]], data[0, idx["q2d"]]])
+           if {"q1d", "q2d"} <= set(idx) and len(data) else None)
+    return check_calibration_log(t, q, tau, qd0)
+
+
+def check_calibration_log(t, q, tau, qd0=None, *, min_duration: float = 2.0) -> CalibrationLog:
+    t, q, tau = np.asarray(t, float), np.asarray(q, float), np.asarray(tau, float)
+    if len(t) < 20 or t[-1] - t[0] < min_duration:
+        dur = (t[-1] - t[0]) if len(t) else 0.0
+        raise CalibrationError(f"log is too short: {len(t)} samples over {dur:.2f} s; need at "
+                               f"least 20 samples and {min_duration:g} s")
+    if not (np.all(np.isfinite(t)) and np.all(np.isfinite(q)) and np.all(np.isfinite(tau))):
+        raise CalibrationError("log has missing or non-finite values")
+    if np.any(np.diff(t) <= 0):
+        k = int(np.argmax(np.diff(t) <= 0))
+        raise CalibrationError(f"time is not increasing at row {k + 2}")
+    if np.ptp(q[:, 0]) < 0.05 and np.ptp(q[:, 1]) < 0.05:
+        raise CalibrationError(f"no excitation: the joints move by only {np.ptp(q[:, 0]):.3g} and "
+                               f"{np.ptp(q[:, 1]):.3g} rad; need a swing of at least 0.05 rad")
+    if qd0 is None:  # quadratic fit over the first 0.15 s
+        n = max(3, int(np.searchsorted(t - t[0], 0.15)))
+        qd0 = np.polyfit(t[:n + 1] - t[0], q[:n + 1], 2)[1]
+    return CalibrationLog(t - t[0], q, tau, np.asarray(qd0, float))
+
+
+def simulate_log(params: BplirParams, log: CalibrationLog, *, accuracy: float = 1e-6) -> np.ndarray:
+    """Joint angles of the (nominal) model driven by the logged torque."""
+    from ..diagrams import build_free_swing
+    from ..simulate import make_simulator, run
+
+    p = params.with_(true_plant=None, true_friction=None)
+    built = build_free_swing(p, (log.t, log.tau), log_period=float(np.median(np.diff(log.t))))
+    sim = make_simulator(built, log.q[0], log.qd0, accuracy=accuracy)
+    run(sim, float(log.t[-1]))
+    lg = built.loggers["state"].FindLog(sim.get_context())
+    ts, x = np.array(lg.sample_times()), np.array(lg.data()).T
+    return np.column_stack([np.interp(log.t, ts, x[:, i]) for i in range(2)])
+
+
+def _with(params: BplirParams, names, values) -> BplirParams:
+    f, p = {}, {}
+    for n, v in zip(names, values):
+        (f if FITTABLE[n][0] == "friction" else p)[n] = float(v)
+    return params.with_(friction=dc.replace(params.friction, **f),
+                        plant=dc.replace(params.plant, **p))
+
+
+@dataclass
+class CalibrationResult:
+    names: tuple
+    values: np.ndarray
+    std_errors: np.ndarray
+    rmse_before: float
+    rmse_after: float
+    params: BplirParams
+    t: np.ndarray
+    logged: np.ndarray
+    before: np.ndarray
+    after: np.ndarray
+    nfev: int
+
+    def summary(self) -> dict:
+        return {"fitted": {n: float(v) for n, v in zip(self.names, self.values)},
+                "std_errors": {n: float(s) for n, s in zip(self.names, self.std_errors)},
+                "rmse_before_rad": self.rmse_before, "rmse_after_rad": self.rmse_after,
+                "simulations": self.nfev}
+
+
+def friction_from_inverse_dynamics(params: BplirParams, log: CalibrationLog,
+                                   window: float = 0.15) -> dict:
+    """Linear least squares for (fv1, fv2, fc1, fc2): friction enters
+    ``M q'' + C q' + g = tau - f`` linearly, so with q', q'' from a
+    Savitzky-Golay filter of the logged angles the coefficients follow from
+    one linear solve (the classic inverse-dynamics identification).  Used as
+    the start of :func:`calibrate`."""
+    from scipy.signal import savgol_filter
+
+    from ..systems.plant import bias_term, gravity_vector, mass_matrix
+
+    dt = float(np.median(np.diff(log.t)))
+    w = max(5, int(round(window / dt)) | 1)
+    q = savgol_filter(log.q, w, 3, axis=0)
+    qd = savgol_filter(log.q, w, 3, deriv=1, delta=dt, axis=0)
+    qdd = savgol_filter(log.q, w, 3, deriv=2, delta=dt, axis=0)
+    p, b = params.plant, params.friction.b
+    rows, rhs = [], []
+    for k in range(w, len(log.t) - w):
+        M = mass_matrix(q[k], p)
+        r = np.array([0.0, log.tau[k]]) - M @ qdd[k] - bias_term(q[k], qd[k], p) \
+            - gravity_vector(q[k], p)          # = f(qd)
+        a1, a2 = qd[k]
+        rows.append([a1, 0, 2 / math.pi * math.atan(a1 / b), 0])
+        rhs.append(r[0])
+        rows.append([0, a2, 0, 2 / math.pi * math.atan(a2 / b)])
+        rhs.append(r[1])
+    theta = np.linalg.lstsq(np.array(rows), np.array(rhs), rcond=None)[0]
+    return dict(zip(("fv1", "fv2", "fc1", "fc2"), np.maximum(theta, 0.0)))
+
+
+def calibrate(params: BplirParams, log: CalibrationLog, fit=DEFAULT_FIT, *,
+              accuracy: float = 1e-6) -> CalibrationResult:
+    """Least squares on the joint angles (4.5); ``params`` is the start."""
+    from scipy.optimize import least_squares
+
+    fit = tuple(fit)
+    bad = [n for n in fit if n not in FITTABLE]
+    if bad or not fit:
+        raise CalibrationError(f"cannot fit {', '.join(bad) or 'nothing'}; allowed: "
+                               + ", ".join(FITTABLE))
+    before = simulate_log(params, log, accuracy=accuracy)   # the given model
+    if {"fv1", "fv2", "fc1", "fc2"} <= set(fit):   # linear pre-fit of the friction
+        start = friction_from_inverse_dynamics(params, log)
+        params = params.with_(friction=dc.replace(params.friction, **{
+            k: float(v) for k, v in start.items() if v > 0}))
+    x0 = np.array([getattr(params.friction if FITTABLE[n][0] == "friction" else params.plant, n)
+                   for n in fit])
+    lo = np.array([FITTABLE[n][1] for n in fit])
+    hi = np.array([FITTABLE[n][2] if FITTABLE[n][2] is not None
+                   else getattr(params.plant, "l1" if n == "lc1" else "l2") for n in fit])
+    scale = np.maximum(np.abs(x0), 1e-3)
+    count = [0]
+
+    def residuals(z):
+        count[0] += 1
+        try:
+            sim = simulate_log(_with(params, fit, z * scale), log, accuracy=accuracy)
+        except Exception:  # an impossible parameter set: a large, finite residual
+            return np.full(2 * len(log.t), 10.0)
+        return (sim - log.q).ravel()
+
+    res = least_squares(residuals, x0 / scale, bounds=(lo / scale, hi / scale),
+                        x_scale="jac", diff_step=1e-3, xtol=1e-6, ftol=1e-8, max_nfev=60)
+    values = res.x * scale
+    J = res.jac / scale
+    dof = max(1, res.fun.size - len(fit))
+    s2 = float(res.fun @ res.fun) / dof
+    try:
+        cov = s2 * np.linalg.inv(J.T @ J)
+        se = np.sqrt(np.clip(np.diag(cov), 0, None))
+    except np.linalg.LinAlgError:
+        se = np.full(len(fit), math.inf)
+    fitted = _with(params, fit, values)
+    after = simulate_log(fitted, log)
+    rm = lambda d: float(np.sqrt(np.mean(d ** 2)))  # noqa: E731
+    return CalibrationResult(fit, values, se, rm(before - log.q), rm(after - log.q), fitted,
+                             log.t, log.q, before, after, count[0])
+
+
+# ----------------------------------------------------------- dead-band (4.6)
+
+def identify_deadband(params: BplirParams, *, ramp_rate: float = 0.05, start: float = 0.3,
+                      max_torque: float = 1.5, rate_threshold: float = 0.02) -> dict:
+    """Ramp the torque command slowly (N m/s, from ``start``) through the motor
+    model from the hanging rest state; the identified dead-band is the
+    command at which |q2'| first exceeds ``rate_threshold``, forward and
+    reverse."""
+    from ..diagrams import build_free_swing
+    from ..simulate import logs, make_simulator, run
+
+    out = {}
+    T = (max_torque - start) / ramp_rate
+    for name, sign in (("forward", 1.0), ("reverse", -1.0)):
+        times = np.arange(0.0, T, 0.01)
+        built = build_free_swing(params, (times, sign * (start + ramp_rate * times)), motor=True,
+                                 log_period=0.005)
+        sim = make_simulator(built, (0.0, 0.0), accuracy=1e-6)
+        run(sim, T)
+        st = logs(built, sim)["state"]
+        moving = np.nonzero(np.abs(st.data[:, 3]) > rate_threshold)[0]
+        out[name] = float(start + ramp_rate * st.t[moving[0]]) if len(moving) else math.nan
+    out["configured"] = params.motor.deadband
+    out["ramp_rate_Nm_s"] = ramp_rate
+    out["rate_threshold_rad_s"] = rate_threshold
+    return out
+
+
+# ----------------------------------------------------------- plant family (4.7)
+
+def cpfl_step_response(params: BplirParams, v: float, q0=(0.0, 0.0), qd0=(0.0, 0.0),
+                       duration: float = 0.6, t_step: float = 0.05):
+    """q2 response of the CPFL loop (discrete at Ts, through the motor) to a
+    step of the outer-loop signal ``v`` at ``t_step``; returns (t, q2 - q2(t_step))."""
+    from ..diagrams import build_cpfl_step
+    from ..simulate import logs, make_simulator, run
+
+    built = build_cpfl_step(params, ((0.0, t_step), (0.0, v)))
+    sim = make_simulator(built, q0, qd0, accuracy=1e-6)
+    run(sim, duration)
+    st = logs(built, sim)["state"]
+    k0 = int(np.argmin(np.abs(st.t - t_step)))
+    t = st.t[k0:] - st.t[k0]
+    return t, st.data[k0:, 1] - st.data[k0, 1]
+
+
+def damped_integrator_response(t, v, g, c, Td):
+    """Step response of ``g e^{-s Td}/(s (s + c))`` to a step ``v``:
+    ``v g (c t - 1 + e^{-c t}) / c^2`` (-> ``v g t^2/2`` as c -> 0)."""
+    tt = np.maximum(np.asarray(t, dtype=float) - Td, 0.0)
+    ct = c * tt
+    small = ct < 1e-4
+    out = np.where(small, tt * tt / 2 * (1 - ct / 3),
+                   (ct + np.expm1(-np.where(small, 1.0, ct))) / max(c, 1e-300) ** 2)
+    return v * g * out
+
+
+def fit_step(t, y, v) -> dict:
+    from scipy.optimize import least_squares
+
+    def res(z):
+        g, c, Td = z
+        return damped_integrator_response(t, v, g, c, Td) - y
+
+    g0 = max(2 * y[-1] / (v * t[-1] ** 2), 1e-6)
+    r = least_squares(res, [g0, 0.5, 0.005], bounds=([1e-9, 0.0, 0.0], [1e4, 50.0, 0.5]),
+                      x_scale=[g0, 1.0, 0.01])
+    g, c, Td = r.x
+    return {"g": float(g), "c": float(c), "Td": float(Td),
+            "rmse": float(np.sqrt(np.mean(r.fun ** 2)))}
+
+
+@dataclass
+class PlantFamilyFit:
+    fits: list
+    responses: list   # (t, y, v)
+    ranges: dict      # k, a, Td -> (min, max)
+
+    def envelope(self, t, v, n: int = 5, margin: float | None = None):
+        """Min/max over an n^3 grid of the ranges (plus the largest fit RMSE
+        scaled to the step, unless ``margin`` is given)."""
+        grid = [np.linspace(*self.ranges[k], n) for k in ("g", "c", "Td")]
+        ys = np.array([damped_integrator_response(t, v, g, c, d)
+                       for g in grid[0] for c in grid[1] for d in grid[2]])
+        m = max(f["rmse"] / abs(r[2]) for f, r in zip(self.fits, self.responses)) * abs(v) \
+            if margin is None else margin
+        return ys.min(axis=0) - m, ys.max(axis=0) + m
+
+    def qft_family(self):
+        """The identified family as QFT plants ``g e^{-s Td}/(s (s + c))``
+        on the corners of the ranges."""
+        import control
+
+        from .qft import Plant, PlantFamily
+
+        plants = [Plant(control.tf([g], [1.0, c, 0.0]), d, f"g={g:.3g} c={c:.3g} Td={d:.3g}")
+                  for g in self.ranges["g"] for c in self.ranges["c"] for d in self.ranges["Td"]]
+        return PlantFamily(plants, "identified CPFL family (4.7)")
+
+
+def identify_plant_family(params: BplirParams, steps=(10.0, 20.0, 40.0, -20.0), n_plants: int = 3,
+                          seed: int = 0) -> PlantFamilyFit:
+    """Step tests of the CPFL loop on ``n_plants`` robots with friction drawn
+    within +/-20 % (the first one nominal), for each step size in ``steps``."""
+    from .swing import draw_true_friction
+
+    fits, responses = [], []
+    for i in range(n_plants):
+        p = params if i == 0 else draw_true_friction(params, seed + i)
+        for v in steps:
+            t, y = cpfl_step_response(p, v)
+            fits.append(fit_step(t, y, v))
+            responses.append((t, y, v))
+    ranges = {k: (min(f[k] for f in fits), max(f[k] for f in fits)) for k in ("g", "c", "Td")}
+    return PlantFamilyFit(fits, responses, ranges)
+
+
+def write_calibrated_toml(result: CalibrationResult, path) -> Path:
+    from ..params import save_toml
+
+    path = Path(path)
+    save_toml(result.params, path)
+    return path
+
+
+def plot_calibration(result: CalibrationResult, path):
+    from .plots import _plt, _save
+
+    plt = _plt()
+    fig, ax = plt.subplots(2, 1, figsize=(10, 6), sharex=True)
+    for i, a in enumerate(ax):
+        a.plot(result.t, result.logged[:, i], "k", lw=2, alpha=0.4, label="logged")
+        a.plot(result.t, result.before[:, i], "C3:", lw=1, label="model before")
+        a.plot(result.t, result.after[:, i], "C0", lw=1, label="calibrated model")
+        a.set_ylabel(f"q{i + 1} [rad]")
+        a.grid(True, alpha=0.3)
+        a.legend(fontsize=8, loc="upper right")
+    ax[1].set_xlabel("time [s]")
+    return _save(fig, path, f"Calibration (Fig. 4.7 style): RMSE {result.rmse_before:.4f} -> "
+                            f"{result.rmse_after:.4f} rad")
+
+
+
+
+
+def synthetic_log(params: BplirParams, *, q0=(0.8, 0.3), free_time: float = 6.0,
+                  torque: float = 4.0, period: float = 1.5, torque_time: float = 6.0,
+                  noise: float = 0.002, dt: float = 0.01, seed: int = 0) -> CalibrationLog:
+    """A Fig. 4.7-style log of the *simulated* robot (``params.true_*``): a
+    free swing, then an elbow torque square wave of +/- ``torque`` (so the
+    elbow moves both ways), with white angle noise of ``noise`` rad."""
+    from ..diagrams import build_free_swing
+    from ..simulate import logs, make_simulator, run
+
+    T = free_time + torque_time
+    t = np.arange(0.0, T + 1e-9, dt)
+    tau = np.where(t < free_time, 0.0,
+                   torque * np.sign(np.sin(2 * np.pi * (t - free_time) / period) + 1e-12))
+    built = build_free_swing(params, (t, tau), log_period=dt)
+    sim = make_simulator(built, q0, (0.0, 0.0), accuracy=1e-8)
+    run(sim, T)
+    st = logs(built, sim)["state"]
+    q = np.column_stack([np.interp(t, st.t, st.data[:, i]) for i in range(2)])
+    q = q + noise * np.random.default_rng(seed).standard_normal(q.shape)
+    return CalibrationLog(t, q, tau, np.zeros(2))
+
+
+def write_calibration_csv(log: CalibrationLog, path) -> Path:
+    """The documented log format, with the initial rates in ``q1d,q2d``."""
+    path = Path(path)
+    rates = np.zeros((len(log.t), 2))
+    rates[0] = log.qd0
+    data = np.column_stack([log.t, log.q, log.tau, rates])
+    np.savetxt(path, data, delimiter=",", header="t,q1,q2,tau,q1d,q2d", comments="", fmt="%.9g")
+    return path

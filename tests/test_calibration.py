@@ -1,0 +1,90 @@
+"""System identification (4.5)-(4.7): calibration, dead-band, plant family."""
+import dataclasses as dc
+import json
+
+import numpy as np
+import pytest
+
+from bplir_drake.analysis import calibration as C
+from bplir_drake.cli import main
+
+
+@pytest.fixture(scope="module")
+def true_friction(params):
+    f = params.friction
+    return dc.replace(f, fv1=f.fv1 * 1.2, fv2=f.fv2 * 0.8, fc1=f.fc1 * 0.8, fc2=f.fc2 * 1.2)
+
+
+def test_calibration_recovers_friction_within_5_percent(tmp_path, params, true_friction, capsys):
+    """Synthetic Fig. 4.7 log: 8 s free swing + elbow square wave, friction
+    of the logged robot changed by +/-20 %, 1 mrad angle noise.  Fitted
+    through the CLI (CSV in, TOML out)."""
+    log = C.synthetic_log(params.with_(true_friction=true_friction), free_time=8.0,
+                          q0=(0.8, 0.0), noise=0.001)
+    csv_path = C.write_calibration_csv(log, tmp_path / "log.csv")
+    assert main(["calibrate", str(csv_path), "--out", str(tmp_path / "out"), "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    for name, value in out["fitted"].items():
+        assert value == pytest.approx(getattr(true_friction, name), rel=0.05), name
+    # measured: fv1 -0.05 %, fv2 +0.03 %, fc1 +2.8 %, fc2 0.0 %
+    assert out["rmse_before_rad"] > 0.1
+    assert out["rmse_after_rad"] == pytest.approx(0.001, rel=0.1)   # the noise level
+    # the written TOML is accepted by every command
+    from bplir_drake.params import load_toml
+
+    fitted = load_toml(out["toml"])
+    assert fitted.friction.fc2 == pytest.approx(true_friction.fc2, rel=0.05)
+    assert (tmp_path / "out" / "calibration.png").stat().st_size > 30_000
+
+
+def test_deadband_identified_within_5_percent(params):
+    d = C.identify_deadband(params)
+    for side in ("forward", "reverse"):
+        assert d[side] == pytest.approx(params.motor.deadband, rel=0.05)   # 0.8243 vs 0.8234
+    wider = params.with_(motor=dc.replace(params.motor, deadband=1.2))
+    assert C.identify_deadband(wider, max_torque=2.0)["forward"] == pytest.approx(1.2, rel=0.05)
+
+
+def test_identified_family_contains_its_step_responses(params):
+    fam = C.identify_plant_family(params, n_plants=2)
+    assert len(fam.fits) == 8
+    inside = []
+    for t, y, v in fam.responses:
+        lo, hi = fam.envelope(t, v)
+        inside.append(bool(np.all((y >= lo) & (y <= hi))))
+    assert all(inside)
+    assert fam.ranges["g"][0] > 0 and fam.ranges["Td"][1] < 0.05
+    qf = fam.qft_family()
+    assert len(qf) == 8
+    # the fits are good: worst RMSE below 1 % of the largest motion
+    worst = max(f["rmse"] / np.ptp(r[1]) for f, r in zip(fam.fits, fam.responses))
+    assert worst < 0.01
+
+
+def test_step_below_deadband_does_not_move(params):
+    t, y = C.cpfl_step_response(params, 5.0)   # a v = 0.64 N m < 0.82 N m
+    assert np.abs(y).max() < 1e-9
+
+
+HEADER = "t,q1,q2,tau\n"
+
+
+@pytest.mark.parametrize("text, words", [
+    ("t,q1,tau\n0,0,0\n", "lacks column(s) q2"),
+    ("t,q1,q2\n0,0,0\n", "tau or i_cmd"),
+    (HEADER + "".join(f"{k * 0.01},{0.1},{0.0},0\n" for k in range(30)), "too short"),
+    (HEADER + "".join(f"{k * 0.01},{0.1},{0.0},0\n" for k in range(400)), "no excitation"),
+    (HEADER + "0,x,0,0\n", "non-numeric"),
+])
+def test_bad_calibration_logs(tmp_path, text, words, capsys):
+    f = tmp_path / "bad.csv"
+    f.write_text(text)
+    assert main(["calibrate", str(f), "--out", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("bplir: error:") and err.count("\n") == 1 and words in err
+
+
+def test_bad_fit_names(params):
+    log = C.synthetic_log(params, free_time=2.0, torque_time=0.5, noise=0.0)
+    with pytest.raises(C.CalibrationError, match="cannot fit mass3"):
+        C.calibrate(params, log, ("mass3",))

@@ -430,10 +430,6 @@ class PathParams(_Block):
     latch_rate: float = _p(0.3, "rad/s", 0, doc="latch to pure line seeking when q1' falls below this")
     latch_fraction: float = _p(0.85, "", 0, 1, doc="... and s >= this * s_e")
     latch_ramp: float = _p(2.0, "1/s", 0, lo_open=True, doc="after the latch the blend weight rises to 1 at this rate")
-    landing: bool = False
-    landing_start: float = _p(0.9, "", 0, 1, doc="anticipatory landing from s > this * s_e")
-    landing_height: float = _p(0.0, "m", -0.02, 0.05, doc="aimed gripper depth below the line at the turning point (negative: above)")
-    landing_rate: float = _p(8.0, "1/s", 0, lo_open=True, doc="largest rate of change of the landing blend floor")
     lead_time: float = _p(0.01, "s", 0, 0.1, doc="path evaluated at s + q1' * lead_time (ZOH + motor lag)")
     predict_friction: bool = True
     calibrate: bool = True

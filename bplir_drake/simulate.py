@@ -19,6 +19,11 @@ class Log:
     t: np.ndarray
     data: np.ndarray
 
+    def at(self, t) -> np.ndarray:
+        """The signal linearly interpolated at times ``t``: (len(t), n)."""
+        return np.column_stack([np.interp(t, self.t, self.data[:, i])
+                                for i in range(self.data.shape[1])])
+
     @classmethod
     def from_logger(cls, logger, context) -> "Log":
         if hasattr(logger, "arrays"):  # SampleLogger

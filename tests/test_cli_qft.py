@@ -2,8 +2,6 @@
 import json
 
 import numpy as np
-import pytest
-
 from bplir_drake.analysis.zero_dynamics import zero_dynamics_portrait
 from bplir_drake.cli import main
 

@@ -1,5 +1,4 @@
 """Path generator (chapter 7) and gripper interlock, as pure functions and systems."""
-import dataclasses as dc
 import math
 
 import numpy as np

@@ -117,15 +117,13 @@ def check_calibration_log(t, q, tau, qd0=None, *, min_duration: float = 2.0) -> 
 def simulate_log(params: BplirParams, log: CalibrationLog, *, accuracy: float = 1e-6) -> np.ndarray:
     """Joint angles of the (nominal) model driven by the logged torque."""
     from ..diagrams import build_free_swing
-    from ..simulate import make_simulator, run
+    from ..simulate import Log, make_simulator, run
 
     p = params.with_(true_plant=None, true_friction=None)
     built = build_free_swing(p, (log.t, log.tau), log_period=float(np.median(np.diff(log.t))))
     sim = make_simulator(built, log.q[0], log.qd0, accuracy=accuracy)
     run(sim, float(log.t[-1]))
-    lg = built.loggers["state"].FindLog(sim.get_context())
-    ts, x = np.array(lg.sample_times()), np.array(lg.data()).T
-    return np.column_stack([np.interp(log.t, ts, x[:, i]) for i in range(2)])
+    return Log.from_logger(built.loggers["state"], sim.get_context()).at(log.t)[:, :2]
 
 
 def _with(params: BplirParams, names, values) -> BplirParams:
@@ -399,7 +397,7 @@ def synthetic_log(params: BplirParams, *, q0=(0.8, 0.3), free_time: float = 6.0,
     sim = make_simulator(built, q0, (0.0, 0.0), accuracy=1e-8)
     run(sim, T)
     st = logs(built, sim)["state"]
-    q = np.column_stack([np.interp(t, st.t, st.data[:, i]) for i in range(2)])
+    q = st.at(t)[:, :2]
     q = q + noise * np.random.default_rng(seed).standard_normal(q.shape)
     return CalibrationLog(t, q, tau, np.zeros(2))
 

@@ -78,7 +78,7 @@ def simulate_estimation(params: BplirParams, q0=(0.8, 0.4), duration: float = 10
     lg = logs(built, sim)
     est, imu = lg["estimate"], lg["imu"]
     st = lg["state"]
-    truth_rel = np.column_stack([np.interp(est.t, st.t, st.data[:, i]) for i in range(4)])
+    truth_rel = st.at(est.t)
     truth = absolute_from_relative(truth_rel)
     n = min(len(est.t), len(imu.t))
     gyr = gyro_integral(imu.t[:n], imu.data[:n], x0_est)

@@ -47,10 +47,6 @@ class SwingResult:
         return bool(self.summary["success"])
 
 
-def _interp(log: Log, t):
-    return np.column_stack([np.interp(t, log.t, log.data[:, i]) for i in range(log.data.shape[1])])
-
-
 def run_swing(params: BplirParams, *, seed: int | None = None, use_estimator: bool | None = None,
               accuracy: float = 1e-5) -> SwingResult:
     sc = params.scenario
@@ -72,14 +68,13 @@ def summarize(p: BplirParams, lg: dict[str, Log], status: dict, seed: int, use_e
     sc = p.scenario
     st = lg["state"]
     x, t = st.data, st.t
-    tp = p.simulated_plant
-    q0, qT, _, geo = swing_geometry(p)
+    q0, qT, _, _ = swing_geometry(p)
     tau = lg["torque"].data[:, 0]
     power = lg["power"].data[:, 0]
     energy_in = float(np.sum(0.5 * (power[1:] + power[:-1]) * np.diff(lg["power"].t)))
     est = lg["estimate"]
     n = min(len(est.t), np.searchsorted(est.t, t[-1], side="right"))
-    truth = _interp(st, est.t[:n])
+    truth = st.at(est.t[:n])
     est_err = float(np.abs(est.data[:n, :2] - truth[:, :2]).max()) if n else math.nan
     captured = status["outcome"] == "captured"
     x_end = x[-1]
@@ -130,9 +125,9 @@ def log_table(result: SwingResult) -> tuple[list[str], np.ndarray]:
     lg, p = result.logs, result.params
     st = lg["state"]
     t, x = st.t, st.data
-    est = _interp(lg["estimate"], t)
-    ref = _interp(lg["reference"], t)
-    cmd = _interp(lg["command"], t)
+    est = lg["estimate"].at(t)
+    ref = lg["reference"].at(t)
+    cmd = lg["command"].at(t)
     tp = p.simulated_plant
     gp = np.array([gripper_position(r[:2], tp.l1, tp.l2) for r in x])
     ke = np.array([kinetic_energy(r[:2], r[2:], tp) for r in x])

@@ -177,11 +177,6 @@ def path_height(s, s_e, g: PathGeometry, n: float, lam: float = 1.0) -> float:
     return -g.l1 * math.cos(s) - g.l2 * math.cos(s + q2)
 
 
-def path_height_floor(s, s_e, g: PathGeometry, n: float, lam: float, floor: float) -> float:
-    q2 = path_q2(s, s_e, g, n, lam, floor)
-    return -g.l1 * math.cos(s) - g.l2 * math.cos(s + q2)
-
-
 def band_entry(s_from, s_e, g: PathGeometry, n: float, lam: float = 1.0) -> float:
     """First s in (s_from, s_e] where the path's gripper is within ``g.band``
     of the line (bisection on the rising height; ``s_e`` if never)."""
@@ -319,38 +314,6 @@ def PathGenerator_(T):
                     hi = mid
             return cal_s, -1.0, 0.5 * (lo + hi)
 
-        def _landing_floor(self, x, s, w, s_e, floor):
-            """Anticipatory line seeking: blend floor F such that the gripper
-            is ``landing_height`` below the line at the local turning point
-            ``s + w^2 / (2 |q1''|)`` (rate-limited)."""
-            g, pp = self.geometry, self.path
-            n = pp.blend_exponent
-            _, d1, d2 = path_derivatives(s, s_e, g, n, pp.pump_gain, floor)
-            q1dd, _ = constraint_acceleration([x[0], x[1]], w, d1, d2, self.plant_params)
-            if q1dd >= 0:
-                return floor
-            s_t = min(s + w * w / (-2.0 * q1dd), s_e)
-
-            def height(F):
-                return path_height_floor(s_t, s_e, g, n, pp.pump_gain, F)
-
-            F_path = min(max(s_t / s_e, 0.0), 1.0) ** n
-            if height(F_path) >= -pp.landing_height:
-                target = 0.0  # already reaches the band: no extra lift
-            elif height(1.0) < -pp.landing_height:
-                target = 1.0
-            else:
-                lo, hi = F_path, 1.0
-                for _ in range(12):
-                    mid = 0.5 * (lo + hi)
-                    if height(mid) >= -pp.landing_height:
-                        hi = mid
-                    else:
-                        lo = mid
-                target = hi
-            step = pp.landing_rate * self.period
-            return min(max(target, floor - step), floor + step)
-
         def _out_blend(self, context, out):
             d = context.get_discrete_state(self._xd).CopyToVector()
             out.SetFromVector(d[:2])
@@ -367,8 +330,6 @@ def PathGenerator_(T):
                 if floor <= 0.0:  # start the ramp from the current blend weight
                     floor = min(max(s / s_e, 0.0), 1.0) ** pp.blend_exponent
                 floor = min(1.0, floor + pp.latch_ramp * self.period)
-            elif pp.mode == "adaptive" and pp.landing and w > 0 and s > pp.landing_start * s_e:
-                floor = self._landing_floor(x, s, w, s_e, floor)
             if latched < 0.5 and pp.mode == "adaptive" and w > 0:
                 if -pp.adapt_window * g.s_f < s < pp.adapt_stop * s_e:
                     wp = projected_rate(x, s_e, g, pp, self.plant_params)

@@ -303,8 +303,6 @@ def cmd_qft(args) -> int:
 def _swing_params(args):
     import dataclasses as dc
 
-    from .params import ControllerParams
-
     params = _load_params(args)
     sc = params.scenario
     changes = {}
@@ -320,11 +318,7 @@ def _swing_params(args):
         raise InputError(str(exc)) from None
     params = params.with_(scenario=sc)
     if args.controller:
-        path = params.path
-        if args.controller == "lab":
-            path = dc.replace(path, mode="lab")
-        params = params.with_(controller=ControllerParams.preset_named(args.controller),
-                              path=path)
+        params = params.with_controller(args.controller)
     from .diagrams import swing_geometry
 
     swing_geometry(params)  # validates grip spacing / incline for this robot
@@ -335,10 +329,14 @@ def cmd_swing(args) -> int:
     from .analysis.swing import run_swing, summary_with_params, write_log_csv
     from .analysis.swing_plots import animate_swing, plot_swing
 
-    params = _swing_params(args)
+    replay_info = None
+    if args.replay is not None or args.sample is not None:
+        res, replay_info = _replay(args)
+    else:
+        params = _swing_params(args)
     out_dir = Path(args.out)
     out_dir.mkdir(parents=True, exist_ok=True)
-    if args.compare:
+    if replay_info is None and args.compare:
         from .analysis.compare import comparison_table, compare_presets, plot_comparison
 
         rows = compare_presets(params)
@@ -349,15 +347,22 @@ def cmd_swing(args) -> int:
         (out_dir / "comparison.json").write_text(json.dumps(data, indent=2, default=_jsonable))
         _emit({"comparison": data, "figure": str(fig)}, args.json, [table, f"figure: {fig}"])
         return 0
-    res = run_swing(params)
+    if replay_info is None:
+        res = run_swing(params)
     files = {"figure": str(plot_swing(res, out_dir / "swing.png")),
              "log_csv": str(write_log_csv(res, out_dir / "swing_log.csv"))}
     if not args.no_animation:
         files["animation"] = str(animate_swing(res, out_dir / "swing.gif"))
-    summary = summary_with_params(res) | {"files": files}
+    extra = {"files": files} | ({"replay": replay_info} if replay_info else {})
+    summary = summary_with_params(res) | extra
     (out_dir / "summary.json").write_text(json.dumps(summary, indent=2, default=_jsonable))
     s = res.summary
-    _emit(res.summary | {"files": files}, args.json, [
+    replay_line = ([f"replay of sample {replay_info['sample']} of {replay_info['study']}: "
+                    + {True: "matches the recorded result exactly",
+                       False: "DIFFERS from the recorded result",
+                       None: "no recorded result to compare"}[replay_info["matches_recorded"]]]
+                   if replay_info else [])
+    _emit(res.summary | extra, args.json, replay_line + [
         f"{s['outcome']}: t = {s['swing_time_s']:.3f} s, capture speed "
         f"{s['capture_speed_mps']:.3f} m/s (limit {s['thresholds']['capture_speed_mps']}), "
         f"distance {s['capture_distance_m']:.4f} m",
@@ -365,6 +370,110 @@ def cmd_swing(args) -> int:
         f"{s['peak_motor_power_W']:.1f} W (rating {s['motor_power_rating_W']:.0f} W), "
         f"max estimation error {s['max_estimation_error_rad']:.4f} rad, seed {s['seed']}",
         f"files in {out_dir}: " + ", ".join(Path(f).name for f in files.values())])
+    return 0
+
+
+def _replay(args):
+    """Re-run one sample of a Monte Carlo study (``--replay DIR --sample K``)."""
+    import math as _m
+
+    from .analysis.montecarlo import RESULT_FIELDS, replay
+
+    if args.replay is None or args.sample is None:
+        raise InputError("--replay STUDY_DIR and --sample K go together")
+    clash = [f"--{n.replace('_', '-')}" for n in ("preset", "config", "incline", "controller",
+                                                   "seed") if getattr(args, n) is not None]
+    clash += ["--true-state"] * args.true_state + ["--compare"] * args.compare
+    if clash:
+        raise InputError(f"--replay takes every parameter from the study; drop {clash[0]}")
+    res, row = replay(args.replay, args.sample)
+    matches = None
+    if row is not None:
+        def same(a, b):
+            if isinstance(a, float) and isinstance(b, float) and _m.isnan(a) and _m.isnan(b):
+                return True
+            return a == b
+        matches = row["error"] == "" and all(same(row[k], res.summary[k]) for k in RESULT_FIELDS)
+    return res, {"study": str(args.replay), "sample": args.sample, "matches_recorded": matches}
+
+
+# ------------------------------------------------------------------ montecarlo
+def _study(args):
+    import dataclasses as dc
+
+    from .analysis.montecarlo import Study, load_study
+
+    if args.study:
+        study = load_study(args.study)
+        if args.preset or args.config:
+            raise InputError("--study holds the parameters; drop --preset/--config")
+    else:
+        study = Study(params=_load_params(args))
+    changes = {}
+    if args.samples is not None:
+        changes["samples"] = args.samples
+    if args.seed is not None:
+        changes["seed"] = args.seed
+    if changes:
+        study = dc.replace(study, **changes)
+    if args.incline is not None:
+        p = study.params
+        study = study.with_(params=p.with_(scenario=dc.replace(p.scenario,
+                                                               incline_deg=args.incline)))
+    from .diagrams import swing_geometry
+
+    swing_geometry(study.params)  # the nominal scenario must be possible
+    if args.workers is not None and args.workers < 1:
+        raise InputError(f"--workers {args.workers} must be >= 1")
+    return study
+
+
+def cmd_montecarlo(args) -> int:
+    from .analysis.montecarlo import read_results, run_study, RESULTS_FILE
+    from .analysis.montecarlo_plots import plot_study
+
+    study = _study(args)
+    out = Path(args.out)
+    summary = run_study(study, out, workers=args.workers or 0, dask=args.dask,
+                        scheduler=args.scheduler, progress=not args.json and sys.stderr.isatty())
+    rows = read_results(out / RESULTS_FILE)
+    figs = [str(f) for f in plot_study(study, rows, out)] if not args.no_plots else []
+    summary["files"] = {"results": str(out / RESULTS_FILE), "summary": str(out / "summary.json"),
+                        "figures": figs}
+    (out / "summary.json").write_text(json.dumps(summary, indent=2, default=_jsonable))
+    lo, hi = summary["success_rate_ci95"]
+    pc = summary["percentiles"].get("capture_speed_mps", {})
+    _emit(summary, args.json, [
+        f"{summary['successes']}/{summary['samples'] - len(summary['failed_samples'])} swings "
+        f"captured: success rate {summary['success_rate']:.3f} (95 % Wilson interval "
+        f"{lo:.3f}..{hi:.3f}), root seed {summary['seed']}",
+        "outcomes: " + ", ".join(f"{k} {v}" for k, v in sorted(summary["outcomes"].items())),
+        (f"capture speed p50 {pc['p50']:.3f}, p95 {pc['p95']:.3f}, max {pc['max']:.3f} m/s"
+         if pc else "no capture speeds"),
+        f"failed samples (errors): {len(summary['failed_samples'])}; "
+        f"computed now {summary['run']['computed_now']}, resumed {summary['run']['resumed_from']}",
+        f"results in {out}"])
+    return 0
+
+
+# ------------------------------------------------------------------ benchmark
+def cmd_benchmark(args) -> int:
+    from .analysis.benchmark import benchmark_table, plot_benchmark, run_benchmark
+
+    params = _load_params(args)
+    presets = [c.strip() for c in args.controllers.split(",") if c.strip()]
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    result = run_benchmark(params, presets, quick=args.quick, workers=args.workers or 0,
+                           seed=args.seed, progress=not args.json and sys.stderr.isatty(),
+                           out=out)
+    fig = plot_benchmark(result, out / "benchmark.png")
+    table = benchmark_table(result)
+    (out / "benchmark.md").write_text(table + "\n")
+    result["files"] = {"figure": str(fig), "table": str(out / "benchmark.md"),
+                       "cases": str(out / "benchmark_cases.csv")}
+    (out / "benchmark.json").write_text(json.dumps(result, indent=2, default=_jsonable))
+    _emit(result, args.json, [table, f"figure: {fig}"])
     return 0
 
 
@@ -452,8 +561,36 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-animation", action="store_true", help="skip the GIF")
     p.add_argument("--compare", action="store_true",
                    help="run the swing with each controller preset and the true state")
+    p.add_argument("--replay", default=None, metavar="STUDY_DIR",
+                   help="re-run one sample of a Monte Carlo study (with --sample)")
+    p.add_argument("--sample", type=int, default=None, metavar="K", help="sample index to replay")
     p.add_argument("--out", default="out/swing")
     p.set_defaults(func=cmd_swing)
+
+    p = sub.add_parser("montecarlo", help="Monte Carlo robustness study over uncertain parameters")
+    common(p)
+    p.add_argument("-n", "--samples", type=int, default=None, help="number of swings")
+    p.add_argument("--seed", type=int, default=None, help="root seed of the study")
+    p.add_argument("--workers", type=int, default=None, help="worker processes (default: all cores)")
+    p.add_argument("--study", default=None, help="study TOML file (distributions, scenario)")
+    p.add_argument("--incline", type=float, default=None, help="line incline in degrees")
+    g = p.add_mutually_exclusive_group()
+    g.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="run on an existing Dask cluster")
+    g.add_argument("--dask", action="store_true", help="run on a local Dask cluster")
+    p.add_argument("--no-plots", action="store_true", help="skip the figures")
+    p.add_argument("--out", default="out/montecarlo")
+    p.set_defaults(func=cmd_montecarlo)
+
+    p = sub.add_parser("benchmark", help="robustness benchmark of the controller presets")
+    common(p)
+    p.add_argument("--quick", action="store_true", help="fewer cases (about a minute)")
+    p.add_argument("--controllers", default="qft,dissertation,lab",
+                   help="controller presets to score")
+    p.add_argument("--workers", type=int, default=None, help="worker processes (default: all cores)")
+    p.add_argument("--seed", type=int, default=0, help="root seed of the benchmark")
+    p.add_argument("--out", default="out/benchmark")
+    p.set_defaults(func=cmd_benchmark)
 
     p = sub.add_parser("calibrate", help="fit the plant model to a logged run (4.5)")
     common(p)

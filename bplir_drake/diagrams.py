@@ -19,6 +19,7 @@ from pydrake.systems.primitives import (ConstantVectorSource, LogVectorOutput,
 
 from .params import BplirParams, FrictionParams, PlantParams
 from .systems.controller import CpflController
+from .systems.disturbance import CommandDelay, delay_steps, disturbance_schedule, has_disturbance
 from .systems.ekf import KinematicEkf
 from .systems.friction import JointFriction
 from .systems.imu import ImuSampler
@@ -345,7 +346,9 @@ def build_swing(params: BplirParams, *, seed: int | None = None, use_estimator: 
                 log_period: float = 0.005) -> Built:
     """The full closed loop of one swing.
 
-    True (possibly perturbed) plant + friction + wind, motor/driver, two IMUs,
+    True (possibly perturbed) plant + friction + disturbances (wind, gusts,
+    torque noise; :mod:`~bplir_drake.systems.disturbance`), an optional
+    actuation delay, motor/driver, two IMUs,
     kinematic EKF (nominal geometry), path generator and CPFL controller
     (nominal plant), gripper interlock (true contact sensing), loggers.  With
     ``use_estimator=False`` the path and controller read the true state
@@ -363,9 +366,13 @@ def build_swing(params: BplirParams, *, seed: int | None = None, use_estimator: 
     q0, _, pg, lg = swing_geometry(params)
     builder = DiagramBuilder()
     wind = None
-    if sc.wind_torque1 or sc.wind_torque2:
-        wind = builder.AddSystem(ConstantVectorSource([sc.wind_torque1, sc.wind_torque2]))
-        wind.set_name("wind")
+    if has_disturbance(sc):  # wind, gusts, torque noise: one seeded schedule
+        from pydrake.trajectories import PiecewisePolynomial
+
+        times, torques = disturbance_schedule(sc, seed, params.controller.period)
+        wind = builder.AddSystem(TrajectorySource(PiecewisePolynomial.ZeroOrderHold(
+            np.append(times, times[-1] + 1e6), np.vstack([torques, torques[-1]]).T)))
+        wind.set_name("disturbance")
         wind = wind.get_output_port(0)
     plant, fr = add_plant_with_friction(builder, params.simulated_plant,
                                         params.simulated_friction, disturbance=wind)
@@ -397,7 +404,14 @@ def build_swing(params: BplirParams, *, seed: int | None = None, use_estimator: 
     builder.Connect(path.GetOutputPort("reference"), ctrl.GetInputPort("reference"))
     builder.Connect(path.GetOutputPort("feedforward"), ctrl.GetInputPort("feedforward"))
     builder.Connect(motor.GetOutputPort("available"), ctrl.GetInputPort("torque_available"))
-    builder.Connect(ctrl.GetOutputPort("torque"), motor.GetInputPort("torque_command"))
+    command = ctrl.GetOutputPort("torque")
+    steps = delay_steps(sc.actuation_delay, ctrl_p.period)
+    if steps:
+        delay = builder.AddSystem(CommandDelay(1, ctrl_p.period, steps, 3.5 * COMPUTE_OFFSET))
+        delay.set_name("actuation_delay")
+        builder.Connect(command, delay.get_input_port(0))
+        command = delay.get_output_port(0)
+    builder.Connect(command, motor.GetInputPort("torque_command"))
     lock = builder.AddSystem(GripperInterlock(lg, sc))
     lock.set_name("interlock")
     builder.Connect(plant.get_state_output_port(), lock.GetInputPort("state"))

@@ -460,6 +460,11 @@ class ScenarioParams(_Block):
     friction_uncertainty: float = _p(0.2, "", 0, 0.99, doc="simulated friction drawn within +/- this fraction of nominal")
     wind_torque1: float = _p(0.0, "N m", -20, 20, doc="constant external torque on joint 1 (wind)")
     wind_torque2: float = _p(0.0, "N m", -20, 20, doc="constant external torque on joint 2 (wind)")
+    gust_torque: float = _p(0.0, "N m", 0, 20, doc="peak torque of random gusts on each joint")
+    gust_rate: float = _p(0.0, "1/s", 0, 100, doc="mean number of gusts per second (Poisson)")
+    gust_duration: float = _p(0.1, "s", 0, 1, lo_open=True, doc="duration of one gust")
+    torque_noise: float = _p(0.0, "N m", 0, 20, doc="white noise on the applied elbow torque (per controller period)")
+    actuation_delay: float = _p(0.0, "s", 0, 0.2, doc="extra delay of the torque command (whole controller periods)")
     seed: int = 0
     use_estimator: bool = True
 
@@ -508,6 +513,12 @@ class BplirParams:
 
     def with_(self, **blocks) -> "BplirParams":
         return replace(self, **blocks)
+
+    def with_controller(self, name: str) -> "BplirParams":
+        """The controller preset ``name``; the ``lab`` firmware also brings its
+        own path (``path.mode = "lab"``), the others keep the path block."""
+        path = replace(self.path, mode="lab") if name == "lab" else self.path
+        return replace(self, controller=ControllerParams.preset_named(name), path=path)
 
 
 BLOCKS = {
@@ -582,18 +593,23 @@ def from_dict(data: dict[str, Any], base: BplirParams | None = None) -> BplirPar
         raise ParameterError(str(exc)) from None
 
 
-def load_toml(path: str | Path) -> BplirParams:
-    """Read a parameter file; errors name the file and the problem."""
+def read_toml(path: str | Path, what: str = "parameter file", error=ParameterError) -> dict:
+    """A TOML file as a dict; unreadable or malformed files raise ``error``
+    with a one-line message naming the file."""
     path = Path(path)
     try:
         text = path.read_text()
     except OSError as exc:
-        raise ParameterError(f"cannot read parameter file {path}: {exc.strerror}") from None
+        raise error(f"cannot read {what} {path}: {exc.strerror}") from None
     try:
-        data = tomllib.loads(text)
+        return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
-        raise ParameterError(f"malformed TOML in {path}: {exc}") from None
-    return from_dict(data)
+        raise error(f"malformed TOML in {path}: {exc}") from None
+
+
+def load_toml(path: str | Path) -> BplirParams:
+    """Read a parameter file; errors name the file and the problem."""
+    return from_dict(read_toml(path))
 
 
 def to_dict(params: BplirParams) -> dict[str, Any]:

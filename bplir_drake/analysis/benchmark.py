@@ -1,0 +1,194 @@
+"""A robustness benchmark of the controller presets.
+
+In the structure of the double-pendulum robustness benchmark used in the
+underactuated-robotics community: the nominal swing is repeated while one
+thing at a time is made worse, in categories
+
+* ``model parameters``: one true-plant quantity at a time scaled by a factor
+  (the controller keeps the nominal model);
+* ``sensor noise``: both IMU noise levels scaled;
+* ``torque noise``: white noise on the applied elbow torque;
+* ``delay``: actuation delay of 10..40 ms;
+* ``gusts``: random torque pulses on both joints (2 per second, 0.1 s);
+* ``incline``: the line inclined up or down.
+
+Each category scores the fraction of successful swings over its cases (and
+``repeats`` noise seeds per case); the overall score is the mean of the
+category scores.  Every controller preset sees the same cases and seeds.
+"""
+from __future__ import annotations
+
+import csv
+import dataclasses as dc
+import zlib
+from pathlib import Path
+
+import numpy as np
+
+from ..params import BplirParams, ParameterError
+from .montecarlo import map_jobs
+
+MODEL_FIELDS = ("true_plant.m1", "true_plant.m2", "true_plant.I1", "true_plant.I2",
+                "true_plant.lc1", "true_plant.lc2", "true_friction.fv1", "true_friction.fv2",
+                "true_friction.fc1", "true_friction.fc2")
+
+
+def cases(quick: bool = False) -> list[dict]:
+    """[{category, label, changes: {"block.field": ("scale"|"set", value)}}]."""
+    out = []
+
+    def add(category, label, **changes):
+        out.append({"category": category, "label": label, "changes": changes})
+
+    fields = ("true_plant.m2", "true_plant.I2", "true_plant.lc2", "true_friction.fc2") \
+        if quick else MODEL_FIELDS
+    factors = (0.8, 1.2) if quick else (0.6, 0.8, 1.2, 1.4)
+    for f in fields:
+        for k in factors:
+            add("model parameters", f"{f} x{k:g}", **{f: ("scale", k)})
+    for k in ((3.0, 10.0) if quick else (2.0, 5.0, 10.0, 20.0)):
+        add("sensor noise", f"IMU noise x{k:g}",
+            **{"imu.gyro_sigma": ("scale", k), "imu.accel_sigma": ("scale", k)})
+    for v in ((1.0, 3.0) if quick else (0.5, 1.0, 2.0, 4.0)):
+        add("torque noise", f"{v:g} N m", **{"scenario.torque_noise": ("set", v)})
+    for v in ((0.01, 0.03) if quick else (0.01, 0.02, 0.03, 0.04)):
+        add("delay", f"{1000 * v:.0f} ms", **{"scenario.actuation_delay": ("set", v)})
+    for v in ((2.0, 5.0) if quick else (1.0, 2.0, 4.0, 8.0)):
+        add("gusts", f"{v:g} N m", **{"scenario.gust_torque": ("set", v),
+                                      "scenario.gust_rate": ("set", 2.0)})
+    for v in ((-10.0, 10.0) if quick else (-20.0, -10.0, 10.0, 20.0)):
+        add("incline", f"{v:+g} deg", **{"scenario.incline_deg": ("set", v)})
+    return out
+
+
+CATEGORIES = ("model parameters", "sensor noise", "torque noise", "delay", "gusts", "incline")
+
+
+def case_params(params: BplirParams, controller: str, changes: dict) -> BplirParams:
+    """The nominal robot (true = nominal, no friction draw) with ``changes``."""
+    p = params.with_controller(controller)
+    p = p.with_(true_plant=p.simulated_plant, true_friction=p.simulated_friction)
+    blocks: dict[str, dict] = {}
+    for name, (how, value) in changes.items():
+        b, f = name.split(".")
+        base = getattr(getattr(p, b), f)
+        blocks.setdefault(b, {})[f] = base * value if how == "scale" else value
+    return p.with_(**{b: dc.replace(getattr(p, b), **kv) for b, kv in blocks.items()})
+
+
+def case_seed(root: int, case: dict, repeat: int) -> int:
+    """Noise seed of one case and repeat: from its name, so a case keeps its
+    seed whichever other cases or categories are run."""
+    key = zlib.crc32(f"{case['category']}/{case['label']}".encode())
+    return int(np.random.SeedSequence([root, key, repeat]).generate_state(1, np.uint32)[0])
+
+
+def _run_case(params: BplirParams, job: dict) -> dict:
+    from .swing import run_swing
+
+    row = {k: job[k] for k in ("controller", "category", "label", "case", "repeat", "seed")}
+    try:
+        p = case_params(params, job["controller"], job["changes"])
+        s = run_swing(p, seed=job["seed"]).summary
+        row |= {"outcome": s["outcome"], "success": bool(s["success"]),
+                "capture_speed_mps": s["capture_speed_mps"], "swing_time_s": s["swing_time_s"],
+                "peak_torque_Nm": s["peak_torque_Nm"], "error": ""}
+    except Exception as exc:
+        row |= {"outcome": "error", "success": False, "capture_speed_mps": float("nan"),
+                "swing_time_s": float("nan"), "peak_torque_Nm": float("nan"),
+                "error": " ".join(f"{type(exc).__name__}: {exc}".split())[:300]}
+    return row
+
+
+def run_benchmark(params: BplirParams, controllers=("qft", "dissertation", "lab"), *,
+                  quick: bool = False, repeats: int | None = None, seed: int = 0,
+                  workers: int = 0, progress: bool = False, out=None,
+                  categories=CATEGORIES) -> dict:
+    """Score each controller preset; returns scores and the per-case rows.
+    ``categories`` restricts the benchmark to some of :data:`CATEGORIES`."""
+    from ..params import ControllerParams
+
+    for c in controllers:
+        ControllerParams.preset_named(c)  # unknown names fail here, before any work
+    repeats = (1 if quick else 3) if repeats is None else repeats
+    unknown = set(categories) - set(CATEGORIES)
+    if unknown:
+        raise ParameterError(f"unknown benchmark category {sorted(unknown)[0]!r}; allowed: "
+                             + ", ".join(CATEGORIES))
+    chosen = [c for c in cases(quick) if c["category"] in categories]
+    jobs = []
+    for ci, case in enumerate(chosen):
+        for r in range(repeats):
+            for c in controllers:
+                jobs.append((params, case | {"controller": c, "case": ci, "repeat": r,
+                                             "seed": case_seed(seed, case, r)}))
+    rows = sorted(map_jobs(_run_case, jobs, workers=workers, progress=progress,
+                           desc="benchmark"),
+                  key=lambda r: (r["controller"], r["case"], r["repeat"]))
+    scores = {}
+    for c in controllers:
+        mine = [r for r in rows if r["controller"] == c]
+        cat = {k: float(np.mean([r["success"] for r in mine if r["category"] == k]))
+               for k in CATEGORIES if k in categories}
+        scores[c] = {"categories": cat, "overall": float(np.mean(list(cat.values()))),
+                     "swings": len(mine)}
+    if out is not None:
+        write_cases_csv(rows, Path(out) / "benchmark_cases.csv")
+    return {"scores": scores, "quick": quick, "repeats": repeats, "seed": seed,
+            "categories": [k for k in CATEGORIES if k in categories], "cases": chosen,
+            "rows": rows}
+
+
+CASE_COLUMNS = ("controller", "category", "label", "case", "repeat", "seed", "outcome",
+                "success", "capture_speed_mps", "swing_time_s", "peak_torque_Nm", "error")
+
+
+def write_cases_csv(rows, path) -> Path:
+    path = Path(path)
+    with path.open("w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(CASE_COLUMNS)
+        for r in rows:
+            w.writerow([r[c] for c in CASE_COLUMNS])
+    return path
+
+
+def benchmark_table(result: dict) -> str:
+    ctrls = list(result["scores"])
+    lines = ["| category | " + " | ".join(ctrls) + " |", "| --- " * (len(ctrls) + 1) + "|"]
+    for k in result["categories"]:
+        lines.append(f"| {k} | " + " | ".join(f"{result['scores'][c]['categories'][k]:.2f}"
+                                              for c in ctrls) + " |")
+    lines.append("| **overall** | " + " | ".join(f"**{result['scores'][c]['overall']:.2f}**"
+                                                 for c in ctrls) + " |")
+    return "\n".join(lines)
+
+
+def plot_benchmark(result: dict, path) -> Path:
+    from .plots import _plt, _save
+
+    plt = _plt()
+    ctrls = list(result["scores"])
+    fig, (ax, ax2) = plt.subplots(1, 2, figsize=(13, 4.8), gridspec_kw={"width_ratios": [2, 3]})
+    cats = result["categories"]
+    x = np.arange(len(cats) + 1)
+    w = 0.8 / max(1, len(ctrls))
+    for i, c in enumerate(ctrls):
+        sc = result["scores"][c]
+        vals = [sc["categories"][k] for k in cats] + [sc["overall"]]
+        ax.bar(x + (i - (len(ctrls) - 1) / 2) * w, vals, w, label=c)
+    ax.set_xticks(x, list(cats) + ["overall"], rotation=30, ha="right")
+    ax.set_ylim(0, 1.05)
+    ax.set_ylabel("fraction of successful swings")
+    ax.legend()
+    # per case: success fraction of each controller (rows) over cases (columns)
+    labels = [f"{c['category'][:6]}: {c['label']}" for c in result["cases"]]
+    grid = np.zeros((len(ctrls), len(labels)))
+    for r in result["rows"]:
+        grid[ctrls.index(r["controller"]), r["case"]] += r["success"] / result["repeats"]
+    ax2.imshow(grid, aspect="auto", cmap="RdYlGn", vmin=0, vmax=1)
+    ax2.set_yticks(range(len(ctrls)), ctrls)
+    ax2.set_xticks(range(len(labels)), labels, rotation=90, fontsize=6)
+    ax2.set_title("success per case (green = all swings captured)")
+    return _save(fig, path, "Robustness benchmark "
+                            f"({'quick' if result['quick'] else 'full'}, seed {result['seed']})")

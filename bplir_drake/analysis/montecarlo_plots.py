@@ -1,0 +1,99 @@
+"""Figures of a Monte Carlo study, drawn from its result rows.
+
+* ``success_vs_parameters.png``: per uncertain quantity, every sample's
+  capture speed against the drawn value (coloured by outcome) and the binned
+  success rate;
+* ``histograms.png``: capture speed, swing time, peak torque, peak power;
+* ``influence.png``: the two most influential quantities against each other.
+"""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from .montecarlo import Study, influence
+from .plots import _plt, _save
+
+OUTCOME_COLOURS = {"captured": "tab:green", "crash": "tab:red", "timeout": "tab:orange",
+                   "fault": "tab:purple", "error": "black"}
+
+
+def _colour(rows):
+    return [OUTCOME_COLOURS.get(r["outcome"], "grey") for r in rows]
+
+
+def plot_success_vs_parameters(study: Study, rows: list[dict], path) -> Path:
+    plt = _plt()
+    names = study.names or ["index"]
+    ncol = min(3, len(names))
+    nrow = math.ceil(len(names) / ncol)
+    fig, axes = plt.subplots(nrow, ncol, figsize=(4.6 * ncol, 3.4 * nrow), squeeze=False)
+    speed = np.array([r["capture_speed_mps"] for r in rows], dtype=float)
+    succ = np.array([bool(r["success"]) for r in rows])
+    for ax, name in zip(axes.flat, names):
+        x = np.array([r[name] for r in rows], dtype=float)
+        ax.scatter(x, np.nan_to_num(speed, nan=0.0), s=8, c=_colour(rows), alpha=0.7)
+        ax.axhline(study.params.scenario.capture_speed, color="k", lw=0.8, ls="--")
+        ax.set_xlabel(name)
+        ax.set_ylabel("capture speed [m/s]")
+        ok = np.isfinite(x)
+        if ok.sum() >= 4 and np.ptp(x[ok]) > 0:
+            edges = np.linspace(x[ok].min(), x[ok].max(), 7)
+            idx = np.clip(np.digitize(x[ok], edges) - 1, 0, 5)
+            rate = [succ[ok][idx == i].mean() if np.any(idx == i) else np.nan for i in range(6)]
+            ax2 = ax.twinx()
+            ax2.step(edges[:-1], rate, where="post", color="tab:blue")
+            ax2.set_ylim(-0.05, 1.05)
+            ax2.set_ylabel("success rate", color="tab:blue")
+    for ax in list(axes.flat)[len(names):]:
+        ax.axis("off")
+    return _save(fig, path, f"Monte Carlo: {len(rows)} samples, seed {study.seed} "
+                            "(green captured, red crash, orange timeout, black error)")
+
+
+def plot_histograms(study: Study, rows: list[dict], path) -> Path:
+    plt = _plt()
+    fields = [("capture_speed_mps", "capture speed [m/s]", study.params.scenario.capture_speed),
+              ("swing_time_s", "swing time [s]", None),
+              ("peak_torque_Nm", "peak torque [N m]", None),
+              ("peak_motor_power_W", "peak motor power [W]", study.params.motor.power_rating)]
+    fig, axes = plt.subplots(2, 2, figsize=(10, 7))
+    for ax, (f, label, limit) in zip(axes.flat, fields):
+        v = np.array([r[f] for r in rows if r["outcome"] != "error"], dtype=float)
+        v = v[np.isfinite(v)]
+        if v.size:
+            ax.hist(v, bins=min(40, max(5, v.size // 5)), color="tab:blue", alpha=0.8)
+        if limit is not None:
+            ax.axvline(limit, color="tab:red", ls="--", label="limit")
+            ax.legend()
+        ax.set_xlabel(label)
+        ax.set_ylabel("samples")
+    return _save(fig, path, "Monte Carlo distributions")
+
+
+def plot_influence(study: Study, rows: list[dict], path) -> Path:
+    plt = _plt()
+    inf = influence(study, rows)
+    ranked = sorted(inf, key=inf.get, reverse=True)
+    fig, ax = plt.subplots(figsize=(6.5, 5))
+    if len(ranked) >= 2:
+        a, b = ranked[:2]
+        ax.scatter([r[a] for r in rows], [r[b] for r in rows], c=_colour(rows), s=12)
+        ax.set_xlabel(f"{a} (|r| = {inf[a]:.2f})")
+        ax.set_ylabel(f"{b} (|r| = {inf[b]:.2f})")
+    elif ranked:
+        a = ranked[0]
+        ax.scatter([r[a] for r in rows], [r["capture_speed_mps"] for r in rows],
+                   c=_colour(rows), s=12)
+        ax.set_xlabel(a)
+        ax.set_ylabel("capture speed [m/s]")
+    return _save(fig, path, "The two most influential quantities")
+
+
+def plot_study(study: Study, rows: list[dict], out) -> list[Path]:
+    out = Path(out)
+    return [plot_success_vs_parameters(study, rows, out / "success_vs_parameters.png"),
+            plot_histograms(study, rows, out / "histograms.png"),
+            plot_influence(study, rows, out / "influence.png")]

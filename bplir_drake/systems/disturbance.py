@@ -1,0 +1,87 @@
+"""External disturbances of a swing and a command delay line.
+
+:func:`disturbance_schedule` turns the scenario's disturbance fields into one
+zero-order-hold schedule of generalized forces on (joint 1, joint 2):
+
+* ``wind_torque1/2``: constant torques on both joints;
+* ``gust_torque`` / ``gust_rate`` / ``gust_duration``: random torque pulses
+  (gusts) arriving as a Poisson process, each a rectangle of the given
+  duration with an amplitude uniform in ``[-gust_torque, gust_torque]`` on
+  each joint independently;
+* ``torque_noise``: white noise (standard deviation, N m) on the elbow torque,
+  held over each controller period (actuator noise).
+
+Every random draw comes from ``numpy.random.default_rng([seed, 2, 0])`` (the
+gusts) and ``[seed, 2, 1]`` (the torque noise), so a swing's disturbances
+are reproducible from its seed.  :class:`CommandDelay` delays a discrete
+command by a whole number of periods (actuation delay).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from pydrake.systems.framework import BasicVector, LeafSystem
+
+from ..params import ScenarioParams
+
+
+def has_disturbance(sc: ScenarioParams) -> bool:
+    return bool(sc.wind_torque1 or sc.wind_torque2 or sc.torque_noise
+                or (sc.gust_torque and sc.gust_rate))
+
+
+def disturbance_schedule(sc: ScenarioParams, seed: int, period: float,
+                         duration: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """(times (N,), torques (N, 2)): torque[i] holds from times[i] to times[i+1]."""
+    duration = sc.max_time + 1.0 if duration is None else duration
+    n = int(math.ceil(duration / period)) + 1
+    times = np.arange(n) * period
+    torque = np.zeros((n, 2))
+    torque[:, 0] += sc.wind_torque1
+    torque[:, 1] += sc.wind_torque2
+    if sc.gust_torque and sc.gust_rate:
+        rng = np.random.default_rng([seed, 2, 0])
+        t = rng.exponential(1.0 / sc.gust_rate)
+        while t < duration:
+            amp = rng.uniform(-sc.gust_torque, sc.gust_torque, 2)
+            on = (times >= t - 1e-12) & (times < t + sc.gust_duration - 1e-12)
+            # a gust shorter than a period still acts for one period
+            if not on.any():
+                on[min(int(t / period), n - 1)] = True
+            torque[on] += amp
+            t += rng.exponential(1.0 / sc.gust_rate)
+    if sc.torque_noise:
+        rng = np.random.default_rng([seed, 2, 1])
+        torque[:, 1] += sc.torque_noise * rng.standard_normal(n)
+    return times, torque
+
+
+def delay_steps(delay: float, period: float) -> int:
+    """Whole controller periods of an actuation delay (rounded to nearest)."""
+    return int(round(delay / period))
+
+
+class CommandDelay(LeafSystem):
+    """Delays a sampled signal by ``steps`` periods: a FIFO updated at
+    ``k*period + offset`` (just after the sampled command is computed)."""
+
+    def __init__(self, size: int, period: float, steps: int, offset: float):
+        super().__init__()
+        if steps < 1:
+            raise ValueError("CommandDelay needs steps >= 1")
+        self.size, self.steps = size, steps
+        self.DeclareVectorInputPort("u", size)
+        # [u_{k-steps}, ..., u_k] after the update of tick k; the output is the first
+        self._xd = self.DeclareDiscreteState(size * (steps + 1))
+        self.DeclarePeriodicDiscreteUpdateEvent(period, offset, self._update)
+        self.DeclareVectorOutputPort("y", size, self._out, {self.xd_ticket()})
+
+    def _update(self, context, discrete_state):
+        buf = context.get_discrete_state(self._xd).get_value()
+        u = self.get_input_port(0).Eval(context)
+        discrete_state.get_mutable_vector(self._xd).SetFromVector(
+            np.concatenate([buf[self.size:], u]))
+
+    def _out(self, context, out: BasicVector):
+        out.SetFromVector(context.get_discrete_state(self._xd).get_value()[:self.size])

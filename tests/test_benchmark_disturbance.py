@@ -1,0 +1,79 @@
+"""Disturbances (gusts, torque noise, actuation delay) and the robustness benchmark."""
+import dataclasses as dc
+import math
+
+import numpy as np
+import pytest
+
+from bplir_drake.cli import main
+from bplir_drake.systems.disturbance import CommandDelay, disturbance_schedule
+
+
+def test_gusts_and_torque_noise_statistics(params):
+    sc = dc.replace(params.scenario, gust_torque=3.0, gust_rate=2.0, gust_duration=0.1,
+                    torque_noise=0.7, wind_torque1=0.25)
+    t, tau = disturbance_schedule(dc.replace(sc, torque_noise=0.0), seed=4, period=0.01,
+                                  duration=2000.0)
+    gust = tau[:, 0] - 0.25
+    # Poisson arrivals of 0.1 s rectangles: the line is gusty a fraction 1 - exp(-rate*dur)
+    assert np.mean(gust != 0) == pytest.approx(1 - math.exp(-0.2), abs=0.01)
+    assert np.all(tau[:, 1][gust == 0] == 0)
+    single = np.abs(gust[gust != 0])
+    assert np.median(single) < 3.0 and np.percentile(single, 99) < 6.0
+    _, tau_n = disturbance_schedule(dc.replace(sc, gust_torque=0.0), seed=4, period=0.01,
+                                    duration=400.0)
+    assert np.all(tau_n[:, 0] == 0.25)
+    assert np.std(tau_n[:, 1]) == pytest.approx(0.7, rel=0.03)
+    again = disturbance_schedule(sc, seed=4, period=0.01)[1]
+    assert np.array_equal(again, disturbance_schedule(sc, seed=4, period=0.01)[1])
+    assert not np.array_equal(again, disturbance_schedule(sc, seed=5, period=0.01)[1])
+
+
+def test_command_delay_shifts_by_whole_periods():
+    from pydrake.systems.analysis import Simulator
+    from pydrake.systems.framework import DiagramBuilder
+    from pydrake.systems.primitives import TrajectorySource
+    from pydrake.trajectories import PiecewisePolynomial
+
+    from bplir_drake.systems.logging import SampleLogger
+
+    T, steps = 0.01, 3
+    times = np.arange(40) * T + 1e-4  # a new value just after each tick
+    b = DiagramBuilder()
+    src = b.AddSystem(TrajectorySource(PiecewisePolynomial.ZeroOrderHold(
+        times, np.arange(40.0).reshape(1, -1))))
+    d = b.AddSystem(CommandDelay(1, T, steps, 3e-4))
+    log = b.AddSystem(SampleLogger(1, T, 5e-4))
+    b.Connect(src.get_output_port(0), d.get_input_port(0))
+    b.Connect(d.get_output_port(0), log.get_input_port(0))
+    sim = Simulator(b.Build())
+    sim.AdvanceTo(0.3)
+    t, y = log.arrays()
+    k = np.round(t / T).astype(int)
+    assert np.array_equal(y[:, 0][k >= steps], (k - steps)[k >= steps].astype(float))
+    assert np.all(y[:, 0][k < steps] == 0)
+
+
+def test_benchmark_scores_torque_noise_and_delay(tmp_path, params):
+    from bplir_drake.analysis.benchmark import benchmark_table, plot_benchmark, run_benchmark
+
+    res = run_benchmark(params, ["qft"], quick=True, categories=("torque noise", "delay"),
+                        workers=2, out=tmp_path)
+    sc = res["scores"]["qft"]
+    rows = {r["label"]: r for r in res["rows"]}
+    # 1 and 3 N m of torque noise: both swings captured
+    assert sc["categories"]["torque noise"] == 1.0
+    assert rows["1 N m"]["capture_speed_mps"] < 0.5 and rows["3 N m"]["capture_speed_mps"] < 0.5
+    # 10 and 30 ms of actuation delay: the landing becomes a crash (well over 0.5 m/s)
+    assert sc["categories"]["delay"] == 0.0
+    assert rows["30 ms"]["outcome"] == "crash" and rows["30 ms"]["capture_speed_mps"] > 5
+    assert sc["overall"] == 0.5
+    assert "| torque noise | 1.00 |" in benchmark_table(res)
+    assert plot_benchmark(res, tmp_path / "b.png").stat().st_size > 20_000
+    assert (tmp_path / "benchmark_cases.csv").read_text().count("\n") == 5
+
+
+def test_benchmark_rejects_unknown_controller(tmp_path, capsys):
+    assert main(["benchmark", "--quick", "--controllers", "qft,pid", "--out", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "unknown controller preset 'pid'" in err

@@ -28,6 +28,8 @@ def joint_friction(qd, fv: float, fc: float, b: float, k_drag: float = 0.0):
     """
     if isinstance(qd, np.ndarray) and qd.dtype != object:
         return fv * qd + fc * (2.0 / math.pi) * np.arctan(qd / b) + k_drag * qd * np.abs(qd)
+    if isinstance(qd, (float, np.floating)):  # fast path for plain numbers
+        return fv * qd + fc * (2.0 / math.pi) * math.atan(qd / b) + k_drag * qd * abs(qd)
     return fv * qd + fc * (2.0 / math.pi) * dmath.atan(qd / b) + k_drag * qd * abs(qd)
 
 

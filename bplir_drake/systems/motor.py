@@ -40,11 +40,12 @@ def apply_deadband(tau, deadband: float):
 
 def current_command(tau_cmd: float, p: MotorParams, tripped: bool) -> float:
     """Current the driver regulates to for a torque command."""
-    tau = float(np.clip(tau_cmd, -p.torque_limit, p.torque_limit))
+    # plain min/max: this runs at every integrator stage (np.clip on a scalar is slow)
+    tau = min(max(float(tau_cmd), -p.torque_limit), p.torque_limit)
     if abs(tau) < p.deadband:
         return 0.0
     i_lim = p.i_cont if tripped else p.i_peak
-    return float(np.clip(tau / p.torque_per_amp, -i_lim, i_lim))
+    return min(max(tau / p.torque_per_amp, -i_lim), i_lim)
 
 
 def interlock_budget(p: MotorParams) -> float:

@@ -66,6 +66,8 @@ class PathGeometry:
 
 def q2_line_seeking(s, l1: float, l2: float):
     """(7.18) for a line inclined by alpha, in ``s = q1 - alpha``."""
+    if isinstance(s, float):  # fast path for plain numbers (the predictor)
+        return math.acos(-(l1 / l2) * math.cos(s)) - s
     u = -(l1 / l2) * dmath.cos(s)
     return dmath.acos(u) - s
 

@@ -430,6 +430,7 @@ class PathParams(_Block):
     latch_rate: float = _p(0.3, "rad/s", 0, doc="latch to pure line seeking when q1' falls below this")
     latch_fraction: float = _p(0.85, "", 0, 1, doc="... and s >= this * s_e")
     latch_ramp: float = _p(2.0, "1/s", 0, lo_open=True, doc="after the latch the blend weight rises to 1 at this rate")
+    latch_lift: float = _p(0.02, "m", -0.1, 0.1, doc="after the latch the line-seeking path aims this far above the line (tracking error margin)")
     lead_time: float = _p(0.01, "s", 0, 0.1, doc="path evaluated at s + q1' * lead_time (ZOH + motor lag)")
     predict_friction: bool = True
     calibrate: bool = True

@@ -64,11 +64,12 @@ class PathGeometry:
 
 # ----------------------------------------------------------- path functions
 
-def q2_line_seeking(s, l1: float, l2: float):
-    """(7.18) for a line inclined by alpha, in ``s = q1 - alpha``."""
+def q2_line_seeking(s, l1: float, l2: float, lift: float = 0.0):
+    """(7.18) for a line inclined by alpha, in ``s = q1 - alpha``: the elbow
+    angle that puts the gripper on the line (``lift`` above it)."""
     if isinstance(s, float):  # fast path for plain numbers (the predictor)
-        return math.acos(-(l1 / l2) * math.cos(s)) - s
-    u = -(l1 / l2) * dmath.cos(s)
+        return math.acos(-(l1 * math.cos(s) + lift) / l2) - s
+    u = -(l1 * dmath.cos(s) + lift) / l2
     return dmath.acos(u) - s
 
 
@@ -76,16 +77,18 @@ def smoothstep(x):
     return 3.0 * x * x - 2.0 * x * x * x
 
 
-def path_q2(s, s_e: float, g: PathGeometry, n: float, lam: float = 1.0, floor: float = 0.0):
+def path_q2(s, s_e: float, g: PathGeometry, n: float, lam: float = 1.0, floor: float = 0.0,
+            lift: float = 0.0):
     """The blended path value ``q2_ref(s)`` for a given blend end ``s_e``;
-    ``floor`` is a lower bound of the blend weight F (the soft latch)."""
+    ``floor`` is a lower bound of the blend weight F (the soft latch) and
+    ``lift`` raises the line-seeking target above the line (after the latch)."""
     if s <= 0 and floor <= 0:
         # RTS (7.6); lam > 1 amplifies the elbow swing in the first half
         # (energy pumping, (7.14)-(7.15)) while keeping q2(-s_f) = q2_0, q2(0) = 0
         return g.k_f * s * (1.0 + (lam - 1.0) * (1.0 - (s / g.s_f) ** 2))
     x = s / s_e
     if x >= 1.0 or floor >= 1.0:
-        return q2_line_seeking(s, g.l1, g.l2)
+        return q2_line_seeking(s, g.l1, g.l2, lift)
     # (the blend below is evaluated for 0 < s < s_e)
     k_e = q2_line_seeking(s_e, g.l1, g.l2) / s_e
     k = lam * g.k_f + (k_e - lam * g.k_f) * smoothstep(x)
@@ -93,16 +96,16 @@ def path_q2(s, s_e: float, g: PathGeometry, n: float, lam: float = 1.0, floor: f
     F = x ** n if x > 0 else 0.0 * x
     if F < floor:
         F = 0.0 * F + floor
-    return sym + F * (q2_line_seeking(s, g.l1, g.l2) - sym)
+    return sym + F * (q2_line_seeking(s, g.l1, g.l2, lift) - sym)
 
 
 def path_derivatives(s, s_e: float, g: PathGeometry, n: float, lam: float = 1.0,
-                     floor: float = 0.0, h: float = 1e-4):
+                     floor: float = 0.0, h: float = 1e-4, lift: float = 0.0):
     """(phi, phi', phi'') by finite differences (any scalar type).  The path
     changes branch at the vertical (s = 0) and at the blend end (s = s_e),
     where its curvature jumps: next to them the stencil is one-sided, on the
     side of ``s``."""
-    f = lambda x: path_q2(x, s_e, g, n, lam, floor)  # noqa: E731
+    f = lambda x: path_q2(x, s_e, g, n, lam, floor, lift)  # noqa: E731
     b = f(s)
     if floor < 1.0 and ((s <= 0 < s + h) or (s < s_e <= s + h)):
         b1, b2, b3 = f(s - h), f(s - 2 * h), f(s - 3 * h)   # backward
@@ -271,7 +274,8 @@ def PathGenerator_(T):
             lam = pp.pump_gain
             s_e = d[0] if pp.mode == "adaptive" else g.s_f
             floor = d[1]
-            phi, d1, d2 = path_derivatives(s, s_e, g, pp.blend_exponent, lam, floor)
+            lift = pp.latch_lift if d[3] > 0.5 else 0.0
+            phi, d1, d2 = path_derivatives(s, s_e, g, pp.blend_exponent, lam, floor, lift=lift)
             return x, s, phi, d1, d2
 
         def _out_ref(self, context, out):

@@ -54,23 +54,21 @@ def test_command_delay_shifts_by_whole_periods():
     assert np.all(y[:, 0][k < steps] == 0)
 
 
-def test_benchmark_scores_torque_noise_and_delay(tmp_path, params):
+def test_benchmark_scores_actuation_delay(tmp_path, params):
     from bplir_drake.analysis.benchmark import benchmark_table, plot_benchmark, run_benchmark
 
-    res = run_benchmark(params, ["qft"], quick=True, categories=("torque noise", "delay"),
-                        workers=2, out=tmp_path)
+    res = run_benchmark(params, ["qft"], quick=True, categories=("delay",), workers=2,
+                        out=tmp_path)
     sc = res["scores"]["qft"]
     rows = {r["label"]: r for r in res["rows"]}
-    # 1 and 3 N m of torque noise: both swings captured
-    assert sc["categories"]["torque noise"] == 1.0
-    assert rows["1 N m"]["capture_speed_mps"] < 0.5 and rows["3 N m"]["capture_speed_mps"] < 0.5
-    # 10 and 30 ms of actuation delay: the landing becomes a crash (well over 0.5 m/s)
-    assert sc["categories"]["delay"] == 0.0
+    # 10 ms of actuation delay is tolerated; 30 ms turns the landing into a
+    # crash far above the 0.5 m/s limit (the loop is near its delay margin)
+    assert rows["10 ms"]["outcome"] == "captured" and rows["10 ms"]["capture_speed_mps"] < 0.5
     assert rows["30 ms"]["outcome"] == "crash" and rows["30 ms"]["capture_speed_mps"] > 5
-    assert sc["overall"] == 0.5
-    assert "| torque noise | 1.00 |" in benchmark_table(res)
+    assert sc["categories"] == {"delay": 0.5} and sc["overall"] == 0.5
+    assert "| delay | 0.50 |" in benchmark_table(res)
     assert plot_benchmark(res, tmp_path / "b.png").stat().st_size > 20_000
-    assert (tmp_path / "benchmark_cases.csv").read_text().count("\n") == 5
+    assert (tmp_path / "benchmark_cases.csv").read_text().count("\n") == 3
 
 
 def test_benchmark_rejects_unknown_controller(tmp_path, capsys):

@@ -217,3 +217,16 @@ def test_nominal_controller_never_sees_true_parameters():
     assert p.true_plant.m2 == drawn["true_plant.m2"] != p.plant.m2 == 1.5155
     with pytest.raises(ParameterError):
         mc.Distribution("controller.period", "uniform", rel=0.1)
+
+
+def test_broad_example_study_covers_every_kind_of_uncertainty():
+    from pathlib import Path
+
+    st = mc.load_study(Path(__file__).parent.parent / "examples" / "study_broad.toml")
+    blocks = {d.block for d in st.distributions}
+    assert blocks == {"true_friction", "true_plant", "imu", "scenario"}
+    assert {d.dist for d in st.distributions} == {"uniform", "normal", "truncnormal"}
+    p, _, drawn = mc.sample_params(st, 0)
+    assert abs(drawn["imu.misalign1"]) <= math.radians(2.5)
+    assert p.plant == st.params.plant            # the controller's model is nominal
+    assert p.true_plant.l2 == drawn["true_plant.l2"]

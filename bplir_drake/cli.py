@@ -624,6 +624,12 @@ def main(argv=None) -> int:
     except (ParameterError, InputError, LogError, QftError, CalibrationError) as exc:
         sys.stderr.write(f"bplir: error: {exc}\n")
         return 2
+    except KeyboardInterrupt:
+        where = getattr(args, "out", None)
+        sys.stderr.write("bplir: interrupted" + (f"; finished results are kept in {where} "
+                                                 "(the same command resumes a Monte Carlo study)"
+                                                 if where else "") + "\n")
+        return 130
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -230,3 +230,12 @@ def test_broad_example_study_covers_every_kind_of_uncertainty():
     assert abs(drawn["imu.misalign1"]) <= math.radians(2.5)
     assert p.plant == st.params.plant            # the controller's model is nominal
     assert p.true_plant.l2 == drawn["true_plant.l2"]
+
+
+def test_unreachable_dask_scheduler_is_one_line_exit_2(tmp_path, capsys):
+    pytest.importorskip("dask.distributed")
+    assert main(["montecarlo", "-n", "2", "--scheduler", "tcp://127.0.0.1:9",
+                 "--out", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "cannot reach the Dask scheduler at tcp://127.0.0.1:9" in err
+    assert (tmp_path / "study.toml").exists()   # nothing computed, nothing lost

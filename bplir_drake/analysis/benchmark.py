@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from ..params import BplirParams, ParameterError
-from .montecarlo import map_jobs
+from .montecarlo import error_text, map_jobs
 
 MODEL_FIELDS = ("true_plant.m1", "true_plant.m2", "true_plant.I1", "true_plant.I2",
                 "true_plant.lc1", "true_plant.lc2", "true_friction.fv1", "true_friction.fv2",
@@ -96,7 +96,7 @@ def _run_case(params: BplirParams, job: dict) -> dict:
     except Exception as exc:
         row |= {"outcome": "error", "success": False, "capture_speed_mps": float("nan"),
                 "swing_time_s": float("nan"), "peak_torque_Nm": float("nan"),
-                "error": " ".join(f"{type(exc).__name__}: {exc}".split())[:300]}
+                "error": error_text(exc)}
     return row
 
 

@@ -296,11 +296,15 @@ def run_sample(study: Study, index: int) -> dict:
     return row
 
 
+def error_text(exc: BaseException) -> str:
+    """An exception as one line of at most 300 characters, for a result row."""
+    return " ".join(f"{type(exc).__name__}: {exc}".split())[:300]
+
+
 def _error_fields(exc: BaseException) -> dict:
-    msg = " ".join(f"{type(exc).__name__}: {exc}".split())
-    return {k: (math.nan if k not in ("outcome", "success", "fixed_gripper_open") else None)
-            for k in RESULT_FIELDS} | {"outcome": "error", "success": False,
-                                       "fixed_gripper_open": False, "error": msg[:300]}
+    return {k: math.nan for k in RESULT_FIELDS} | {
+        "outcome": "error", "success": False, "fixed_gripper_open": False,
+        "error": error_text(exc)}
 
 
 # ------------------------------------------------------------ result table

@@ -19,14 +19,13 @@ category scores.  Every controller preset sees the same cases and seeds.
 from __future__ import annotations
 
 import csv
-import dataclasses as dc
 import zlib
 from pathlib import Path
 
 import numpy as np
 
 from ..params import BplirParams, ParameterError
-from .montecarlo import error_text, map_jobs
+from .montecarlo import apply_values, base_value, error_text, map_jobs, pinned
 
 MODEL_FIELDS = ("true_plant.m1", "true_plant.m2", "true_plant.I1", "true_plant.I2",
                 "true_plant.lc1", "true_plant.lc2", "true_friction.fv1", "true_friction.fv2",
@@ -66,14 +65,9 @@ CATEGORIES = ("model parameters", "sensor noise", "torque noise", "delay", "gust
 
 def case_params(params: BplirParams, controller: str, changes: dict) -> BplirParams:
     """The nominal robot (true = nominal, no friction draw) with ``changes``."""
-    p = params.with_controller(controller)
-    p = p.with_(true_plant=p.simulated_plant, true_friction=p.simulated_friction)
-    blocks: dict[str, dict] = {}
-    for name, (how, value) in changes.items():
-        b, f = name.split(".")
-        base = getattr(getattr(p, b), f)
-        blocks.setdefault(b, {})[f] = base * value if how == "scale" else value
-    return p.with_(**{b: dc.replace(getattr(p, b), **kv) for b, kv in blocks.items()})
+    p = pinned(params.with_controller(controller))
+    return apply_values(p, {name: base_value(p, name) * value if how == "scale" else value
+                            for name, (how, value) in changes.items()})
 
 
 def case_seed(root: int, case: dict, repeat: int) -> int:

@@ -250,34 +250,50 @@ def sample_seed(root: int, index: int) -> int:
     return int(np.random.SeedSequence([root, index]).generate_state(1, dtype=np.uint32)[0])
 
 
+def pinned(params: BplirParams) -> BplirParams:
+    """``params`` with the simulated robot set explicitly (``true_plant`` and
+    ``true_friction`` = their current values), so the swing runner draws no
+    friction of its own."""
+    return params.with_(true_plant=params.simulated_plant,
+                        true_friction=params.simulated_friction)
+
+
+def base_value(params: BplirParams, name: str) -> float:
+    """The value of ``"block.field"`` in ``params``."""
+    block, fld = name.split(".")
+    return float(getattr(getattr(params, block), fld))
+
+
+def apply_values(params: BplirParams, values: dict[str, float]) -> BplirParams:
+    """``params`` with every ``"block.field"`` of ``values`` replaced
+    (validated: an impossible value raises :class:`ParameterError`)."""
+    blocks: dict[str, dict[str, float]] = {}
+    for name, value in values.items():
+        block, fld = name.split(".")
+        blocks.setdefault(block, {})[fld] = value
+    return params.with_(**{b: dc.replace(getattr(params, b), **kv) for b, kv in blocks.items()})
+
+
 def draw_values(study: Study, index: int) -> dict[str, float]:
     """The drawn value of every uncertain quantity of sample ``index``."""
-    p = study.params
-    p = p.with_(true_plant=p.simulated_plant, true_friction=p.simulated_friction)
+    p = pinned(study.params)
     drawn = {}
     for d in study.distributions:
         rng = np.random.default_rng([study.seed, index, zlib.crc32(d.name.encode())])
-        drawn[d.name] = d.draw(float(getattr(getattr(p, d.block), d.field)), rng)
+        drawn[d.name] = d.draw(base_value(p, d.name), rng)
     return drawn
 
 
 def sample_params(study: Study, index: int) -> tuple[BplirParams, int, dict[str, float]]:
     """(parameters, swing seed, drawn values) of sample ``index``.
 
-    The simulated robot starts from the nominal model (``true_plant`` and
-    ``true_friction`` are set explicitly, so the swing runner draws nothing
-    more) and the study's draws are applied on top.  An impossible draw
-    (e.g. a negative mass) raises :class:`ParameterError`.
+    The simulated robot starts from the nominal model (:func:`pinned`, so the
+    swing runner draws nothing more) and the study's draws are applied on
+    top.  An impossible draw (e.g. a negative mass) raises
+    :class:`ParameterError`.
     """
-    p = study.params
-    p = p.with_(true_plant=p.simulated_plant, true_friction=p.simulated_friction)
     drawn = draw_values(study, index)
-    changes: dict[str, dict[str, float]] = {}
-    for d in study.distributions:
-        changes.setdefault(d.block, {})[d.field] = drawn[d.name]
-    if changes:
-        p = p.with_(**{b: dc.replace(getattr(p, b), **kv) for b, kv in changes.items()})
-    return p, sample_seed(study.seed, index), drawn
+    return apply_values(pinned(study.params), drawn), sample_seed(study.seed, index), drawn
 
 
 def run_sample(study: Study, index: int) -> dict:

@@ -478,6 +478,43 @@ def cmd_benchmark(args) -> int:
 
 
 # ------------------------------------------------------------------ calibrate
+def cmd_plan(args) -> int:
+    import dataclasses as dc
+
+    from .analysis.swing_plan import plan_swing, plot_plan
+
+    params = _load_params(args)
+    if args.incline is not None:
+        params = params.with_(scenario=dc.replace(params.scenario, incline_deg=args.incline))
+    from .diagrams import swing_geometry
+
+    swing_geometry(params)  # validates grip spacing / incline for this robot
+    if args.power is not None and not (args.power > 0 and math.isfinite(args.power)):
+        raise InputError(f"--power = {args.power:g} W is not allowed; allowed (0, inf) W")
+    if not 5 <= args.knots <= 400:
+        raise InputError(f"--knots = {args.knots} is out of range; allowed [5, 400]")
+    plan = plan_swing(params, power_limit=args.power, knots=args.knots)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    figure = plot_plan(plan, out / "plan.png", params)
+    summary = plan.summary() | {"figure": str(figure)}
+    (out / "plan.json").write_text(json.dumps(summary, indent=2, default=_jsonable))
+    import numpy as np
+
+    np.savetxt(out / "plan.csv", np.c_[plan.times, plan.states, plan.torque],
+               delimiter=",", header="t,q1,q2,q1d,q2d,tau", comments="")
+    verdict = "feasible" if plan.feasible else "NOT feasible"
+    _emit(summary, args.json, [
+        f"planned swing on a {plan.incline_deg:g} deg line: {verdict} "
+        f"(solver {plan.solver}, optimal: {plan.solved})",
+        f"  duration {plan.duration:.3f} s, peak torque {plan.peak_torque:.1f} N m, "
+        f"peak power {plan.peak_power:.0f} W (limit {plan.power_limit:g} W)",
+        f"  motor work {plan.energy_in:.1f} J, friction loss {plan.dissipated:.1f} J, "
+        f"link 1 reverses {plan.link1_reversals}x",
+        f"  wrote {out}/plan.png, plan.csv, plan.json"])
+    return 0 if plan.feasible else 1
+
+
 def cmd_calibrate(args) -> int:
     from .analysis.calibration import (calibrate, identify_deadband, identify_plant_family,
                                        plot_calibration, read_calibration_csv,
@@ -591,6 +628,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=0, help="root seed of the benchmark")
     p.add_argument("--out", default="out/benchmark")
     p.set_defaults(func=cmd_benchmark)
+
+    p = sub.add_parser("plan", help="plan a swing by trajectory optimisation (torque and power limits)")
+    common(p)
+    p.add_argument("--incline", type=float, default=None, help="line incline in degrees")
+    p.add_argument("--power", type=float, default=None, help="motor power limit in W (default: rating)")
+    p.add_argument("--knots", type=int, default=41, help="collocation knots")
+    p.add_argument("--out", default="out/plan")
+    p.set_defaults(func=cmd_plan)
 
     p = sub.add_parser("calibrate", help="fit the plant model to a logged run (4.5)")
     common(p)

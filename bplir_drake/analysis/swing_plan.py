@@ -1,0 +1,195 @@
+"""Open-loop swing planning by trajectory optimisation (Drake
+``DirectCollocation``): is a swing feasible within the torque and motor power
+ratings, how long does it take, and what does it look like?
+
+The plan is the full-state trajectory from the start pose at rest to the
+mirror target at rest (7.1) on the nominal model *with* joint friction
+(Coulomb smoothing widened to at least 0.2 rad/s so the problem is smooth),
+with ``|tau| <= torque_limit`` and ``|tau q2'| <= power_limit`` at every knot,
+minimising ``int tau^2 dt + time_weight * T``.
+
+This answers the incline question of chapter 7 with numbers: the
+dissertation's heuristic (maximum torque during the whole first half) needed
+~400 W for a 20 degree uphill swing; a planned swing needs far less (see the
+README).  It also shows *why* our path generator cannot climb: the planned
+uphill swing reverses link 1 at least once (a back-swing to pump energy),
+so it is not a single path ``q2 = phi(q1)`` and cannot be followed by a
+time-independent path of the passive angle.
+
+The plan is not a controller: tracking it needs a clock (see the issue 5
+notes); it is an analysis tool.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..params import BplirParams, ParameterError
+
+#: smallest Coulomb smoothing velocity the planner uses (rad/s)
+PLAN_FRICTION_SMOOTHING = 0.2
+
+
+@dataclass
+class SwingPlan:
+    """A planned swing, sampled densely from the collocation solution."""
+
+    times: np.ndarray          # (n,)
+    states: np.ndarray         # (n, 4): q1, q2, q1d, q2d
+    torque: np.ndarray         # (n,)
+    friction: np.ndarray       # (n, 2): friction torques f1, f2 of the planning model
+    solved: bool               # the solver reported optimality
+    feasible: bool             # every constraint holds within ``tolerance``
+    solver: str
+    incline_deg: float
+    torque_limit: float
+    power_limit: float
+    tolerance: float
+
+    @property
+    def duration(self) -> float:
+        return float(self.times[-1])
+
+    @property
+    def power(self) -> np.ndarray:
+        return self.torque * self.states[:, 3]
+
+    @property
+    def peak_torque(self) -> float:
+        return float(np.max(np.abs(self.torque)))
+
+    @property
+    def peak_power(self) -> float:
+        return float(np.max(np.abs(self.power)))
+
+    @property
+    def energy_in(self) -> float:
+        """Work of the elbow motor, int tau q2' dt."""
+        return float(np.trapezoid(self.power, self.times))
+
+    @property
+    def dissipated(self) -> float:
+        """Work of friction, int (f1 q1' + f2 q2') dt."""
+        f, v = self.friction, self.states[:, 2:4]
+        return float(np.trapezoid(f[:, 0] * v[:, 0] + f[:, 1] * v[:, 1], self.times))
+
+    @property
+    def link1_reversals(self) -> int:
+        """How often link 1 changes direction (0 for a single forward swing)."""
+        w = self.states[:, 2]
+        moving = w[np.abs(w) > 0.05]
+        return int(np.count_nonzero(np.diff(np.sign(moving)) != 0))
+
+    def summary(self) -> dict:
+        return {"incline_deg": self.incline_deg, "solved": self.solved,
+                "feasible": self.feasible, "solver": self.solver,
+                "duration_s": self.duration, "peak_torque_Nm": self.peak_torque,
+                "peak_motor_power_W": self.peak_power, "energy_in_J": self.energy_in,
+                "friction_loss_J": self.dissipated, "link1_reversals": self.link1_reversals,
+                "torque_limit_Nm": self.torque_limit, "power_limit_W": self.power_limit,
+                "constraint_tolerance": self.tolerance}
+
+
+def plan_swing(params: BplirParams, *, power_limit: float | None = None, knots: int = 41,
+               time_weight: float = 1.0, max_duration: float | None = None,
+               guess_duration: float = 1.5, tolerance: float = 1e-4,
+               iterations: int = 1500) -> SwingPlan:
+    """Plan the scenario's swing (nominal model).  ``power_limit`` defaults to
+    the motor's rating, the torque limit to the controller's; the duration
+    is free within ``max_duration`` (default: the scenario's timeout)."""
+    from pydrake.all import (DiagramBuilder, DirectCollocation, PiecewisePolynomial,
+                             SnoptSolver, Solve, SolverOptions)
+
+    from ..diagrams import add_plant_with_friction, swing_geometry
+    from ..systems.friction import friction_torques
+
+    if knots < 5:
+        raise ParameterError(f"knots = {knots} is too few; allowed [5, 400]")
+    if knots > 400:
+        raise ParameterError(f"knots = {knots} is too many; allowed [5, 400]")
+    power = params.motor.power_rating if power_limit is None else float(power_limit)
+    if not (power > 0 and math.isfinite(power)):
+        raise ParameterError(f"power limit = {power:g} W is not allowed; allowed (0, inf) W")
+    tmax = params.scenario.max_time if max_duration is None else float(max_duration)
+    q0, qT, _, _ = swing_geometry(params)
+    tau_max = min(params.controller.torque_limit, params.motor.torque_limit)
+    friction = params.friction
+    friction = friction.__class__(**(friction.as_dict() | {
+        "b": max(friction.b, PLAN_FRICTION_SMOOTHING)}))
+
+    builder = DiagramBuilder()
+    plant, _ = add_plant_with_friction(builder, params.plant, friction)
+    builder.ExportInput(plant.get_actuation_input_port(), "elbow_torque")
+    system = builder.Build()
+    dircol = DirectCollocation(system, system.CreateDefaultContext(), num_time_samples=knots,
+                               minimum_time_step=0.2 / (knots - 1),
+                               maximum_time_step=tmax / (knots - 1))
+    prog = dircol.prog()
+    x0, xT = np.r_[q0, 0.0, 0.0], np.r_[qT, 0.0, 0.0]
+    prog.AddBoundingBoxConstraint(x0, x0, dircol.initial_state())
+    prog.AddBoundingBoxConstraint(xT, xT, dircol.final_state())
+    u, x = dircol.input(), dircol.state()
+    dircol.AddConstraintToAllKnotPoints(u[0] <= tau_max)
+    dircol.AddConstraintToAllKnotPoints(u[0] >= -tau_max)
+    dircol.AddConstraintToAllKnotPoints(u[0] * x[3] <= power)
+    dircol.AddConstraintToAllKnotPoints(u[0] * x[3] >= -power)
+    dircol.AddRunningCost(u[0] ** 2)
+    if time_weight > 0:
+        dircol.AddFinalCost(dircol.time()[0] * float(time_weight))
+    dircol.SetInitialTrajectory(PiecewisePolynomial(), PiecewisePolynomial.FirstOrderHold(
+        [0.0, min(guess_duration, tmax)], np.c_[x0, xT]))
+    options = SolverOptions()
+    snopt = SnoptSolver().solver_id()
+    options.SetOption(snopt, "Major iterations limit", int(iterations))
+    result = Solve(prog, None, options)
+    feasible = not result.GetInfeasibleConstraintNames(prog, tolerance)
+    xs = dircol.ReconstructStateTrajectory(result)
+    us = dircol.ReconstructInputTrajectory(result)
+    times = np.linspace(xs.start_time(), xs.end_time(), 20 * knots)
+    states = np.array([xs.value(t).ravel() for t in times])
+    torque = np.array([us.value(t).ravel()[0] for t in times])
+    fr = np.array([friction_torques(s[2:4], friction) for s in states])
+    return SwingPlan(times, states, torque, fr, bool(result.is_success()), feasible,
+                     result.get_solver_id().name(), params.scenario.incline_deg, tau_max,
+                     power, tolerance)
+
+
+def plot_plan(plan: SwingPlan, path, params: BplirParams):
+    """Figure of a plan: joint angles, torque and power with the limits, and
+    the robot drawn at a few instants on the line."""
+    import matplotlib.pyplot as plt
+
+    from ..systems.plant import elbow_position, gripper_position
+
+    fig, ax = plt.subplots(1, 3, figsize=(15, 4.2))
+    t, X = plan.times, plan.states
+    ax[0].plot(t, X[:, 0], label="q1")
+    ax[0].plot(t, X[:, 1], label="q2")
+    ax[0].set(xlabel="t (s)", ylabel="angle (rad)", title="planned joint angles")
+    ax[0].legend()
+    ax[1].plot(t, plan.torque, label="torque (N m)")
+    ax[1].plot(t, plan.power / 10.0, label="power / 10 (W)")
+    for lim, style in ((plan.torque_limit, "k--"), (plan.power_limit / 10.0, "r:")):
+        ax[1].axhline(lim, color=style[0], ls=style[1:])
+        ax[1].axhline(-lim, color=style[0], ls=style[1:])
+    ax[1].set(xlabel="t (s)", title=f"peak {plan.peak_torque:.1f} N m, {plan.peak_power:.0f} W")
+    ax[1].legend()
+    alpha = math.radians(plan.incline_deg)
+    D = params.scenario.grip_spacing
+    ax[2].plot([-1.3 * D * math.cos(alpha), 1.3 * D * math.cos(alpha)],
+               [-1.3 * D * math.sin(alpha), 1.3 * D * math.sin(alpha)], "k-", lw=2)
+    p = params.plant
+    for k, i in enumerate(np.linspace(0, len(t) - 1, 9).astype(int)):
+        e = np.asarray(elbow_position(X[i, :2], p.l1))
+        g = np.asarray(gripper_position(X[i, :2], p.l1, p.l2))
+        c = plt.cm.viridis(k / 8)
+        ax[2].plot([0, e[0], g[0]], [0, e[1], g[1]], "-o", color=c, ms=3)
+    ax[2].set_aspect("equal")
+    ax[2].set(title=f"{plan.incline_deg:g} deg line, {plan.duration:.2f} s, "
+                    f"link 1 reverses {plan.link1_reversals}x")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path

@@ -486,13 +486,7 @@ def cmd_plan(args) -> int:
     params = _load_params(args)
     if args.incline is not None:
         params = params.with_(scenario=dc.replace(params.scenario, incline_deg=args.incline))
-    from .diagrams import swing_geometry
-
-    swing_geometry(params)  # validates grip spacing / incline for this robot
-    if args.power is not None and not (args.power > 0 and math.isfinite(args.power)):
-        raise InputError(f"--power = {args.power:g} W is not allowed; allowed (0, inf) W")
-    if not 5 <= args.knots <= 400:
-        raise InputError(f"--knots = {args.knots} is out of range; allowed [5, 400]")
+    # plan_swing validates the scenario, the power limit and the knots
     plan = plan_swing(params, power_limit=args.power, knots=args.knots)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)

@@ -22,7 +22,7 @@ notes); it is an analysis tool.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -105,19 +105,15 @@ def plan_swing(params: BplirParams, *, power_limit: float | None = None, knots: 
     from ..diagrams import add_plant_with_friction, swing_geometry
     from ..systems.friction import friction_torques
 
-    if knots < 5:
-        raise ParameterError(f"knots = {knots} is too few; allowed [5, 400]")
-    if knots > 400:
-        raise ParameterError(f"knots = {knots} is too many; allowed [5, 400]")
+    if not 5 <= knots <= 400:
+        raise ParameterError(f"knots = {knots} is out of range; allowed [5, 400]")
     power = params.motor.power_rating if power_limit is None else float(power_limit)
     if not (power > 0 and math.isfinite(power)):
         raise ParameterError(f"power limit = {power:g} W is not allowed; allowed (0, inf) W")
     tmax = params.scenario.max_time if max_duration is None else float(max_duration)
     q0, qT, _, _ = swing_geometry(params)
     tau_max = min(params.controller.torque_limit, params.motor.torque_limit)
-    friction = params.friction
-    friction = friction.__class__(**(friction.as_dict() | {
-        "b": max(friction.b, PLAN_FRICTION_SMOOTHING)}))
+    friction = replace(params.friction, b=max(params.friction.b, PLAN_FRICTION_SMOOTHING))
 
     builder = DiagramBuilder()
     plant, _ = add_plant_with_friction(builder, params.plant, friction)

@@ -343,7 +343,7 @@ def swing_geometry(params: BplirParams):
 
 
 def build_swing(params: BplirParams, *, seed: int | None = None, use_estimator: bool | None = None,
-                log_period: float = 0.005) -> Built:
+                log_period: float = 0.005, plan_gains=None) -> Built:
     """The full closed loop of one swing.
 
     True (possibly perturbed) plant + friction + disturbances (wind, gusts,
@@ -353,6 +353,11 @@ def build_swing(params: BplirParams, *, seed: int | None = None, use_estimator: 
     (nominal plant), gripper interlock (true contact sensing), loggers.  With
     ``use_estimator=False`` the path and controller read the true state
     (sampled at their tick) instead of the estimate.
+
+    With ``path.mode = "plan"`` the path generator and CPFL controller are
+    replaced by a :class:`~bplir_drake.systems.plan_tracker.PlanTracker`
+    built from ``plan_gains`` (Drake's finite-horizon LQR result along a
+    planned swing, :func:`bplir_drake.analysis.swing_plan.tracking_gains`).
     """
     from dataclasses import replace
 
@@ -392,18 +397,29 @@ def build_swing(params: BplirParams, *, seed: int | None = None, use_estimator: 
     ekf.set_name("ekf")
     builder.Connect(sampler.get_output_port(0), ekf.get_input_port(0))
     state_port = ekf.GetOutputPort("estimate_relative") if use_est else plant.get_state_output_port()
-    fv1 = params.friction.fv1 if params.path.predict_friction else 0.0
-    path = builder.AddSystem(PathGenerator(params.plant, params.path, pg, ctrl_p.period,
-                                           2 * COMPUTE_OFFSET, fv1))
-    path.set_name("path")
-    builder.Connect(state_port, path.get_input_port(0))
-    ctrl = builder.AddSystem(CpflController(params.plant, ctrl_p, params.friction,
-                                            offset=3 * COMPUTE_OFFSET, use_prefilter=False))
-    ctrl.set_name("controller")
-    builder.Connect(state_port, ctrl.GetInputPort("state"))
-    builder.Connect(path.GetOutputPort("reference"), ctrl.GetInputPort("reference"))
-    builder.Connect(path.GetOutputPort("feedforward"), ctrl.GetInputPort("feedforward"))
-    builder.Connect(motor.GetOutputPort("available"), ctrl.GetInputPort("torque_available"))
+    T = ctrl_p.period
+    if params.path.mode == "plan":
+        from .systems.plan_tracker import PlanTracker
+
+        if plan_gains is None:
+            raise ValueError("path.mode = 'plan' needs the tracking gains of a planned swing")
+        ctrl = path = builder.AddSystem(PlanTracker(plan_gains, ctrl_p.torque_limit, T,
+                                                    3 * COMPUTE_OFFSET))
+        ctrl.set_name("plan_tracker")
+        builder.Connect(state_port, ctrl.get_input_port(0))
+    else:
+        fv1 = params.friction.fv1 if params.path.predict_friction else 0.0
+        path = builder.AddSystem(PathGenerator(params.plant, params.path, pg, T,
+                                               2 * COMPUTE_OFFSET, fv1))
+        path.set_name("path")
+        builder.Connect(state_port, path.get_input_port(0))
+        ctrl = builder.AddSystem(CpflController(params.plant, ctrl_p, params.friction,
+                                                offset=3 * COMPUTE_OFFSET, use_prefilter=False))
+        ctrl.set_name("controller")
+        builder.Connect(state_port, ctrl.GetInputPort("state"))
+        builder.Connect(path.GetOutputPort("reference"), ctrl.GetInputPort("reference"))
+        builder.Connect(path.GetOutputPort("feedforward"), ctrl.GetInputPort("feedforward"))
+        builder.Connect(motor.GetOutputPort("available"), ctrl.GetInputPort("torque_available"))
     command = ctrl.GetOutputPort("torque")
     steps = delay_steps(sc.actuation_delay, ctrl_p.period)
     if steps:
@@ -418,7 +434,6 @@ def build_swing(params: BplirParams, *, seed: int | None = None, use_estimator: 
     builder.Connect(motor.GetOutputPort("tripped"), lock.GetInputPort("tripped"))
     builder.Connect(ekf.GetOutputPort("estimate_relative"), lock.GetInputPort("estimate"))
     builder.Connect(motor.GetOutputPort("torque"), lock.GetInputPort("torque"))
-    T = ctrl_p.period
     loggers = {
         "state": LogVectorOutput(plant.get_state_output_port(), builder, log_period),
         "torque": LogVectorOutput(motor.GetOutputPort("torque"), builder, log_period),
@@ -428,14 +443,15 @@ def build_swing(params: BplirParams, *, seed: int | None = None, use_estimator: 
         "estimate": _sample_logger(builder, ekf.GetOutputPort("estimate_relative"), T,
                                    2 * COMPUTE_OFFSET),
         "command": _sample_logger(builder, ctrl.GetOutputPort("torque"), T, 4 * COMPUTE_OFFSET),
-        "v": _sample_logger(builder, ctrl.GetOutputPort("v"), T, 4 * COMPUTE_OFFSET),
         "reference": _sample_logger(builder, path.GetOutputPort("reference"), T,
-                                    4 * COMPUTE_OFFSET),
-        "blend_end": _sample_logger(builder, path.GetOutputPort("blend_end"), T,
                                     4 * COMPUTE_OFFSET),
         "imu": _sample_logger(builder, sampler.get_output_port(0), params.imu.period,
                               COMPUTE_OFFSET / 2),
     }
+    if params.path.mode != "plan":
+        loggers["v"] = _sample_logger(builder, ctrl.GetOutputPort("v"), T, 4 * COMPUTE_OFFSET)
+        loggers["blend_end"] = _sample_logger(builder, path.GetOutputPort("blend_end"), T,
+                                              4 * COMPUTE_OFFSET)
     diagram = builder.Build()
     diagram.set_name("brachiation_swing")
     systems = {"friction": fr, "motor": motor, "imu": sampler, "ekf": ekf, "path": path,

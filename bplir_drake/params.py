@@ -407,15 +407,17 @@ class ControllerParams(_Block):
 
 
 # ---------------------------------------------------------------- path
-PATH_MODES = ("adaptive", "rts", "lab")
+PATH_MODES = ("adaptive", "rts", "lab", "plan")
 
 
 @dataclass(frozen=True)
 class PathParams(_Block):
     """Online path generator (chapter 7).  ``mode``: ``adaptive`` (RTS +
     blend to line seeking with the adaptive blend end), ``rts`` (the RTS path
-    with the blend (7.20)-(7.21) at its printed end, no adaptation) or
-    ``lab`` (the firmware's ``1.5 q1 q2f/q1f``)."""
+    with the blend (7.20)-(7.21) at its printed end, no adaptation),
+    ``lab`` (the firmware's ``1.5 q1 q2f/q1f``) or ``plan`` (no path: a
+    time-varying LQR tracks a trajectory-optimised swing; it reads the clock,
+    see :mod:`bplir_drake.systems.plan_tracker`)."""
 
     _name = "path"
     mode: str = "adaptive"
@@ -438,6 +440,7 @@ class PathParams(_Block):
     calibrate_at: float = _p(0.35, "", 0, 1, doc="fit the effective damping at s = -calibrate_at * s_f")
     pump_gain: float = _p(1.0, "", 0.5, 3, doc="RTS gain lam in the first half (energy pumping for inclines)")
     lab_gain: float = _p(1.5, "", 0, 5, doc="gain of the lab firmware path")
+    plan_end_depth: float = _p(0.017, "m", 0, 0.1, doc="mode 'plan': the planned swing comes to rest this far below the line (inside the capture band)")
 
     def _check(self):
         if self.mode not in PATH_MODES:

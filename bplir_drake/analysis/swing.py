@@ -53,7 +53,12 @@ def run_swing(params: BplirParams, *, seed: int | None = None, use_estimator: bo
     seed = sc.seed if seed is None else int(seed)
     use_est = sc.use_estimator if use_estimator is None else use_estimator
     p = draw_true_friction(params, seed)
-    built = build_swing(p, seed=seed, use_estimator=use_est)
+    gains = None
+    if p.path.mode == "plan":
+        from .swing_plan import tracking_plan
+
+        gains = tracking_plan(p)[1]
+    built = build_swing(p, seed=seed, use_estimator=use_est, plan_gains=gains)
     sim = make_simulator(built, built.q0, accuracy=accuracy)
     run_until_outcome(sim, built, sc.max_time)
     # record the state at the moment the interlock decided

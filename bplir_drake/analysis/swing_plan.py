@@ -16,8 +16,10 @@ uphill swing reverses link 1 at least once (a back-swing to pump energy),
 so it is not a single path ``q2 = phi(q1)`` and cannot be followed by a
 time-independent path of the passive angle.
 
-The plan is not a controller: tracking it needs a clock (see the issue 5
-notes); it is an analysis tool.
+A plan is tracked (by the clock) with ``path.mode = "plan"``:
+:func:`tracking_plan` plans to rest ``path.plan_end_depth`` below the line
+and computes Drake's finite-horizon LQR gains for
+:class:`bplir_drake.systems.plan_tracker.PlanTracker`.
 """
 from __future__ import annotations
 
@@ -92,17 +94,36 @@ class SwingPlan:
                 "constraint_tolerance": self.tolerance}
 
 
+def plan_model(params: BplirParams):
+    """(model, friction): the nominal plant with its friction (Coulomb
+    smoothing widened to ``PLAN_FRICTION_SMOOTHING``) as a diagram with the
+    elbow torque as input and the state as output."""
+    from pydrake.systems.framework import DiagramBuilder
+
+    from ..diagrams import add_plant_with_friction
+
+    friction = replace(params.friction, b=max(params.friction.b, PLAN_FRICTION_SMOOTHING))
+    builder = DiagramBuilder()
+    plant, _ = add_plant_with_friction(builder, params.plant, friction)
+    builder.ExportInput(plant.get_actuation_input_port(), "elbow_torque")
+    builder.ExportOutput(plant.get_state_output_port(), "state")
+    return builder.Build(), friction
+
+
 def plan_swing(params: BplirParams, *, power_limit: float | None = None, knots: int = 41,
                time_weight: float = 1.0, max_duration: float | None = None,
                guess_duration: float = 1.5, tolerance: float = 1e-4,
-               iterations: int = 1500) -> SwingPlan:
+               iterations: int = 1500, end_depth: float = 0.0) -> SwingPlan:
     """Plan the scenario's swing (nominal model).  ``power_limit`` defaults to
     the motor's rating, the torque limit to the controller's; the duration
-    is free within ``max_duration`` (default: the scenario's timeout)."""
-    from pydrake.all import (DiagramBuilder, DirectCollocation, PiecewisePolynomial,
-                             SnoptSolver, Solve, SolverOptions)
+    is free within ``max_duration`` (default: the scenario's timeout).
+    ``end_depth``: the plan comes to rest with the free gripper this far
+    below the line (m, inside the capture band), so that the band is entered
+    just before the end, slowly, instead of during the final braking."""
+    from pydrake.all import (DirectCollocation, PiecewisePolynomial, SnoptSolver, Solve,
+                             SolverOptions)
 
-    from ..diagrams import add_plant_with_friction, swing_geometry
+    from ..diagrams import swing_geometry
     from ..systems.friction import friction_torques
 
     if not 5 <= knots <= 400:
@@ -111,14 +132,13 @@ def plan_swing(params: BplirParams, *, power_limit: float | None = None, knots: 
     if not (power > 0 and math.isfinite(power)):
         raise ParameterError(f"power limit = {power:g} W is not allowed; allowed (0, inf) W")
     tmax = params.scenario.max_time if max_duration is None else float(max_duration)
-    q0, qT, _, _ = swing_geometry(params)
+    if not 0.0 <= end_depth < params.scenario.capture_distance:
+        raise ParameterError(f"end depth = {end_depth:g} m is out of range; allowed "
+                             f"[0, {params.scenario.capture_distance:g}) m (the capture band)")
+    q0, _, _, _ = swing_geometry(params)
+    qT = planned_target(params, end_depth)
     tau_max = min(params.controller.torque_limit, params.motor.torque_limit)
-    friction = replace(params.friction, b=max(params.friction.b, PLAN_FRICTION_SMOOTHING))
-
-    builder = DiagramBuilder()
-    plant, _ = add_plant_with_friction(builder, params.plant, friction)
-    builder.ExportInput(plant.get_actuation_input_port(), "elbow_torque")
-    system = builder.Build()
+    system, friction = plan_model(params)
     dircol = DirectCollocation(system, system.CreateDefaultContext(), num_time_samples=knots,
                                minimum_time_step=0.2 / (knots - 1),
                                maximum_time_step=tmax / (knots - 1))
@@ -150,6 +170,40 @@ def plan_swing(params: BplirParams, *, power_limit: float | None = None, knots: 
     return SwingPlan(times, states, torque, fr, bool(result.is_success()), feasible,
                      result.get_solver_id().name(), params.scenario.incline_deg, tau_max,
                      power, tolerance)
+
+
+_PLANS: dict = {}
+
+
+def tracking_plan(params: BplirParams):
+    """(plan, tracking gains) for the scenario of ``params`` with
+    ``path.plan_end_depth``; computed once per nominal model and scenario
+    geometry in this process (a plan takes about a minute)."""
+    from ..systems.plan_tracker import plan_gains
+
+    sc, depth = params.scenario, params.path.plan_end_depth
+    key = (params.plant, params.friction, params.motor, params.controller.torque_limit,
+           sc.grip_spacing, sc.incline_deg, sc.max_time, sc.capture_distance, depth)
+    if key not in _PLANS:
+        plan = plan_swing(params, end_depth=depth)
+        if not plan.feasible:
+            raise ParameterError(f"no feasible plan for a {sc.incline_deg:g} deg line within "
+                                 f"{plan.torque_limit:g} N m and {plan.power_limit:g} W")
+        model, _ = plan_model(params)
+        _PLANS[key] = plan, plan_gains(model, plan.times, plan.states, plan.torque)
+    return _PLANS[key]
+
+
+def planned_target(params: BplirParams, end_depth: float = 0.0) -> np.ndarray:
+    """The mirror target (7.1) of the nominal robot, turned about the pivot
+    so that the free gripper rests ``end_depth`` below the line at the same
+    distance along it."""
+    from ..systems.plant import initial_configuration
+
+    sc = params.scenario
+    D = sc.grip_spacing
+    q = initial_configuration(math.hypot(D, end_depth), params.plant, 0.0)
+    return np.array([-q[0] + math.radians(sc.incline_deg) - math.atan2(end_depth, D), -q[1]])
 
 
 def plot_plan(plan: SwingPlan, path, params: BplirParams):

@@ -477,7 +477,7 @@ def cmd_benchmark(args) -> int:
     return 0
 
 
-# ------------------------------------------------------------------ calibrate
+# ------------------------------------------------------------------ plan
 def cmd_plan(args) -> int:
     import dataclasses as dc
 
@@ -509,6 +509,7 @@ def cmd_plan(args) -> int:
     return 0 if plan.feasible else 1
 
 
+# ------------------------------------------------------------------ calibrate
 def cmd_calibrate(args) -> int:
     from .analysis.calibration import (calibrate, identify_deadband, identify_plant_family,
                                        plot_calibration, read_calibration_csv,

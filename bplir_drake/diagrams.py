@@ -357,7 +357,7 @@ def build_swing(params: BplirParams, *, seed: int | None = None, use_estimator: 
     With ``path.mode = "plan"`` the path generator and CPFL controller are
     replaced by a :class:`~bplir_drake.systems.plan_tracker.PlanTracker`
     built from ``plan_gains`` (Drake's finite-horizon LQR result along a
-    planned swing, :func:`bplir_drake.analysis.swing_plan.tracking_gains`).
+    planned swing, :func:`bplir_drake.analysis.swing_plan.tracking_plan`).
     """
     from dataclasses import replace
 

@@ -404,7 +404,8 @@ def build_swing(params: BplirParams, *, seed: int | None = None, use_estimator: 
         if plan_gains is None:
             raise ValueError("path.mode = 'plan' needs the tracking gains of a planned swing")
         ctrl = path = builder.AddSystem(PlanTracker(plan_gains, ctrl_p.torque_limit, T,
-                                                    3 * COMPUTE_OFFSET))
+                                                    3 * COMPUTE_OFFSET,
+                                                    indexing=params.path.plan_indexing))
         ctrl.set_name("plan_tracker")
         builder.Connect(state_port, ctrl.get_input_port(0))
     else:

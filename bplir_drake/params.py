@@ -408,6 +408,7 @@ class ControllerParams(_Block):
 
 # ---------------------------------------------------------------- path
 PATH_MODES = ("adaptive", "rts", "lab", "plan")
+PLAN_INDEXING = ("time", "state")
 
 
 @dataclass(frozen=True)
@@ -416,13 +417,15 @@ class PathParams(_Block):
     blend to line seeking with the adaptive blend end), ``rts`` (the RTS path
     with the blend (7.20)-(7.21) at its printed end, no adaptation),
     ``lab`` (the firmware's ``1.5 q1 q2f/q1f``) or ``plan`` (no path: a
-    time-varying LQR tracks a trajectory-optimised swing; it reads the clock,
-    see :mod:`bplir_drake.systems.plan_tracker`)."""
+    time-varying LQR tracks a trajectory-optimised swing, indexed by the
+    clock (``plan_indexing = "time"``) or, clock-free, by the phase nearest
+    to the estimated state (``"state"``); see
+    :mod:`bplir_drake.systems.plan_tracker`)."""
 
     _name = "path"
     mode: str = "adaptive"
     blend_exponent: float = _p(2.0, "", 1, 10, doc="exponent n of the blend weight F = (s/s_e)^n (7.20)")
-    arrival_rate: float = _p(0.55, "rad/s", 0, 2, lo_open=True, doc="link-1 rate aimed for where the gripper enters the capture band")
+    arrival_rate: float = _p(0.45, "rad/s", 0, 2, lo_open=True, doc="link-1 rate aimed for where the gripper enters the capture band")
     adapt_window: float = _p(0.3, "", 0, 1, doc="s_e adapts from s > -adapt_window * s_f ...")
     adapt_stop: float = _p(0.8, "", 0, 1, doc="... until s > adapt_stop * s_e")
     adapt_rate: float = _p(0.3, "rad/s", 0, lo_open=True, doc="largest rate of change of s_e")
@@ -432,7 +435,7 @@ class PathParams(_Block):
     latch_rate: float = _p(0.3, "rad/s", 0, doc="latch to pure line seeking when q1' falls below this")
     latch_fraction: float = _p(0.85, "", 0, 1, doc="... and s >= this * s_e")
     latch_ramp: float = _p(2.0, "1/s", 0, lo_open=True, doc="after the latch the blend weight rises to 1 at this rate")
-    latch_lift: float = _p(0.02, "m", -0.1, 0.1, doc="after the latch the line-seeking path aims this far above the line (tracking error margin)")
+    latch_lift: float = _p(0.01, "m", -0.1, 0.1, doc="after the latch the line-seeking path aims this far above the line (tracking error margin)")
     lead_time: float = _p(0.01, "s", 0, 0.1, doc="path evaluated at s + q1' * lead_time (ZOH + motor lag)")
     predict_friction: bool = True
     calibrate: bool = True
@@ -441,11 +444,15 @@ class PathParams(_Block):
     pump_gain: float = _p(1.0, "", 0.5, 3, doc="RTS gain lam in the first half (energy pumping for inclines)")
     lab_gain: float = _p(1.5, "", 0, 5, doc="gain of the lab firmware path")
     plan_end_depth: float = _p(0.017, "m", 0, 0.1, doc="mode 'plan': the planned swing comes to rest this far below the line (inside the capture band)")
+    plan_indexing: str = "time"   # mode 'plan': "time" (reads the clock) or "state" (clock-free phase)
 
     def _check(self):
         if self.mode not in PATH_MODES:
             raise ParameterError(f"path.mode = '{self.mode}' is unknown; allowed: "
                                  + ", ".join(PATH_MODES))
+        if self.plan_indexing not in PLAN_INDEXING:
+            raise ParameterError(f"path.plan_indexing = '{self.plan_indexing}' is unknown; "
+                                 "allowed: " + ", ".join(PLAN_INDEXING))
 
 
 # ---------------------------------------------------------------- scenario

@@ -61,12 +61,15 @@ def test_benchmark_scores_actuation_delay(tmp_path, params):
                         out=tmp_path)
     sc = res["scores"]["qft"]
     rows = {r["label"]: r for r in res["rows"]}
-    # 10 ms of actuation delay is tolerated; 30 ms turns the landing into a
-    # crash far above the 0.5 m/s limit (the loop is near its delay margin)
-    assert rows["10 ms"]["outcome"] == "captured" and rows["10 ms"]["capture_speed_mps"] < 0.5
+    # 10 ms of actuation delay makes the robot stall short of the line and
+    # meet it falling back (1.0 m/s; over seeds 0-19 only 2 of 20 are
+    # captured, 8 with the faster arrival aim of 0.55 rad/s used before);
+    # 30 ms turns the landing into a crash far above the 0.5 m/s limit (the
+    # loop is near its delay margin)
+    assert rows["10 ms"]["outcome"] == "crash" and rows["10 ms"]["capture_speed_mps"] > 0.8
     assert rows["30 ms"]["outcome"] == "crash" and rows["30 ms"]["capture_speed_mps"] > 5
-    assert sc["categories"] == {"delay": 0.5} and sc["overall"] == 0.5
-    assert "| delay | 0.50 |" in benchmark_table(res)
+    assert sc["categories"] == {"delay": 0.0} and sc["overall"] == 0.0
+    assert "| delay | 0.00 |" in benchmark_table(res)
     assert plot_benchmark(res, tmp_path / "b.png").stat().st_size > 20_000
     assert (tmp_path / "benchmark_cases.csv").read_text().count("\n") == 3
 

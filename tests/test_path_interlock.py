@@ -133,18 +133,21 @@ def test_line_metrics(params):
 
 
 def test_latch_lift_rescues_a_swing_that_stops_just_short_of_the_line():
-    """Sample 4 of the default study (root seed 0): the swing turns with the
-    gripper 24 mm below the line (4 mm outside the band: elbow tracking
-    error), falls back and meets the line at 1.04 m/s.  Aiming the latched
-    line-seeking path 20 mm above the line turns it into a capture."""
+    """Sample 1 of the default study (root seed 0): with the latched
+    line-seeking path aimed at the line itself, the swing turns with the
+    gripper just outside the band, falls back and meets the line at 0.86 m/s
+    (after 1.47 s).  Aiming it 10 mm above the line (the default
+    ``latch_lift``: a margin for the elbow's tracking error) turns it into a
+    capture at 0.38 m/s."""
     import dataclasses as dc
 
     from bplir_drake.analysis import montecarlo as mc
     from bplir_drake.analysis.swing import run_swing
 
-    p, seed, _ = mc.sample_params(mc.Study(samples=5, seed=0), 4)
+    p, seed, _ = mc.sample_params(mc.Study(samples=5, seed=0), 1)
+    assert p.path.latch_lift == 0.01
     old = run_swing(p.with_(path=dc.replace(p.path, latch_lift=0.0)), seed=seed).summary
-    assert old["outcome"] == "crash" and old["capture_speed_mps"] > 1.0
+    assert old["outcome"] == "crash" and old["capture_speed_mps"] > 0.8
     assert old["swing_time_s"] > 1.45  # after falling back, not on the first approach
     new = run_swing(p, seed=seed).summary
     assert new["outcome"] == "captured" and new["capture_speed_mps"] < 0.5

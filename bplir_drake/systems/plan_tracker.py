@@ -8,10 +8,14 @@ this system applies ``tau = u0(t) - K(t) (x_hat - x0(t)) - k0(t)`` to the
 estimated state every controller period (zero-order hold), clipped to the
 torque limit.
 
-Unlike the path generator this controller is indexed by **time** since the
-start of the swing: it is the way to climb a steep line, where the planned
-motion swings link 1 back before going forward and so is not a path
-``q2 = phi(q1)`` (see :mod:`bplir_drake.analysis.swing_plan`).
+By default this controller is indexed by **time** since the start of the
+swing: it is the way to climb a steep line, where the planned motion swings
+link 1 back before going forward and so is not a path ``q2 = phi(q1)`` (see
+:mod:`bplir_drake.analysis.swing_plan`).  With ``indexing = "state"`` it
+reads no clock: the plan is evaluated at the phase nearest to the estimate
+(mostly in the joint angles; rates weigh (0.1 s)^2), searched forward
+only.  The LQR's feedback then acts across the plan, not along it: timing
+errors are no longer corrected, which costs captures (see the tests).
 
 Outputs ``torque`` (the command) and ``reference`` (the plan's elbow angle).
 """
@@ -52,15 +56,30 @@ def plan_gains(model, times, states, torque, weights: TrackerWeights = TrackerWe
 
 class PlanTracker(LeafSystem):
     """Input ``state`` (estimated relative state).  Outputs ``torque`` and
-    ``reference`` (q2 of the plan), both held between ticks of ``period``."""
+    ``reference`` (q2 of the plan), both held between ticks of ``period``.
 
-    def __init__(self, gains, torque_limit: float, period: float, offset: float = 0.0):
+    ``indexing``: ``"time"`` evaluates the plan at the time since the start;
+    ``"state"`` at a phase ``tau`` found from the estimate alone: every tick
+    ``tau`` moves to the plan point nearest to ``x_hat`` (squared errors
+    weighted by ``phase_weights``) within ``[tau, tau + search]`` s, on a
+    grid of a quarter period, so it never goes back and never reads the
+    clock."""
+
+    def __init__(self, gains, torque_limit: float, period: float, offset: float = 0.0,
+                 indexing: str = "time", phase_weights=(1.0, 1.0, 0.01, 0.01),
+                 search: float = 0.05):
         super().__init__()
+        if indexing not in ("time", "state"):
+            raise ValueError(f"indexing = {indexing!r}; allowed: time, state")
         self.K, self.x0, self.u0, self.k0 = gains.K, gains.x0, gains.u0, gains.k0
         self.t_end = self.x0.end_time()
         self.torque_limit = float(torque_limit)
+        self.indexing = indexing
+        self._W = np.asarray(phase_weights, dtype=float)
+        n = max(2, int(round(search / (period / 4))) + 1)
+        self._steps = np.linspace(0.0, search, n)
         self.DeclareVectorInputPort("state", 4)
-        self._xd = self.DeclareDiscreteState(2)  # [torque, reference]
+        self._xd = self.DeclareDiscreteState(3)  # [torque, reference, phase tau]
         self.DeclarePeriodicDiscreteUpdateEvent(period, offset, self._update)
         self.DeclareVectorOutputPort("torque", 1, lambda c, o: o.SetAtIndex(
             0, c.get_discrete_state(self._xd).GetAtIndex(0)), {self.xd_ticket()})
@@ -75,7 +94,17 @@ class PlanTracker(LeafSystem):
             - self.k0.value(t)[0, 0]
         return float(np.clip(u, -self.torque_limit, self.torque_limit)), float(x0[1])
 
+    def phase(self, tau: float, x) -> float:
+        """The plan time nearest to ``x`` in ``[tau, tau + search]``."""
+        cand = np.minimum(tau + self._steps, self.t_end)
+        X = self.x0.vector_values(cand)  # 4 x n
+        d = self._W @ (X - np.asarray(x).reshape(4, 1)) ** 2
+        return float(cand[int(np.argmin(d))])
+
     def _update(self, context, discrete_state):
         x = self.get_input_port(0).Eval(context)
-        discrete_state.get_mutable_vector(self._xd).SetFromVector(
-            self.law(context.get_time(), x))
+        if self.indexing == "time":
+            tau = context.get_time()
+        else:
+            tau = self.phase(context.get_discrete_state(self._xd).GetAtIndex(2), x)
+        discrete_state.get_mutable_vector(self._xd).SetFromVector([*self.law(tau, x), tau])

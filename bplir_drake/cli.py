@@ -481,6 +481,8 @@ def cmd_benchmark(args) -> int:
 def cmd_plan(args) -> int:
     import dataclasses as dc
 
+    import numpy as np
+
     from .analysis.swing_plan import plan_swing, plot_plan
 
     params = _load_params(args)
@@ -493,8 +495,6 @@ def cmd_plan(args) -> int:
     figure = plot_plan(plan, out / "plan.png", params)
     summary = plan.summary() | {"figure": str(figure)}
     (out / "plan.json").write_text(json.dumps(summary, indent=2, default=_jsonable))
-    import numpy as np
-
     np.savetxt(out / "plan.csv", np.c_[plan.times, plan.states, plan.torque],
                delimiter=",", header="t,q1,q2,q1d,q2d,tau", comments="")
     verdict = "feasible" if plan.feasible else "NOT feasible"

@@ -16,9 +16,10 @@ uphill swing reverses link 1 at least once (a back-swing to pump energy),
 so it is not a single path ``q2 = phi(q1)`` and cannot be followed by a
 time-independent path of the passive angle.
 
-A plan is tracked (by the clock) with ``path.mode = "plan"``:
-:func:`tracking_plan` plans to rest ``path.plan_end_depth`` below the line
-and computes Drake's finite-horizon LQR gains for
+A plan is tracked with ``path.mode = "plan"`` (indexed by the clock, or by
+the phase nearest the estimated state with ``path.plan_indexing =
+"state"``): :func:`tracking_plan` plans to rest ``path.plan_end_depth``
+below the line and computes Drake's finite-horizon LQR gains for
 :class:`bplir_drake.systems.plan_tracker.PlanTracker`.
 """
 from __future__ import annotations

@@ -26,6 +26,8 @@ from dataclasses import dataclass
 import numpy as np
 from pydrake.systems.framework import LeafSystem
 
+from ..params import PLAN_INDEXING
+
 
 @dataclass(frozen=True)
 class TrackerWeights:
@@ -69,8 +71,8 @@ class PlanTracker(LeafSystem):
                  indexing: str = "time", phase_weights=(1.0, 1.0, 0.01, 0.01),
                  search: float = 0.05):
         super().__init__()
-        if indexing not in ("time", "state"):
-            raise ValueError(f"indexing = {indexing!r}; allowed: time, state")
+        if indexing not in PLAN_INDEXING:
+            raise ValueError(f"indexing = {indexing!r}; allowed: " + ", ".join(PLAN_INDEXING))
         self.K, self.x0, self.u0, self.k0 = gains.K, gains.x0, gains.u0, gains.k0
         self.t_end = self.x0.end_time()
         self.torque_limit = float(torque_limit)

@@ -1,32 +1,107 @@
-"""Benchmark: wall time of one full closed-loop swing, and its parts.
+"""Benchmark: simulated seconds per wall second of the default closed-loop
+swing (EKF in the loop) and of the plant-only free swing, in one run, and
+where the time of the closed loop goes.
 
-Run: python benchmarks/bench_swing.py   (prints figures; not a test)
+Run: python benchmarks/bench_swing.py [SEEDS]   (default 10; prints figures,
+not a test).  Goal (issue 14): >= 20 simulated s per wall s for the closed
+loop (30 the stretch).
 """
+import collections
+import functools
+import sys
 import time
 
-from bplir_drake.analysis.swing import run_swing
-from bplir_drake.diagrams import build_swing
-from bplir_drake.params import preset
+
+def free_swing_rate(duration: float = 20.0) -> float:
+    """Simulated s per wall s of plant + friction swinging freely (the
+    swing's integrator accuracy, logging at 1 ms, energies computed)."""
+    from bplir_drake.analysis.freeswing import simulate_free_swing
+    from bplir_drake.analysis.swing import SWING_ACCURACY
+    from bplir_drake.params import preset
+
+    p = preset()
+    simulate_free_swing(p, (1.0, 0.5), 1.0)  # warm up
+    t0 = time.perf_counter()
+    simulate_free_swing(p, (1.0, 0.5), duration, accuracy=SWING_ACCURACY)
+    return duration / (time.perf_counter() - t0)
+
+
+def closed_loop(seeds: int):
+    """(simulated s, wall s, outcomes) of ``run_swing`` over seeds 0..seeds-1
+    (warm: the first swing of the process is run once before timing)."""
+    from bplir_drake.analysis.swing import run_swing
+    from bplir_drake.params import preset
+
+    p = preset()
+    run_swing(p, seed=0)
+    sim = wall = 0.0
+    outcomes = collections.Counter()
+    for seed in range(seeds):
+        t0 = time.perf_counter()
+        r = run_swing(p, seed=seed)
+        wall += time.perf_counter() - t0
+        sim += r.logs["state"].t[-1]
+        outcomes[r.summary["outcome"]] += 1
+    return sim, wall, outcomes
+
+
+def breakdown():
+    """Wall time of the Python callbacks of one swing (exclusive of nested
+    calls is not separated: the controller's tick pulls the path's, which
+    pulls the estimator's)."""
+    from bplir_drake.analysis.swing import run_swing
+    from bplir_drake.params import preset
+    from bplir_drake.systems import ekf, gripper, imu, motor, path
+    from bplir_drake.systems.controller import DiscreteCpflController
+
+    spent = collections.defaultdict(float)
+
+    def wrap(cls, name, label):
+        f = getattr(cls, name)
+
+        @functools.wraps(f)
+        def timed(*a, **k):
+            t0 = time.perf_counter()
+            try:
+                return f(*a, **k)
+            finally:
+                spent[label] += time.perf_counter() - t0
+        setattr(cls, name, timed)
+
+    p = preset()
+    run_swing(p, seed=0)
+    wrap(path, "step_blend_end", "path: arrival predictor (adaptation)")
+    wrap(ekf.KinematicEkf, "_posterior", "EKF update")
+    wrap(imu.ImuSampler, "_sample", "IMU sampler")
+    wrap(gripper.GripperInterlock, "_update", "interlock")
+    wrap(DiscreteCpflController, "_tick_law", "controller tick (incl. path, EKF)")
+    wrap(motor.DriverLogic, "_update", "driver i2t")
+    t0 = time.perf_counter()
+    run_swing(p, seed=0)
+    total = time.perf_counter() - t0
+    return total, dict(spent)
 
 
 def main():
-    p = preset()
-    t0 = time.perf_counter()
-    b = build_swing(p)
-    t_build = time.perf_counter() - t0
-    runs = []
-    for seed in range(5):
-        t0 = time.perf_counter()
-        r = run_swing(p, seed=seed)
-        runs.append((time.perf_counter() - t0, r.summary["swing_time_s"], r.summary["outcome"]))
-    wall = sum(w for w, _, _ in runs) / len(runs)
-    sim = sum(s for _, s, _ in runs) / len(runs)
-    print(f"build the swing diagram: {t_build * 1e3:.0f} ms ({len(b.diagram.GetSystems())} systems)")
-    print(f"one swing (EKF in the loop, {sim:.2f} s simulated until the interlock decides): "
-          f"{wall:.2f} s wall = {sim / wall:.2f} simulated s per wall s")
-    print("outcomes:", [o for _, _, o in runs])
-    print("goal (issue 6): 30 simulated s per wall s -- not met; the Python systems "
-          "(path predictor at 100 Hz, EKF, IMU sampler, interlock at 500 Hz) dominate")
+    import platform
+    import os
+
+    seeds = int(sys.argv[1]) if len(sys.argv) > 1 else 10
+    free = free_swing_rate()
+    sim, wall, outcomes = closed_loop(seeds)
+    loop = sim / wall
+    print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
+          f"Python {platform.python_version()}")
+    print(f"plant-only free swing (20 s): {free:.1f} simulated s per wall s")
+    print(f"closed-loop swing, EKF in the loop, seeds 0-{seeds - 1}: {sim:.2f} s simulated in "
+          f"{wall:.2f} s wall = {loop:.1f} simulated s per wall s "
+          f"({wall / seeds * 1e3:.0f} ms per swing; {dict(outcomes)})")
+    print(f"ratio closed loop / free swing: {loop / free:.3f}; goal >= 20 simulated s per wall s: "
+          f"{'met' if loop >= 20 else 'not met'}")
+    total, spent = breakdown()
+    print(f"one swing {total * 1e3:.0f} ms; Python callbacks (inclusive):")
+    for k, v in sorted(spent.items(), key=lambda kv: -kv[1]):
+        print(f"  {k:40s} {v * 1e3:6.1f} ms ({v / total:4.0%})")
 
 
 if __name__ == "__main__":

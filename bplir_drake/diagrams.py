@@ -15,22 +15,17 @@ from typing import Any
 import numpy as np
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import (ConstantVectorSource, LogVectorOutput,
-                                        TrajectorySource)
+                                        TrajectorySource, ZeroOrderHold)
 
 from .params import BplirParams, FrictionParams, PlantParams
 from .systems.controller import CpflController
 from .systems.disturbance import CommandDelay, delay_steps, disturbance_schedule, has_disturbance
 from .systems.ekf import KinematicEkf
-from .systems.friction import JointFriction
+from .systems.friction import JointFriction, friction_system
 from .systems.imu import ImuSampler
-from .systems.logging import SampleLogger
+from .systems.schedule import TickLogger
 from .systems.motor import MotorDriver
 from .systems.plant import add_acrobot_plant
-
-#: the EKF (and the controller after it) run this long after the IMU sample
-#: of the same tick, so they use it without a full period of delay
-COMPUTE_OFFSET = 1e-4
-
 
 @dataclass
 class Built:
@@ -41,9 +36,20 @@ class Built:
     systems: dict[str, Any] = field(default_factory=dict)
     loggers: dict[str, Any] = field(default_factory=dict)
     params: BplirParams | None = None
+    q0: Any = None  # the simulated robot's start configuration (swings)
 
     def __getitem__(self, name):
         return self.systems[name]
+
+
+def sampled(builder, port, period: float):
+    """``port`` sampled at the ticks ``k period`` and held (C++
+    ``ZeroOrderHold``): a discrete system of the tick schedule
+    (:mod:`~bplir_drake.systems.schedule`) computes its tick result from its
+    inputs, so a continuous signal it reads must be held over the tick."""
+    hold = builder.AddSystem(ZeroOrderHold(period, port.size()))
+    builder.Connect(port, hold.get_input_port(0))
+    return hold.get_output_port(0)
 
 
 def _torque_source(builder, elbow_torque):
@@ -65,17 +71,22 @@ def _torque_source(builder, elbow_torque):
 
 def add_plant_with_friction(builder, plant_params: PlantParams,
                             friction_params: FrictionParams, *, scene_graph=False,
-                            disturbance=None):
+                            disturbance=None, linearizable: bool = False):
     """Plant + friction force element wired into the applied-force port.
 
     ``disturbance`` (optional) is an output port of 2 generalized forces
-    (e.g. wind or a knock) added to the friction force.
+    (e.g. wind or a knock) added to the friction force.  The friction is the
+    C++ symbolic system (:func:`~bplir_drake.systems.friction.friction_system`,
+    with its dissipated-energy state) for simulation, or with
+    ``linearizable=True`` the templated :class:`JointFriction` (no extra
+    state, converts to AutoDiffXd for ``Linearize``).
     """
     from pydrake.systems.primitives import Adder
 
     out = add_acrobot_plant(builder, plant_params, scene_graph=scene_graph)
     plant = out[0] if scene_graph else out
-    friction = builder.AddSystem(JointFriction(friction_params))
+    friction = builder.AddSystem(JointFriction(friction_params) if linearizable
+                                 else friction_system(friction_params))
     friction.set_name("joint_friction")
     builder.Connect(plant.get_state_output_port(), friction.get_input_port(0))
     if disturbance is None:
@@ -168,18 +179,12 @@ def build_plant_with_friction(params: BplirParams, *, nominal: bool = False) -> 
     builder = DiagramBuilder()
     pp = params.plant if nominal else params.simulated_plant
     fp = params.friction if nominal else params.simulated_friction
-    plant, fr = add_plant_with_friction(builder, pp, fp)
+    plant, fr = add_plant_with_friction(builder, pp, fp, linearizable=True)
     builder.ExportInput(plant.get_actuation_input_port(), "elbow_torque")
     builder.ExportOutput(plant.get_state_output_port(), "state")
     diagram = builder.Build()
     diagram.set_name("plant_with_friction")
     return Built(diagram, plant, {"friction": fr}, {}, params)
-
-
-def _sample_logger(builder, port, period, offset):
-    lg = builder.AddSystem(SampleLogger(port.size(), period, offset))
-    builder.Connect(port, lg.get_input_port(0))
-    return lg
 
 
 def _pulse_source(builder, knock):
@@ -213,17 +218,15 @@ def build_sensor_swing(params: BplirParams, x0_estimate=(0.0, 0.0, 0.0, 0.0), *,
     sampler = add_imus(builder, plant, params, seed)
     systems = {"friction": fr, "imu": sampler, "source": src}
     loggers = {"state": LogVectorOutput(plant.get_state_output_port(), builder, log_period),
-               "imu": _sample_logger(builder, sampler.get_output_port(0), params.imu.period,
-                                     COMPUTE_OFFSET / 2)}
+               "imu": TickLogger(builder, sampler.get_output_port(0), params.imu.period)}
     if ekf:
-        est = builder.AddSystem(KinematicEkf(params.estimator, x0_estimate, COMPUTE_OFFSET))
+        est = builder.AddSystem(KinematicEkf(params.estimator, x0_estimate))
         est.set_name("ekf")
         builder.Connect(sampler.get_output_port(0), est.get_input_port(0))
         systems["ekf"] = est
         for name, port in (("estimate", "estimate"), ("covariance", "covariance_diagonal"),
                            ("bias", "gyro_bias")):
-            loggers[name] = _sample_logger(builder, est.GetOutputPort(port),
-                                           params.estimator.period, 2 * COMPUTE_OFFSET)
+            loggers[name] = TickLogger(builder, est.GetOutputPort(port), params.estimator.period)
     diagram = builder.Build()
     diagram.set_name("sensor_swing")
     return Built(diagram, plant, systems, loggers, params)
@@ -238,7 +241,7 @@ def build_cpfl_plant(params: BplirParams) -> Built:
 
     builder = DiagramBuilder()
     plant, fr = add_plant_with_friction(builder, params.simulated_plant,
-                                        params.simulated_friction)
+                                        params.simulated_friction, linearizable=True)
     ctrl = replace(params.controller, k_num=(0.0,), k_den=(1.0,), f_num=(1.0,), f_den=(1.0,),
                    aw_gain=0.0, sign_correct=False, torque_limit=1e9)
     c = builder.AddSystem(CpflController(params.plant, ctrl, params.friction, continuous=True))
@@ -275,20 +278,24 @@ def build_control_loop(params: BplirParams, reference=0.0, *, continuous: bool =
 
     builder = DiagramBuilder()
     plant, fr = add_plant_with_friction(builder, params.simulated_plant,
-                                        params.simulated_friction)
+                                        params.simulated_friction, linearizable=continuous)
     ctrl = params.controller if torque_limit is None else replace(params.controller,
                                                                   torque_limit=torque_limit)
     c = builder.AddSystem(CpflController(params.plant, ctrl, params.friction,
                                          continuous=continuous))
     c.set_name("controller")
-    builder.Connect(plant.get_state_output_port(), c.GetInputPort("state"))
+
+    def held(port):  # the discrete controller reads its inputs at its ticks
+        return port if continuous else sampled(builder, port, ctrl.period)
+
+    builder.Connect(held(plant.get_state_output_port()), c.GetInputPort("state"))
     if reference is None:
         builder.ExportInput(c.GetInputPort("reference"), "reference")
     else:
         src = _torque_source(builder, reference)
         src.set_name("reference")
-        builder.Connect(src.get_output_port(0), c.GetInputPort("reference"))
-    builder.Connect(builder.AddSystem(ConstantVectorSource([0.0])).get_output_port(0),
+        builder.Connect(held(src.get_output_port(0)), c.GetInputPort("reference"))
+    builder.Connect(held(builder.AddSystem(ConstantVectorSource([0.0])).get_output_port(0)),
                     c.GetInputPort("feedforward"))
     torque = c.GetOutputPort("torque")
     systems = {"friction": fr, "controller": c}
@@ -301,8 +308,8 @@ def build_control_loop(params: BplirParams, reference=0.0, *, continuous: bool =
         torque = drv.GetOutputPort("torque")
         systems["motor"] = drv
     else:
-        builder.Connect(builder.AddSystem(ConstantVectorSource([ctrl.torque_limit]))
-                        .get_output_port(0), c.GetInputPort("torque_available"))
+        builder.Connect(held(builder.AddSystem(ConstantVectorSource([ctrl.torque_limit]))
+                             .get_output_port(0)), c.GetInputPort("torque_available"))
     if input_disturbance is not None:
         dist = _torque_source(builder, input_disturbance)
         add = builder.AddSystem(Adder(2, 1))
@@ -391,31 +398,30 @@ def build_swing(params: BplirParams, *, seed: int | None = None, use_estimator: 
     sampler = add_imus(builder, plant, params, seed)
     est = params.estimator.for_loop()
     x0_abs = absolute_from_relative(np.array([q0[0], q0[1], 0.0, 0.0]))
-    ekf = builder.AddSystem(KinematicEkf(est, x0_abs, COMPUTE_OFFSET,
+    ekf = builder.AddSystem(KinematicEkf(est, x0_abs,
                                          sigmas=(est.start_angle_sigma, est.start_rate_sigma,
                                                  est.start_bias_sigma)))
     ekf.set_name("ekf")
     builder.Connect(sampler.get_output_port(0), ekf.get_input_port(0))
-    state_port = ekf.GetOutputPort("estimate_relative") if use_est else plant.get_state_output_port()
     T = ctrl_p.period
+    state_port = (ekf.GetOutputPort("estimate_relative") if use_est
+                  else sampled(builder, plant.get_state_output_port(), T))
     if params.path.mode == "plan":
         from .systems.plan_tracker import PlanTracker
 
         if plan_gains is None:
             raise ValueError("path.mode = 'plan' needs the tracking gains of a planned swing")
         ctrl = path = builder.AddSystem(PlanTracker(plan_gains, ctrl_p.torque_limit, T,
-                                                    3 * COMPUTE_OFFSET,
                                                     indexing=params.path.plan_indexing))
         ctrl.set_name("plan_tracker")
         builder.Connect(state_port, ctrl.get_input_port(0))
     else:
         fv1 = params.friction.fv1 if params.path.predict_friction else 0.0
-        path = builder.AddSystem(PathGenerator(params.plant, params.path, pg, T,
-                                               2 * COMPUTE_OFFSET, fv1))
+        path = builder.AddSystem(PathGenerator(params.plant, params.path, pg, T, fv1))
         path.set_name("path")
         builder.Connect(state_port, path.get_input_port(0))
         ctrl = builder.AddSystem(CpflController(params.plant, ctrl_p, params.friction,
-                                                offset=3 * COMPUTE_OFFSET, use_prefilter=False))
+                                                use_prefilter=False))
         ctrl.set_name("controller")
         builder.Connect(state_port, ctrl.GetInputPort("state"))
         builder.Connect(path.GetOutputPort("reference"), ctrl.GetInputPort("reference"))
@@ -424,12 +430,16 @@ def build_swing(params: BplirParams, *, seed: int | None = None, use_estimator: 
     command = ctrl.GetOutputPort("torque")
     steps = delay_steps(sc.actuation_delay, ctrl_p.period)
     if steps:
-        delay = builder.AddSystem(CommandDelay(1, ctrl_p.period, steps, 3.5 * COMPUTE_OFFSET))
+        delay = builder.AddSystem(CommandDelay(1, ctrl_p.period, steps))
         delay.set_name("actuation_delay")
         builder.Connect(command, delay.get_input_port(0))
         command = delay.get_output_port(0)
+    if ctrl_p.compute_latency > 0:  # the command reaches the driver this long after the sample
+        hold = builder.AddNamedSystem("compute_latency", ZeroOrderHold(T, 1, ctrl_p.compute_latency))
+        builder.Connect(command, hold.get_input_port(0))
+        command = hold.get_output_port(0)
     builder.Connect(command, motor.GetInputPort("torque_command"))
-    lock = builder.AddSystem(GripperInterlock(lg, sc))
+    lock = builder.AddSystem(GripperInterlock(lg, sc, T))
     lock.set_name("interlock")
     builder.Connect(plant.get_state_output_port(), lock.GetInputPort("state"))
     builder.Connect(motor.GetOutputPort("tripped"), lock.GetInputPort("tripped"))
@@ -441,25 +451,19 @@ def build_swing(params: BplirParams, *, seed: int | None = None, use_estimator: 
         "power": LogVectorOutput(motor.GetOutputPort("power"), builder, log_period),
         "current": LogVectorOutput(motor.GetOutputPort("current"), builder, log_period),
         "friction": LogVectorOutput(fr.get_output_port(0), builder, log_period),
-        "estimate": _sample_logger(builder, ekf.GetOutputPort("estimate_relative"), T,
-                                   2 * COMPUTE_OFFSET),
-        "command": _sample_logger(builder, ctrl.GetOutputPort("torque"), T, 4 * COMPUTE_OFFSET),
-        "reference": _sample_logger(builder, path.GetOutputPort("reference"), T,
-                                    4 * COMPUTE_OFFSET),
-        "imu": _sample_logger(builder, sampler.get_output_port(0), params.imu.period,
-                              COMPUTE_OFFSET / 2),
+        "estimate": TickLogger(builder, ekf.GetOutputPort("estimate_relative"), T),
+        "command": TickLogger(builder, ctrl.GetOutputPort("torque"), T),
+        "reference": TickLogger(builder, path.GetOutputPort("reference"), T),
+        "imu": TickLogger(builder, sampler.get_output_port(0), params.imu.period),
     }
     if params.path.mode != "plan":
-        loggers["v"] = _sample_logger(builder, ctrl.GetOutputPort("v"), T, 4 * COMPUTE_OFFSET)
-        loggers["blend_end"] = _sample_logger(builder, path.GetOutputPort("blend_end"), T,
-                                              4 * COMPUTE_OFFSET)
+        loggers["v"] = TickLogger(builder, ctrl.GetOutputPort("v"), T)
+        loggers["blend_end"] = TickLogger(builder, path.GetOutputPort("blend_end"), T)
     diagram = builder.Build()
     diagram.set_name("brachiation_swing")
     systems = {"friction": fr, "motor": motor, "imu": sampler, "ekf": ekf, "path": path,
                "controller": ctrl, "interlock": lock}
-    built = Built(diagram, plant, systems, loggers, params)
-    built.q0 = q0
-    return built
+    return Built(diagram, plant, systems, loggers, params, q0)
 
 
 def build_cpfl_step(params: BplirParams, v_schedule, log_period: float = 0.002) -> Built:
@@ -475,10 +479,11 @@ def build_cpfl_step(params: BplirParams, v_schedule, log_period: float = 0.002) 
                    aw_gain=0.0, sign_correct=False)
     c = builder.AddSystem(CpflController(params.plant, ctrl, params.friction))
     motor = builder.AddSystem(MotorDriver(params.motor))
-    builder.Connect(plant.get_state_output_port(), c.GetInputPort("state"))
-    builder.Connect(builder.AddSystem(ConstantVectorSource([0.0])).get_output_port(0),
-                    c.GetInputPort("reference"))
-    builder.Connect(_torque_source(builder, v_schedule).get_output_port(0),
+    T = params.controller.period
+    builder.Connect(sampled(builder, plant.get_state_output_port(), T), c.GetInputPort("state"))
+    builder.Connect(sampled(builder, builder.AddSystem(ConstantVectorSource([0.0]))
+                            .get_output_port(0), T), c.GetInputPort("reference"))
+    builder.Connect(sampled(builder, _torque_source(builder, v_schedule).get_output_port(0), T),
                     c.GetInputPort("feedforward"))
     builder.Connect(motor.GetOutputPort("available"), c.GetInputPort("torque_available"))
     builder.Connect(c.GetOutputPort("torque"), motor.GetInputPort("torque_command"))

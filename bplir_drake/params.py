@@ -347,6 +347,7 @@ class ControllerParams(_Block):
     aw_gain: float = _p(100.0, "", 0, doc="anti-windup gain X >> 1 (Fig. 6.7); 0 disables")
     delay_samples: float = _p(0.0, "samples", 0, 1, doc="command applied this many samples late (0 or 1)")
     torque_quantum: float = _p(0.0, "N m", 0, 5, doc="truncate the torque to multiples of this (firmware: 1)")
+    compute_latency: float = _p(3e-4, "s", 0, 0.01, doc="time from the IMU sample to the command reaching the driver (< period)")
     friction_compensation: bool = False
     sign_correct: bool = True
     k_num: tuple = ()
@@ -359,6 +360,10 @@ class ControllerParams(_Block):
             raise ParameterError(
                 f"controller.preset = '{self.preset}' is unknown; allowed: "
                 + ", ".join(CONTROLLER_PRESETS))
+        if self.compute_latency >= self.period:
+            raise ParameterError(
+                f"controller.compute_latency = {self.compute_latency:g} s must be shorter "
+                f"than controller.period = {self.period:g} s; allowed [0, period)")
         if self.delay_samples not in (0.0, 1.0):
             raise ParameterError(
                 f"controller.delay_samples = {self.delay_samples:g} must be 0 or 1")

@@ -35,20 +35,21 @@ def test_command_delay_shifts_by_whole_periods():
     from pydrake.systems.primitives import TrajectorySource
     from pydrake.trajectories import PiecewisePolynomial
 
-    from bplir_drake.systems.logging import SampleLogger
+    from bplir_drake.systems.schedule import TickLogger
 
     T, steps = 0.01, 3
-    times = np.arange(40) * T + 1e-4  # a new value just after each tick
+    # value k from t_k + T/2 on: the delay stores at t_{k+1}, as it stores the
+    # tick-k command of the schedule (away from the ticks, no rounding of times)
+    times = np.arange(40) * T + T / 2
     b = DiagramBuilder()
     src = b.AddSystem(TrajectorySource(PiecewisePolynomial.ZeroOrderHold(
         times, np.arange(40.0).reshape(1, -1))))
-    d = b.AddSystem(CommandDelay(1, T, steps, 3e-4))
-    log = b.AddSystem(SampleLogger(1, T, 5e-4))
+    d = b.AddSystem(CommandDelay(1, T, steps))
     b.Connect(src.get_output_port(0), d.get_input_port(0))
-    b.Connect(d.get_output_port(0), log.get_input_port(0))
+    log = TickLogger(b, d.get_output_port(0), T)
     sim = Simulator(b.Build())
     sim.AdvanceTo(0.3)
-    t, y = log.arrays()
+    t, y = log.arrays(sim.get_context())
     k = np.round(t / T).astype(int)
     assert np.array_equal(y[:, 0][k >= steps], (k - steps)[k >= steps].astype(float))
     assert np.all(y[:, 0][k < steps] == 0)

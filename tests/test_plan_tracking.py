@@ -33,10 +33,14 @@ def test_planned_target_rests_inside_the_band(uphill):
 
 
 def test_uphill_swing_with_ekf_tracking_a_plan(uphill):
-    """Measured (seeds 0-19, friction +/-20 %, IMU noise, EKF): 18 captured at
-    0.22-0.39 m/s after 1.23-1.25 s; seed 4 times out (stops just below the
-    band), seed 15 crashes at 0.501 m/s.  Peak motor power 101-111 W against
-    the 220 W rating; peak torque about 8 N m."""
+    """Measured (seeds 0-19, friction +/-20 %, IMU noise, EKF): 17 captured at
+    0.23-0.41 m/s after 1.236-1.253 s; seed 4 times out (stops just below the
+    band), seeds 8 and 15 crash at 0.510 and 0.515 m/s.  Peak motor power
+    101-111 W against the 220 W rating; peak torque about 8 N m.  (Until the
+    interlock located the arrival exactly on the interpolated state, it
+    measured the speed at its first 2 ms tick inside the band, up to 2 ms
+    late while the gripper decelerates: seed 8 then read 0.493 m/s, and 18
+    were counted.)"""
     plan, gains = tracking_plan(uphill)
     tracker = PlanTracker(gains, 20.0, 0.002)
     for i in np.searchsorted(plan.times, [0.1, 0.5, 1.0]):
@@ -47,7 +51,7 @@ def test_uphill_swing_with_ekf_tracking_a_plan(uphill):
     rows = [run_swing(uphill, seed=k).summary for k in range(20)]
     assert rows[0]["outcome"] == "captured" and rows[0]["estimator_in_loop"]
     captured = [s for s in rows if s["outcome"] == "captured"]
-    assert len(captured) >= 18
+    assert len(captured) >= 17
     for s in rows:
         assert s["fixed_gripper_open"] == (s["outcome"] == "captured")
         assert s["peak_motor_power_W"] < 220.0 and s["peak_torque_Nm"] <= 20.0 + 1e-9
@@ -73,9 +77,11 @@ def test_state_indexed_tracker_reads_no_clock(uphill):
     for clock in (0.05, 0.9):
         ctx = tracker.CreateDefaultContext()
         ctx.SetTime(clock)
-        ctx.get_mutable_discrete_state_vector().SetFromVector([0.0, 0.0, t_i - 0.02])
+        ctx.get_mutable_discrete_state_vector().SetFromVector([t_i - 0.02, 0.0])
         tracker.get_input_port(0).FixValue(ctx, x_i + [0.01, -0.02, 0.1, 0.0])
-        out.append(tracker.EvalUniquePeriodicDiscreteUpdate(ctx).get_vector().CopyToVector())
+        stored = tracker.EvalUniquePeriodicDiscreteUpdate(ctx).get_vector().CopyToVector()
+        out.append([tracker.GetOutputPort("torque").Eval(ctx)[0],
+                    tracker.GetOutputPort("reference").Eval(ctx)[0], *stored])
     np.testing.assert_array_equal(out[0], out[1])
     assert out[0][2] == pytest.approx(t_i, abs=0.01)
 

@@ -99,33 +99,29 @@ def plan_model(params: BplirParams):
     """(model, friction): the nominal plant with its friction (Coulomb
     smoothing widened to ``PLAN_FRICTION_SMOOTHING``) as a diagram with the
     elbow torque as input and the state as output."""
-    from pydrake.systems.framework import DiagramBuilder
-
-    from ..diagrams import add_plant_with_friction
+    from ..diagrams import build_plant_with_friction
 
     friction = replace(params.friction, b=max(params.friction.b, PLAN_FRICTION_SMOOTHING))
-    builder = DiagramBuilder()
-    plant, _ = add_plant_with_friction(builder, params.plant, friction)
-    builder.ExportInput(plant.get_actuation_input_port(), "elbow_torque")
-    builder.ExportOutput(plant.get_state_output_port(), "state")
-    return builder.Build(), friction
+    return build_plant_with_friction(params.with_(friction=friction), nominal=True).diagram, \
+        friction
 
 
 def plan_swing(params: BplirParams, *, power_limit: float | None = None, knots: int = 41,
                time_weight: float = 1.0, max_duration: float | None = None,
                guess_duration: float = 1.5, tolerance: float = 1e-4,
-               iterations: int = 1500, end_depth: float = 0.0) -> SwingPlan:
-    """Plan the scenario's swing (nominal model).  ``power_limit`` defaults to
-    the motor's rating, the torque limit to the controller's; the duration
-    is free within ``max_duration`` (default: the scenario's timeout).
-    ``end_depth``: the plan comes to rest with the free gripper this far
-    below the line (m, inside the capture band), so that the band is entered
-    just before the end, slowly, instead of during the final braking."""
-    from pydrake.all import (DirectCollocation, PiecewisePolynomial, SnoptSolver, Solve,
-                             SolverOptions)
-
-    from ..diagrams import swing_geometry
-    from ..systems.friction import friction_torques
+               iterations: int = 1500, end_depth: float = 0.0,
+               cache: bool = True) -> SwingPlan:
+    """Plan the scenario's swing on the nominal model, from the nominal start
+    pose (what the controller knows; the simulated robot never enters).
+    ``power_limit`` defaults to the motor's rating, the torque limit to the
+    controller's; the duration is free within ``max_duration`` (default: the
+    scenario's timeout).  ``end_depth``: the plan comes to rest with the free
+    gripper this far below the line (m, inside the capture band), so that
+    the band is entered just before the end, slowly, instead of during the
+    final braking.  With ``cache`` the plan is read from, or written to, the
+    disk cache (:func:`plan_cache_path`: keyed by every input the planner
+    reads; a solve takes about a minute)."""
+    from ..systems.plant import initial_configuration
 
     if not 5 <= knots <= 400:
         raise ParameterError(f"knots = {knots} is out of range; allowed [5, 400]")
@@ -136,9 +132,33 @@ def plan_swing(params: BplirParams, *, power_limit: float | None = None, knots: 
     if not 0.0 <= end_depth < params.scenario.capture_distance:
         raise ParameterError(f"end depth = {end_depth:g} m is out of range; allowed "
                              f"[0, {params.scenario.capture_distance:g}) m (the capture band)")
-    q0, _, _, _ = swing_geometry(params)
+    q0 = initial_configuration(params.scenario.grip_spacing, params.plant,
+                               math.radians(params.scenario.incline_deg))
     qT = planned_target(params, end_depth)
     tau_max = min(params.controller.torque_limit, params.motor.torque_limit)
+    inputs = dict(plant=params.plant.as_dict(), friction=params.friction.as_dict(),
+                  q0=q0.tolist(), qT=qT.tolist(), tau_max=tau_max, power=power, tmax=tmax,
+                  knots=knots, time_weight=time_weight, guess_duration=guess_duration,
+                  tolerance=tolerance, iterations=iterations,
+                  incline_deg=params.scenario.incline_deg)
+    if not cache:
+        return _solve_plan(params, q0, qT, tau_max, power, tmax, knots, time_weight,
+                           guess_duration, tolerance, iterations)
+    from .plan_cache import cached
+
+    return cached(inputs, lambda: _solve_plan(params, q0, qT, tau_max, power, tmax, knots,
+                                              time_weight, guess_duration, tolerance,
+                                              iterations))
+
+
+def _solve_plan(params, q0, qT, tau_max, power, tmax, knots, time_weight, guess_duration,
+                tolerance, iterations) -> SwingPlan:
+    """The DirectCollocation solve of :func:`plan_swing`."""
+    from pydrake.all import (DirectCollocation, PiecewisePolynomial, SnoptSolver, Solve,
+                             SolverOptions)
+
+    from ..systems.friction import friction_torques
+
     system, friction = plan_model(params)
     dircol = DirectCollocation(system, system.CreateDefaultContext(), num_time_samples=knots,
                                minimum_time_step=0.2 / (knots - 1),
@@ -173,26 +193,33 @@ def plan_swing(params: BplirParams, *, power_limit: float | None = None, knots: 
                      power, tolerance)
 
 
-_PLANS: dict = {}
-
-
 def tracking_plan(params: BplirParams):
     """(plan, tracking gains) for the scenario of ``params`` with
-    ``path.plan_end_depth``; computed once per nominal model and scenario
-    geometry in this process (a plan takes about a minute)."""
+    ``path.plan_end_depth``: the plan from :func:`plan_swing` (disk cache),
+    the gains from Drake's finite-horizon LQR on the nominal model, kept in
+    this process per plan (:func:`_gains_for`)."""
+    sc, depth = params.scenario, params.path.plan_end_depth
+    plan = plan_swing(params, end_depth=depth)
+    if not plan.feasible:
+        raise ParameterError(f"no feasible plan for a {sc.incline_deg:g} deg line within "
+                             f"{plan.torque_limit:g} N m and {plan.power_limit:g} W")
+    return plan, _gains_for(params.plant, params.friction, plan)
+
+
+_GAINS: dict = {}
+
+
+def _gains_for(plant, friction, plan: SwingPlan):
+    """Finite-horizon LQR gains along ``plan`` on the nominal model (plant,
+    friction), memoised per (model, plan contents) in this process."""
+    from ..params import BplirParams as _P
     from ..systems.plan_tracker import plan_gains
 
-    sc, depth = params.scenario, params.path.plan_end_depth
-    key = (params.plant, params.friction, params.motor, params.controller.torque_limit,
-           sc.grip_spacing, sc.incline_deg, sc.max_time, sc.capture_distance, depth)
-    if key not in _PLANS:
-        plan = plan_swing(params, end_depth=depth)
-        if not plan.feasible:
-            raise ParameterError(f"no feasible plan for a {sc.incline_deg:g} deg line within "
-                                 f"{plan.torque_limit:g} N m and {plan.power_limit:g} W")
-        model, _ = plan_model(params)
-        _PLANS[key] = plan, plan_gains(model, plan.times, plan.states, plan.torque)
-    return _PLANS[key]
+    key = (plant, friction, plan.times.tobytes(), plan.states.tobytes(), plan.torque.tobytes())
+    if key not in _GAINS:
+        model, _ = plan_model(_P(plant=plant, friction=friction))
+        _GAINS[key] = plan_gains(model, plan.times, plan.states, plan.torque)
+    return _GAINS[key]
 
 
 def planned_target(params: BplirParams, end_depth: float = 0.0) -> np.ndarray:

@@ -27,15 +27,17 @@ comparisons.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 from pydrake.autodiffutils import AutoDiffXd
-from pydrake.systems.framework import LeafSystem_
+from pydrake.systems.framework import LeafSystem, LeafSystem_
 from pydrake.systems.scalar_conversion import TemplateSystem
 
 from ..params import ControllerParams, FrictionParams, PlantParams
 from .friction import friction_torques
 from .plant import bias_term, gravity_vector, mass_matrix
+from .schedule import declare_store, declare_tick_result
 
 
 # ----------------------------------------------------------- pure functions
@@ -86,6 +88,7 @@ def tf_to_ss(num, den, period: float = 0.0) -> StateSpace:
     return StateSpace(np.array(sys.A), np.array(sys.B), np.array(sys.C), np.array(sys.D))
 
 
+@lru_cache(maxsize=64)
 def outer_loop(ctrl: ControllerParams, period: float = 0.0):
     """(K, F) state-space realisations of the configured design."""
     d = ctrl.design
@@ -119,89 +122,119 @@ def saturate_with_antiwindup(e, xK, K: StateSpace, a, b, limit, X: float):
     return tau_hat, v, v_hat, e - X * (v - v_hat), tau0
 
 
-# ----------------------------------------------------------- the system
+# ----------------------------------------------------------- the systems
 
-@TemplateSystem.define("CpflController_", T_list=(float, AutoDiffXd))
-def CpflController_(T):
-    class Impl(LeafSystem_[T]):
-        """Inputs ``state`` (q1, q2, q1d, q2d: relative, estimated or true),
-        ``reference`` (q2_ref), ``feedforward`` (v_ff, rad/s^2),
-        ``torque_available`` (N m).  Outputs ``torque`` (saturated command),
-        ``v`` (outer-loop signal realised), ``torque_unsaturated``.
+class _CpflLaw:
+    """The control law shared by the discrete and the continuous controller:
+    ports, filters and one evaluation of CPFL + outer loop + saturation."""
 
-        ``continuous=True``: K and F continuous-time (for linearisation).
-        Otherwise discrete at ``ctrl.period`` with the update at ``offset``
-        and, for ``ctrl.delay_samples = 1``, the command applied one sample
-        later (the lab firmware).  ``use_prefilter=False`` bypasses F (path
-        tracking: the smooth path comes with its own feed-forward; a step
-        prefilter would only add lag).
-        """
+    def _setup(self, plant: PlantParams, ctrl: ControllerParams, friction, continuous: bool,
+               use_prefilter: bool):
+        self.plant_params, self.ctrl, self.friction = plant, ctrl, friction
+        self.continuous, self.use_prefilter = continuous, use_prefilter
+        self.K, self.F = outer_loop(ctrl, 0.0 if continuous else ctrl.period)
+        if not use_prefilter:
+            self.F = tf_to_ss((1.0,), (1.0,))
+        self.nK, self.nF = self.K.n, self.F.n
+        self.DeclareVectorInputPort("state", 4)
+        self.DeclareVectorInputPort("reference", 1)
+        self.DeclareVectorInputPort("feedforward", 1)
+        self.DeclareVectorInputPort("torque_available", 1)
+
+    def _law(self, context, xF, xK):
+        x = self.get_input_port(0).Eval(context)
+        r = self.get_input_port(1).Eval(context)[0]
+        v_ff = self.get_input_port(2).Eval(context)[0]
+        avail = self.get_input_port(3).Eval(context)[0]
+        F, K = self.F, self.K
+        rf = ((F.C @ xF)[0] if self.nF else 0.0 * r) + F.D[0, 0] * r
+        e = rf - x[1]
+        a, b = cpfl_terms(x[0:2], x[2:4], self.plant_params,
+                          self.friction if self.ctrl.friction_compensation else None)
+        limit = min(self.ctrl.torque_limit, avail) if avail > 0 else 0.0 * avail
+        tau_hat, v, v_hat, e_t, tau0 = saturate_with_antiwindup(
+            e, xK, K, a, b + a * v_ff, limit, self.ctrl.aw_gain)
+        q = self.ctrl.torque_quantum
+        if q > 0:  # firmware: truncate to whole units toward zero
+            tau_hat = np.trunc(tau_hat / q) * q
+        return r, e_t, tau_hat, v_hat + v_ff, tau0
+
+    def _split(self, vec):
+        return vec[:self.nF], vec[self.nF:self.nF + self.nK]
+
+
+class DiscreteCpflController(_CpflLaw, LeafSystem):
+    """The controller at ``ctrl.period`` on the tick schedule
+    (:mod:`bplir_drake.systems.schedule`): the tick's command is computed
+    once from the stored filter states and the inputs, and the filter states
+    are advanced and stored at the next tick; for ``ctrl.delay_samples = 1``
+    the command is applied one sample later (the lab firmware).  Ports as
+    :func:`CpflController`."""
+
+    def __init__(self, plant: PlantParams, ctrl: ControllerParams,
+                 friction: FrictionParams | None = None, use_prefilter: bool = True):
+        LeafSystem.__init__(self)
+        self._setup(plant, ctrl, friction, False, use_prefilter)
+        n = self.nF + self.nK
+        # [xF, xK, command of the previous tick (for delay_samples = 1)]
+        self._xd = self.DeclareDiscreteState(n + 1)
+        self._tick = declare_tick_result(
+            self, self._tick_law, {self.xd_ticket(), self.all_input_ports_ticket()})
+        declare_store(self, ctrl.period, self._store)
+        dep = {self._tick.ticket()}
+        self.DeclareVectorOutputPort("torque", 1, self._result(0), dep)
+        self.DeclareVectorOutputPort("v", 1, self._result(1), dep)
+        self.DeclareVectorOutputPort("torque_unsaturated", 1, self._result(2), dep)
+
+    def _tick_law(self, context):
+        """(applied torque, v, unsaturated torque, next filter state)."""
+        s = context.get_discrete_state(self._xd).get_value()
+        n = self.nF + self.nK
+        xF, xK = self._split(s[:n])
+        r, e_t, tau_hat, v, tau0 = self._law(context, xF, xK)
+        xF = self.F.A @ xF + self.F.B[:, 0] * r
+        xK = self.K.A @ xK + self.K.B[:, 0] * e_t
+        applied = s[n] if self.ctrl.delay_samples else tau_hat
+        return applied, v, tau0, np.concatenate([xF, xK, [tau_hat]])
+
+    def _store(self, context, discrete_state):
+        discrete_state.get_mutable_vector(self._xd).SetFromVector(self._tick.Eval(context)[3])
+
+    def _result(self, index):
+        def calc(context, out):
+            out.SetAtIndex(0, self._tick.Eval(context)[index])
+        return calc
+
+
+@TemplateSystem.define("ContinuousCpflController_", T_list=(float, AutoDiffXd))
+def ContinuousCpflController_(T):
+    class Impl(_CpflLaw, LeafSystem_[T]):
+        """K and F in continuous time, so a loop containing the controller
+        can be linearised (converts to AutoDiffXd).  Ports as
+        :func:`CpflController`."""
 
         def _construct(self, plant: PlantParams, ctrl: ControllerParams,
-                       friction: FrictionParams | None = None, continuous: bool = False,
-                       offset: float = 0.0, use_prefilter: bool = True, converter=None):
+                       friction: FrictionParams | None = None, use_prefilter: bool = True,
+                       converter=None):
             LeafSystem_[T].__init__(self, converter)
-            self.plant_params, self.ctrl, self.friction = plant, ctrl, friction
-            self.continuous, self.offset, self.use_prefilter = continuous, offset, use_prefilter
-            self.K, self.F = outer_loop(ctrl, 0.0 if continuous else ctrl.period)
-            if not use_prefilter:
-                self.F = tf_to_ss((1.0,), (1.0,))
-            self.nK, self.nF = self.K.n, self.F.n
-            self.DeclareVectorInputPort("state", 4)
-            self.DeclareVectorInputPort("reference", 1)
-            self.DeclareVectorInputPort("feedforward", 1)
-            self.DeclareVectorInputPort("torque_available", 1)
-            n = self.nF + self.nK
-            if continuous:
-                if n:
-                    self.DeclareContinuousState(n)
-                self.DeclareVectorOutputPort("torque", 1, self._out_torque)
-                self.DeclareVectorOutputPort("v", 1, self._out_v)
-                self.DeclareVectorOutputPort("torque_unsaturated", 1, self._out_tau0)
-            else:
-                # [xF, xK, tau_hat, v, tau0, pending tau (delay)]
-                self._xd = self.DeclareDiscreteState(n + 4)
-                self.DeclarePeriodicDiscreteUpdateEvent(ctrl.period, offset, self._update)
-                xd = {self.xd_ticket()}
-                self.DeclareVectorOutputPort("torque", 1, self._held(n), xd)
-                self.DeclareVectorOutputPort("v", 1, self._held(n + 1), xd)
-                self.DeclareVectorOutputPort("torque_unsaturated", 1, self._held(n + 2), xd)
+            self._setup(plant, ctrl, friction, True, use_prefilter)
+            if self.nF + self.nK:
+                self.DeclareContinuousState(self.nF + self.nK)
+            self.DeclareVectorOutputPort("torque", 1, self._out(2))
+            self.DeclareVectorOutputPort("v", 1, self._out(3))
+            self.DeclareVectorOutputPort("torque_unsaturated", 1, self._out(4))
 
         def _construct_copy(self, other, converter=None):
             Impl._construct(self, other.plant_params, other.ctrl, other.friction,
-                            other.continuous, other.offset, other.use_prefilter,
-                            converter=converter)
+                            other.use_prefilter, converter=converter)
 
-        # -- the law, shared by both modes
-        def _law(self, context, xF, xK):
-            x = self.get_input_port(0).Eval(context)
-            r = self.get_input_port(1).Eval(context)[0]
-            v_ff = self.get_input_port(2).Eval(context)[0]
-            avail = self.get_input_port(3).Eval(context)[0]
-            F, K = self.F, self.K
-            rf = ((F.C @ xF)[0] if self.nF else 0.0 * r) + F.D[0, 0] * r
-            e = rf - x[1]
-            a, b = cpfl_terms(x[0:2], x[2:4], self.plant_params,
-                              self.friction if self.ctrl.friction_compensation else None)
-            limit = min(self.ctrl.torque_limit, avail) if avail > 0 else 0.0 * avail
-            tau_hat, v, v_hat, e_t, tau0 = saturate_with_antiwindup(
-                e, xK, K, a, b + a * v_ff, limit, self.ctrl.aw_gain)
-            q = self.ctrl.torque_quantum
-            if q > 0:  # firmware: truncate to whole units toward zero
-                tau_hat = np.trunc(tau_hat / q) * q
-            return r, e_t, tau_hat, v_hat + v_ff, tau0
-
-        def _split(self, vec):
-            return vec[:self.nF], vec[self.nF:self.nF + self.nK]
-
-        # -- continuous mode
         def _xc(self, context):
             if self.nF + self.nK == 0:
                 return np.zeros(0)
             return context.get_continuous_state_vector().CopyToVector()
 
         def DoCalcTimeDerivatives(self, context, derivatives):
-            if not self.continuous or self.nF + self.nK == 0:
+            if self.nF + self.nK == 0:
                 return
             xF, xK = self._split(self._xc(context))
             r, e_t, *_ = self._law(context, xF, xK)
@@ -209,39 +242,31 @@ def CpflController_(T):
             dK = self.K.A @ xK + self.K.B[:, 0] * e_t
             derivatives.get_mutable_vector().SetFromVector(np.concatenate([dF, dK]))
 
-        def _out_torque(self, context, out):
-            xF, xK = self._split(self._xc(context))
-            out.SetAtIndex(0, self._law(context, xF, xK)[2])
-
-        def _out_v(self, context, out):
-            xF, xK = self._split(self._xc(context))
-            out.SetAtIndex(0, self._law(context, xF, xK)[3])
-
-        def _out_tau0(self, context, out):
-            xF, xK = self._split(self._xc(context))
-            out.SetAtIndex(0, self._law(context, xF, xK)[4])
-
-        # -- discrete mode
-        def _update(self, context, discrete_state):
-            s = context.get_discrete_state(self._xd).get_value()
-            n = self.nF + self.nK
-            xF, xK = self._split(s[:n])
-            r, e_t, tau_hat, v, tau0 = self._law(context, xF, xK)
-            xF = self.F.A @ xF + self.F.B[:, 0] * r
-            xK = self.K.A @ xK + self.K.B[:, 0] * e_t
-            if self.ctrl.delay_samples:
-                applied, pending = s[n + 3], tau_hat
-            else:
-                applied, pending = tau_hat, tau_hat
-            discrete_state.get_mutable_vector(self._xd).SetFromVector(
-                np.concatenate([xF, xK, [applied, v, tau0, pending]]))
-
-        def _held(self, index):
+        def _out(self, index):
             def calc(context, out):
-                out.SetAtIndex(0, context.get_discrete_state(self._xd).get_value()[index])
+                xF, xK = self._split(self._xc(context))
+                out.SetAtIndex(0, self._law(context, xF, xK)[index])
             return calc
 
     return Impl
 
 
-CpflController = CpflController_[None]
+ContinuousCpflController = ContinuousCpflController_[None]
+
+
+def CpflController(plant: PlantParams, ctrl: ControllerParams,
+                   friction: FrictionParams | None = None, continuous: bool = False,
+                   use_prefilter: bool = True):
+    """The CPFL controller: inputs ``state`` (q1, q2, q1d, q2d: relative,
+    estimated or true), ``reference`` (q2_ref), ``feedforward`` (v_ff,
+    rad/s^2), ``torque_available`` (N m); outputs ``torque`` (saturated
+    command), ``v`` (outer-loop signal realised), ``torque_unsaturated``.
+
+    ``continuous=True``: K and F in continuous time (for linearisation,
+    :class:`ContinuousCpflController`); otherwise discrete
+    (:class:`DiscreteCpflController`).  ``use_prefilter=False`` bypasses F
+    (path tracking: the smooth path comes with its own feed-forward; a step
+    prefilter would only add lag)."""
+    if continuous:
+        return ContinuousCpflController(plant, ctrl, friction, use_prefilter)
+    return DiscreteCpflController(plant, ctrl, friction, use_prefilter)

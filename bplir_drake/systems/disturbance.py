@@ -24,6 +24,7 @@ import numpy as np
 from pydrake.systems.framework import BasicVector, LeafSystem
 
 from ..params import ScenarioParams
+from .schedule import declare_store
 
 
 def has_disturbance(sc: ScenarioParams) -> bool:
@@ -63,18 +64,21 @@ def delay_steps(delay: float, period: float) -> int:
 
 
 class CommandDelay(LeafSystem):
-    """Delays a sampled signal by ``steps`` periods: a FIFO updated at
-    ``k*period + offset`` (just after the sampled command is computed)."""
+    """Delays a sampled signal by ``steps`` periods on the tick schedule
+    (:mod:`bplir_drake.systems.schedule`): at ``t_k`` it stores the tick
+    ``k - 1`` value of its input in a FIFO of ``steps`` values and outputs
+    the oldest, so the command of tick ``k`` acts during tick ``k + steps``
+    (zero before)."""
 
-    def __init__(self, size: int, period: float, steps: int, offset: float):
+    def __init__(self, size: int, period: float, steps: int):
         super().__init__()
         if steps < 1:
             raise ValueError("CommandDelay needs steps >= 1")
         self.size, self.steps = size, steps
         self.DeclareVectorInputPort("u", size)
-        # [u_{k-steps}, ..., u_k] after the update of tick k; the output is the first
-        self._xd = self.DeclareDiscreteState(size * (steps + 1))
-        self.DeclarePeriodicDiscreteUpdateEvent(period, offset, self._update)
+        # [u_{k-steps}, ..., u_{k-1}] during tick k; the output is the first
+        self._xd = self.DeclareDiscreteState(size * steps)
+        declare_store(self, period, self._update)
         self.DeclareVectorOutputPort("y", size, self._out, {self.xd_ticket()})
 
     def _update(self, context, discrete_state):

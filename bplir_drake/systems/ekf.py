@@ -7,8 +7,9 @@ tangential accelerations ``u = (mu_x1, mu_x2)`` as inputs; measurement
 ``z = (gyro1, gyro2, mu_y1, mu_y2)`` (5.11)-(5.12).  The filter uses geometry
 only (``r1``, ``r2``, ``l1``, ``g``): no mass, inertia or friction.
 
-Jacobians are computed from the model functions with AutoDiffXd, never typed
-from the printed (5.15)/(5.28).  Erratum: the printed output ``e`` of (5.11)
+Jacobians are derived from the model functions in closed form and tested
+against AutoDiffXd (:func:`jacobians`), never typed from the printed
+(5.15)/(5.28).  Erratum: the printed output ``e`` of (5.11)
 carries a spurious factor ``l1/r1`` on the centripetal term ``omega2^2 r2``;
 the measurement model here is derived from (5.6)-(5.9) (see
 :func:`bplir_drake.systems.imu.imu_kinematics`) and tested against the
@@ -23,6 +24,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 import pydrake.math as dmath
@@ -30,6 +32,7 @@ from pydrake.autodiffutils import AutoDiffXd, ExtractGradient, ExtractValue, Ini
 from pydrake.systems.framework import LeafSystem
 
 from ..params import EstimatorParams
+from .schedule import declare_store, declare_tick_result
 
 
 # ----------------------------------------------------------- model functions
@@ -95,10 +98,13 @@ class EkfState:
     P: np.ndarray   # (n, n)
 
 
+@lru_cache(maxsize=64)
 def noise_matrices(p: EstimatorParams):
-    """(Q_u (2x2) on the accelerometer inputs, R (4x4), Q_bias per second)."""
+    """(Q_u (2x2) on the accelerometer inputs, R (4x4), Q_bias per second);
+    cached per parameter block (read-only arrays)."""
     Qu = p.accel_process_sigma ** 2 * np.eye(2)
     R = np.diag([p.gyro_meas_sigma ** 2] * 2 + [p.accel_meas_sigma ** 2] * 2)
+    Qu.flags.writeable = R.flags.writeable = False
     return Qu, R, p.bias_walk ** 2
 
 
@@ -129,13 +135,79 @@ def discrete_f(x, u, p: EstimatorParams):
     return out
 
 
+def kinematic_f_jacobians(x, u, p: EstimatorParams):
+    """(f, df/dx, df/du) of :func:`kinematic_f` in closed form (plain floats;
+    tested against AutoDiff)."""
+    n = len(x)
+    t1, t2, w1 = float(x[0]), float(x[1]), float(x[2])
+    s1, c1, s2, c2 = math.sin(t1), math.cos(t1), math.sin(t2), math.cos(t2)
+    s21, c21 = math.sin(t2 - t1), math.cos(t2 - t1)
+    a1 = (u[0] - p.g * s1) / p.r1
+    a1_t1 = -p.g * c1 / p.r1
+    l1, r2 = p.l1, p.r2
+    a2 = (-l1 * c21 * a1 + u[1] - p.g * s2 - l1 * w1 * w1 * s21) / r2
+    f = np.zeros(n)
+    f[:4] = (w1, x[3], a1, a2)
+    A = np.zeros((n, n))
+    A[0, 2] = A[1, 3] = 1.0
+    A[2, 0] = a1_t1
+    A[3, 0] = (-l1 * s21 * a1 - l1 * c21 * a1_t1 + l1 * w1 * w1 * c21) / r2
+    A[3, 1] = (l1 * s21 * a1 - p.g * c2 - l1 * w1 * w1 * c21) / r2
+    A[3, 2] = -2.0 * l1 * w1 * s21 / r2
+    B = np.zeros((n, 2))
+    B[2, 0] = 1.0 / p.r1
+    B[3, 0] = -l1 * c21 / (p.r1 * r2)
+    B[3, 1] = 1.0 / r2
+    return f, A, B
+
+
+def discrete_f_jacobians(x, u, p: EstimatorParams):
+    """(x_next, A = df_d/dx, W = df_d/du) of :func:`discrete_f` in closed form."""
+    Ts = p.period
+    f, Jx, Ju = kinematic_f_jacobians(x, u, p)
+    x_new = x + Ts * f
+    A = np.eye(len(x)) + Ts * Jx
+    W = Ts * Ju
+    if p.integration == "trapezoid":
+        h = 0.5 * Ts * Ts
+        x_new[0:2] += h * f[2:4]
+        A[0:2] += h * Jx[2:4]
+        W[0:2] += h * Ju[2:4]
+    return x_new, A, W
+
+
+def kinematic_h_jacobian(x, u, p: EstimatorParams):
+    """(h, dh/dx) of :func:`kinematic_h` in closed form (tested against AutoDiff)."""
+    n = len(x)
+    t1, t2, w1, w2 = (float(v) for v in x[:4])
+    s1, c1, s2, c2 = math.sin(t1), math.cos(t1), math.sin(t2), math.cos(t2)
+    s21, c21 = math.sin(t2 - t1), math.cos(t2 - t1)
+    a1 = (u[0] - p.g * s1) / p.r1
+    a1_t1 = -p.g * c1 / p.r1
+    l1 = p.l1
+    b1, b2 = (x[4], x[5]) if n > 4 else (0.0, 0.0)
+    h = np.array([w1 + b1, w2 + b2, p.r1 * w1 * w1 + p.g * c1,
+                  l1 * (-a1 * s21 + w1 * w1 * c21) + p.r2 * w2 * w2 + p.g * c2])
+    H = np.zeros((4, n))
+    H[0, 2] = H[1, 3] = 1.0
+    if n > 4:
+        H[0, 4] = H[1, 5] = 1.0
+    H[2, 0] = -p.g * s1
+    H[2, 2] = 2.0 * p.r1 * w1
+    H[3, 0] = l1 * (-a1_t1 * s21 + a1 * c21 + w1 * w1 * s21)
+    H[3, 1] = l1 * (-a1 * c21 - w1 * w1 * s21) - p.g * s2
+    H[3, 2] = 2.0 * l1 * w1 * c21
+    H[3, 3] = 2.0 * p.r2 * w2
+    return h, H
+
+
 def ekf_predict(s: EkfState, u, p: EstimatorParams) -> EkfState:
     """(5.23)-(5.24): prediction over one period; ``A = df_d/dx`` and
-    ``W = df_d/du`` by AutoDiff of :func:`discrete_f`."""
-    x_new, A, W = jacobians(discrete_f, s.x, np.asarray(u, dtype=float), p)
+    ``W = df_d/du`` in closed form (:func:`discrete_f_jacobians`)."""
+    x_new, A, W = discrete_f_jacobians(s.x, np.asarray(u, dtype=float), p)
     n = len(s.x)
     Qu, _, qb = noise_matrices(p)
-    P = A @ s.P @ A.T + W @ Qu @ W.T
+    P = A @ s.P @ A.T + (W @ Qu) @ W.T
     if n > 4:
         P[4:, 4:] += qb * p.period * np.eye(2)
     return EkfState(x_new, P)
@@ -143,10 +215,11 @@ def ekf_predict(s: EkfState, u, p: EstimatorParams) -> EkfState:
 
 def ekf_update(s: EkfState, z, u, p: EstimatorParams) -> EkfState:
     """(5.29)-(5.31), Joseph form."""
-    h, H, _ = jacobians(kinematic_h, s.x, np.asarray(u, dtype=float), p)
+    h, H = kinematic_h_jacobian(s.x, np.asarray(u, dtype=float), p)
     _, R, _ = noise_matrices(p)
-    S = H @ s.P @ H.T + R
-    K = np.linalg.solve(S, H @ s.P).T
+    PHt = s.P @ H.T
+    S = H @ PHt + R
+    K = np.linalg.solve(S, PHt.T).T
     x = s.x + K @ (np.asarray(z, dtype=float) - h)
     IKH = np.eye(len(s.x)) - K @ H
     P = IKH @ s.P @ IKH.T + K @ R @ K.T
@@ -175,17 +248,18 @@ def ekf_step(s: EkfState, u_prev, sample, p: EstimatorParams, *, first: bool = F
 # ----------------------------------------------------------- Drake system
 
 class KinematicEkf(LeafSystem):
-    """Discrete EKF at ``params.period``.
+    """Discrete EKF at ``params.period`` on the tick schedule
+    (:mod:`bplir_drake.systems.schedule`).
 
     Input ``imu`` (6, see :data:`bplir_drake.systems.imu.IMU_COLUMNS`).
     Outputs ``estimate`` (theta1, theta2, omega1, omega2: absolute),
     ``estimate_relative`` (q1, q2, q1d, q2d), ``covariance_diagonal`` (n) and
-    ``gyro_bias`` (2).  ``offset`` shifts the update after the IMU sample of
-    the same tick (so the filter uses it without a period of delay).
+    ``gyro_bias`` (2): the posterior of the sample held at the input,
+    computed (once per tick) from the stored posterior of the previous tick,
+    which is stored at the next tick.
     """
 
-    def __init__(self, params: EstimatorParams, x0=(0.0, 0.0, 0.0, 0.0), offset: float = 0.0,
-                 sigmas=None):
+    def __init__(self, params: EstimatorParams, x0=(0.0, 0.0, 0.0, 0.0), sigmas=None):
         super().__init__()
         if not isinstance(params, EstimatorParams):
             raise TypeError("KinematicEkf takes EstimatorParams (geometry and noise only)")
@@ -193,42 +267,41 @@ class KinematicEkf(LeafSystem):
         init = initial_state(params, x0, sigmas)
         self.n = n = len(init.x)
         self.DeclareVectorInputPort("imu", 6)
+        # [x (n), P (n*n), previous accelerometer input (2), first-sample flag]
         packed = np.concatenate([init.x, init.P.ravel(), [0.0, 0.0], [1.0]])
         self._state = self.DeclareDiscreteState(packed)
-        self.DeclarePeriodicDiscreteUpdateEvent(params.period, offset, self._update)
-        xd = {self.xd_ticket()}
-        self.DeclareVectorOutputPort("estimate", 4, self._out_abs, xd)
-        self.DeclareVectorOutputPort("estimate_relative", 4, self._out_rel, xd)
-        self.DeclareVectorOutputPort("covariance_diagonal", n, self._out_cov, xd)
-        self.DeclareVectorOutputPort("gyro_bias", 2, self._out_bias, xd)
+        self._post = declare_tick_result(self, self._posterior,
+                                         {self.xd_ticket(), self.all_input_ports_ticket()})
+        declare_store(self, params.period, self._store)
+        dep = {self._post.ticket()}
+        self.DeclareVectorOutputPort("estimate", 4, self._out_abs, dep)
+        self.DeclareVectorOutputPort("estimate_relative", 4, self._out_rel, dep)
+        self.DeclareVectorOutputPort("covariance_diagonal", n, self._out_cov, dep)
+        self.DeclareVectorOutputPort("gyro_bias", 2, self._out_bias, dep)
 
-    def _unpack(self, v):
-        n = self.n
-        return EkfState(v[:n].copy(), v[n:n + n * n].reshape(n, n).copy()), v[n + n * n:n + n * n + 2], v[-1] > 0.5
-
-    def _update(self, context, discrete_state):
+    def _posterior(self, context):
+        """The packed filter state after this tick's sample."""
         v = context.get_discrete_state(self._state).get_value()
-        s, u_prev, first = self._unpack(v)
+        n = self.n
+        s = EkfState(v[:n].copy(), v[n:n + n * n].reshape(n, n).copy())
         sample = self.get_input_port(0).Eval(context)
-        s, u = ekf_step(s, u_prev, sample, self.params, first=first)
-        discrete_state.get_mutable_vector(self._state).SetFromVector(
-            np.concatenate([s.x, s.P.ravel(), u, [0.0]]))
+        s, u = ekf_step(s, v[n + n * n:n + n * n + 2], sample, self.params, first=v[-1] > 0.5)
+        return np.concatenate([s.x, s.P.ravel(), u, [0.0]])
 
-    def _x(self, context):
-        return context.get_discrete_state(self._state).get_value()[:self.n]
+    def _store(self, context, discrete_state):
+        discrete_state.get_mutable_vector(self._state).SetFromVector(self._post.Eval(context))
 
     def _out_abs(self, context, out):
-        out.SetFromVector(self._x(context)[:4])
+        out.SetFromVector(self._post.Eval(context)[:4])
 
     def _out_rel(self, context, out):
-        x = self._x(context)
+        x = self._post.Eval(context)
         out.SetFromVector([x[0], x[1] - x[0], x[2], x[3] - x[2]])
 
     def _out_cov(self, context, out):
-        v = context.get_discrete_state(self._state).get_value()
         n = self.n
-        out.SetFromVector(np.diag(v[n:n + n * n].reshape(n, n)))
+        out.SetFromVector(self._post.Eval(context)[n:n + n * n:n + 1])
 
     def _out_bias(self, context, out):
-        x = self._x(context)
+        x = self._post.Eval(context)
         out.SetFromVector(x[4:6] if self.n > 4 else [0.0, 0.0])

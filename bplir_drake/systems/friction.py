@@ -72,3 +72,24 @@ def JointFriction_(T):
 
 
 JointFriction = JointFriction_[None]
+
+
+def friction_system(params: FrictionParams):
+    """Joint friction as a C++ ``SymbolicVectorSystem`` for simulation: the
+    same law (:func:`friction_torques`, evaluated on symbolic variables), no
+    Python call while the integrator steps.
+
+    Input ``state`` (q1, q2, q1d, q2d); output the generalized force
+    ``-f(qd)`` (2).  Its one continuous state is the energy friction has
+    dissipated, ``W' = f1 q1d + f2 q2d`` (J): Drake 1.51's
+    ``SymbolicVectorSystem`` cannot be stateless inside a continuous diagram,
+    and the dissipated energy is worth having.  For ``Linearize`` use
+    :class:`JointFriction` (templated, no extra state)."""
+    from pydrake.symbolic import MakeVectorVariable, Variable
+    from pydrake.systems.primitives import SymbolicVectorSystem
+
+    x = MakeVectorVariable(4, "x")
+    work = Variable("dissipated")
+    f = friction_torques(x[2:4], params)
+    return SymbolicVectorSystem(state=[work], input=x, dynamics=[f[0] * x[2] + f[1] * x[3]],
+                                output=[-f[0], -f[1]])

@@ -1,8 +1,8 @@
 """Gripper interlock: the fixed gripper may only open once the free gripper
 holds the line.
 
-A small state machine updated every ``period`` (2 ms by default) from the
-*true* plant state -- in the robot this is the gripper's contact/proximity
+A small state machine updated every ``period`` (the controller's tick) from
+the *true* plant state -- in the robot this is the gripper's contact/proximity
 sensing, not the estimator.  Outcomes (SPEC.md, "Swing scenarios and
 success"):
 
@@ -16,8 +16,8 @@ success"):
   than the driver allows), or the estimate or the applied torque became
   non-finite, before the arrival.
 
-Only ``captured`` sets ``fixed_gripper_open``; the simulation is ended by the
-simulator monitor (:func:`bplir_drake.simulate.run_until_outcome`).
+Only ``captured`` sets ``fixed_gripper_open``; the update that decides ends
+the simulation (:func:`bplir_drake.simulate.run_until_outcome`).
 """
 from __future__ import annotations
 
@@ -28,7 +28,7 @@ import numpy as np
 from pydrake.systems.framework import LeafSystem
 
 from ..params import ScenarioParams
-from .plant import gripper_position, gripper_velocity
+from .schedule import declare_store
 
 OUTCOMES = ("swinging", "captured", "crash", "timeout", "fault")
 
@@ -43,66 +43,151 @@ class LineGeometry:
 
 def line_metrics(x, g: LineGeometry):
     """(distance to the line, signed; along-line position; travel from the
-    start; gripper speed) of the free gripper at state ``x``."""
-    p = gripper_position(x[:2], g.l1, g.l2)
-    v = gripper_velocity(x[:2], x[2:4], g.l1, g.l2)
+    start; gripper speed) of the free gripper at state ``x`` (plain floats)."""
+    q1, q2, w1, w2 = float(x[0]), float(x[1]), float(x[2]), float(x[3])
+    s1, c1, s12, c12 = math.sin(q1), math.cos(q1), math.sin(q1 + q2), math.cos(q1 + q2)
+    px, py = g.l1 * s1 + g.l2 * s12, -g.l1 * c1 - g.l2 * c12   # (A.3)
+    vx = g.l1 * c1 * w1 + g.l2 * c12 * (w1 + w2)
+    vy = g.l1 * s1 * w1 + g.l2 * s12 * (w1 + w2)
     ca, sa = math.cos(g.alpha), math.sin(g.alpha)
-    along = p[0] * ca + p[1] * sa
-    normal = -p[0] * sa + p[1] * ca
-    return normal, along, along + g.grip_spacing, float(math.hypot(v[0], v[1]))
+    along = px * ca + py * sa
+    normal = -px * sa + py * ca
+    return normal, along, along + g.grip_spacing, math.hypot(vx, vy)
+
+
+def hermite_state(x0, x1, T: float, s: float):
+    """The state at ``t0 + s T`` between two ticks: cubic Hermite on the
+    angles (their rates at both ends), its derivative for the rates."""
+    s2, s3 = s * s, s * s * s
+    h00, h10, h01, h11 = 2 * s3 - 3 * s2 + 1, (s3 - 2 * s2 + s) * T, -2 * s3 + 3 * s2, \
+        (s3 - s2) * T
+    d00, d10, d01, d11 = (6 * s2 - 6 * s) / T, 3 * s2 - 4 * s + 1, (-6 * s2 + 6 * s) / T, \
+        3 * s2 - 2 * s
+    return [h00 * x0[i] + h10 * x0[i + 2] + h01 * x1[i] + h11 * x1[i + 2] for i in (0, 1)] + \
+        [d00 * x0[i] + d10 * x0[i + 2] + d01 * x1[i] + d11 * x1[i + 2] for i in (0, 1)]
+
+
+def first_arrival(x0, x1, T: float, g: LineGeometry, sc: ScenarioParams, passed: bool,
+                  last_normal: float, substeps: int = 8, bisections: int = 30):
+    """The first arrival between two ticks, if any.
+
+    Scans the Hermite interpolant between the tick states ``x0`` and ``x1``
+    at ``substeps`` points; an arrival is the first point after the vertical
+    (``passed``), at least ``min_travel_fraction * D`` along the line, within
+    ``capture_distance`` of it or across it since the previous point; its
+    time is then refined by bisection.  The scan is skipped when the gripper
+    cannot come near the line between the ticks (its distance at both ticks
+    exceeds the band by more than twice the distance it can travel at the
+    faster of its two speeds).  Returns ``(s, x, passed, normal, closest)``:
+    ``s`` in (0, 1] (None without an arrival), the state there, the updated
+    flags, and the closest distance seen after the vertical."""
+    n1, _, travel1, v1 = line_metrics(x1, g)
+    n0, _, _, v0 = line_metrics(x0, g)
+    reach = 2.0 * T * max(v0, v1) + sc.capture_distance
+    if min(abs(n0), abs(n1)) > reach and n0 * n1 > 0.0:
+        passed = passed or (x1[0] - g.alpha) > 0.0
+        closest = abs(n1) if passed and travel1 > 0.0 else math.inf
+        return None, x1, passed, n1, closest
+    closest = math.inf
+
+    def arrives(s, passed, last_normal):
+        x = hermite_state(x0, x1, T, s)
+        normal, _, travel, _ = line_metrics(x, g)
+        passed = passed or (x[0] - g.alpha) > 0.0
+        hit = passed and travel >= sc.min_travel_fraction * sc.grip_spacing and (
+            abs(normal) <= sc.capture_distance or last_normal < 0.0 <= normal)
+        return hit, x, passed, normal, travel
+
+    s_prev = 0.0
+    for j in range(1, substeps + 1):
+        s = j / substeps
+        hit, x, passed_j, normal, travel = arrives(s, passed, last_normal)
+        if passed_j and travel > 0.0:
+            closest = min(closest, abs(normal))
+        if hit:
+            lo, hi = s_prev, s
+            for _ in range(bisections):
+                mid = 0.5 * (lo + hi)
+                if arrives(mid, passed, last_normal)[0]:
+                    hi = mid
+                else:
+                    lo = mid
+            _, x, _, normal, _ = arrives(hi, passed, last_normal)
+            return hi, x, True, normal, min(closest, abs(normal))
+        passed, last_normal, s_prev = passed_j, normal, s
+    return None, x, passed, last_normal, closest
 
 
 class GripperInterlock(LeafSystem):
     """Inputs ``state`` (true plant state), ``tripped`` (driver interlock),
     ``estimate`` (the filter's relative state) and ``torque`` (applied).
     Output ``status`` = [mode index, fixed gripper open, event time, speed at
-    arrival, distance at arrival, travel at arrival, closest distance]."""
+    arrival, distance at arrival, travel at arrival, closest distance].
+
+    Decides at every tick ``t_k`` (``period``, the controller rate) from the
+    true state at ``t_{k-1}`` and ``t_k``: the first arrival in between is
+    located on the cubic Hermite interpolant of the two states
+    (:func:`first_arrival`), so its time and speed do not depend on the
+    tick.  Once decided, the update ends the simulation
+    (``EventStatus.ReachedTermination``)."""
 
     N = 7
 
-    def __init__(self, geometry: LineGeometry, scenario: ScenarioParams, period: float = 0.002):
+    def __init__(self, geometry: LineGeometry, scenario: ScenarioParams, period: float = 0.01):
         super().__init__()
         self.geometry, self.scenario, self.period = geometry, scenario, period
         self.DeclareVectorInputPort("state", 4)
         self.DeclareVectorInputPort("tripped", 1)
         self.DeclareVectorInputPort("estimate", 4)
         self.DeclareVectorInputPort("torque", 1)
-        # [mode, fixed_open, t_event, speed, distance, travel, min_dist, passed, last_normal]
-        self._xd = self.DeclareDiscreteState(np.array([0, 0, math.nan, math.nan, math.nan,
-                                                       math.nan, math.inf, 0, -math.inf]))
-        self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, self._update)
+        # [mode, fixed_open, t_event, speed, distance, travel, min_dist, passed, last_normal,
+        #  state at the previous tick (4)]
+        self._xd = self.DeclareDiscreteState(np.array(
+            [0, 0, math.nan, math.nan, math.nan, math.nan, math.inf, 0, -math.inf,
+             0, 0, 0, 0], dtype=float))
+        self.DeclareInitializationDiscreteUpdateEvent(self._start)
+        declare_store(self, period, self._update)
         self.DeclareVectorOutputPort("status", self.N, self._out, {self.xd_ticket()})
 
+    def _start(self, context, discrete_state):
+        d = context.get_discrete_state(self._xd).get_value().copy()
+        d[9:13] = self.get_input_port(0).Eval(context)
+        discrete_state.get_mutable_vector(self._xd).SetFromVector(d)
+
     def _update(self, context, discrete_state):
+        from pydrake.systems.framework import EventStatus
+
         d = context.get_discrete_state(self._xd).get_value().copy()
         if d[0] != 0:
-            return
+            return EventStatus.ReachedTermination(self, "swing ended")
         t = context.get_time()
         sc, g = self.scenario, self.geometry
-        x = self.get_input_port(0).Eval(context)
-        normal, along, travel, speed = line_metrics(x, g)
-        passed = d[7] > 0.5 or (x[0] - g.alpha) > 0.0
+        x = self.get_input_port(0).Eval(context).tolist()
+        s, xa, passed, normal, closest = first_arrival(d[9:13], x, self.period, g, sc,
+                                                       d[7] > 0.5, d[8])
+        d[6] = min(d[6], closest)
         d[7] = 1.0 if passed else 0.0
-        if passed and travel > 0.0:
-            d[6] = min(d[6], abs(normal))
         est = self.get_input_port(2).Eval(context)
         tau = self.get_input_port(3).Eval(context)[0]
-        crossed = d[8] < 0.0 <= normal
-        if passed and travel >= sc.min_travel_fraction * sc.grip_spacing and (
-                abs(normal) <= sc.capture_distance or crossed):
+        if s is not None:
+            _, _, travel, speed = line_metrics(xa, g)
             ok = speed <= sc.capture_speed
             d[0] = OUTCOMES.index("captured" if ok else "crash")
             d[1] = 1.0 if ok else 0.0
-            d[2:6] = [t, speed, abs(normal), travel]
+            d[2:6] = [t - self.period + s * self.period, speed, abs(normal), travel]
         elif self.get_input_port(1).Eval(context)[0] > 0.5 or not (
                 np.all(np.isfinite(est)) and math.isfinite(tau)):
             d[0] = OUTCOMES.index("fault")
             d[2] = t
-        elif t >= sc.max_time:
+        elif t >= sc.max_time - 1e-9:
             d[0] = OUTCOMES.index("timeout")
             d[2] = t
         d[8] = normal
+        d[9:13] = x
         discrete_state.get_mutable_vector(self._xd).SetFromVector(d)
+        if d[0] != 0:
+            return EventStatus.ReachedTermination(self, "swing ended")
+        return EventStatus.Succeeded()
 
     def _out(self, context, out):
         out.SetFromVector(context.get_discrete_state(self._xd).get_value()[:self.N])

@@ -25,6 +25,7 @@ import numpy as np
 from pydrake.systems.framework import LeafSystem
 
 from ..params import ImuParams
+from .schedule import declare_sample
 
 IMU_COLUMNS = ("gyro1", "gyro2", "acc1_x", "acc1_y", "acc2_x", "acc2_y")
 
@@ -79,7 +80,8 @@ class ImuSampler(LeafSystem):
     Inputs ``gyro1``, ``gyro2`` (angular velocity in the sensor frame) and
     ``accel1``, ``accel2`` (specific force in the sensor frame); output
     ``imu`` (6).  Discrete state: ``[held sample (6), gyro bias walk (2),
-    sample index]``.
+    sample index]``.  Sample ``k`` is taken at ``t_k = k T``
+    (:func:`~bplir_drake.systems.schedule.declare_sample`).
     """
 
     def __init__(self, params: ImuParams, seed: int = 0):
@@ -89,7 +91,7 @@ class ImuSampler(LeafSystem):
         for name in ("gyro1", "gyro2", "accel1", "accel2"):
             self.DeclareVectorInputPort(name, 3)
         self._state = self.DeclareDiscreteState(9)
-        self.DeclarePeriodicDiscreteUpdateEvent(params.period, 0.0, self._sample)
+        declare_sample(self, params.period, self._sample)
         self.DeclareVectorOutputPort("imu", 6, self._output, {self.xd_ticket()})
 
     def _sample(self, context, discrete_state):

@@ -5,7 +5,9 @@ torque saturation, dead-band (4.14): commands with ``|tau| < tau_min`` give
 no current, driver current limit (15 A, cut to 5 A continuous by the i^2 t
 interlock once 15 A has been held for 2.675 s), first-order current response
 (time constant <= 10 ms).  The delivered torque ``Kt*i`` depends only on the
-current state, so the motor has no direct feedthrough.
+current state, so the motor has no direct feedthrough.  The current loop is a
+C++ ``LinearSystem`` driven by the target current, which changes only when the
+command or the trip state does (:class:`MotorDriver`).
 
 The i^2 t interlock: ``h' = i^2 - i_cont^2`` (clipped at zero) is integrated
 at the driver period; the driver trips when ``h`` reaches
@@ -15,7 +17,7 @@ then limits the current to ``i_cont`` until ``h`` has returned to zero.
 from __future__ import annotations
 
 import numpy as np
-from pydrake.systems.framework import BasicVector, LeafSystem
+from pydrake.systems.framework import Diagram, LeafSystem
 
 from ..params import MotorParams
 
@@ -53,45 +55,36 @@ def interlock_budget(p: MotorParams) -> float:
     return (p.i_peak ** 2 - p.i_cont ** 2) * p.t_peak
 
 
-class MotorDriver(LeafSystem):
-    """Inputs ``torque_command`` (1) and ``state`` (4, plant state for power);
-    outputs ``torque`` (delivered elbow torque), ``power`` (tau*q2d, W),
-    ``current`` (A), ``tripped`` (1 while the driver limits to i_cont) and
-    ``available`` (the torque the driver can deliver now, for anti-windup)."""
+class DriverLogic(LeafSystem):
+    """The driver's discrete logic (one Python evaluation a tick at most):
+    the current it regulates to for the torque command
+    (:func:`current_command`: saturation, dead-band, current limit) and the
+    i^2 t interlock, updated every ``driver_period`` from the measured current.
+
+    Inputs ``torque_command`` (N m) and ``current`` (A, measured); discrete
+    state ``(h, tripped)``; outputs ``target_current`` (depends on the command
+    and the state only), ``tripped`` and ``available`` (the torque the driver
+    can deliver now, for anti-windup)."""
 
     def __init__(self, params: MotorParams):
         super().__init__()
         self.params = params
-        self._kt = params.torque_per_amp
         self._budget = interlock_budget(params)
-        self.DeclareVectorInputPort("torque_command", 1)
-        self.DeclareVectorInputPort("state", 4)
-        self._i = self.DeclareContinuousState(1)
-        # discrete state: [i^2 t accumulator h, tripped flag]
+        cmd = self.DeclareVectorInputPort("torque_command", 1)
+        self.DeclareVectorInputPort("current", 1)
         self._h = self.DeclareDiscreteState(2)
         self.DeclarePeriodicDiscreteUpdateEvent(params.driver_period, 0.0, self._update)
-        xc = {self.xc_ticket()}
-        self.DeclareVectorOutputPort("torque", 1, self._calc_torque, xc)
-        self.DeclareVectorOutputPort(
-            "power", 1, self._calc_power, {self.xc_ticket(), self.input_port_ticket(
-                self.get_input_port(1).get_index())})
-        self.DeclareVectorOutputPort("current", 1, self._calc_current, xc)
-        self.DeclareVectorOutputPort("tripped", 1, self._calc_tripped,
-                                     {self.xd_ticket()})
-        self.DeclareVectorOutputPort("available", 1, self._calc_available,
-                                     {self.xd_ticket()})
+        xd = {self.xd_ticket()}
+        self.DeclareVectorOutputPort("target_current", 1, self._calc_target,
+                                     {self.xd_ticket(), cmd.ticket()})
+        self.DeclareVectorOutputPort("tripped", 1, self._calc_tripped, xd)
+        self.DeclareVectorOutputPort("available", 1, self._calc_available, xd)
 
     def _tripped(self, context) -> bool:
         return context.get_discrete_state(self._h).GetAtIndex(1) > 0.5
 
-    def DoCalcTimeDerivatives(self, context, derivatives):
-        i = context.get_continuous_state_vector().GetAtIndex(0)
-        tau_cmd = self.get_input_port(0).Eval(context)[0]
-        target = current_command(tau_cmd, self.params, self._tripped(context))
-        derivatives.get_mutable_vector().SetAtIndex(0, (target - i) / self.params.tau_current)
-
     def _update(self, context, discrete_state):
-        i = context.get_continuous_state_vector().GetAtIndex(0)
+        i = self.get_input_port(1).Eval(context)[0]
         h, tripped = context.get_discrete_state(self._h).get_value()
         p = self.params
         h = max(0.0, h + p.driver_period * (i * i - p.i_cont ** 2))
@@ -101,23 +94,78 @@ class MotorDriver(LeafSystem):
             tripped = 0.0
         discrete_state.get_mutable_vector(self._h).SetFromVector([h, tripped])
 
-    def _calc_torque(self, context, out: BasicVector):
-        out.SetAtIndex(0, self._kt * context.get_continuous_state_vector().GetAtIndex(0))
+    def _calc_target(self, context, out):
+        tau = self.get_input_port(0).Eval(context)[0]
+        out.SetAtIndex(0, current_command(tau, self.params, self._tripped(context)))
 
-    def _calc_power(self, context, out: BasicVector):
-        tau = self._kt * context.get_continuous_state_vector().GetAtIndex(0)
-        out.SetAtIndex(0, tau * self.get_input_port(1).Eval(context)[3])
-
-    def _calc_current(self, context, out: BasicVector):
-        out.SetAtIndex(0, context.get_continuous_state_vector().GetAtIndex(0))
-
-    def _calc_available(self, context, out: BasicVector):
-        """Torque the driver can deliver now (current limit, saturation)."""
-        i_lim = self.params.i_cont if self._tripped(context) else self.params.i_peak
-        out.SetAtIndex(0, min(self.params.torque_limit, self._kt * i_lim))
-
-    def _calc_tripped(self, context, out: BasicVector):
+    def _calc_tripped(self, context, out):
         out.SetAtIndex(0, 1.0 if self._tripped(context) else 0.0)
+
+    def _calc_available(self, context, out):
+        p = self.params
+        i_lim = p.i_cont if self._tripped(context) else p.i_peak
+        out.SetAtIndex(0, min(p.torque_limit, p.torque_per_amp * i_lim))
+
+
+def _motor_power(p: MotorParams):
+    """Electrical-to-mechanical power meter (C++ symbolic): input ``(i, q1,
+    q2, q1d, q2d)``, output ``tau q2d`` (W), state the motor's work (J)."""
+    from pydrake.symbolic import MakeVectorVariable, Variable
+    from pydrake.systems.primitives import SymbolicVectorSystem
+
+    u = MakeVectorVariable(5, "u")
+    power = p.torque_per_amp * u[0] * u[4]
+    return SymbolicVectorSystem(state=[Variable("work")], input=u, dynamics=[power],
+                                output=[power])
+
+
+class MotorDriver(Diagram):
+    """Motor and driver as a diagram in which no Python runs while the
+    integrator steps:
+
+    * ``driver`` (:class:`DriverLogic`, discrete): the target current of the
+      command and the i^2 t interlock;
+    * ``current_loop`` (C++ ``LinearSystem``): the current follows the target
+      with the time constant ``tau_current``; state ``i / i_peak``, outputs
+      ``(Kt i, i)``;
+    * ``power_meter`` (C++ symbolic): ``tau q2d`` and the motor's work.
+
+    Inputs ``torque_command`` (1) and ``state`` (4, plant state for the
+    power); outputs ``torque`` (delivered elbow torque), ``power`` (tau*q2d,
+    W), ``current`` (A), ``tripped`` (1 while the driver limits to i_cont)
+    and ``available``.  The delivered torque depends only on the current
+    state: no direct feedthrough from the command."""
+
+    def __init__(self, params: MotorParams):
+        from pydrake.systems.framework import DiagramBuilder
+        from pydrake.systems.primitives import Demultiplexer, LinearSystem, Multiplexer
+
+        super().__init__()
+        self.params = params
+        tau, kt = params.tau_current, params.torque_per_amp
+        b = DiagramBuilder()
+        logic = b.AddNamedSystem("driver", DriverLogic(params))
+        # state: the current in units of the peak current (the integrator's
+        # error control then weighs it like the joint angles)
+        ip = params.i_peak
+        loop = b.AddNamedSystem("current_loop", LinearSystem(
+            [[-1.0 / tau]], [[1.0 / (tau * ip)]], [[kt * ip], [ip]], [[0.0], [0.0]]))
+        meter = b.AddNamedSystem("power_meter", _motor_power(params))
+        split = b.AddSystem(Demultiplexer(2))
+        mux = b.AddSystem(Multiplexer([1, 4]))
+        b.ExportInput(logic.GetInputPort("torque_command"), "torque_command")
+        b.ExportInput(mux.get_input_port(1), "state")
+        b.Connect(logic.GetOutputPort("target_current"), loop.get_input_port(0))
+        b.Connect(loop.get_output_port(0), split.get_input_port(0))
+        b.Connect(split.get_output_port(1), logic.GetInputPort("current"))
+        b.Connect(split.get_output_port(1), mux.get_input_port(0))
+        b.Connect(mux.get_output_port(0), meter.get_input_port(0))
+        b.ExportOutput(split.get_output_port(0), "torque")
+        b.ExportOutput(meter.get_output_port(0), "power")
+        b.ExportOutput(split.get_output_port(1), "current")
+        b.ExportOutput(logic.GetOutputPort("tripped"), "tripped")
+        b.ExportOutput(logic.GetOutputPort("available"), "available")
+        b.BuildInto(self)
 
 
 def max_torque(p: MotorParams) -> float:
@@ -126,4 +174,4 @@ def max_torque(p: MotorParams) -> float:
 
 
 __all__ = ["MotorDriver", "duty_cycle_to_current", "current_to_duty_cycle",
-           "apply_deadband", "current_command", "interlock_budget", "max_torque"]
+           "DriverLogic", "apply_deadband", "current_command", "interlock_budget", "max_torque"]

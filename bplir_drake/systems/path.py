@@ -40,6 +40,7 @@ import pydrake.math as dmath
 
 from ..params import PathParams, PlantParams
 from .plant import gravity_vector, initial_configuration, mass_matrix, bias_term
+from .schedule import declare_store, declare_tick_result
 
 
 @dataclass(frozen=True)
@@ -128,8 +129,106 @@ def constraint_acceleration(q, qd1, d1, d2, p: PlantParams):
     return q1dd, d1 * q1dd + d2 * qd1 * qd1
 
 
+class PathShape:
+    """The path ``q2 = phi(s)`` for one blend end ``s_e`` (no latch floor),
+    with its first two derivatives in closed form, for plain floats or numpy
+    arrays within one branch: the hot loop of the arrival predictor.  Agrees
+    with :func:`path_q2` and :func:`path_derivatives` (tested)."""
+
+    __slots__ = ("s_e", "n", "lam", "kf", "s_f", "l1", "l2", "lift", "k_e")
+
+    def __init__(self, s_e: float, g: PathGeometry, n: float, lam: float = 1.0,
+                 lift: float = 0.0):
+        self.s_e, self.n, self.lam, self.kf, self.s_f = s_e, n, lam, g.k_f, g.s_f
+        self.l1, self.l2, self.lift = g.l1, g.l2, lift
+        self.k_e = q2_line_seeking(float(s_e), g.l1, g.l2) / s_e
+
+    def line_seeking(self, s):
+        """(7.18) and its two derivatives in ``s``."""
+        u = -(self.l1 * np.cos(s) + self.lift) / self.l2
+        du, ddu = self.l1 * np.sin(s) / self.l2, self.l1 * np.cos(s) / self.l2
+        r2 = 1.0 - u * u
+        r = np.sqrt(r2)
+        return np.arccos(u) - s, -du / r - 1.0, -ddu / r - u * du * du / (r2 * r)
+
+    def rts(self, s):
+        """The first half (7.6), amplified by ``lam`` (7.14)-(7.15)."""
+        lam, kf, c = self.lam, self.kf, (self.lam - 1.0) / (self.s_f * self.s_f)
+        return kf * (lam * s - c * s ** 3), kf * (lam - 3.0 * c * s * s) + 0.0 * s, \
+            -6.0 * kf * c * s
+
+    def blend(self, s):
+        """The blend (7.20)-(7.21) for ``0 < s < s_e``."""
+        se, n = self.s_e, self.n
+        x = s / se
+        lk = self.lam * self.kf
+        dk = self.k_e - lk
+        k = lk + dk * (3.0 * x * x - 2.0 * x ** 3)
+        k1 = dk * (6.0 * x - 6.0 * x * x) / se
+        k2 = dk * (6.0 - 12.0 * x) / (se * se)
+        sym, sym1, sym2 = k * s, k1 * s + k, k2 * s + 2.0 * k1
+        F, F1, F2 = x ** n, n * x ** (n - 1.0) / se, n * (n - 1.0) * x ** (n - 2.0) / (se * se)
+        T0, T1, T2 = self.line_seeking(s)
+        return (sym + F * (T0 - sym), sym1 + F1 * (T0 - sym) + F * (T1 - sym1),
+                sym2 + F2 * (T0 - sym) + 2.0 * F1 * (T1 - sym1) + F * (T2 - sym2))
+
+    def derivs(self, s: float):
+        """(phi, phi', phi'') at ``s``; at the branch points (the vertical and
+        ``s_e``) the values of the branch that ends there."""
+        if s <= 0.0:
+            return self.rts(s)
+        return self.blend(s) if s < self.s_e else self.line_seeking(s)
+
+    def value(self, s: float) -> float:
+        """phi(s) alone (plain floats)."""
+        if s <= 0.0:
+            return self.kf * s * (1.0 + (self.lam - 1.0) * (1.0 - (s / self.s_f) ** 2))
+        u = -(self.l1 * math.cos(s) + self.lift) / self.l2
+        T0 = math.acos(u) - s
+        if s >= self.s_e:
+            return T0
+        x = s / self.s_e
+        lk = self.lam * self.kf
+        sym = (lk + (self.k_e - lk) * (3.0 * x * x - 2.0 * x * x * x)) * s
+        return sym + x ** self.n * (T0 - sym)
+
+    def height(self, s: float) -> float:
+        """Normal distance of the gripper to the line on the path."""
+        return -self.l1 * math.cos(s) - self.l2 * math.cos(s + self.value(s))
+
+
+class ReducedDynamics:
+    """``d(q1'^2)/ds = P(s) Y + Q(s) + R(s) sqrt(Y)`` for ``Y = q1'^2`` under
+    the virtual constraint of a :class:`PathShape` on the nominal model with
+    viscous link-1 friction ``fv1``: ``alpha(s) q1'' + beta(s) q1'^2 +
+    gamma(s) = -fv1 q1'`` (vectorised over ``s``)."""
+
+    __slots__ = ("shape", "alpha", "fv1", "m11c", "a", "m2l1lc2", "g1", "g2")
+
+    def __init__(self, shape: PathShape, alpha: float, p: PlantParams, fv1: float):
+        self.shape, self.alpha, self.fv1 = shape, alpha, fv1
+        self.a = p.I2 + p.m2 * p.lc2 ** 2
+        self.m11c = p.m1 * p.lc1 ** 2 + p.I1 + p.m2 * p.l1 ** 2 + self.a
+        self.m2l1lc2 = p.m2 * p.l1 * p.lc2
+        self.g1 = p.g * (p.m1 * p.lc1 + p.m2 * p.l1)
+        self.g2 = p.g * p.m2 * p.lc2
+
+    def coefficients(self, s, branch):
+        """(P, Q, R) at the points ``s`` of one branch (``shape.rts`` ...)."""
+        phi, d1, d2 = branch(s)
+        q1 = s + self.alpha
+        c2, s2 = np.cos(phi), np.sin(phi)
+        m12 = self.a + self.m2l1lc2 * c2
+        A = self.m11c + 2.0 * self.m2l1lc2 * c2 + m12 * d1
+        B = m12 * d2 - self.m2l1lc2 * s2 * (2.0 * d1 + d1 * d1)
+        gam = self.g1 * np.sin(q1) + self.g2 * np.sin(q1 + phi)
+        return -2.0 * B / A, -2.0 * gam / A, -2.0 * self.fv1 / A
+
+
 def _reduced_rhs(s, Y, s_e, g, n, lam, p: PlantParams, fv1: float):
-    """dY/ds for Y = q1'^2 under the path (nominal model, viscous link-1 friction)."""
+    """dY/ds for Y = q1'^2 under the path (nominal model, viscous link-1
+    friction), from the finite-difference path derivatives (any scalar
+    type; the reference for :class:`ReducedDynamics`)."""
     _, d1, d2 = path_derivatives(s, s_e, g, n, lam)
     q = [s + g.alpha, path_q2(s, s_e, g, n, lam)]
     M = mass_matrix(q, p)
@@ -140,25 +239,55 @@ def _reduced_rhs(s, Y, s_e, g, n, lam, p: PlantParams, fv1: float):
     return 2.0 * (-gam - b * Y - fv1 * math.sqrt(max(Y, 0.0))) / a
 
 
-def predict_rate_squared(s, qd1, s_e, g, n, lam, p: PlantParams, fv1: float = 0.0,
-                         step: float = 0.01) -> float:
-    """Predicted q1'^2 on reaching ``s_e`` from (s, q1') (RK4 in s; the
-    path's curvature jumps at the vertical, so the integration is split
-    there to keep fourth order)."""
-    Y = qd1 * qd1
-    end = s_e - 1e-9  # the left limit: the path changes branch at s_e
-    knots = [s] + ([0.0] if s < 0.0 < end else []) + [end]
-    for a, b in zip(knots[:-1], knots[1:]):
-        m = max(1, int(math.ceil((b - a) / step)))
-        hh, x = (b - a) / m, a
-        for _ in range(m):
-            k1 = _reduced_rhs(x, Y, s_e, g, n, lam, p, fv1)
-            k2 = _reduced_rhs(x + hh / 2, Y + hh / 2 * k1, s_e, g, n, lam, p, fv1)
-            k3 = _reduced_rhs(x + hh / 2, Y + hh / 2 * k2, s_e, g, n, lam, p, fv1)
-            k4 = _reduced_rhs(x + hh, Y + hh * k3, s_e, g, n, lam, p, fv1)
-            Y += hh / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-            x += hh
+def _rk4_segment(Y: float, a: float, b: float, dyn: ReducedDynamics, branch,
+                 step: float) -> float:
+    """Y = q1'^2 carried from ``a`` to ``b`` by RK4 in ``m = ceil((b-a)/step)``
+    equal steps on one branch of the path (its one-sided limits at the ends:
+    at the vertical the path's curvature jumps); the coefficients at every
+    stage point come from one vectorised pass, the steps are plain float
+    arithmetic."""
+    m = max(1, int(math.ceil((b - a) / step)))
+    hh = (b - a) / m
+    x = a + 0.5 * hh * np.arange(2 * m + 1)
+    P, Q, R = (np.broadcast_to(c, x.shape).tolist() for c in dyn.coefficients(x, branch))
+    sqrt = math.sqrt
+    h2, h6 = 0.5 * hh, hh / 6.0
+    for i in range(0, 2 * m, 2):
+        k1 = P[i] * Y + Q[i] + R[i] * sqrt(Y if Y > 0.0 else 0.0)
+        y = Y + h2 * k1
+        k2 = P[i + 1] * y + Q[i + 1] + R[i + 1] * sqrt(y if y > 0.0 else 0.0)
+        y = Y + h2 * k2
+        k3 = P[i + 1] * y + Q[i + 1] + R[i + 1] * sqrt(y if y > 0.0 else 0.0)
+        y = Y + hh * k3
+        k4 = P[i + 2] * y + Q[i + 2] + R[i + 2] * sqrt(y if y > 0.0 else 0.0)
+        Y += h6 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
     return Y
+
+
+def predict_rate_squared(s, qd1, s_e, g, n, lam, p: PlantParams, fv1: float = 0.0,
+                         step: float = 0.01, at_vertical: float | None = None) -> float:
+    """Predicted q1'^2 on reaching ``s_e`` from (s, q1') under the path with
+    blend end ``s_e``: RK4 in s on :class:`ReducedDynamics`, split at the
+    vertical, where the path's curvature jumps, to keep fourth order.
+    ``at_vertical``: q1'^2 at the vertical when already known (the first half
+    of the path does not depend on ``s_e``: :func:`rate_squared_at_vertical`)."""
+    dyn = ReducedDynamics(PathShape(s_e, g, n, lam), g.alpha, p, fv1)
+    end = s_e - 1e-9  # the left limit: the path branches at s_e
+    if end <= 0.0:
+        return _rk4_segment(qd1 * qd1, s, end, dyn, dyn.shape.rts, step)
+    if s < 0.0:
+        Y = (_rk4_segment(qd1 * qd1, s, 0.0, dyn, dyn.shape.rts, step)
+             if at_vertical is None else at_vertical)
+        return _rk4_segment(Y, 0.0, end, dyn, dyn.shape.blend, step)
+    return _rk4_segment(qd1 * qd1, s, end, dyn, dyn.shape.blend, step)
+
+
+def rate_squared_at_vertical(s, qd1, g, n, lam, p: PlantParams, fv1: float = 0.0,
+                             step: float = 0.01) -> float:
+    """q1'^2 predicted at the vertical from (s < 0, q1') on the first half of
+    the path (which does not depend on the blend end)."""
+    dyn = ReducedDynamics(PathShape(g.s_f, g, n, lam), g.alpha, p, fv1)
+    return _rk4_segment(qd1 * qd1, s, 0.0, dyn, dyn.shape.rts, step)
 
 
 def projected_rate(x, s_e, g: PathGeometry, pp: PathParams, p: PlantParams) -> float:
@@ -178,19 +307,19 @@ def projected_rate(x, s_e, g: PathGeometry, pp: PathParams, p: PlantParams) -> f
 
 def path_height(s, s_e, g: PathGeometry, n: float, lam: float = 1.0) -> float:
     """Normal distance of the gripper to the line on the path (negative below)."""
-    q2 = path_q2(s, s_e, g, n, lam)
-    return -g.l1 * math.cos(s) - g.l2 * math.cos(s + q2)
+    return PathShape(s_e, g, n, lam).height(s)
 
 
 def band_entry(s_from, s_e, g: PathGeometry, n: float, lam: float = 1.0) -> float:
     """First s in (s_from, s_e] where the path's gripper is within ``g.band``
     of the line (bisection on the rising height; ``s_e`` if never)."""
+    shape = PathShape(s_e, g, n, lam)
     lo, hi = max(s_from, 0.0), s_e
-    if path_height(lo, s_e, g, n, lam) >= -g.band:
+    if shape.height(lo) >= -g.band:
         return lo
     for _ in range(16):
         mid = 0.5 * (lo + hi)
-        if path_height(mid, s_e, g, n, lam) >= -g.band:
+        if shape.height(mid) >= -g.band:
             hi = mid
         else:
             lo = mid
@@ -198,15 +327,17 @@ def band_entry(s_from, s_e, g: PathGeometry, n: float, lam: float = 1.0) -> floa
 
 
 def arrival_gap(e, s, qd1, g: PathGeometry, pp: PathParams, p: PlantParams, fv1: float = 0.0,
-                step: float | None = None) -> float:
+                step: float | None = None, at_vertical: float | None = None) -> float:
     """Predicted q1'^2 where the gripper enters the capture band, minus the
-    aimed ``arrival_rate^2`` (decreasing in the blend end ``e``)."""
+    aimed ``arrival_rate^2`` (decreasing in the blend end ``e``);
+    ``at_vertical`` as in :func:`predict_rate_squared`."""
     s_b = band_entry(s, e, g, pp.blend_exponent)
     if s_b <= s:
         return qd1 * qd1 - pp.arrival_rate ** 2
     step = pp.predict_step if step is None else step
-    return predict_rate_squared(s, qd1, s_b, g, pp.blend_exponent, 1.0, p, fv1, step) \
-        - pp.arrival_rate ** 2
+    # (the prediction runs on the path whose blend ends at the band entry)
+    return predict_rate_squared(s, qd1, s_b, g, pp.blend_exponent, 1.0, p, fv1, step,
+                                at_vertical) - pp.arrival_rate ** 2
 
 
 def step_blend_end(s_e, s, qd1, g: PathGeometry, pp: PathParams, p: PlantParams,
@@ -217,8 +348,11 @@ def step_blend_end(s_e, s, qd1, g: PathGeometry, pp: PathParams, p: PlantParams,
     hi = pp.blend_end_max * g.s_f
     e0 = min(max(s_e, lo), hi)
     d = 0.005
-    g0 = arrival_gap(e0, s, qd1, g, pp, p, fv1)
-    g1 = arrival_gap(e0 + d, s, qd1, g, pp, p, fv1)
+    # both predictions share the first half of the path, up to the vertical
+    Yv = (rate_squared_at_vertical(s, qd1, g, pp.blend_exponent, 1.0, p, fv1, pp.predict_step)
+          if s < 0.0 else None)
+    g0 = arrival_gap(e0, s, qd1, g, pp, p, fv1, at_vertical=Yv)
+    g1 = arrival_gap(e0 + d, s, qd1, g, pp, p, fv1, at_vertical=Yv)
     slope = (g1 - g0) / d
     delta = -g0 / slope if slope < 0 else (max_step if g0 > 0 else -max_step)
     return min(max(e0 + min(max(delta, -max_step), max_step), lo), hi)
@@ -236,45 +370,48 @@ def PathGenerator_(T):
     class Impl(LeafSystem_[T]):
         """Input ``state`` (q1, q2, q1d, q2d: estimated, relative).  Outputs
         ``reference`` (q2_ref), ``feedforward`` (q2'' of the constraint,
-        rad/s^2) and ``blend_end`` (s_e, blend floor).  Discrete state
-        ``[s_e, blend floor, passed_vertical, latched]`` updated at
-        ``period``/``offset``;
-        the outputs are direct functions of the state input and the discrete
-        state, so the controller of the same tick sees them at once."""
+        rad/s^2) and ``blend_end`` (s_e, blend floor).
+
+        On the tick schedule (:mod:`bplir_drake.systems.schedule`): the
+        tick's path state (:meth:`_advance`: blend end, blend floor, latch,
+        calibration) is computed once from the stored state and the input,
+        the outputs are evaluated on it, and it is stored at the next tick.
+        Discrete state ``[s_e, blend floor, latched, calibration s0, Y0 (nan
+        until recorded), effective link-1 damping]``."""
 
         def _construct(self, plant: PlantParams, path: PathParams, geometry: PathGeometry,
-                       period: float, offset: float = 0.0, fv1: float = 0.0, converter=None):
+                       period: float, fv1: float = 0.0, converter=None):
             """``fv1``: nominal viscous friction of joint 1 used by the predictor."""
             LeafSystem_[T].__init__(self, converter)
             self.plant_params, self.path, self.geometry = plant, path, geometry
-            self.period, self.offset, self.fv1 = period, offset, fv1
+            self.period, self.fv1 = period, fv1
             self.DeclareVectorInputPort("state", 4)
-            # [s_e, blend floor, passed vertical, latched,
-            #  calibration: s0, Y0 (nan until recorded), effective link-1 damping]
             self._xd = self.DeclareDiscreteState(
-                np.array([geometry.s_f, 0.0, 0.0, 0.0, np.nan, np.nan, fv1]))
-            self.DeclarePeriodicDiscreteUpdateEvent(period, offset, self._update)
-            self.DeclareVectorOutputPort("reference", 1, self._out_ref)
-            self.DeclareVectorOutputPort("feedforward", 1, self._out_ff)
-            self.DeclareVectorOutputPort("blend_end", 2, self._out_blend,
-                                         {self.xd_ticket()})
+                np.array([geometry.s_f, 0.0, 0.0, np.nan, np.nan, fv1]))
+            self._next = declare_tick_result(self, self._advance,
+                                             {self.xd_ticket(), self.all_input_ports_ticket()})
+            declare_store(self, period, self._store)
+            dep = {self._next.ticket()}
+            self.DeclareVectorOutputPort("reference", 1, self._out_ref, dep)
+            self.DeclareVectorOutputPort("feedforward", 1, self._out_ff, dep)
+            self.DeclareVectorOutputPort("blend_end", 2, self._out_blend, dep)
 
         def _construct_copy(self, other, converter=None):
             Impl._construct(self, other.plant_params, other.path, other.geometry, other.period,
-                            other.offset, other.fv1, converter=converter)
+                            other.fv1, converter=converter)
 
         def _phi(self, context):
             x = self.get_input_port(0).Eval(context)
-            d = context.get_discrete_state(self._xd).CopyToVector()
+            s_e, floor, latched = self._next.Eval(context)[:3]
             g, pp = self.geometry, self.path
             s = x[0] - g.alpha + x[2] * pp.lead_time
             if pp.mode == "lab":
                 k = pp.lab_gain * g.k_f
                 return x, s, k * s, k, 0.0 * s
             lam = pp.pump_gain
-            s_e = d[0] if pp.mode == "adaptive" else g.s_f
-            floor = d[1]
-            lift = pp.latch_lift if d[3] > 0.5 else 0.0
+            if pp.mode != "adaptive":
+                s_e = g.s_f
+            lift = pp.latch_lift if latched > 0.5 else 0.0
             phi, d1, d2 = path_derivatives(s, s_e, g, pp.blend_exponent, lam, floor, lift=lift)
             return x, s, phi, d1, d2
 
@@ -321,13 +458,13 @@ def PathGenerator_(T):
             return cal_s, -1.0, 0.5 * (lo + hi)
 
         def _out_blend(self, context, out):
-            d = context.get_discrete_state(self._xd).CopyToVector()
-            out.SetFromVector(d[:2])
+            out.SetFromVector(self._next.Eval(context)[:2])
 
-        def _update(self, context, discrete_state):
+        def _advance(self, context):
+            """This tick's path state from the stored one and the estimate."""
             x = np.array([float(_value(v)) for v in self.get_input_port(0).Eval(context)])
-            d = np.array([float(_value(v)) for v in context.get_discrete_state(self._xd).CopyToVector()])
-            s_e, floor, passed, latched, cal_s, cal_Y, fv = d
+            d = [float(_value(v)) for v in context.get_discrete_state(self._xd).CopyToVector()]
+            s_e, floor, latched, cal_s, cal_Y, fv = d
             g, pp = self.geometry, self.path
             s, w = x[0] - g.alpha, x[2]
             if pp.mode == "adaptive" and pp.calibrate and s < 0:
@@ -343,10 +480,10 @@ def PathGenerator_(T):
                                          pp.adapt_rate * self.period)
                 if s > pp.latch_fraction * s_e and w < pp.latch_rate:
                     latched = 1.0
-            if s > 0:
-                passed = 1.0
-            discrete_state.get_mutable_vector(self._xd).SetFromVector(
-                [s_e, floor, passed, latched, cal_s, cal_Y, fv])
+            return np.array([s_e, floor, latched, cal_s, cal_Y, fv])
+
+        def _store(self, context, discrete_state):
+            discrete_state.get_mutable_vector(self._xd).SetFromVector(self._next.Eval(context))
 
     return Impl
 

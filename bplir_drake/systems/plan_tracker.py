@@ -5,8 +5,9 @@ full-state trajectory of the *nominal* model.  Drake's
 ``FiniteHorizonLinearQuadraticRegulator`` linearises the nominal plant (with
 its friction model) along it and integrates the Riccati equation backwards;
 this system applies ``tau = u0(t) - K(t) (x_hat - x0(t)) - k0(t)`` to the
-estimated state every controller period (zero-order hold), clipped to the
-torque limit.
+estimated state every controller period (zero-order hold, on the tick
+schedule of :mod:`bplir_drake.systems.schedule`), clipped to the torque
+limit.
 
 By default this controller is indexed by **time** since the start of the
 swing: it is the way to climb a steep line, where the planned motion swings
@@ -27,6 +28,7 @@ import numpy as np
 from pydrake.systems.framework import LeafSystem
 
 from ..params import PLAN_INDEXING
+from .schedule import declare_store, declare_tick_result
 
 
 @dataclass(frozen=True)
@@ -67,7 +69,7 @@ class PlanTracker(LeafSystem):
     grid of a quarter period, so it never goes back and never reads the
     clock."""
 
-    def __init__(self, gains, torque_limit: float, period: float, offset: float = 0.0,
+    def __init__(self, gains, torque_limit: float, period: float,
                  indexing: str = "time", phase_weights=(1.0, 1.0, 0.01, 0.01),
                  search: float = 0.05):
         super().__init__()
@@ -80,13 +82,17 @@ class PlanTracker(LeafSystem):
         self._W = np.asarray(phase_weights, dtype=float)
         n = max(2, int(round(search / (period / 4))) + 1)
         self._steps = np.linspace(0.0, search, n)
+        self.period = period
         self.DeclareVectorInputPort("state", 4)
-        self._xd = self.DeclareDiscreteState(3)  # [torque, reference, phase tau]
-        self.DeclarePeriodicDiscreteUpdateEvent(period, offset, self._update)
+        self._xd = self.DeclareDiscreteState(2)  # [phase tau of the last tick, tick count]
+        self._tick = declare_tick_result(self, self._tick_law,
+                                         {self.xd_ticket(), self.all_input_ports_ticket()})
+        declare_store(self, period, self._store)
+        dep = {self._tick.ticket()}
         self.DeclareVectorOutputPort("torque", 1, lambda c, o: o.SetAtIndex(
-            0, c.get_discrete_state(self._xd).GetAtIndex(0)), {self.xd_ticket()})
+            0, self._tick.Eval(c)[0]), dep)
         self.DeclareVectorOutputPort("reference", 1, lambda c, o: o.SetAtIndex(
-            0, c.get_discrete_state(self._xd).GetAtIndex(1)), {self.xd_ticket()})
+            0, self._tick.Eval(c)[1]), dep)
 
     def law(self, t: float, x) -> tuple[float, float]:
         """(torque, planned q2) at time ``t`` (held at the plan's end after it)."""
@@ -103,10 +109,13 @@ class PlanTracker(LeafSystem):
         d = self._W @ (X - np.asarray(x).reshape(4, 1)) ** 2
         return float(cand[int(np.argmin(d))])
 
-    def _update(self, context, discrete_state):
+    def _tick_law(self, context):
+        """(torque, planned q2, phase tau, tick count) of this tick; with
+        ``"time"`` indexing the phase is the tick's time ``k T``."""
         x = self.get_input_port(0).Eval(context)
-        if self.indexing == "time":
-            tau = context.get_time()
-        else:
-            tau = self.phase(context.get_discrete_state(self._xd).GetAtIndex(2), x)
-        discrete_state.get_mutable_vector(self._xd).SetFromVector([*self.law(tau, x), tau])
+        tau_prev, k = context.get_discrete_state(self._xd).get_value()
+        tau = k * self.period if self.indexing == "time" else self.phase(tau_prev, x)
+        return (*self.law(tau, x), tau, k + 1)
+
+    def _store(self, context, discrete_state):
+        discrete_state.get_mutable_vector(self._xd).SetFromVector(self._tick.Eval(context)[2:])

@@ -7,7 +7,6 @@ to stderr and exits with status 2.
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import sys
 from pathlib import Path
@@ -15,6 +14,8 @@ from pathlib import Path
 from .analysis.calibration import CalibrationError
 from .analysis.qft import QftError
 from .estimation import LogError
+from .io import (atomic_path, check_output_dir, check_output_file, dumps_strict,
+                 write_json_atomic, write_text_atomic)
 from .params import ParameterError
 
 
@@ -42,35 +43,44 @@ def _load_params(args):
     from .params import load_toml, preset
 
     if getattr(args, "config", None):
-        params = load_toml(args.config)
-        if args.preset and args.preset != params.preset_name:
-            from .params import from_dict, to_dict
+        if args.preset:  # the file's tables override the named preset
+            from .params import from_dict, read_toml
 
-            data = to_dict(params)
-            data["preset"] = args.preset
-            params = from_dict(data)
-        return params
+            return from_dict(read_toml(args.config) | {"preset": args.preset})
+        return load_toml(args.config)
     return preset(args.preset or "dissertation")
 
 
 def _emit(obj, as_json: bool, text_lines) -> None:
+    """Print ``obj`` as strict JSON (NaN and infinities as null) or the text."""
     if as_json:
-        print(json.dumps(obj, indent=2, default=_jsonable))
+        print(dumps_strict(obj))
     else:
         for line in text_lines:
             print(line)
 
 
-def _jsonable(o):
-    import numpy as np
+def _write_json(path, obj) -> str:
+    """Write ``obj`` as strict JSON, atomically; returns the path as text."""
+    return str(write_json_atomic(path, obj))
 
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    if isinstance(o, (np.floating, np.integer)):
-        return o.item()
-    if isinstance(o, complex):
-        return [o.real, o.imag]
-    raise TypeError(f"not JSON serialisable: {type(o)}")
+
+def _out_dir(path) -> Path:
+    """The output directory, created and proven writable before any work."""
+    return check_output_dir(path, InputError)
+
+
+def _in_range(name: str, value, lo: float, hi: float, *, lo_open: bool = False,
+              hi_open: bool = False, unit: str = "") -> None:
+    """Raise InputError unless ``lo <(=) value <(=) hi`` (finite)."""
+    ok = isinstance(value, (int, float)) and math.isfinite(value) and \
+        (value > lo if lo_open else value >= lo) and (value < hi if hi_open else value <= hi)
+    if not ok:
+        left, right = "(" if lo_open else "[", ")" if hi_open else "]"
+        u = f" {unit}" if unit else ""
+        shown = f"{value:g}" if isinstance(value, (int, float)) else repr(value)
+        raise InputError(f"{name} = {shown}{u} is out of range; allowed "
+                         f"{left}{lo:g}, {hi:g}{right}{u}")
 
 
 # ------------------------------------------------------------------ model
@@ -126,16 +136,15 @@ def cmd_freeswing(args) -> int:
 
     params = _load_params(args)
     q0 = _floats(args.q0, 2, "--q0")
-    if not (args.duration > 0 and math.isfinite(args.duration) and args.duration <= 600):
-        raise InputError(f"--duration = {args.duration:g} s is out of range; allowed (0, 600] s")
+    _in_range("--duration", args.duration, 0.0, 600.0, lo_open=True, unit="s")
+    _in_range("--torque", args.torque, -100.0, 100.0, unit="N m")
+    out_dir = _out_dir(args.out)
     res = simulate_free_swing(params, q0, args.duration, elbow_torque=args.torque,
                               friction=not args.no_friction, log_period=0.005)
-    out_dir = Path(args.out)
-    out_dir.mkdir(parents=True, exist_ok=True)
     plot = plot_free_swing(res, out_dir / "freeswing.png")
     summary = res.summary() | {"plot": str(plot), "friction": not args.no_friction,
                                "elbow_torque_Nm": args.torque}
-    (out_dir / "freeswing.json").write_text(json.dumps(summary, indent=2))
+    _write_json(out_dir / "freeswing.json", summary)
     _emit(summary, args.json, [
         f"energy at start {res.energy_start:.4f} J, at end {res.energy_end:.4f} J "
         f"(change {res.energy_end - res.energy_start:+.4f} J)", f"plot: {plot}"])
@@ -158,7 +167,11 @@ def cmd_estimate(args) -> int:
         est = replace(est, period=args.period)
     if args.no_bias:
         est = replace(est, estimate_bias=False)
+    _in_range("--calibrate", args.calibrate, 0.0, 3600.0, unit="s")
     x0 = _floats(args.x0, 4, "--x0") if args.x0 else [0.0, 0.0, 0.0, 0.0]
+    for opt in ("out", "plot"):
+        if getattr(args, opt):
+            check_output_file(getattr(args, opt), InputError)
     log = read_imu_csv(args.log)
     res = estimate(log.t, log.samples, est, x0, calibrate_window=args.calibrate)
     summary = {"samples": int(len(res.t)), "duration_s": float(res.t[-1] - res.t[0]),
@@ -193,6 +206,10 @@ def cmd_observability(args) -> int:
     from .systems.plant import initial_configuration
 
     params = _load_params(args)
+    _in_range("--duration", args.duration, 0.0, 60.0, lo_open=True, unit="s")
+    _in_range("--torque", args.torque, -100.0, 100.0, unit="N m")
+    _in_range("--threshold", args.threshold, 0.0, 1.0, lo_open=True, hi_open=True)
+    out_dir = _out_dir(args.out)
     q0 = initial_configuration(params.scenario.grip_spacing, params.plant)
     run_ = simulate_estimation(params, q0=q0, duration=args.duration, knock=None,
                                elbow_torque=((0.0, 1.0), (0.0, args.torque)))
@@ -201,10 +218,8 @@ def cmd_observability(args) -> int:
     out = res.summary() | {"drake_is_observable_plant": plant_gyro_observability(params),
                            "scenario": {"q0": list(map(float, q0)), "duration_s": args.duration,
                                         "elbow_torque_Nm_after_1s": args.torque}}
-    out_dir = Path(args.out)
-    out_dir.mkdir(parents=True, exist_ok=True)
     out["plot"] = str(plot_observability(res, out_dir / "observability.png"))
-    (out_dir / "observability.json").write_text(json.dumps(out, indent=2, default=_jsonable))
+    _write_json(out_dir / "observability.json", out)
     n_loss = sum(1 for e in res.events if e["rank_gyro"] < 4)
     _emit(out, args.json, [
         f"min rank gyro-only {out['min_rank_gyro_only']}, full {out['min_rank_full']} "
@@ -229,8 +244,10 @@ def cmd_qft(args) -> int:
     params = _load_params(args)
     ctrl = ControllerParams.preset_named(args.controller) if args.controller else params.controller
     specs = Q.QftSpecs()
-    out_dir = Path(args.out)
-    out_dir.mkdir(parents=True, exist_ok=True)
+    if args.family == "diagram":
+        _in_range("--plants", args.plants, 2, 10000)
+        _in_range("--seed", args.seed, 0, 2 ** 32 - 1)
+    out_dir = _out_dir(args.out)
     report = {"family": args.family, "controller": ctrl.preset}
     if args.family == "dissertation":
         fam_nodelay = Q.dissertation_family(td=None)
@@ -284,7 +301,7 @@ def cmd_qft(args) -> int:
             out_dir / "zero_dynamics.png"),
     }
     report["figures"] = {k: str(v) for k, v in figs.items()}
-    (out_dir / "qft.json").write_text(json.dumps(report, indent=2, default=_jsonable))
+    _write_json(out_dir / "qft.json", report)
     lines = [f"family: {fam_plot.name}, {len(fam_plot)} plants, controller {ctrl.preset}"]
     for name, c in ver.checks.items():
         lines.append(f"  {name}: {'holds' if c['holds'] else 'FAILS'} (worst {c['worst']:.4g}, "
@@ -330,21 +347,20 @@ def cmd_swing(args) -> int:
     from .analysis.swing_plots import animate_swing, plot_swing
 
     replay_info = None
+    out_dir = _out_dir(args.out)
     if args.replay is not None or args.sample is not None:
         res, replay_info = _replay(args)
     else:
         params = _swing_params(args)
-    out_dir = Path(args.out)
-    out_dir.mkdir(parents=True, exist_ok=True)
     if replay_info is None and args.compare:
         from .analysis.compare import comparison_table, compare_presets, plot_comparison
 
         rows = compare_presets(params)
         fig = plot_comparison(rows, out_dir / "comparison.png")
         table = comparison_table(rows)
-        (out_dir / "comparison.md").write_text(table + "\n")
+        write_text_atomic(out_dir / "comparison.md", table + "\n")
         data = [{k: v for k, v in r.items() if k != "_result"} for r in rows]
-        (out_dir / "comparison.json").write_text(json.dumps(data, indent=2, default=_jsonable))
+        _write_json(out_dir / "comparison.json", data)
         _emit({"comparison": data, "figure": str(fig)}, args.json, [table, f"figure: {fig}"])
         return 0
     if replay_info is None:
@@ -355,7 +371,7 @@ def cmd_swing(args) -> int:
         files["animation"] = str(animate_swing(res, out_dir / "swing.gif"))
     extra = {"files": files} | ({"replay": replay_info} if replay_info else {})
     summary = summary_with_params(res) | extra
-    (out_dir / "summary.json").write_text(json.dumps(summary, indent=2, default=_jsonable))
+    _write_json(out_dir / "summary.json", summary)
     s = res.summary
     replay_line = ([f"replay of sample {replay_info['sample']} of {replay_info['study']}: "
                     + {True: "matches the recorded result exactly",
@@ -423,8 +439,9 @@ def _study(args):
     from .diagrams import swing_geometry
 
     swing_geometry(study.params)  # the nominal scenario must be possible
-    if args.workers is not None and args.workers < 1:
-        raise InputError(f"--workers {args.workers} must be >= 1")
+    if args.workers is not None:
+        _in_range("--workers", args.workers, 1, 256)
+    _in_range("--samples", study.samples, 1, 1_000_000)
     return study
 
 
@@ -433,14 +450,14 @@ def cmd_montecarlo(args) -> int:
     from .analysis.montecarlo_plots import plot_study
 
     study = _study(args)
-    out = Path(args.out)
+    out = _out_dir(args.out)
     summary = run_study(study, out, workers=args.workers or 0, dask=args.dask,
                         scheduler=args.scheduler, progress=not args.json and sys.stderr.isatty())
     rows = read_results(out / RESULTS_FILE)
     figs = [str(f) for f in plot_study(study, rows, out)] if not args.no_plots else []
     summary["files"] = {"results": str(out / RESULTS_FILE), "summary": str(out / "summary.json"),
                         "figures": figs}
-    (out / "summary.json").write_text(json.dumps(summary, indent=2, default=_jsonable))
+    _write_json(out / "summary.json", summary)
     lo, hi = summary["success_rate_ci95"]
     pc = summary["percentiles"].get("capture_speed_mps", {})
     _emit(summary, args.json, [
@@ -460,19 +477,27 @@ def cmd_montecarlo(args) -> int:
 def cmd_benchmark(args) -> int:
     from .analysis.benchmark import benchmark_table, plot_benchmark, run_benchmark
 
+    from .params import CONTROLLER_PRESETS
+
     params = _load_params(args)
     presets = [c.strip() for c in args.controllers.split(",") if c.strip()]
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
+    if not presets or any(c not in CONTROLLER_PRESETS for c in presets):
+        bad = next((c for c in presets if c not in CONTROLLER_PRESETS), args.controllers)
+        raise InputError(f"--controllers: '{bad}' is not a controller preset; allowed a "
+                         "comma-separated list of " + ", ".join(CONTROLLER_PRESETS))
+    if args.workers is not None:
+        _in_range("--workers", args.workers, 1, 256)
+    _in_range("--seed", args.seed, 0, 2 ** 32 - 1)
+    out = _out_dir(args.out)
     result = run_benchmark(params, presets, quick=args.quick, workers=args.workers or 0,
                            seed=args.seed, progress=not args.json and sys.stderr.isatty(),
                            out=out)
     fig = plot_benchmark(result, out / "benchmark.png")
     table = benchmark_table(result)
-    (out / "benchmark.md").write_text(table + "\n")
+    write_text_atomic(out / "benchmark.md", table + "\n")
     result["files"] = {"figure": str(fig), "table": str(out / "benchmark.md"),
                        "cases": str(out / "benchmark_cases.csv")}
-    (out / "benchmark.json").write_text(json.dumps(result, indent=2, default=_jsonable))
+    _write_json(out / "benchmark.json", result)
     _emit(result, args.json, [table, f"figure: {fig}"])
     return 0
 
@@ -488,15 +513,15 @@ def cmd_plan(args) -> int:
     params = _load_params(args)
     if args.incline is not None:
         params = params.with_(scenario=dc.replace(params.scenario, incline_deg=args.incline))
+    out = _out_dir(args.out)
     # plan_swing validates the scenario, the power limit and the knots
     plan = plan_swing(params, power_limit=args.power, knots=args.knots)
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
     figure = plot_plan(plan, out / "plan.png", params)
     summary = plan.summary() | {"figure": str(figure)}
-    (out / "plan.json").write_text(json.dumps(summary, indent=2, default=_jsonable))
-    np.savetxt(out / "plan.csv", np.c_[plan.times, plan.states, plan.torque],
-               delimiter=",", header="t,q1,q2,q1d,q2d,tau", comments="")
+    _write_json(out / "plan.json", summary)
+    with atomic_path(out / "plan.csv") as tmp:
+        np.savetxt(tmp, np.c_[plan.times, plan.states, plan.torque],
+                   delimiter=",", header="t,q1,q2,q1d,q2d,tau", comments="")
     verdict = "feasible" if plan.feasible else "NOT feasible"
     _emit(summary, args.json, [
         f"planned swing on a {plan.incline_deg:g} deg line: {verdict} "
@@ -516,11 +541,10 @@ def cmd_calibrate(args) -> int:
                                        write_calibrated_toml)
 
     params = _load_params(args)
+    out_dir = _out_dir(args.out)
     log = read_calibration_csv(args.log, params.motor.torque_per_amp)
     fit = tuple(n.strip() for n in args.fit.split(",") if n.strip())
     res = calibrate(params, log, fit)
-    out_dir = Path(args.out)
-    out_dir.mkdir(parents=True, exist_ok=True)
     summary = res.summary() | {
         "toml": str(write_calibrated_toml(res, out_dir / "calibrated.toml")),
         "plot": str(plot_calibration(res, out_dir / "calibration.png"))}
@@ -529,7 +553,7 @@ def cmd_calibrate(args) -> int:
     if args.family:
         fam = identify_plant_family(res.params)
         summary["plant_family"] = {"ranges": fam.ranges, "fits": fam.fits}
-    (out_dir / "calibration.json").write_text(json.dumps(summary, indent=2, default=_jsonable))
+    _write_json(out_dir / "calibration.json", summary)
     lines = [f"RMSE {res.rmse_before:.4f} -> {res.rmse_after:.4f} rad after {res.nfev} simulations"]
     lines += [f"  {n} = {v:.6g} +/- {se:.2g}" for n, v, se in
               zip(res.names, res.values, res.std_errors)]
@@ -665,10 +689,11 @@ def main(argv=None) -> int:
         sys.stderr.write(f"bplir: error: {exc}\n")
         return 2
     except KeyboardInterrupt:
-        where = getattr(args, "out", None)
-        sys.stderr.write("bplir: interrupted" + (f"; finished results are kept in {where} "
-                                                 "(the same command resumes a Monte Carlo study)"
-                                                 if where else "") + "\n")
+        if args.command == "montecarlo":
+            sys.stderr.write(f"bplir: interrupted; the finished samples are kept in {args.out} "
+                             "(the same command resumes the study)\n")
+        else:  # every output is written atomically: none is left half-written
+            sys.stderr.write("bplir: interrupted; no output file was left half-written\n")
         return 130
 
 

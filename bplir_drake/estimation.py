@@ -25,6 +25,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .io import atomic_path
+
 from .params import EstimatorParams
 from .systems.ekf import EkfState, ekf_predict, ekf_step, initial_state
 from .systems.imu import IMU_COLUMNS
@@ -55,48 +57,72 @@ class EstimateResult:
     skipped: int
 
 
-def read_imu_csv(path: str | Path) -> ImuLog:
-    """Read and check an IMU log; see the module docstring for the format."""
-    path = Path(path)
+def csv_rows(path, what: str, error) -> tuple[list[str], list[tuple[int, list[str]]]]:
+    """(header, [(line number, cells)]) of a UTF-8 CSV file, blank lines
+    skipped; every row must have as many cells as the header, and no header
+    name may repeat.  Problems raise ``error`` with one line."""
+    import io
+
+    from .io import read_text
+
+    text = read_text(path, what, error)
     try:
-        fh = path.open(newline="")
-    except OSError as exc:
-        raise LogError(f"cannot read log {path}: {exc.strerror}") from None
-    with fh:
-        reader = csv.reader(fh)
-        try:
-            header = [h.strip() for h in next(reader)]
-        except StopIteration:
-            raise LogError(f"log {path} is empty; expected header "
-                           + ",".join(LOG_COLUMNS)) from None
-        missing = [c for c in LOG_COLUMNS if c not in header]
-        if missing:
-            raise LogError(f"log {path} lacks column(s) {', '.join(missing)}; required: "
-                           + ",".join(LOG_COLUMNS))
-        rows = []
-        for lineno, row in enumerate(reader, start=2):
-            if not row or all(not c.strip() for c in row):
-                continue
-            if len(row) != len(header):
-                raise LogError(f"log {path} line {lineno} has {len(row)} cells, header has "
-                               f"{len(header)}")
-            vals = []
-            for name, cell in zip(header, row):
-                cell = cell.strip()
-                try:
-                    vals.append(float(cell) if cell else math.nan)
-                except ValueError:
-                    raise LogError(f"log {path} line {lineno} column {name}: '{cell}' is not "
-                                   "a number") from None
-            rows.append(vals)
+        rows = list(csv.reader(io.StringIO(text, newline="")))
+    except csv.Error as exc:
+        raise error(f"{what} {path} is not valid CSV: {exc}") from None
+    if not rows:
+        raise error(f"{what} {path} is empty")
+    header = [h.strip() for h in rows[0]]
+    seen = set()
+    for h in header:
+        if h in seen:
+            raise error(f"{what} {path}: column '{h}' appears twice in the header")
+        seen.add(h)
+    body = []
+    for lineno, row in enumerate(rows[1:], start=2):
+        if not row or all(not c.strip() for c in row):
+            continue
+        if len(row) != len(header):
+            raise error(f"{what} {path} line {lineno} has {len(row)} cells, the header has "
+                        f"{len(header)}")
+        body.append((lineno, row))
+    return header, body
+
+
+def read_imu_csv(path: str | Path) -> ImuLog:
+    """Read and check an IMU log; see the module docstring for the format.
+    Extra columns are kept when numeric and ignored otherwise."""
+    path = Path(path)
+    header, body = csv_rows(path, "log", LogError)
+    missing = [c for c in LOG_COLUMNS if c not in header]
+    if missing:
+        raise LogError(f"log {path} lacks column(s) {', '.join(missing)}; required: "
+                       + ",".join(LOG_COLUMNS))
+    idx = {h: i for i, h in enumerate(header)}
+    required = [idx[c] for c in LOG_COLUMNS]
+    rows = []
+    for lineno, row in body:
+        vals = []
+        for name, i in zip(LOG_COLUMNS, required):
+            cell = row[i].strip()
+            try:
+                vals.append(float(cell) if cell else math.nan)
+            except ValueError:
+                raise LogError(f"log {path} line {lineno} column {name}: '{cell[:40]}' is not "
+                               "a number") from None
+        rows.append(vals)
     if len(rows) < 2:
         raise LogError(f"log {path} has {len(rows)} data row(s); need at least 2")
     data = np.array(rows)
-    idx = {h: i for i, h in enumerate(header)}
-    t = data[:, idx["t"]]
-    samples = data[:, [idx[c] for c in IMU_COLUMNS]]
-    extra = {h: data[:, i] for h, i in idx.items() if h not in LOG_COLUMNS}
-    return ImuLog(t, samples, extra)
+    extra = {}
+    for h, i in idx.items():
+        if h in LOG_COLUMNS:
+            continue
+        try:
+            extra[h] = np.array([float(r[i]) if r[i].strip() else math.nan for _, r in body])
+        except ValueError:
+            continue  # a text column: ignored
+    return ImuLog(data[:, 0], data[:, 1:], extra)
 
 
 def check_log(t, samples, period: float) -> np.ndarray:
@@ -182,7 +208,8 @@ def write_estimate_csv(result: EstimateResult, path: str | Path) -> Path:
                                 "var_theta1", "var_theta2"]
     data = np.column_stack([result.t, result.x, result.gyro_integral, result.gyro_bias,
                             result.cov_diag[:, :2]])
-    np.savetxt(path, data, delimiter=",", header=",".join(cols), comments="", fmt="%.9g")
+    with atomic_path(path) as tmp:
+        np.savetxt(tmp, data, delimiter=",", header=",".join(cols), comments="", fmt="%.9g")
     return path
 
 
@@ -192,7 +219,8 @@ def write_imu_csv(t, samples, path: str | Path, extra: dict | None = None) -> Pa
     extra = extra or {}
     cols = list(LOG_COLUMNS) + list(extra)
     data = np.column_stack([t, samples] + [np.asarray(v) for v in extra.values()])
-    np.savetxt(path, data, delimiter=",", header=",".join(cols), comments="", fmt="%.9g")
+    with atomic_path(path) as tmp:
+        np.savetxt(tmp, data, delimiter=",", header=",".join(cols), comments="", fmt="%.9g")
     return path
 
 

@@ -278,6 +278,9 @@ class EstimatorParams(_Block):
     _name = "estimator"
 
     def _check(self):
+        if self.r1 > self.l1:
+            raise ParameterError(f"estimator.r1 = {self.r1:g} m exceeds estimator.l1 = "
+                                 f"{self.l1:g} m; allowed (0, l1]")
         for name in ("integration", "loop_integration"):
             if getattr(self, name) not in ("euler", "trapezoid"):
                 raise ParameterError(f"estimator.{name} = '{getattr(self, name)}' is unknown; "
@@ -601,6 +604,10 @@ def from_dict(data: dict[str, Any], base: BplirParams | None = None) -> BplirPar
             current = getattr(params, key)
         try:
             updates[key] = cls.from_dict(table, base=current)
+        except ParameterError as exc:  # name the table the user wrote ([true_plant] ...)
+            if key != cls._name:
+                raise ParameterError(str(exc).replace(f"{cls._name}.", f"{key}.")) from None
+            raise
         except TypeError as exc:  # pragma: no cover - defensive
             raise ParameterError(f"[{key}]: {exc}") from None
     try:
@@ -610,13 +617,13 @@ def from_dict(data: dict[str, Any], base: BplirParams | None = None) -> BplirPar
 
 
 def read_toml(path: str | Path, what: str = "parameter file", error=ParameterError) -> dict:
-    """A TOML file as a dict; unreadable or malformed files raise ``error``
-    with a one-line message naming the file."""
+    """A TOML file as a dict; unreadable, binary, non-UTF-8 or malformed files
+    raise ``error`` with a one-line message naming the file (a UTF-8 BOM is
+    accepted)."""
+    from .io import read_text
+
     path = Path(path)
-    try:
-        text = path.read_text()
-    except OSError as exc:
-        raise error(f"cannot read {what} {path}: {exc.strerror}") from None
+    text = read_text(path, what, error)
     try:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
@@ -644,7 +651,9 @@ def to_toml(params: BplirParams) -> str:
 
 
 def save_toml(params: BplirParams, path: str | Path) -> None:
-    Path(path).write_text(to_toml(params))
+    from .io import write_text_atomic
+
+    write_text_atomic(path, to_toml(params))
 
 
 def as_jsonable(params: BplirParams) -> dict[str, Any]:

@@ -28,7 +28,7 @@ def test_qft_cli_dissertation_family(tmp_path, capsys):
 
 def test_qft_cli_bad_input(capsys):
     assert main(["qft", "--plants", "0"]) == 2
-    assert "n_samples = 0" in capsys.readouterr().err
+    assert "--plants = 0 is out of range; allowed [2, 10000]" in capsys.readouterr().err
 
 
 def test_zero_dynamics_conservative_without_friction_and_focus_with(params):

@@ -190,5 +190,18 @@ def test_bad_controller_designs(kw, words):
 
 def test_continuous_controller_converts_to_autodiff(params):
     c = CpflController(params.plant, params.controller, continuous=True)
-    assert c.ToAutoDiffXd().num_continuous_states() == c.num_continuous_states() == 4
-    assert math.isfinite(params.controller.torque_limit)
+    ad = c.ToAutoDiffXd()
+    assert ad.num_continuous_states() == c.num_continuous_states() == 4
+    # the converted controller computes the same torque, with its derivatives
+    from pydrake.autodiffutils import AutoDiffXd, InitializeAutoDiff
+
+    x = np.array([0.2, 0.0, 0.5, 1.0])   # on the reference: the CPFL terms alone, not saturated
+    ctx, actx = c.CreateDefaultContext(), ad.CreateDefaultContext()
+    for sys_, cx, vals in ((c, ctx, x), (ad, actx, InitializeAutoDiff(x)[:, 0])):
+        sys_.GetInputPort("state").FixValue(cx, vals)
+        for name, v in (("reference", 0.0), ("feedforward", 0.0), ("torque_available", 20.0)):
+            sys_.GetInputPort(name).FixValue(cx, [AutoDiffXd(v)] if sys_ is ad else [v])
+    tau = c.GetOutputPort("torque").Eval(ctx)[0]
+    tau_ad = ad.GetOutputPort("torque").Eval(actx)[0]
+    assert tau_ad.value() == pytest.approx(tau, rel=1e-12)
+    assert np.abs(tau_ad.derivatives()).max() > 0.1   # depends on the state

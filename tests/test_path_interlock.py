@@ -87,7 +87,13 @@ def test_path_generator_reads_state_not_clock(params):
     assert pg.GetOutputPort("reference").Eval(ctx)[0] == r1
     lead = params.path.lead_time
     assert r1 == pytest.approx(path_q2(-0.2 + 0.5 * lead, g.s_f, g, 2.0))
-    assert pg.ToAutoDiffXd() is not None
+    # the AutoDiff copy gives the same reference (for linearising a loop with it)
+    from pydrake.autodiffutils import InitializeAutoDiff
+
+    ad = pg.ToAutoDiffXd()
+    actx = ad.CreateDefaultContext()
+    ad.get_input_port(0).FixValue(actx, InitializeAutoDiff(np.array([-0.2, 0.0, 0.5, 3.0]))[:, 0])
+    assert ad.GetOutputPort("reference").Eval(actx)[0].value() == pytest.approx(r1, rel=1e-12)
 
 
 def _interlock_outcome(x, *, tripped=0.0, t_end=0.05):

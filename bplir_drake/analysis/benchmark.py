@@ -138,8 +138,10 @@ CASE_COLUMNS = ("controller", "category", "label", "case", "repeat", "seed", "ou
 
 
 def write_cases_csv(rows, path) -> Path:
+    from ..io import atomic_path
+
     path = Path(path)
-    with path.open("w", newline="") as fh:
+    with atomic_path(path) as tmp, tmp.open("w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(CASE_COLUMNS)
         for r in rows:

@@ -27,13 +27,14 @@ the initial rates (otherwise a quadratic fit over the first 0.15 s).
 """
 from __future__ import annotations
 
-import csv
 import dataclasses as dc
 import math
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+
+from ..io import atomic_path
 
 from ..params import BplirParams
 
@@ -61,24 +62,17 @@ class CalibrationLog:
 
 
 def read_calibration_csv(path, torque_per_amp: float) -> CalibrationLog:
+    from ..estimation import csv_rows
+
     path = Path(path)
-    try:
-        with path.open(newline="") as fh:
-            rows = list(csv.reader(fh))
-    except OSError as exc:
-        raise CalibrationError(f"cannot read log {path}: {exc.strerror}") from None
-    if not rows:
-        raise CalibrationError(f"log {path} is empty; expected header t,q1,q2,tau (or i_cmd)")
-    header = [h.strip() for h in rows[0]]
+    header, body = csv_rows(path, "log", CalibrationError)
     missing = [c for c in CALIBRATION_COLUMNS if c not in header]
     if missing or not ({"tau", "i_cmd"} & set(header)):
         need = missing + ([] if {"tau", "i_cmd"} & set(header) else ["tau or i_cmd"])
         raise CalibrationError(f"log {path} lacks column(s) {', '.join(need)}; required: "
                                "t,q1,q2 and tau (N m) or i_cmd (A)")
     data = []
-    for lineno, row in enumerate(rows[1:], start=2):
-        if not any(c.strip() for c in row):
-            continue
+    for lineno, row in body:
         try:
             data.append([float(c) for c in row])
         except ValueError:
@@ -408,5 +402,6 @@ def write_calibration_csv(log: CalibrationLog, path) -> Path:
     rates = np.zeros((len(log.t), 2))
     rates[0] = log.qd0
     data = np.column_stack([log.t, log.q, log.tau, rates])
-    np.savetxt(path, data, delimiter=",", header="t,q1,q2,tau,q1d,q2d", comments="", fmt="%.9g")
+    with atomic_path(path) as tmp:
+        np.savetxt(tmp, data, delimiter=",", header="t,q1,q2,tau,q1d,q2d", comments="", fmt="%.9g")
     return path

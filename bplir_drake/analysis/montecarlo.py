@@ -41,7 +41,6 @@ from __future__ import annotations
 
 import csv
 import dataclasses as dc
-import json
 import math
 import os
 import time
@@ -52,6 +51,7 @@ from typing import Any, Callable, Iterable
 
 import numpy as np
 
+from ..io import write_json_atomic, write_text_atomic
 from ..params import BLOCKS, BplirParams, ParameterError, from_dict, read_toml, to_dict
 
 DIST_KINDS = ("uniform", "normal", "truncnormal")
@@ -240,7 +240,7 @@ def load_study(path) -> Study:
 def save_study(study: Study, path) -> None:
     import tomli_w
 
-    Path(path).write_text(tomli_w.dumps(study.as_dict()))
+    write_text_atomic(path, tomli_w.dumps(study.as_dict()))
 
 
 # ------------------------------------------------------------ one sample
@@ -376,13 +376,17 @@ class ResultWriter:
     """Appends one row per finished sample and flushes it to disk."""
 
     def __init__(self, path: Path, cols: list[str], existing: list[dict]):
+        from ..io import atomic_path
+
         self.path, self.cols = path, cols
         # rewrite the valid rows (drops a line cut short by an interruption)
-        with path.open("w", newline="") as fh:
-            w = csv.writer(fh)
-            w.writerow(cols)
-            for r in existing:
-                w.writerow([_fmt(r.get(c)) for c in cols])
+        # through a temporary file and a rename: the table is never half-written
+        with atomic_path(path) as tmp:
+            with tmp.open("w", newline="") as fh:
+                w = csv.writer(fh)
+                w.writerow(cols)
+                for r in existing:
+                    w.writerow([_fmt(r.get(c)) for c in cols])
         self._fh = path.open("a", newline="")
         self._w = csv.writer(self._fh)
 
@@ -411,14 +415,21 @@ def _pool_map(fn: Callable, args: list[tuple], workers: int) -> Iterable:
     from concurrent.futures import ProcessPoolExecutor, as_completed
 
     method = "fork" if "fork" in mp.get_all_start_methods() else "spawn"
-    with ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context(method)) as ex:
-        futures = [ex.submit(fn, *a) for a in args]
-        try:
-            for fut in as_completed(futures):
-                yield fut.result()
-        finally:
-            for fut in futures:
-                fut.cancel()
+    ex = ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context(method))
+    futures = [ex.submit(fn, *a) for a in args]
+    finished = False
+    try:
+        for fut in as_completed(futures):
+            yield fut.result()
+        finished = True
+    finally:
+        if finished:
+            ex.shutdown(wait=True)
+        else:  # interrupted: do not wait for the samples still running
+            procs = list(getattr(ex, "_processes", {}).values())
+            ex.shutdown(wait=False, cancel_futures=True)
+            for proc in procs:
+                proc.terminate()
 
 
 def _dask_map(fn: Callable, args: list[tuple], scheduler: str | None, workers: int) -> Iterable:
@@ -434,8 +445,10 @@ def _dask_map(fn: Callable, args: list[tuple], scheduler: str | None, workers: i
         if scheduler:
             try:
                 client = Client(scheduler, timeout="10s")
-            except OSError as exc:
-                raise StudyError(f"cannot reach the Dask scheduler at {scheduler}: {exc}") from None
+            except Exception as exc:  # noqa: BLE001 - Dask raises many kinds here
+                msg = " ".join(str(exc).split())[:200]
+                raise StudyError(f"cannot reach the Dask scheduler at {scheduler}: {msg}; "
+                                 "expected an address like tcp://HOST:8786") from None
         else:
             cluster = LocalCluster(n_workers=max(1, workers), threads_per_worker=1,
                                    processes=True, dashboard_address=None)
@@ -479,8 +492,7 @@ def prepare_out(study: Study, out: Path) -> list[dict]:
             raise StudyError(f"{out} holds results of a different study; use another --out "
                              "or remove the directory")
     save_study(study, saved)
-    done = read_results(out / RESULTS_FILE, columns(study))
-    return [r for r in done if r["index"] < study.samples]
+    return read_results(out / RESULTS_FILE, columns(study))
 
 
 def run_study(study: Study, out, *, workers: int = 0, dask: bool = False,
@@ -488,10 +500,11 @@ def run_study(study: Study, out, *, workers: int = 0, dask: bool = False,
     """Run (or resume) ``study`` into directory ``out``; returns the summary
     (also written to ``summary.json``).  Results: ``results.csv``."""
     out = Path(out)
-    done = prepare_out(study, out)
-    have = {r["index"] for r in done}
+    existing = prepare_out(study, out)  # finished rows are never deleted
+    have = {r["index"] for r in existing}
+    done = [r for r in existing if r["index"] < study.samples]
     todo = [(study, k) for k in range(study.samples) if k not in have]
-    writer = ResultWriter(out / RESULTS_FILE, columns(study), done)
+    writer = ResultWriter(out / RESULTS_FILE, columns(study), existing)
     t0 = time.perf_counter()
     try:
         for row in map_jobs(run_sample, todo, workers=workers, dask=dask, scheduler=scheduler,
@@ -502,19 +515,14 @@ def run_study(study: Study, out, *, workers: int = 0, dask: bool = False,
     rows = sorted(read_results(out / RESULTS_FILE), key=lambda r: r["index"])
     # the finished table in sample order: identical whatever the workers did
     ResultWriter(out / RESULTS_FILE, columns(study), rows).close()
-    summary = summarize(study, rows)
+    # a smaller -n than a previous run reports its first samples
+    summary = summarize(study, [r for r in rows if r["index"] < study.samples])
     summary["run"] = {"computed_now": len(todo), "resumed_from": len(done),
                       "wall_time_s": time.perf_counter() - t0,
                       "workers": workers or os.cpu_count(),
                       "executor": "dask" if (dask or scheduler) else "process pool"}
-    (out / SUMMARY_FILE).write_text(json.dumps(summary, indent=2, default=_json_default))
+    write_json_atomic(out / SUMMARY_FILE, summary)
     return summary
-
-
-def _json_default(o):
-    if isinstance(o, (np.floating, np.integer)):
-        return o.item()
-    raise TypeError(type(o))
 
 
 # ------------------------------------------------------------ statistics

@@ -7,6 +7,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from ..io import atomic_path
+
 
 def _plt():
     import matplotlib
@@ -24,7 +26,8 @@ def _save(fig, path, title=None) -> Path:
         fig.suptitle(title)
     fig.tight_layout()
     path = Path(path)
-    fig.savefig(path, dpi=110)
+    with atomic_path(path) as tmp:  # never a half-written figure
+        fig.savefig(tmp, dpi=110)
     plt.close(fig)
     return path
 

@@ -16,6 +16,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..io import atomic_path
+
 from ..diagrams import build_swing, swing_geometry
 from ..params import BplirParams, to_dict
 from ..simulate import Log, logs, make_simulator, run_until_outcome
@@ -157,7 +159,8 @@ def log_table(result: SwingResult) -> tuple[list[str], np.ndarray]:
 def write_log_csv(result: SwingResult, path) -> Path:
     cols, data = log_table(result)
     path = Path(path)
-    np.savetxt(path, data, delimiter=",", header=",".join(cols), comments="", fmt="%.7g")
+    with atomic_path(path) as tmp:
+        np.savetxt(tmp, data, delimiter=",", header=",".join(cols), comments="", fmt="%.7g")
     return path
 
 

@@ -239,6 +239,7 @@ def plot_plan(plan: SwingPlan, path, params: BplirParams):
     the robot drawn at a few instants on the line."""
     import matplotlib.pyplot as plt
 
+    from ..io import atomic_path
     from ..systems.plant import elbow_position, gripper_position
 
     fig, ax = plt.subplots(1, 3, figsize=(15, 4.2))
@@ -268,6 +269,7 @@ def plot_plan(plan: SwingPlan, path, params: BplirParams):
     ax[2].set(title=f"{plan.incline_deg:g} deg line, {plan.duration:.2f} s, "
                     f"link 1 reverses {plan.link1_reversals}x")
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=110)
     plt.close(fig)
     return path

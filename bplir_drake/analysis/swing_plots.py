@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..io import atomic_path
 from .plots import _plt, _save
 from .swing import log_table
 
@@ -106,6 +107,7 @@ def animate_swing(result, path, fps: int = 25, max_frames: int = 120) -> Path:
 
     anim = FuncAnimation(fig, draw, frames=list(frames), blit=False)
     path = Path(path)
-    anim.save(path, writer=PillowWriter(fps=fps))
+    with atomic_path(path) as tmp:  # an interrupted render leaves no truncated GIF
+        anim.save(tmp, writer=PillowWriter(fps=fps))
     plt.close(fig)
     return path

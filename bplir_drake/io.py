@@ -1,0 +1,139 @@
+"""Files in and out, safely: UTF-8 text in (or a one-line error), outputs
+written atomically (a temporary file in the same directory, then a rename),
+strict JSON out (NaN and infinities become ``null``), output locations
+checked before any work starts.
+
+Nothing here knows the rest of the package: callers pass the exception
+class their one-line errors use.
+"""
+from __future__ import annotations
+
+import contextlib
+import json
+import math
+import os
+import tempfile
+from pathlib import Path
+
+UTF8_BOM = b"\xef\xbb\xbf"
+
+
+def read_text(path, what: str, error=ValueError) -> str:
+    """The text of a UTF-8 file (a leading byte-order mark is accepted).
+
+    A missing, unreadable, binary or UTF-16 file raises ``error`` with one
+    line naming the file and the problem."""
+    path = Path(path)
+    try:
+        data = path.read_bytes()
+    except IsADirectoryError:
+        raise error(f"{what} {path} is a directory, not a file") from None
+    except OSError as exc:
+        raise error(f"cannot read {what} {path}: {exc.strerror or exc}") from None
+    if data.startswith(UTF8_BOM):
+        data = data[len(UTF8_BOM):]
+    if data[:2] in (b"\xff\xfe", b"\xfe\xff"):
+        raise error(f"{what} {path} is UTF-16 text; save it as UTF-8")
+    if b"\x00" in data:
+        raise error(f"{what} {path} is a binary file, not UTF-8 text")
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise error(f"{what} {path} is not UTF-8 text (invalid byte at offset {exc.start})") \
+            from None
+
+
+def _finite(obj):
+    """``obj`` with every non-finite float replaced by None (recursively)."""
+    if isinstance(obj, float):
+        return obj if math.isfinite(obj) else None
+    if isinstance(obj, dict):
+        return {k: _finite(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_finite(v) for v in obj]
+    return obj
+
+
+def _plain(o):
+    import numpy as np
+
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    if isinstance(o, (np.floating, np.integer, np.bool_)):
+        return o.item()
+    if isinstance(o, complex):
+        return [o.real, o.imag]
+    if isinstance(o, Path):
+        return str(o)
+    raise TypeError(f"not JSON serialisable: {type(o)}")
+
+
+def dumps_strict(obj, indent: int | None = 2) -> str:
+    """JSON that strict parsers accept: NaN and +-Infinity become ``null``."""
+    plain = json.loads(json.dumps(obj, default=_plain))  # numpy -> Python (NaN kept)
+    return json.dumps(_finite(plain), indent=indent, allow_nan=False)
+
+
+@contextlib.contextmanager
+def atomic_path(path):
+    """Yield a temporary path beside ``path`` (same suffix) to write to; on
+    success it is renamed onto ``path``, on failure removed."""
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}-", suffix=path.suffix)
+    os.close(fd)
+    try:
+        yield Path(tmp)
+        os.replace(tmp, path)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise
+
+
+def write_text_atomic(path, text: str) -> Path:
+    """Write ``text`` to ``path`` through a temporary file and a rename."""
+    with atomic_path(path) as tmp:
+        tmp.write_text(text)
+    return Path(path)
+
+
+def write_json_atomic(path, obj) -> Path:
+    return write_text_atomic(path, dumps_strict(obj) + "\n")
+
+
+def check_output_dir(path, error=ValueError) -> Path:
+    """Create ``path`` (a directory) if needed and prove it writable, before
+    any work: an existing file, a read-only or pseudo filesystem raise
+    ``error`` with one line."""
+    path = Path(path)
+    if path.exists() and not path.is_dir():
+        raise error(f"output directory {path} is an existing file; choose a directory")
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+        _probe(path)
+    except OSError as exc:
+        raise error(f"cannot write to output directory {path}: {exc.strerror or exc}") from None
+    return path
+
+
+def _probe(directory: Path) -> None:
+    """Create and remove a file in ``directory`` (OSError if that fails)."""
+    fd, probe = tempfile.mkstemp(dir=directory, prefix=".bplir-probe-")
+    os.close(fd)
+    os.unlink(probe)
+
+
+def check_output_file(path, error=ValueError) -> Path:
+    """``path`` will be written as a file: its directory must exist and be
+    writable, and ``path`` must not be a directory."""
+    path = Path(path)
+    if path.is_dir():
+        raise error(f"output file {path} is a directory; give a file name")
+    parent = path.parent if str(path.parent) else Path(".")
+    if not parent.is_dir():
+        raise error(f"the directory of output file {path} does not exist: {parent}")
+    try:
+        _probe(parent)
+    except OSError as exc:
+        raise error(f"cannot write output file {path}: {exc.strerror or exc}") from None
+    return path

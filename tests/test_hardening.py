@@ -1,0 +1,376 @@
+"""Bad input is one line and exit 2, finished work is never lost or
+half-written, JSON is strict, and a plan depends only on what the
+controller may know (issue 16).  CLI cases run the console entry point in
+a subprocess where the whole process matters (no traceback, exit status,
+files left behind); the rest call ``bplir_drake.cli.main`` in-process."""
+import json
+import math
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from bplir_drake import cli
+from bplir_drake.analysis import montecarlo as mc
+from bplir_drake.analysis.calibration import CalibrationError, read_calibration_csv
+from bplir_drake.estimation import LogError, read_imu_csv, write_imu_csv
+from bplir_drake.io import dumps_strict
+from bplir_drake.params import ParameterError, load_toml
+
+
+def bplir(*argv, cwd=None, timeout=120):
+    """Run the ``bplir`` command; (exit status, stdout, stderr)."""
+    p = subprocess.run([sys.executable, "-m", "bplir_drake.cli", *map(str, argv)], cwd=cwd,
+                       capture_output=True, text=True, timeout=timeout)
+    return p.returncode, p.stdout, p.stderr
+
+
+def assert_one_line_error(rc, err, *words):
+    assert rc == 2, err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("bplir: error: "), err
+    assert "Traceback" not in err
+    for w in words:
+        assert w in lines[0], lines[0]
+
+
+def strict_json(text):
+    def reject(const):
+        raise ValueError(f"non-strict JSON constant {const}")
+    return json.loads(text, parse_constant=reject)
+
+
+def _imu_log(path, extra=None):
+    t = np.arange(150) * 0.01
+    s = np.zeros((150, 6))
+    s[:, 3] = s[:, 5] = 9.81
+    return write_imu_csv(t, s, path, extra)
+
+
+# ------------------------------------------------------------------ files in
+
+def test_preset_and_config_combine(tmp_path, capsys):
+    """Item 1: the file's tables override the named preset."""
+    f = tmp_path / "f.toml"
+    f.write_text("[friction]\nfc2 = 0.9\n")
+    assert cli.main(["model", "--preset", "lab", "--config", str(f), "--json"]) == 0
+    out = strict_json(capsys.readouterr().out)["parameters"]
+    assert out["preset"] == "lab" and out["friction"]["fc2"] == 0.9
+    assert out["estimator"]["l1"] == 0.8 and out["controller"]["preset"] == "lab"
+
+
+@pytest.mark.parametrize("content, words", [
+    (b"\x00\x01\x02\xff binary", "binary file"),
+    ("[friction]\nfc2 = 0.9\n".encode("utf-16"), "UTF-16"),
+    (b"[friction]\nfc2 = 0.9 \xe9\n", "not UTF-8"),
+])
+def test_binary_and_utf16_files_are_one_line_errors(tmp_path, content, words):
+    """Item 2, for every file-reading command (--config, estimate, calibrate,
+    montecarlo --study)."""
+    f = tmp_path / "bad.dat"
+    f.write_bytes(content)
+    for argv in (["model", "--config", f], ["estimate", f], ["calibrate", f],
+                 ["montecarlo", "--study", f, "--out", tmp_path / "mc"]):
+        rc, _, err = bplir(*argv)
+        assert_one_line_error(rc, err, words, str(f))
+
+
+def test_utf8_bom_is_accepted(tmp_path, capsys):
+    f = tmp_path / "bom.toml"
+    f.write_bytes(b"\xef\xbb\xbf[friction]\nfc2 = 0.9\n")
+    assert load_toml(f).friction.fc2 == 0.9
+    log = _imu_log(tmp_path / "imu.csv")
+    log.write_bytes(b"\xef\xbb\xbf" + log.read_bytes())
+    assert read_imu_csv(log).samples.shape == (150, 6)
+
+
+def test_log_readers_name_the_problem(tmp_path):
+    """Items 4 and 11: a ragged calibration row, an IMU log's extra text
+    column (ignored, as the README says), a duplicated column."""
+    cal = tmp_path / "cal.csv"
+    cal.write_text("t,q1,q2,tau\n0,0,0,0\n0.01,0,0\n")
+    with pytest.raises(CalibrationError, match="line 3 has 3 cells, the header has 4"):
+        read_calibration_csv(cal, 1.33)
+    cal.write_text("t,q1,q2,tau\n0,0,0,0,7\n")
+    with pytest.raises(CalibrationError, match="line 2 has 5 cells"):
+        read_calibration_csv(cal, 1.33)
+    text = _imu_log(tmp_path / "imu.csv").read_text().splitlines()
+    (tmp_path / "note.csv").write_text("\n".join([text[0] + ",note"]
+                                                 + [r + ",hello" for r in text[1:]]) + "\n")
+    log = read_imu_csv(tmp_path / "note.csv")
+    assert log.samples.shape == (150, 6) and "note" not in log.extra
+    (tmp_path / "dup.csv").write_text("\n".join([text[0] + ",t"] + [r + ",1" for r in text[1:]]))
+    with pytest.raises(LogError, match="column 't' appears twice"):
+        read_imu_csv(tmp_path / "dup.csv")
+
+
+def test_true_plant_errors_name_their_table(tmp_path):
+    f = tmp_path / "t.toml"
+    f.write_text("[true_plant]\nm1 = -1\n")
+    with pytest.raises(ParameterError, match=r"^true_plant\.m1 = -1"):
+        load_toml(f)
+
+
+# ------------------------------------------------------------------ options
+
+@pytest.mark.parametrize("argv, words", [
+    (["observability", "--duration", "-1"], "--duration = -1 s is out of range"),
+    (["observability", "--threshold", "nan"], "--threshold = nan is out of range"),
+    (["freeswing", "--torque", "nan"], "--torque = nan N m is out of range"),
+    (["estimate", "LOG", "--r1", "50"], "estimator.r1 = 50 m exceeds estimator.l1"),
+    (["estimate", "LOG", "--calibrate", "-5"], "--calibrate = -5 s is out of range"),
+    (["montecarlo", "-n", "1000000000000"], "--samples = 1e+12 is out of range"),
+    (["montecarlo", "-n", "2", "--workers", "0"], "--workers = 0 is out of range"),
+    (["qft", "--plants", "0"], "--plants = 0 is out of range"),
+])
+def test_every_option_has_a_range(tmp_path, argv, words, capsys):
+    """Item 8 (in-process: the same main() the console script calls)."""
+    log = _imu_log(tmp_path / "imu.csv")
+    argv = [str(log) if a == "LOG" else a for a in argv] + ["--out", str(tmp_path / "o")]
+    if argv[0] == "estimate":
+        argv = argv[:-2]
+    assert cli.main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("bplir: error: ") and words in err, err
+
+
+@pytest.mark.parametrize("controllers", [",", "foo", "qft,nope"])
+def test_benchmark_controllers_checked_before_any_output(tmp_path, controllers):
+    """Items 8 and 12: no empty output directory is left behind."""
+    out = tmp_path / "bench"
+    rc, _, err = bplir("benchmark", "--controllers", controllers, "--out", out)
+    assert_one_line_error(rc, err, "--controllers")
+    assert not out.exists()
+
+
+def test_unusable_scheduler_address(tmp_path):
+    """Item 5."""
+    rc, _, err = bplir("montecarlo", "-n", "2", "--scheduler", "notanaddress",
+                       "--out", tmp_path / "mc")
+    assert_one_line_error(rc, err, "cannot reach the Dask scheduler at notanaddress")
+
+
+# ------------------------------------------------------------------ files out
+
+def test_unusable_output_locations(tmp_path):
+    """Item 3: an existing file, a pseudo filesystem, a missing directory."""
+    afile = tmp_path / "afile"
+    afile.write_text("keep me")
+    rc, _, err = bplir("freeswing", "--out", afile)
+    assert_one_line_error(rc, err, "is an existing file")
+    assert afile.read_text() == "keep me"
+    rc, _, err = bplir("freeswing", "--out", "/proc/x")
+    assert_one_line_error(rc, err, "cannot write to output directory /proc/x")
+    log = _imu_log(tmp_path / "imu.csv")
+    for opt in ("--out", "--plot"):
+        rc, _, err = bplir("estimate", log, opt, tmp_path / "missing" / "f.png")
+        assert_one_line_error(rc, err, "does not exist")
+    if Path("/sys/kernel").is_dir():  # sysfs: no regular files can be created there
+        rc, _, err = bplir("swing", "--out", "/sys/kernel")
+        assert_one_line_error(rc, err, "cannot write to output directory /sys/kernel")
+
+
+def test_swing_checks_its_output_before_simulating(monkeypatch, tmp_path, capsys):
+    import bplir_drake.analysis.swing as S
+
+    def boom(*a, **k):
+        raise AssertionError("simulated before checking the output directory")
+
+    monkeypatch.setattr(S, "run_swing", boom)
+    afile = tmp_path / "f"
+    afile.write_text("")
+    assert cli.main(["swing", "--out", str(afile)]) == 2
+    assert "is an existing file" in capsys.readouterr().err
+
+
+def test_interrupted_render_leaves_no_truncated_file(monkeypatch, tmp_path, capsys):
+    """Item 10: Ctrl-C while the animation is written: the earlier complete
+    outputs stay, no partial or temporary file is left, and the message says
+    only that."""
+    from matplotlib.animation import PillowWriter
+
+    out = tmp_path / "swing"
+    assert cli.main(["swing", "--out", str(out), "--json"]) == 0
+    capsys.readouterr()
+    before = {p.name: p.read_bytes() for p in out.iterdir()}
+
+    def interrupted(self, *a, **k):
+        Path(self.outfile).write_bytes(b"GIF89a partial")
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(PillowWriter, "finish", interrupted)
+    assert cli.main(["swing", "--out", str(out), "--seed", "3"]) == 130
+    err = capsys.readouterr().err
+    assert err.strip() == "bplir: interrupted; no output file was left half-written"
+    after = {p.name: p.read_bytes() for p in out.iterdir()}
+    assert set(after) <= set(before) and after["swing.gif"] == before["swing.gif"]
+    assert all(not n.startswith(".") for n in after)
+
+
+def test_smaller_n_keeps_finished_rows_and_reports_the_first_n(tmp_path, capsys):
+    """Item 6."""
+    out = tmp_path / "mc"
+    assert cli.main(["montecarlo", "-n", "4", "--out", str(out), "--workers", "1",
+                     "--no-plots", "--json"]) == 0
+    capsys.readouterr()
+    table = (out / "results.csv").read_bytes()
+    assert cli.main(["montecarlo", "-n", "2", "--out", str(out), "--workers", "1",
+                     "--no-plots", "--json"]) == 0
+    summary = strict_json(capsys.readouterr().out)
+    assert summary["samples"] == 2 and summary["run"]["computed_now"] == 0
+    assert (out / "results.csv").read_bytes() == table   # nothing deleted
+
+
+def test_results_table_rewrite_is_atomic(monkeypatch, tmp_path):
+    """Item 7: a failure while the table is rewritten leaves the old one."""
+    study = mc.Study(samples=3, seed=0)
+    path = tmp_path / "results.csv"
+    rows = [{"index": k, "seed": k, "outcome": "captured", "success": True, "error": ""}
+            for k in range(3)]
+    mc.ResultWriter(path, mc.columns(study), rows).close()
+    good = path.read_bytes()
+    real = mc._fmt
+    calls = {"n": 0}
+
+    def failing(v):
+        calls["n"] += 1
+        if calls["n"] > 5:
+            raise KeyboardInterrupt
+        return real(v)
+
+    monkeypatch.setattr(mc, "_fmt", failing)
+    with pytest.raises(KeyboardInterrupt):
+        mc.ResultWriter(path, mc.columns(study), rows)
+    assert path.read_bytes() == good
+    assert [p.name for p in tmp_path.iterdir()] == ["results.csv"]
+
+
+def test_killed_study_resumes_to_the_identical_table(tmp_path):
+    """A real interruption: SIGKILL after the first rows, rerun, and the
+    table is byte-identical to an uninterrupted run's."""
+    args = ["montecarlo", "-n", "8", "--seed", "3", "--workers", "1", "--no-plots", "--json"]
+    full = tmp_path / "full"
+    assert bplir(*args, "--out", full, timeout=300)[0] == 0
+    cut = tmp_path / "cut"
+    proc = subprocess.Popen([sys.executable, "-m", "bplir_drake.cli", *args, "--out", str(cut)],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    results = cut / "results.csv"
+    deadline = time.monotonic() + 240
+    while time.monotonic() < deadline and proc.poll() is None:
+        if results.exists() and len(results.read_text().splitlines()) >= 3:  # header + 2 rows
+            break
+        time.sleep(0.02)
+    proc.send_signal(signal.SIGKILL)
+    proc.wait()
+    n_rows = len(results.read_text().splitlines()) - 1
+    assert 2 <= n_rows < 8
+    rc, out, _ = bplir(*args, "--out", cut, timeout=300)
+    assert rc == 0 and strict_json(out)["run"]["resumed_from"] >= 2
+    assert results.read_bytes() == (full / "results.csv").read_bytes()
+
+
+# ------------------------------------------------------------------ JSON
+
+def test_strict_json_replaces_nan_and_infinity():
+    text = dumps_strict({"a": math.nan, "b": [math.inf, -math.inf, 1.5],
+                         "c": np.float64("nan"), "d": np.array([1.0, np.inf])})
+    assert strict_json(text) == {"a": None, "b": [None, None, 1.5], "c": None, "d": [1.0, None]}
+
+
+def test_every_json_output_is_strict(tmp_path):
+    """Item 9: the commands' --json output and their JSON files parse with a
+    parser that rejects NaN and Infinity (a timed-out swing has no capture
+    speed: null)."""
+    log = _imu_log(tmp_path / "imu.csv")
+    runs = [("model",), ("freeswing", "--duration", "1", "--out", tmp_path / "fs"),
+            ("estimate", log),
+            ("observability", "--duration", "1", "--out", tmp_path / "ob"),
+            ("swing", "--incline", "20", "--no-animation", "--out", tmp_path / "sw"),
+            ("montecarlo", "-n", "2", "--workers", "1", "--no-plots", "--out", tmp_path / "mc")]
+    for argv in runs:
+        rc, out, err = bplir(*argv, "--json", timeout=300)
+        assert rc == 0, err
+        data = strict_json(out)
+        if argv[0] == "swing":
+            assert data["outcome"] == "timeout" and data["capture_speed_mps"] is None
+    for f in tmp_path.rglob("*.json"):
+        strict_json(f.read_text())
+
+
+# ------------------------------------------------------------------ plans
+
+def test_plan_depends_only_on_the_nominal_model_and_a_hit_is_bit_identical(tmp_path,
+                                                                             monkeypatch):
+    """Item 13: the plan's inputs (its cache key) are the nominal model and
+    the scenario; the simulated robot never enters; a cache hit equals a
+    fresh solve bit for bit."""
+    import dataclasses as dc
+
+    from bplir_drake.analysis import plan_cache
+    from bplir_drake.analysis.swing_plan import plan_swing
+    from bplir_drake.params import preset
+
+    monkeypatch.setenv("BPLIR_CACHE_DIR", str(tmp_path))
+    seen = []
+    real_cached = plan_cache.cached
+
+    def spy(inputs, solve):
+        seen.append(plan_cache.plan_key(inputs))
+        return real_cached(inputs, solve)
+
+    monkeypatch.setattr(plan_cache, "cached", spy)
+    p = preset()
+    kw = dict(knots=7, iterations=40)
+    fresh = plan_swing(p, cache=False, **kw)
+    first = plan_swing(p, **kw)                     # solved and stored
+    other_robot = p.with_(true_plant=dc.replace(p.plant, l2=1.3, m2=1.7))
+    hit = plan_swing(other_robot, **kw)             # the same key: read back
+    assert seen[0] == seen[1] and len(list(tmp_path.glob("plan-*.npz"))) == 1
+    for a, b in ((fresh, first), (first, hit)):
+        for f in ("times", "states", "torque", "friction"):
+            assert np.array_equal(getattr(a, f), getattr(b, f))
+    np.testing.assert_array_equal(hit.states[0, :2], plan_swing(p, **kw).states[0, :2])
+    plan_swing(p.with_(plant=dc.replace(p.plant, m2=1.6)), **kw)   # the nominal model: new key
+    plan_swing(p, **kw | {"knots": 8})                              # a solver input: new key
+    assert len(set(seen)) == 3
+
+
+# ------------------------------------------------------------------ fuzz
+
+_TOML_PIECES = ["[friction]\n", "fc2 = 0.9\n", "[plant]\n", "m1 = -3\n", "preset = 'lab'\n",
+                "[scenario]\nseed = 1.5\n", "x = [1, 2\n", "[true_plant]\nl2 = 0\n",
+                "samples = 0\n", "[uncertain.\"true_friction.fc2\"]\ndist = 'uniform'\n",
+                "rel = 0.2\n", "[uncertain.x]\n", "abs = -1\n", "\u00e9 = 1\n", "= 3\n"]
+_CSV_PIECES = ["t,gyro1,gyro2,acc1_x,acc1_y,acc2_x,acc2_y\n", "t,q1,q2,tau\n", "0,0,0,0,9.8,0,9.8\n",
+               "0.01,1,2,3\n", "nan,1,1,1,1,1,1\n", "a,b\n", "\n", "0.02,,,,,,\n", ",,,\n",
+               "\"unterminated\n", "1e999,0,0,0\n", "0,0,0,0,0,0,0,0\n"]
+
+
+def _readers(path):
+    from bplir_drake.params import load_toml as read_params
+
+    return [(read_params, ParameterError), (mc.load_study, ParameterError),
+            (read_imu_csv, LogError),
+            (lambda p: read_calibration_csv(p, 1.33), CalibrationError)]
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(data=st.one_of(st.binary(max_size=300),
+                      st.lists(st.sampled_from(_TOML_PIECES + _CSV_PIECES), max_size=12)
+                      .map(lambda xs: "".join(xs).encode()),
+                      st.lists(st.sampled_from(_CSV_PIECES), min_size=1, max_size=40)
+                      .map(lambda xs: "".join(xs).encode())))
+def test_file_readers_return_a_result_or_a_one_line_error(tmp_path, data):
+    path = tmp_path / "fuzz.dat"
+    path.write_bytes(data)
+    for reader, error in _readers(path):
+        try:
+            reader(path)
+        except error as exc:
+            assert "\n" not in str(exc) and str(exc)

@@ -55,29 +55,35 @@ def _imu_log(path, extra=None):
 
 # ------------------------------------------------------------------ files in
 
-def test_preset_and_config_combine(tmp_path, capsys):
+def test_preset_and_config_combine(tmp_path):
     """Item 1: the file's tables override the named preset."""
     f = tmp_path / "f.toml"
     f.write_text("[friction]\nfc2 = 0.9\n")
-    assert cli.main(["model", "--preset", "lab", "--config", str(f), "--json"]) == 0
-    out = strict_json(capsys.readouterr().out)["parameters"]
-    assert out["preset"] == "lab" and out["friction"]["fc2"] == 0.9
-    assert out["estimator"]["l1"] == 0.8 and out["controller"]["preset"] == "lab"
+    rc, out, err = bplir("model", "--preset", "lab", "--config", f, "--json")
+    assert rc == 0 and err == ""
+    params = strict_json(out)["parameters"]
+    assert params["preset"] == "lab" and params["friction"]["fc2"] == 0.9
+    assert params["estimator"]["l1"] == 0.8 and params["controller"]["preset"] == "lab"
 
 
-@pytest.mark.parametrize("content, words", [
-    (b"\x00\x01\x02\xff binary", "binary file"),
-    ("[friction]\nfc2 = 0.9\n".encode("utf-16"), "UTF-16"),
-    (b"[friction]\nfc2 = 0.9 \xe9\n", "not UTF-8"),
+@pytest.mark.parametrize("content, words, subprocess_", [
+    (b"\x00\x01\x02\xff binary", "binary file", True),
+    ("[friction]\nfc2 = 0.9\n".encode("utf-16"), "UTF-16", False),
+    (b"[friction]\nfc2 = 0.9 \xe9\n", "not UTF-8", False),
 ])
-def test_binary_and_utf16_files_are_one_line_errors(tmp_path, content, words):
+def test_binary_and_utf16_files_are_one_line_errors(tmp_path, capsys, content, words,
+                                                     subprocess_):
     """Item 2, for every file-reading command (--config, estimate, calibrate,
-    montecarlo --study)."""
+    montecarlo --study): through the console entry point for the binary
+    file, in-process (the same main()) for the others."""
     f = tmp_path / "bad.dat"
     f.write_bytes(content)
     for argv in (["model", "--config", f], ["estimate", f], ["calibrate", f],
                  ["montecarlo", "--study", f, "--out", tmp_path / "mc"]):
-        rc, _, err = bplir(*argv)
+        if subprocess_:
+            rc, _, err = bplir(*argv)
+        else:
+            rc, err = cli.main([str(a) for a in argv]), capsys.readouterr().err
         assert_one_line_error(rc, err, words, str(f))
 
 
@@ -95,8 +101,8 @@ def test_log_readers_name_the_problem(tmp_path):
     column (ignored, as the README says), a duplicated column."""
     cal = tmp_path / "cal.csv"
     cal.write_text("t,q1,q2,tau\n0,0,0,0\n0.01,0,0\n")
-    with pytest.raises(CalibrationError, match="line 3 has 3 cells, the header has 4"):
-        read_calibration_csv(cal, 1.33)
+    rc, _, err = bplir("calibrate", cal, "--out", tmp_path / "c")
+    assert_one_line_error(rc, err, "line 3 has 3 cells, the header has 4")
     cal.write_text("t,q1,q2,tau\n0,0,0,0,7\n")
     with pytest.raises(CalibrationError, match="line 2 has 5 cells"):
         read_calibration_csv(cal, 1.33)
@@ -129,15 +135,16 @@ def test_true_plant_errors_name_their_table(tmp_path):
     (["montecarlo", "-n", "2", "--workers", "0"], "--workers = 0 is out of range"),
     (["qft", "--plants", "0"], "--plants = 0 is out of range"),
 ])
-def test_every_option_has_a_range(tmp_path, argv, words, capsys):
-    """Item 8 (in-process: the same main() the console script calls)."""
+def test_every_option_has_a_range(tmp_path, argv, words):
+    """Item 8; nothing is written (item 12: no empty output directory)."""
     log = _imu_log(tmp_path / "imu.csv")
-    argv = [str(log) if a == "LOG" else a for a in argv] + ["--out", str(tmp_path / "o")]
-    if argv[0] == "estimate":
-        argv = argv[:-2]
-    assert cli.main(argv) == 2
-    err = capsys.readouterr().err
-    assert err.count("\n") == 1 and err.startswith("bplir: error: ") and words in err, err
+    out = tmp_path / "o"
+    argv = [str(log) if a == "LOG" else a for a in argv]
+    if argv[0] != "estimate":
+        argv += ["--out", str(out)]
+    rc, _, err = bplir(*argv)
+    assert_one_line_error(rc, err, words)
+    assert not out.exists()
 
 
 @pytest.mark.parametrize("controllers", [",", "foo", "qft,nope"])
@@ -275,6 +282,33 @@ def test_killed_study_resumes_to_the_identical_table(tmp_path):
     assert results.read_bytes() == (full / "results.csv").read_bytes()
 
 
+def test_ctrl_c_on_a_two_worker_study_keeps_finished_rows(tmp_path):
+    """Item 10: SIGINT to the parent of a 2-worker study ends it (exit 130,
+    one line), keeps every finished row, and leaves no worker behind; the
+    same command then resumes."""
+    out = tmp_path / "mc"
+    args = ["montecarlo", "-n", "40", "--workers", "2", "--no-plots", "--out", str(out)]
+    proc = subprocess.Popen([sys.executable, "-m", "bplir_drake.cli", *args],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    results = out / "results.csv"
+    deadline = time.monotonic() + 240
+    while time.monotonic() < deadline and proc.poll() is None:
+        if results.exists() and len(results.read_text().splitlines()) >= 6:
+            break
+        time.sleep(0.02)
+    proc.send_signal(signal.SIGINT)
+    err = proc.communicate(timeout=120)[1]
+    assert proc.returncode == 130
+    assert err.strip().splitlines() == [
+        f"bplir: interrupted; the finished samples are kept in {out} (the same command "
+        "resumes the study)"]
+    kept = mc.read_results(results)
+    assert len(kept) >= 5
+    rc, _, _ = bplir(*args[:-2], "--out", out, "--json", timeout=300)
+    assert rc == 0 and len(mc.read_results(results)) == 40
+    assert {r["index"]: r for r in mc.read_results(results)}[kept[0]["index"]] == kept[0]
+
+
 # ------------------------------------------------------------------ JSON
 
 def test_strict_json_replaces_nan_and_infinity():
@@ -283,23 +317,27 @@ def test_strict_json_replaces_nan_and_infinity():
     assert strict_json(text) == {"a": None, "b": [None, None, 1.5], "c": None, "d": [1.0, None]}
 
 
-def test_every_json_output_is_strict(tmp_path):
+def test_every_json_output_is_strict(tmp_path, capsys):
     """Item 9: the commands' --json output and their JSON files parse with a
     parser that rejects NaN and Infinity (a timed-out swing has no capture
-    speed: null)."""
+    speed: null).  In-process: the same main() the console script runs."""
     log = _imu_log(tmp_path / "imu.csv")
     runs = [("model",), ("freeswing", "--duration", "1", "--out", tmp_path / "fs"),
             ("estimate", log),
             ("observability", "--duration", "1", "--out", tmp_path / "ob"),
             ("swing", "--incline", "20", "--no-animation", "--out", tmp_path / "sw"),
-            ("montecarlo", "-n", "2", "--workers", "1", "--no-plots", "--out", tmp_path / "mc")]
+            ("montecarlo", "-n", "2", "--workers", "1", "--no-plots", "--out", tmp_path / "mc"),
+            ("benchmark", "--quick", "--controllers", "lab", "--workers", "1",
+             "--out", tmp_path / "bm"),
+            ("qft", "--plants", "6", "--out", tmp_path / "qft")]
     for argv in runs:
-        rc, out, err = bplir(*argv, "--json", timeout=300)
-        assert rc == 0, err
-        data = strict_json(out)
+        assert cli.main([str(a) for a in argv] + ["--json"]) == 0
+        data = strict_json(capsys.readouterr().out)
         if argv[0] == "swing":
             assert data["outcome"] == "timeout" and data["capture_speed_mps"] is None
-    for f in tmp_path.rglob("*.json"):
+    files = list(tmp_path.rglob("*.json"))
+    assert len(files) == 6   # freeswing, observability, swing, montecarlo, benchmark, qft
+    for f in files:
         strict_json(f.read_text())
 
 

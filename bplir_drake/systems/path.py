@@ -225,20 +225,6 @@ class ReducedDynamics:
         return -2.0 * B / A, -2.0 * gam / A, -2.0 * self.fv1 / A
 
 
-def _reduced_rhs(s, Y, s_e, g, n, lam, p: PlantParams, fv1: float):
-    """dY/ds for Y = q1'^2 under the path (nominal model, viscous link-1
-    friction), from the finite-difference path derivatives (any scalar
-    type; the reference for :class:`ReducedDynamics`)."""
-    _, d1, d2 = path_derivatives(s, s_e, g, n, lam)
-    q = [s + g.alpha, path_q2(s, s_e, g, n, lam)]
-    M = mass_matrix(q, p)
-    s2 = math.sin(q[1])
-    a = M[0, 0] + M[0, 1] * d1
-    b = M[0, 1] * d2 - p.m2 * p.l1 * p.lc2 * s2 * (2 * d1 + d1 * d1)
-    gam = gravity_vector(q, p)[0]
-    return 2.0 * (-gam - b * Y - fv1 * math.sqrt(max(Y, 0.0))) / a
-
-
 def _rk4_segment(Y: float, a: float, b: float, dyn: ReducedDynamics, branch,
                  step: float) -> float:
     """Y = q1'^2 carried from ``a`` to ``b`` by RK4 in ``m = ceil((b-a)/step)``
@@ -303,11 +289,6 @@ def projected_rate(x, s_e, g: PathGeometry, pp: PathParams, p: PlantParams) -> f
     M = mass_matrix(qm, p)
     m = M[0, 0] + 2 * M[0, 1] * d1 + M[1, 1] * d1 * d1
     return math.copysign(math.sqrt(max(0.0, 2.0 * (E - potential_energy(qm, p)) / m)), x[2])
-
-
-def path_height(s, s_e, g: PathGeometry, n: float, lam: float = 1.0) -> float:
-    """Normal distance of the gripper to the line on the path (negative below)."""
-    return PathShape(s_e, g, n, lam).height(s)
 
 
 def band_entry(s_from, s_e, g: PathGeometry, n: float, lam: float = 1.0) -> float:

@@ -200,18 +200,22 @@ def test_interrupted_render_leaves_no_truncated_file(monkeypatch, tmp_path, caps
     """Item 10: Ctrl-C while the animation is written: the earlier complete
     outputs stay, no partial or temporary file is left, and the message says
     only that."""
-    from matplotlib.animation import PillowWriter
+    from PIL import Image
 
     out = tmp_path / "swing"
     assert cli.main(["swing", "--out", str(out), "--json"]) == 0
     capsys.readouterr()
     before = {p.name: p.read_bytes() for p in out.iterdir()}
 
-    def interrupted(self, *a, **k):
-        Path(self.outfile).write_bytes(b"GIF89a partial")
-        raise KeyboardInterrupt
+    real_save = Image.Image.save
 
-    monkeypatch.setattr(PillowWriter, "finish", interrupted)
+    def interrupted(self, fp, *a, **k):
+        if k.get("save_all"):  # the animation, not the PNG figure
+            Path(fp).write_bytes(b"GIF89a partial")
+            raise KeyboardInterrupt
+        return real_save(self, fp, *a, **k)
+
+    monkeypatch.setattr(Image.Image, "save", interrupted)
     assert cli.main(["swing", "--out", str(out), "--seed", "3"]) == 130
     err = capsys.readouterr().err
     assert err.strip() == "bplir: interrupted; no output file was left half-written"

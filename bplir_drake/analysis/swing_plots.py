@@ -72,8 +72,6 @@ def plot_swing(result, path, title=None) -> Path:
 def animate_swing(result, path, fps: int = 25, max_frames: int = 120) -> Path:
     """GIF of the robot on the line (matplotlib + Pillow)."""
     plt = _plt()
-    from matplotlib.animation import FuncAnimation, PillowWriter
-
     p = result.params
     tp = p.simulated_plant
     st = result.logs["state"]
@@ -105,9 +103,24 @@ def animate_swing(result, path, fps: int = 25, max_frames: int = 120) -> Path:
         text.set_text(f"t = {t[k]:.2f} s")
         return link, trail, text
 
-    anim = FuncAnimation(fig, draw, frames=list(frames), blit=False)
+    # blitted frames: the axes, ticks and legend are drawn once, each frame
+    # redraws only the robot, its trail and the clock
+    from PIL import Image
+
+    fig.canvas.draw()
+    background = fig.canvas.copy_from_bbox(fig.bbox)
+    images = []
+    for k in frames:
+        fig.canvas.restore_region(background)
+        for artist in draw(k):
+            ax.draw_artist(artist)
+        images.append(Image.fromarray(np.asarray(fig.canvas.buffer_rgba())[..., :3].copy()))
+    plt.close(fig)
+    # one palette for all frames, from the last (it holds every colour drawn)
+    palette = images[-1].quantize(colors=64)
+    frames_p = [im.quantize(palette=palette, dither=Image.Dither.NONE) for im in images]
     path = Path(path)
     with atomic_path(path) as tmp:  # an interrupted render leaves no truncated GIF
-        anim.save(tmp, writer=PillowWriter(fps=fps))
-    plt.close(fig)
+        frames_p[0].save(tmp, save_all=True, append_images=frames_p[1:],
+                         duration=int(round(1000 / fps)), loop=0)
     return path

@@ -371,10 +371,13 @@ def PathGenerator_(T):
                 np.array([geometry.s_f, 0.0, 0.0, np.nan, np.nan, fv1]))
             self._next = declare_tick_result(self, self._advance,
                                              {self.xd_ticket(), self.all_input_ports_ticket()})
+            # the path and its derivatives at the estimate, once per tick for both outputs
+            self._path_at = declare_tick_result(
+                self, self._phi, {self._next.ticket(), self.all_input_ports_ticket()})
             declare_store(self, period, self._store)
             dep = {self._next.ticket()}
-            self.DeclareVectorOutputPort("reference", 1, self._out_ref, dep)
-            self.DeclareVectorOutputPort("feedforward", 1, self._out_ff, dep)
+            self.DeclareVectorOutputPort("reference", 1, self._out_ref, {self._path_at.ticket()})
+            self.DeclareVectorOutputPort("feedforward", 1, self._out_ff, {self._path_at.ticket()})
             self.DeclareVectorOutputPort("blend_end", 2, self._out_blend, dep)
 
         def _construct_copy(self, other, converter=None):
@@ -397,10 +400,10 @@ def PathGenerator_(T):
             return x, s, phi, d1, d2
 
         def _out_ref(self, context, out):
-            out.SetAtIndex(0, self._phi(context)[2])
+            out.SetAtIndex(0, self._path_at.Eval(context)[2])
 
         def _out_ff(self, context, out):
-            x, s, phi, d1, d2 = self._phi(context)
+            x, s, phi, d1, d2 = self._path_at.Eval(context)
             if self.path.mode == "lab":
                 out.SetAtIndex(0, 0.0 * s)
                 return

@@ -33,14 +33,20 @@ class Log:
 
 
 def make_simulator(built, q0, v0=(0.0, 0.0), *, accuracy: float = 1e-6,
-                   integrator: str = "runge_kutta3", max_step: float = 0.01):
-    """A simulator of ``built`` with the plant at (q0, v0).
+                   integrator: str = "runge_kutta3", max_step: float = 0.01, set_context=None):
+    """A simulator of ``built`` on a fresh context, with the plant at
+    (q0, v0) (rad, rad/s).
 
-    Error-controlled RK3 at accuracy 1e-6 handles the smoothed Coulomb
-    friction (b = 0.01) well (ENGINEERING.md).
+    ``set_context(context)``, when given, writes anything else into the
+    fresh context (e.g. a Monte Carlo sample) before the simulator is
+    initialised.  Error-controlled RK3 at accuracy 1e-6 handles the smoothed
+    Coulomb friction (b = 0.01) well (ENGINEERING.md); ``max_step`` (s)
+    bounds the step.
     """
     sim = Simulator(built.diagram)
     ctx = sim.get_mutable_context()
+    if set_context is not None:
+        set_context(ctx)
     pctx = built.plant.GetMyMutableContextFromRoot(ctx)
     built.plant.SetPositions(pctx, np.asarray(q0, dtype=float))
     built.plant.SetVelocities(pctx, np.asarray(v0, dtype=float))

@@ -296,15 +296,21 @@ def sample_params(study: Study, index: int) -> tuple[BplirParams, int, dict[str,
     return apply_values(pinned(study.params), drawn), sample_seed(study.seed, index), drawn
 
 
+_RUNNER = None  # this process's SwingRunner: one diagram serves every sample of a structure
+
+
 def run_sample(study: Study, index: int) -> dict:
     """One sample as a result row; never raises (errors are recorded)."""
-    from .swing import run_swing
+    global _RUNNER
+    from .swing import SwingRunner
 
+    if _RUNNER is None:
+        _RUNNER = SwingRunner()
     row: dict[str, Any] = {"index": index, "seed": sample_seed(study.seed, index)}
     row.update(draw_values(study, index))
     try:
         p, seed, _ = sample_params(study, index)
-        summary = run_swing(p, seed=seed).summary
+        summary = _RUNNER.run(p, seed=seed).summary
     except Exception as exc:  # impossible draw, unreachable line, integrator failure ...
         return row | _error_fields(exc)
     row.update({k: summary[k] for k in RESULT_FIELDS})

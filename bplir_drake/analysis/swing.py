@@ -18,7 +18,7 @@ import numpy as np
 
 from ..io import atomic_path
 
-from ..diagrams import build_swing, swing_geometry
+from ..diagrams import build_swing, set_swing_sample, swing_geometry, swing_structure
 from ..params import BplirParams, to_dict
 from ..simulate import Log, logs, make_simulator, run_until_outcome
 from ..systems.plant import gripper_position, gripper_velocity, kinetic_energy, potential_energy
@@ -54,32 +54,66 @@ class SwingResult:
 SWING_INTEGRATOR, SWING_ACCURACY = "runge_kutta3", 1e-4
 
 
+class SwingRunner:
+    """Runs swings, building a diagram only when the structure changes.
+
+    Every sample whose parameters differ from the last built ones only in
+    what a context carries (:data:`bplir_drake.diagrams.SAMPLE_FIELDS`:
+    the simulated links' inertial parameters, friction, IMU errors, wind and
+    gusts, seeds) runs through the same diagram, with the sample written into
+    a fresh context (:func:`~bplir_drake.diagrams.set_swing_sample`).  The
+    results are identical to a fresh build per swing (tested)."""
+
+    def __init__(self):
+        self.built = None
+        self.builds = 0
+
+    def diagram_for(self, params: BplirParams, seed: int, use_estimator: bool):
+        """The built swing for ``params`` (reused when the structure matches)."""
+        if self.built is None or self.built.structure != swing_structure(params, use_estimator):
+            gains = None
+            if params.path.mode == "plan":
+                from .swing_plan import tracking_plan
+
+                gains = tracking_plan(params)[1]
+            self.built = build_swing(params, seed=seed, use_estimator=use_estimator,
+                                     plan_gains=gains)
+            self.builds += 1
+        return self.built
+
+    def run(self, params: BplirParams, *, seed: int | None = None,
+            use_estimator: bool | None = None, accuracy: float = SWING_ACCURACY,
+            integrator: str = SWING_INTEGRATOR) -> SwingResult:
+        """One swing; the arguments are those of :func:`run_swing`."""
+        sc = params.scenario
+        seed = sc.seed if seed is None else int(seed)
+        use_est = sc.use_estimator if use_estimator is None else use_estimator
+        p = draw_true_friction(params, seed)
+        built = self.diagram_for(p, seed, use_est)
+        sim = make_simulator(built, built.q0, accuracy=accuracy, integrator=integrator,
+                             set_context=lambda ctx: set_swing_sample(built, ctx, p, seed))
+        run_until_outcome(sim, built, sc.max_time)
+        # record the state at the moment the interlock decided
+        built.diagram.ForcedPublish(sim.get_context())
+        status = built.systems["interlock"].status(sim.get_context())
+        lg = logs(built, sim)
+        return SwingResult(summarize(p, lg, status, seed, use_est), lg, p)
+
+
 def run_swing(params: BplirParams, *, seed: int | None = None, use_estimator: bool | None = None,
               accuracy: float = SWING_ACCURACY,
               integrator: str = SWING_INTEGRATOR) -> SwingResult:
-    """One swing of ``params`` until the interlock decides (or the timeout):
-    the simulated friction drawn from ``seed`` (:func:`draw_true_friction`),
-    the IMU noise and disturbances seeded by it; ``use_estimator`` overrides
-    ``scenario.use_estimator``.  Returns the logs and the summary (outcome,
-    capture speed (m/s), swing time (s), peaks, energy, thresholds, seed)."""
-    sc = params.scenario
-    seed = sc.seed if seed is None else int(seed)
-    use_est = sc.use_estimator if use_estimator is None else use_estimator
-    p = draw_true_friction(params, seed)
-    gains = None
-    if p.path.mode == "plan":
-        from .swing_plan import tracking_plan
+    """One swing of ``params`` on a freshly built diagram, until the
+    interlock decides (or the timeout).
 
-        gains = tracking_plan(p)[1]
-    built = build_swing(p, seed=seed, use_estimator=use_est, plan_gains=gains)
-    sim = make_simulator(built, built.q0, accuracy=accuracy, integrator=integrator)
-    run_until_outcome(sim, built, sc.max_time)
-    # record the state at the moment the interlock decided
-    built.diagram.ForcedPublish(sim.get_context())
-    status = built.systems["interlock"].status(sim.get_context())
-    lg = logs(built, sim)
-    summary = summarize(p, lg, status, seed, use_est)
-    return SwingResult(summary, lg, p)
+    The simulated friction is drawn from ``seed`` (:func:`draw_true_friction`),
+    the IMU noise and disturbances are seeded by it; ``use_estimator``
+    overrides ``scenario.use_estimator``; ``accuracy`` and ``integrator``
+    set Drake's error-controlled integrator.  Returns the logs and the
+    summary (outcome, capture speed (m/s), swing time (s), peaks, energy,
+    thresholds, seed).  Many swings: :class:`SwingRunner`."""
+    return SwingRunner().run(params, seed=seed, use_estimator=use_estimator, accuracy=accuracy,
+                             integrator=integrator)
 
 
 def summarize(p: BplirParams, lg: dict[str, Log], status: dict, seed: int, use_est: bool) -> dict:

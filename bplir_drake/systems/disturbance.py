@@ -21,10 +21,11 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import BasicVector, LeafSystem
 
 from ..params import ScenarioParams
-from .schedule import declare_store
+from .schedule import declare_sample, declare_store
 
 
 def has_disturbance(sc: ScenarioParams) -> bool:
@@ -56,6 +57,45 @@ def disturbance_schedule(sc: ScenarioParams, seed: int, period: float,
         rng = np.random.default_rng([seed, 2, 1])
         torque[:, 1] += sc.torque_noise * rng.standard_normal(n)
     return times, torque
+
+
+class DisturbanceSource(LeafSystem):
+    """The generalized forces of a :func:`disturbance_schedule`, held over
+    each tick (output ``generalized_force`` (2), N m on joint 1 and 2).
+
+    The schedule's torques are an abstract parameter of the context (default
+    the constructor's), so one built diagram serves the wind and gusts of
+    other Monte Carlo samples (:meth:`set_schedule`).  At ``t_k`` the torque
+    of tick ``k`` is stored in the discrete state (the last row holds on),
+    and the output is that state (a C++ state output port: no Python call
+    while the integrator steps).
+    """
+
+    def __init__(self, torques, period: float):
+        super().__init__()
+        self.period = period
+        self._schedule = self.DeclareAbstractParameter(
+            AbstractValue.Make(self._checked(torques)))
+        self._xd = self.DeclareDiscreteState(2)
+        declare_sample(self, period, self._update)
+        self.force_port = self.DeclareStateOutputPort("generalized_force", self._xd)
+
+    @staticmethod
+    def _checked(torques) -> np.ndarray:
+        torques = np.array(torques, dtype=float).reshape(-1, 2)
+        if not len(torques):
+            raise ValueError("a disturbance schedule needs at least one row")
+        return torques
+
+    def set_schedule(self, context, torques) -> None:
+        """The torques (N, 2) of tick ``k = 0 .. N-1`` in ``context`` (root)."""
+        own = self.GetMyMutableContextFromRoot(context)
+        own.get_mutable_abstract_parameter(self._schedule).set_value(self._checked(torques))
+
+    def _update(self, context, discrete_state):
+        torques = context.get_abstract_parameter(self._schedule).get_value()
+        k = min(int(round(context.get_time() / self.period)), len(torques) - 1)
+        discrete_state.get_mutable_vector(self._xd).SetFromVector(torques[k])
 
 
 def delay_steps(delay: float, period: float) -> int:

@@ -74,22 +74,57 @@ def JointFriction_(T):
 JointFriction = JointFriction_[None]
 
 
-def friction_system(params: FrictionParams):
-    """Joint friction as a C++ ``SymbolicVectorSystem`` for simulation: the
-    same law (:func:`friction_torques`, evaluated on symbolic variables), no
-    Python call while the integrator steps.
+#: the numeric parameter of :func:`friction_system`, in this order
+FRICTION_PARAMETERS = ("fv1", "fv2", "fc1", "fc2", "b", "k_drag1", "k_drag2")
 
-    Input ``state`` (q1, q2, q1d, q2d); output the generalized force
-    ``-f(qd)`` (2).  Its one continuous state is the energy friction has
-    dissipated, ``W' = f1 q1d + f2 q2d`` (J): Drake 1.51's
-    ``SymbolicVectorSystem`` cannot be stateless inside a continuous diagram,
-    and the dissipated energy is worth having.  For ``Linearize`` use
-    :class:`JointFriction` (templated, no extra state)."""
+
+def friction_parameter_vector(p: FrictionParams) -> np.ndarray:
+    """:data:`FRICTION_PARAMETERS` of ``p`` (coefficients zero when friction
+    is disabled; ``b`` kept so the law stays defined)."""
+    if not p.enabled:
+        return np.array([0.0, 0.0, 0.0, 0.0, p.b, 0.0, 0.0])
+    return np.array([p.fv1, p.fv2, p.fc1, p.fc2, p.b, *p.drag_coefficients()])
+
+
+def friction_system(params: FrictionParams):
+    """Joint friction as C++ systems for simulation: the same law
+    (:func:`joint_friction`, evaluated on symbolic variables) in a
+    ``SymbolicVectorSystem``, so no Python runs while the integrator steps.
+
+    A diagram with input ``state`` (q1, q2, q1d, q2d) and output
+    ``generalized_force`` ``-f(qd)`` (2).  The coefficients
+    (:data:`FRICTION_PARAMETERS`, default from ``params``) are the value of
+    a ``ConstantVectorSource`` inside it, a numeric parameter of the
+    context, so a context can carry other friction (:func:`set_friction`)
+    without rebuilding the diagram.  The symbolic system's one continuous
+    state is the energy friction has dissipated, ``W' = f1 q1d + f2 q2d``
+    (J): Drake 1.51's ``SymbolicVectorSystem`` cannot be stateless inside a
+    continuous diagram, and the dissipated energy is worth having.  For
+    ``Linearize`` use :class:`JointFriction` (templated, no extra state)."""
     from pydrake.symbolic import MakeVectorVariable, Variable
-    from pydrake.systems.primitives import SymbolicVectorSystem
+    from pydrake.systems.framework import DiagramBuilder
+    from pydrake.systems.primitives import ConstantVectorSource, Multiplexer, SymbolicVectorSystem
 
     x = MakeVectorVariable(4, "x")
+    c = [Variable(name) for name in FRICTION_PARAMETERS]
     work = Variable("dissipated")
-    f = friction_torques(x[2:4], params)
-    return SymbolicVectorSystem(state=[work], input=x, dynamics=[f[0] * x[2] + f[1] * x[3]],
-                                output=[-f[0], -f[1]])
+    f = [joint_friction(x[2 + i], c[i], c[2 + i], c[4], c[5 + i]) for i in range(2)]
+    law = SymbolicVectorSystem(state=[work], input=[*x, *c],
+                               dynamics=[f[0] * x[2] + f[1] * x[3]], output=[-f[0], -f[1]])
+    b = DiagramBuilder()
+    law = b.AddNamedSystem("law", law)
+    coeffs = b.AddNamedSystem("coefficients", ConstantVectorSource(friction_parameter_vector(params)))
+    mux = b.AddNamedSystem("mux", Multiplexer([4, len(FRICTION_PARAMETERS)]))
+    b.ExportInput(mux.get_input_port(0), "state")
+    b.Connect(coeffs.get_output_port(0), mux.get_input_port(1))
+    b.Connect(mux.get_output_port(0), law.get_input_port(0))
+    b.ExportOutput(law.get_output_port(0), "generalized_force")
+    return b.Build()
+
+
+def set_friction(system, context, p: FrictionParams) -> None:
+    """Set the friction of :func:`friction_system` ``system`` in ``context``
+    (the root context of a diagram holding it)."""
+    src = system.GetSubsystemByName("coefficients")
+    src.get_mutable_source_value(src.GetMyMutableContextFromRoot(context)).SetFromVector(
+        friction_parameter_vector(p))

@@ -22,6 +22,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from pydrake.common.containers import namedview
+from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import LeafSystem
 
 from ..params import ImuParams
@@ -79,32 +81,47 @@ class ImuSampler(LeafSystem):
 
     Inputs ``gyro1``, ``gyro2`` (angular velocity in the sensor frame) and
     ``accel1``, ``accel2`` (specific force in the sensor frame); output
-    ``imu`` (6).  Discrete state: ``[held sample (6), gyro bias walk (2),
-    sample index]``.  Sample ``k`` is taken at ``t_k = k T``
-    (:func:`~bplir_drake.systems.schedule.declare_sample`).
+    ``imu`` (6).  Discrete state :data:`ImuSampler.State`: the held sample,
+    the gyro bias walk and the sample index.  Sample ``k`` is taken at
+    ``t_k = k T`` (:func:`~bplir_drake.systems.schedule.declare_sample`).
+
+    The error model and the noise seed are an abstract parameter of the
+    context, ``(ImuParams, seed)`` (default: the constructor's), so one
+    built diagram serves sensors of other Monte Carlo samples
+    (:meth:`set_sensor`); only the rate is fixed at construction.
     """
+
+    State = namedview("ImuSamplerState", [*IMU_COLUMNS, "walk1", "walk2", "index"])
 
     def __init__(self, params: ImuParams, seed: int = 0):
         super().__init__()
         self.params = params
         self.seed = int(seed)
-        for name in ("gyro1", "gyro2", "accel1", "accel2"):
-            self.DeclareVectorInputPort(name, 3)
-        self._state = self.DeclareDiscreteState(9)
+        self.gyro_ports = [self.DeclareVectorInputPort(f"gyro{i}", 3) for i in (1, 2)]
+        self.accel_ports = [self.DeclareVectorInputPort(f"accel{i}", 3) for i in (1, 2)]
+        self._sensor = self.DeclareAbstractParameter(AbstractValue.Make((params, self.seed)))
+        self._state = self.DeclareDiscreteState(len(self.State._fields))
         declare_sample(self, params.period, self._sample)
-        self.DeclareVectorOutputPort("imu", 6, self._output, {self.xd_ticket()})
+        self.imu_port = self.DeclareVectorOutputPort("imu", 6, self._output, {self.xd_ticket()})
+
+    def set_sensor(self, context, params: ImuParams, seed: int) -> None:
+        """The error model and noise seed of the sensors in ``context`` (the
+        root context); ``params.period`` must be the built one."""
+        if params.period != self.params.period:
+            raise ValueError(f"imu.rate_hz = {params.rate_hz:g} differs from the built "
+                             f"sampler's {self.params.rate_hz:g} Hz")
+        own = self.GetMyMutableContextFromRoot(context)
+        own.get_mutable_abstract_parameter(self._sensor).set_value((params, int(seed)))
 
     def _sample(self, context, discrete_state):
-        p = self.params
-        s = context.get_discrete_state(self._state).get_value()
-        k = int(round(s[8]))
-        g1 = self.get_input_port(0).Eval(context)
-        g2 = self.get_input_port(1).Eval(context)
-        a1 = self.get_input_port(2).Eval(context)
-        a2 = self.get_input_port(3).Eval(context)
+        p, seed = context.get_abstract_parameter(self._sensor).get_value()
+        s = self.State(context.get_discrete_state(self._state).get_value())
+        k = int(round(s.index))
+        g1, g2 = (port.Eval(context) for port in self.gyro_ports)
+        a1, a2 = (port.Eval(context) for port in self.accel_ports)
         ideal = np.array([g1[2], g2[2], a1[0], a1[1], a2[0], a2[1]])
-        rng = np.random.default_rng((self.seed, k))
-        walk = s[6:8]
+        rng = np.random.default_rng((seed, k))
+        walk = np.array([s.walk1, s.walk2])
         if p.gyro_drift > 0.0:
             walk = walk + p.gyro_drift * math.sqrt(p.period) * rng.standard_normal(2)
         bias = np.array([p.gyro_bias1, p.gyro_bias2]) + walk

@@ -198,6 +198,21 @@ def _link_inertia(m, lc, I):
     return SpatialInertia.MakeFromCentralInertia(m, [0.0, -lc, 0.0], Irot)
 
 
+#: the plant fields a context can change (the links' inertial parameters);
+#: lengths and gravity are fixed when the plant is built
+INERTIAL_FIELDS = ("m1", "m2", "lc1", "lc2", "I1", "I2")
+
+
+def set_inertial_parameters(plant, context, p: PlantParams) -> None:
+    """Set both links' mass, centre of mass and inertia of ``p``
+    (:data:`INERTIAL_FIELDS`) in the plant's parameters in ``context`` (the
+    root context of a diagram holding ``plant``): the simulated robot of
+    another Monte Carlo sample without rebuilding the diagram."""
+    own = plant.GetMyMutableContextFromRoot(context)
+    for name, (m, lc, inertia) in (("link1", (p.m1, p.lc1, p.I1)), ("link2", (p.m2, p.lc2, p.I2))):
+        plant.GetBodyByName(name).SetSpatialInertiaInBodyFrame(own, _link_inertia(m, lc, inertia))
+
+
 def _populate(plant, p: PlantParams, scene_graph) -> None:
     from pydrake.multibody.tree import RevoluteJoint
 

@@ -1,0 +1,27 @@
+"""Builders that wire the BPLIR systems into the diagrams users run.
+
+All wiring of ports happens in this package; analysis code calls these
+builders.  Each builder takes one :class:`~bplir_drake.params.BplirParams`
+and returns a :class:`Built`: the diagram and handles to its named
+subsystems and loggers.  The simulated plant always uses
+``params.simulated_plant`` / ``params.simulated_friction``; controllers and
+estimators only ever see the nominal blocks.
+
+* :mod:`.parts` -- :class:`Built` and the pieces every diagram shares (plant
+  with friction, IMUs, sampling holds, schedule sources);
+* :mod:`.open_loop` -- free swings, the plant to linearise, sensors + EKF;
+* :mod:`.control` -- the CPFL loop on the true state (step tests, QFT plant);
+* :mod:`.swing` -- the full closed loop of one swing, composed from named
+  builders, and the Monte Carlo sample a context can carry
+  (:func:`set_swing_sample`).
+"""
+from .control import build_control_loop, build_cpfl_plant, build_cpfl_step
+from .open_loop import build_free_swing, build_plant_with_friction, build_sensor_swing
+from .parts import Built, add_imus, add_plant_with_friction, sampled
+from .swing import (SAMPLE_FIELDS, build_swing, set_swing_sample, swing_geometry,
+                    swing_structure)
+
+__all__ = ["Built", "sampled", "add_plant_with_friction", "add_imus", "build_free_swing",
+           "build_plant_with_friction", "build_sensor_swing", "build_cpfl_plant",
+           "build_control_loop", "build_cpfl_step", "swing_geometry", "build_swing",
+           "SAMPLE_FIELDS", "swing_structure", "set_swing_sample"]

@@ -1,0 +1,105 @@
+"""Open-loop diagrams: free swings (with or without the motor), the plant
+with friction to linearise, and the sensor chain (IMUs + EKF) on a swing."""
+from __future__ import annotations
+
+from pydrake.systems.framework import DiagramBuilder
+from pydrake.systems.primitives import LogVectorOutput
+
+from ..params import BplirParams
+from ..systems.ekf import KinematicEkf
+from ..systems.motor import MotorDriver
+from ..systems.schedule import TickLogger
+from .parts import Built, add_imus, add_plant_with_friction, pulse_source, torque_source
+
+
+def build_free_swing(params: BplirParams, elbow_torque=0.0, *, friction: bool = True,
+                     motor: bool = False, log_period: float = 0.001) -> Built:
+    """Free swing: plant + friction with a constant or scheduled elbow torque.
+
+    ``elbow_torque`` is a float or a ``(times, values)`` zero-order-hold
+    schedule (N m).  With ``motor=True`` the command passes through the motor
+    and driver model.  Loggers: ``state`` (q1, q2, q1d, q2d), ``friction``
+    (generalized friction force, = -f), ``torque`` (elbow torque applied).
+    """
+    builder = DiagramBuilder()
+    fp = params.simulated_friction
+    if not friction:
+        from dataclasses import replace
+
+        fp = replace(fp, enabled=False)
+    plant, fr = add_plant_with_friction(builder, params.simulated_plant, fp)
+    src = torque_source(builder, elbow_torque)
+    src.set_name("torque_command")
+    systems = {"friction": fr, "source": src}
+    if motor:
+        drv = builder.AddSystem(MotorDriver(params.motor))
+        drv.set_name("motor")
+        builder.Connect(src.get_output_port(0), drv.GetInputPort("torque_command"))
+        builder.Connect(plant.get_state_output_port(), drv.GetInputPort("state"))
+        torque_port = drv.GetOutputPort("torque")
+        systems["motor"] = drv
+    else:
+        torque_port = src.get_output_port(0)
+    builder.Connect(torque_port, plant.get_actuation_input_port())
+    loggers = {
+        "state": LogVectorOutput(plant.get_state_output_port(), builder, log_period),
+        "friction": LogVectorOutput(fr.get_output_port(0), builder, log_period),
+        "torque": LogVectorOutput(torque_port, builder, log_period),
+    }
+    if motor:
+        loggers["current"] = LogVectorOutput(drv.GetOutputPort("current"), builder, log_period)
+        loggers["power"] = LogVectorOutput(drv.GetOutputPort("power"), builder, log_period)
+    diagram = builder.Build()
+    diagram.set_name("free_swing")
+    return Built(diagram, plant, systems, loggers, params)
+
+
+def build_plant_with_friction(params: BplirParams, *, nominal: bool = False) -> Built:
+    """Plant + friction with the elbow actuation exported as the diagram's
+    input and the plant state as its output: the object to linearise."""
+    builder = DiagramBuilder()
+    pp = params.plant if nominal else params.simulated_plant
+    fp = params.friction if nominal else params.simulated_friction
+    plant, fr = add_plant_with_friction(builder, pp, fp, linearizable=True)
+    builder.ExportInput(plant.get_actuation_input_port(), "elbow_torque")
+    builder.ExportOutput(plant.get_state_output_port(), "state")
+    diagram = builder.Build()
+    diagram.set_name("plant_with_friction")
+    return Built(diagram, plant, {"friction": fr}, {}, params)
+
+
+def build_sensor_swing(params: BplirParams, x0_estimate=(0.0, 0.0, 0.0, 0.0), *,
+                       elbow_torque=0.0, knock=None, ekf: bool = True, seed: int | None = None,
+                       log_period: float = 0.01) -> Built:
+    """Open loop: plant + friction + two IMUs (+ EKF).
+
+    ``elbow_torque`` as in :func:`build_free_swing`; ``knock = (t, duration,
+    torque)`` applies a torque pulse on link 1 (the "knock" of 5.5).
+    ``x0_estimate`` is the filter's initial absolute state.  Loggers:
+    ``state``, ``imu`` (sampled IMU, at the IMU rate), ``estimate`` and
+    ``covariance`` (at the filter rate) when the EKF is present.
+    """
+    builder = DiagramBuilder()
+    seed = params.scenario.seed if seed is None else seed
+    dist = pulse_source(builder, knock).get_output_port(0) if knock else None
+    plant, fr = add_plant_with_friction(builder, params.simulated_plant,
+                                        params.simulated_friction, disturbance=dist)
+    src = torque_source(builder, elbow_torque)
+    builder.Connect(src.get_output_port(0), plant.get_actuation_input_port())
+    sampler = add_imus(builder, plant, params, seed)
+    systems = {"friction": fr, "imu": sampler, "source": src}
+    loggers = {"state": LogVectorOutput(plant.get_state_output_port(), builder, log_period),
+               "imu": TickLogger(builder, sampler.get_output_port(0), params.imu.period)}
+    if ekf:
+        est = builder.AddSystem(KinematicEkf(params.estimator, x0_estimate))
+        est.set_name("ekf")
+        builder.Connect(sampler.get_output_port(0), est.get_input_port(0))
+        systems["ekf"] = est
+        for name, port in (("estimate", "estimate"), ("covariance", "covariance_diagonal"),
+                           ("bias", "gyro_bias")):
+            loggers[name] = TickLogger(builder, est.GetOutputPort(port), params.estimator.period)
+    diagram = builder.Build()
+    diagram.set_name("sensor_swing")
+    return Built(diagram, plant, systems, loggers, params)
+
+

@@ -1,0 +1,278 @@
+"""The full closed loop of one swing, composed from named builders.
+
+:func:`build_swing` wires, in this order:
+
+1. :func:`add_robot` -- the simulated plant with friction, the external
+   forces (wind, gusts, torque noise) and the motor/driver;
+2. :func:`add_sensing` -- two IMUs and the kinematic EKF (nominal geometry);
+3. :func:`add_swing_controller` -- by ``path.mode``: the path generator and
+   CPFL controller, or the plan tracker;
+4. :func:`add_actuation` -- actuation delay and compute latency between the
+   command and the driver;
+5. :func:`add_interlock` -- the gripper interlock (true contact sensing);
+6. :func:`add_swing_loggers`.
+
+Every sampled system runs on the one tick of
+:mod:`~bplir_drake.systems.schedule` (period ``controller.period``).
+
+**Samples in the context.**  What a Monte Carlo sample draws for the
+simulated robot and its world -- the links' inertial parameters, friction,
+the IMUs' error model, wind and gusts, and the seed of every random draw --
+is held in the context (:data:`SAMPLE_FIELDS`), so one built diagram runs
+many samples: :func:`set_swing_sample` writes a sample into a context.  The
+rest (link lengths, incline, grip spacing, actuation delay, the nominal
+model and controller) is the diagram's *structure*
+(:func:`swing_structure`); a sample with another structure needs its own
+build.
+"""
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, replace
+from typing import Any
+
+import numpy as np
+from pydrake.systems.framework import DiagramBuilder
+from pydrake.systems.primitives import LogVectorOutput, ZeroOrderHold
+
+from ..params import BplirParams, ScenarioParams, to_dict
+from ..systems.controller import CpflController
+from ..systems.disturbance import CommandDelay, DisturbanceSource, delay_steps, disturbance_schedule
+from ..systems.ekf import KinematicEkf
+from ..systems.friction import set_friction
+from ..systems.motor import MotorDriver
+from ..systems.plant import INERTIAL_FIELDS, absolute_from_relative, set_inertial_parameters
+from ..systems.schedule import TickLogger
+from .parts import Built, add_imus, add_plant_with_friction, sampled
+
+#: the parameter fields a context carries (:func:`set_swing_sample`), by
+#: block; ``true_friction`` is carried whole
+SAMPLE_FIELDS: dict[str, tuple[str, ...]] = {
+    "true_plant": INERTIAL_FIELDS,
+    "true_friction": ("*",),
+    "imu": ("accel_sigma", "gyro_sigma", "gyro_bias1", "gyro_bias2", "gyro_drift", "misalign1",
+            "misalign2", "accel_scale1", "accel_scale2", "noise"),
+    "scenario": ("seed", "friction_uncertainty", "wind_torque1", "wind_torque2", "gust_torque",
+                 "gust_rate", "gust_duration", "torque_noise"),
+}
+
+
+def swing_geometry(params: BplirParams):
+    """(initial q, target q, path geometry, line geometry) of the scenario.
+
+    The path geometry uses the *nominal* link lengths (what the robot
+    believes); the start pose of the simulated robot and the line geometry
+    of the interlock use its true lengths."""
+    from ..systems.gripper import LineGeometry
+    from ..systems.path import PathGeometry
+    from ..systems.plant import initial_configuration, target_configuration
+
+    sc = params.scenario
+    alpha = math.radians(sc.incline_deg)
+    true_p = params.simulated_plant
+    q0 = initial_configuration(sc.grip_spacing, true_p, alpha)
+    qT = target_configuration(sc.grip_spacing, true_p, alpha)
+    initial_configuration(sc.grip_spacing, params.plant, alpha)  # validates for the model too
+    pg = PathGeometry.from_scenario(params.plant, sc.grip_spacing, alpha, sc.capture_distance)
+    lg = LineGeometry(true_p.l1, true_p.l2, alpha, sc.grip_spacing)
+    return q0, qT, pg, lg
+
+
+def swing_structure(params: BplirParams, use_estimator: bool) -> str:
+    """What a context cannot change on a swing built from ``params``: a
+    canonical JSON text of every parameter outside :data:`SAMPLE_FIELDS`
+    (and whether the estimator is in the loop).  Two parameter sets with
+    the same structure run through one built diagram."""
+    d = to_dict(params.with_(true_plant=params.simulated_plant, true_friction=None))
+    for block, fields in SAMPLE_FIELDS.items():
+        if fields == ("*",):
+            d.pop(block, None)
+            continue
+        for name in fields:
+            d.get(block, {}).pop(name, None)
+    return json.dumps({"params": d, "use_estimator": bool(use_estimator)}, sort_keys=True)
+
+
+def set_swing_sample(built: Built, context, params: BplirParams, seed: int) -> None:
+    """Write the sample ``(params, seed)`` into ``context``, a root context
+    of ``built.diagram`` (a :func:`build_swing` diagram): the simulated
+    links' inertial parameters, its friction, the IMUs' error model and noise
+    seed, and the disturbance schedule.  Raises ``ValueError`` when
+    ``params`` differ from the built ones outside :data:`SAMPLE_FIELDS`."""
+    use_est = json.loads(built.structure)["use_estimator"]
+    if swing_structure(params, use_est) != built.structure:
+        raise ValueError("this sample changes more than the context carries "
+                         f"({', '.join(SAMPLE_FIELDS)} fields); build its own swing diagram")
+    set_inertial_parameters(built.plant, context, params.simulated_plant)
+    set_friction(built.systems["friction"], context, params.simulated_friction)
+    built.systems["imu"].set_sensor(context, params.imu, seed)
+    built.systems["disturbance"].set_schedule(
+        context, _disturbance_torques(params.scenario, seed, params.controller.period))
+
+
+def _disturbance_torques(sc: ScenarioParams, seed: int, period: float) -> np.ndarray:
+    return disturbance_schedule(sc, seed, period)[1]
+
+
+@dataclass
+class Robot:
+    """The simulated robot in a swing diagram: plant, friction, external
+    forces and motor."""
+
+    plant: Any
+    friction: Any
+    disturbance: Any
+    motor: Any
+
+
+def add_robot(builder, params: BplirParams, seed: int) -> Robot:
+    """The simulated (true) plant with friction, the external forces of the
+    scenario (a :class:`DisturbanceSource`, zero without wind or gusts) and
+    the motor and driver (its limit the smaller of the motor's and the
+    controller's) driving the elbow."""
+    period = params.controller.period
+    dist = builder.AddNamedSystem("disturbance", DisturbanceSource(
+        _disturbance_torques(params.scenario, seed, period), period))
+    plant, friction = add_plant_with_friction(builder, params.simulated_plant,
+                                              params.simulated_friction,
+                                              disturbance=dist.force_port)
+    limit = min(params.motor.torque_limit, params.controller.torque_limit)
+    motor = builder.AddNamedSystem("motor", MotorDriver(replace(params.motor, torque_limit=limit)))
+    builder.Connect(plant.get_state_output_port(), motor.GetInputPort("state"))
+    builder.Connect(motor.GetOutputPort("torque"), plant.get_actuation_input_port())
+    return Robot(plant, friction, dist, motor)
+
+
+def add_sensing(builder, params: BplirParams, robot: Robot, q0, seed: int):
+    """Two IMUs on the simulated links and the kinematic EKF (nominal
+    geometry, started at the known pose ``q0`` at rest).  Returns
+    ``(sampler, ekf)``."""
+    sampler = add_imus(builder, robot.plant, params, seed)
+    est = params.estimator.for_loop()
+    x0_abs = absolute_from_relative(np.array([q0[0], q0[1], 0.0, 0.0]))
+    ekf = builder.AddNamedSystem("ekf", KinematicEkf(
+        est, x0_abs, sigmas=(est.start_angle_sigma, est.start_rate_sigma, est.start_bias_sigma)))
+    builder.Connect(sampler.get_output_port(0), ekf.get_input_port(0))
+    return sampler, ekf
+
+
+def add_swing_controller(builder, params: BplirParams, state_port, robot: Robot, path_geometry,
+                         plan_gains=None) -> dict[str, Any]:
+    """The swing controller by ``path.mode``, reading ``state_port`` (the
+    estimate or the sampled true state): ``{"controller": PlanTracker}`` for
+    ``"plan"`` (Drake's finite-horizon LQR along a planned swing,
+    ``plan_gains``), else ``{"path": PathGenerator, "controller":
+    CpflController}``.  Every system uses the nominal model."""
+    T = params.controller.period
+    if params.path.mode == "plan":
+        from ..systems.plan_tracker import PlanTracker
+
+        if plan_gains is None:
+            raise ValueError("path.mode = 'plan' needs the tracking gains of a planned swing")
+        tracker = builder.AddNamedSystem("plan_tracker", PlanTracker(
+            plan_gains, params.controller.torque_limit, T, indexing=params.path.plan_indexing))
+        builder.Connect(state_port, tracker.get_input_port(0))
+        return {"controller": tracker}
+    from ..systems.path import PathGenerator
+
+    fv1 = params.friction.fv1 if params.path.predict_friction else 0.0
+    path = builder.AddNamedSystem("path", PathGenerator(params.plant, params.path, path_geometry,
+                                                        T, fv1))
+    builder.Connect(state_port, path.get_input_port(0))
+    ctrl = builder.AddNamedSystem("controller", CpflController(
+        params.plant, params.controller, params.friction, use_prefilter=False))
+    builder.Connect(state_port, ctrl.GetInputPort("state"))
+    builder.Connect(path.GetOutputPort("reference"), ctrl.GetInputPort("reference"))
+    builder.Connect(path.GetOutputPort("feedforward"), ctrl.GetInputPort("feedforward"))
+    builder.Connect(robot.motor.GetOutputPort("available"), ctrl.GetInputPort("torque_available"))
+    return {"path": path, "controller": ctrl}
+
+
+def add_actuation(builder, params: BplirParams, command, motor) -> None:
+    """The command's way to the driver: the scenario's actuation delay (whole
+    ticks, :class:`CommandDelay`) and the controller's compute latency (a C++
+    zero-order hold ``compute_latency`` after each tick)."""
+    T = params.controller.period
+    steps = delay_steps(params.scenario.actuation_delay, T)
+    if steps:
+        delay = builder.AddNamedSystem("actuation_delay", CommandDelay(1, T, steps))
+        builder.Connect(command, delay.get_input_port(0))
+        command = delay.get_output_port(0)
+    latency = params.controller.compute_latency
+    if latency > 0:
+        hold = builder.AddNamedSystem("compute_latency", ZeroOrderHold(T, 1, latency))
+        builder.Connect(command, hold.get_input_port(0))
+        command = hold.get_output_port(0)
+    builder.Connect(command, motor.GetInputPort("torque_command"))
+
+
+def add_interlock(builder, params: BplirParams, robot: Robot, ekf, line_geometry):
+    """The gripper interlock: judges the true state at the controller rate
+    and ends the run on an outcome."""
+    from ..systems.gripper import GripperInterlock
+
+    lock = builder.AddNamedSystem("interlock", GripperInterlock(
+        line_geometry, params.scenario, params.controller.period))
+    builder.Connect(robot.plant.get_state_output_port(), lock.GetInputPort("state"))
+    builder.Connect(robot.motor.GetOutputPort("tripped"), lock.GetInputPort("tripped"))
+    builder.Connect(ekf.GetOutputPort("estimate_relative"), lock.GetInputPort("estimate"))
+    builder.Connect(robot.motor.GetOutputPort("torque"), lock.GetInputPort("torque"))
+    return lock
+
+
+def add_swing_loggers(builder, params: BplirParams, robot: Robot, sampler, ekf,
+                      control: dict[str, Any], log_period: float) -> dict[str, Any]:
+    """Continuous signals every ``log_period``; sampled ones at their ticks."""
+    T = params.controller.period
+    motor, ctrl = robot.motor, control["controller"]
+    reference = control.get("path", ctrl).GetOutputPort("reference")
+    loggers = {
+        "state": LogVectorOutput(robot.plant.get_state_output_port(), builder, log_period),
+        "torque": LogVectorOutput(motor.GetOutputPort("torque"), builder, log_period),
+        "power": LogVectorOutput(motor.GetOutputPort("power"), builder, log_period),
+        "current": LogVectorOutput(motor.GetOutputPort("current"), builder, log_period),
+        "friction": LogVectorOutput(robot.friction.get_output_port(0), builder, log_period),
+        "estimate": TickLogger(builder, ekf.GetOutputPort("estimate_relative"), T),
+        "command": TickLogger(builder, ctrl.GetOutputPort("torque"), T),
+        "reference": TickLogger(builder, reference, T),
+        "imu": TickLogger(builder, sampler.get_output_port(0), params.imu.period),
+    }
+    if "path" in control:
+        loggers["v"] = TickLogger(builder, ctrl.GetOutputPort("v"), T)
+        loggers["blend_end"] = TickLogger(builder, control["path"].GetOutputPort("blend_end"), T)
+    return loggers
+
+
+def build_swing(params: BplirParams, *, seed: int | None = None, use_estimator: bool | None = None,
+                log_period: float = 0.005, plan_gains=None) -> Built:
+    """The full closed loop of one swing (see the module docstring).
+
+    ``seed`` (default ``scenario.seed``) seeds the IMU noise and the
+    disturbances; with ``use_estimator=False`` the controller reads the true
+    state sampled at its tick instead of the estimate; ``plan_gains`` are
+    the tracking gains of a planned swing for ``path.mode = "plan"``
+    (:func:`bplir_drake.analysis.swing.plan.tracking_plan`).  The returned
+    record carries the start configuration ``q0`` and the ``structure`` a
+    context cannot change (:func:`set_swing_sample`).
+    """
+    sc = params.scenario
+    seed = sc.seed if seed is None else seed
+    use_est = sc.use_estimator if use_estimator is None else use_estimator
+    q0, _, path_geometry, line_geometry = swing_geometry(params)
+    builder = DiagramBuilder()
+    robot = add_robot(builder, params, seed)
+    sampler, ekf = add_sensing(builder, params, robot, q0, seed)
+    state_port = (ekf.GetOutputPort("estimate_relative") if use_est
+                  else sampled(builder, robot.plant.get_state_output_port(),
+                               params.controller.period))
+    control = add_swing_controller(builder, params, state_port, robot, path_geometry, plan_gains)
+    add_actuation(builder, params, control["controller"].GetOutputPort("torque"), robot.motor)
+    lock = add_interlock(builder, params, robot, ekf, line_geometry)
+    loggers = add_swing_loggers(builder, params, robot, sampler, ekf, control, log_period)
+    diagram = builder.Build()
+    diagram.set_name("brachiation_swing")
+    systems = {"friction": robot.friction, "disturbance": robot.disturbance,
+               "motor": robot.motor, "imu": sampler, "ekf": ekf, **control, "interlock": lock}
+    return Built(diagram, robot.plant, systems, loggers, params, q0,
+                 swing_structure(params, use_est))

@@ -15,8 +15,8 @@ import time
 def free_swing_rate(duration: float = 20.0) -> float:
     """Simulated s per wall s of plant + friction swinging freely (the
     swing's integrator accuracy, logging at 1 ms, energies computed)."""
-    from bplir_drake.analysis.freeswing import simulate_free_swing
-    from bplir_drake.analysis.swing import SWING_ACCURACY
+    from bplir_drake.analysis.model.freeswing import simulate_free_swing
+    from bplir_drake.analysis.swing.run import SWING_ACCURACY
     from bplir_drake.params import preset
 
     p = preset()
@@ -29,7 +29,7 @@ def free_swing_rate(duration: float = 20.0) -> float:
 def closed_loop(seeds: int):
     """(simulated s, wall s, outcomes) of ``run_swing`` over seeds 0..seeds-1
     (warm: the first swing of the process is run once before timing)."""
-    from bplir_drake.analysis.swing import run_swing
+    from bplir_drake.analysis.swing.run import run_swing
     from bplir_drake.params import preset
 
     p = preset()
@@ -49,7 +49,7 @@ def breakdown():
     """Wall time of the Python callbacks of one swing (exclusive of nested
     calls is not separated: the controller's tick pulls the path's, which
     pulls the estimator's)."""
-    from bplir_drake.analysis.swing import run_swing
+    from bplir_drake.analysis.swing.run import run_swing
     from bplir_drake.params import preset
     from bplir_drake.systems import ekf, gripper, imu, motor, path
     from bplir_drake.systems.controller import DiscreteCpflController

@@ -11,8 +11,8 @@ import math
 import sys
 from pathlib import Path
 
-from .analysis.calibration import CalibrationError
-from .analysis.qft import QftError
+from .analysis.identification.calibration import CalibrationError
+from .analysis.control.qft import QftError
 from .estimation import LogError
 from .io import (atomic_path, check_output_dir, check_output_file, dumps_strict,
                  write_json_atomic, write_text_atomic)
@@ -85,9 +85,9 @@ def _in_range(name: str, value, lo: float, hi: float, *, lo_open: bool = False,
 
 # ------------------------------------------------------------------ model
 def cmd_model(args) -> int:
-    from .analysis.friction_table import PUBLISHED_TABLE_4_1, friction_table, published_setup
-    from .analysis.linearization import hanging_linearization
-    from .analysis.pendulum import pendulum_periods
+    from .analysis.model.friction_table import PUBLISHED_TABLE_4_1, friction_table, published_setup
+    from .analysis.model.linearization import hanging_linearization
+    from .analysis.model.pendulum import pendulum_periods
     from .params import to_dict
 
     params = _load_params(args)
@@ -131,8 +131,8 @@ def cmd_model(args) -> int:
 
 # ------------------------------------------------------------------ freeswing
 def cmd_freeswing(args) -> int:
-    from .analysis.freeswing import simulate_free_swing
-    from .analysis.plots import plot_free_swing
+    from .analysis.model.freeswing import simulate_free_swing
+    from .analysis.plotting import plot_free_swing
 
     params = _load_params(args)
     q0 = _floats(args.q0, 2, "--q0")
@@ -155,7 +155,7 @@ def cmd_freeswing(args) -> int:
 def cmd_estimate(args) -> int:
     from dataclasses import replace
 
-    from .analysis.plots import plot_estimate
+    from .analysis.plotting import plot_estimate
     from .estimation import estimate, read_imu_csv, write_estimate_csv
 
     params = _load_params(args)
@@ -200,9 +200,9 @@ def cmd_estimate(args) -> int:
 
 # ------------------------------------------------------------------ observability
 def cmd_observability(args) -> int:
-    from .analysis.estimation_study import simulate_estimation
-    from .analysis.observability import observability_along, plant_gyro_observability
-    from .analysis.plots import plot_observability
+    from .analysis.estimation.study import simulate_estimation
+    from .analysis.estimation.observability import observability_along, plant_gyro_observability
+    from .analysis.plotting import plot_observability
     from .systems.plant import initial_configuration
 
     params = _load_params(args)
@@ -235,10 +235,10 @@ def cmd_qft(args) -> int:
     import control
     import numpy as np
 
-    from .analysis import qft as Q
-    from .analysis.qft_plots import (plot_family_responses, plot_nichols, plot_tracking,
+    from .analysis.control import qft as Q
+    from .analysis.control.plots import (plot_family_responses, plot_nichols, plot_tracking,
                                      plot_zero_dynamics)
-    from .analysis.zero_dynamics import zero_dynamics_portrait
+    from .analysis.control.zero_dynamics import zero_dynamics_portrait
     from .params import ControllerParams
 
     params = _load_params(args)
@@ -343,8 +343,8 @@ def _swing_params(args):
 
 
 def cmd_swing(args) -> int:
-    from .analysis.swing import run_swing, summary_with_params, write_log_csv
-    from .analysis.swing_plots import animate_swing, plot_swing
+    from .analysis.swing.run import run_swing, summary_with_params, write_log_csv
+    from .analysis.swing.plots import animate_swing, plot_swing
 
     replay_info = None
     out_dir = _out_dir(args.out)
@@ -353,7 +353,7 @@ def cmd_swing(args) -> int:
     else:
         params = _swing_params(args)
     if replay_info is None and args.compare:
-        from .analysis.compare import comparison_table, compare_presets, plot_comparison
+        from .analysis.swing.compare import comparison_table, compare_presets, plot_comparison
 
         rows = compare_presets(params)
         fig = plot_comparison(rows, out_dir / "comparison.png")
@@ -447,7 +447,7 @@ def _study(args):
 
 def cmd_montecarlo(args) -> int:
     from .analysis.montecarlo import read_results, run_study, RESULTS_FILE
-    from .analysis.montecarlo_plots import plot_study
+    from .analysis.montecarlo.plots import plot_study
 
     study = _study(args)
     out = _out_dir(args.out)
@@ -475,7 +475,7 @@ def cmd_montecarlo(args) -> int:
 
 # ------------------------------------------------------------------ benchmark
 def cmd_benchmark(args) -> int:
-    from .analysis.benchmark import benchmark_table, plot_benchmark, run_benchmark
+    from .analysis.montecarlo.benchmark import benchmark_table, plot_benchmark, run_benchmark
 
     from .params import CONTROLLER_PRESETS
 
@@ -508,7 +508,7 @@ def cmd_plan(args) -> int:
 
     import numpy as np
 
-    from .analysis.swing_plan import plan_swing, plot_plan
+    from .analysis.swing.plan import plan_swing, plot_plan
 
     params = _load_params(args)
     if args.incline is not None:
@@ -536,7 +536,7 @@ def cmd_plan(args) -> int:
 
 # ------------------------------------------------------------------ calibrate
 def cmd_calibrate(args) -> int:
-    from .analysis.calibration import (calibrate, identify_deadband, identify_plant_family,
+    from .analysis.identification.calibration import (calibrate, identify_deadband, identify_plant_family,
                                        plot_calibration, read_calibration_csv,
                                        write_calibrated_toml)
 

@@ -325,7 +325,7 @@ CONTROLLER_PRESETS = ("qft", "dissertation", "lab")
 #: (6.23)-(6.24) as published (for the measured family (4.16), whose sign
 #: is negative); ``lab`` is the firmware's proportional law (sign corrected
 #: for the simulated plant q2'' = v, see SPEC.md); ``qft`` is designed for
-#: the plant family of the simulated CPFL loop by :mod:`bplir_drake.analysis.qft`
+#: the plant family of the simulated CPFL loop by :mod:`bplir_drake.analysis.control.qft`
 #: (``bplir qft --family diagram`` re-verifies it).
 OUTER_LOOP_DESIGNS = {
     "dissertation": {"k_num": (-216.0,), "k_den": (1.0,),

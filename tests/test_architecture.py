@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from bplir_drake.analysis.montecarlo import Distribution, Study, sample_params
-from bplir_drake.analysis.swing import SwingRunner, run_swing
+from bplir_drake.analysis.swing.run import SwingRunner, run_swing
 from bplir_drake.diagrams import build_swing, set_swing_sample, swing_structure
 from bplir_drake.params import BplirParams
 

@@ -56,7 +56,7 @@ def test_command_delay_shifts_by_whole_periods():
 
 
 def test_benchmark_scores_actuation_delay(tmp_path, params):
-    from bplir_drake.analysis.benchmark import benchmark_table, plot_benchmark, run_benchmark
+    from bplir_drake.analysis.montecarlo.benchmark import benchmark_table, plot_benchmark, run_benchmark
 
     res = run_benchmark(params, ["qft"], quick=True, categories=("delay",), workers=2,
                         out=tmp_path)

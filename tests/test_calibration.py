@@ -5,7 +5,7 @@ import json
 import numpy as np
 import pytest
 
-from bplir_drake.analysis import calibration as C
+from bplir_drake.analysis.identification import calibration as C
 from bplir_drake.cli import main
 
 

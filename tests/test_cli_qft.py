@@ -2,7 +2,7 @@
 import json
 
 import numpy as np
-from bplir_drake.analysis.zero_dynamics import zero_dynamics_portrait
+from bplir_drake.analysis.control.zero_dynamics import zero_dynamics_portrait
 from bplir_drake.cli import main
 
 
@@ -35,7 +35,7 @@ def test_zero_dynamics_conservative_without_friction_and_focus_with(params):
     free = zero_dynamics_portrait(params.plant, None)
     for e in free.energy_like(params.plant):
         assert np.ptp(e) < 1e-7 * abs(e).mean()
-    from bplir_drake.analysis.zero_dynamics import _potential
+    from bplir_drake.analysis.control.zero_dynamics import _potential
 
     damped = zero_dynamics_portrait(params.plant, params.friction, duration=40.0)
     v_min = _potential(0.0, 0.0, params.plant)

@@ -189,7 +189,7 @@ def test_fast_swing_matches_an_accurate_reference():
     1e-10 on the same diagram, seeds 0-2: the same outcome, capture speeds
     within 1e-3 m/s (over seeds 0-19 the largest difference measured is in
     the README), and the run ends at the tick after the interlock decided."""
-    from bplir_drake.analysis.swing import run_swing
+    from bplir_drake.analysis.swing.run import run_swing
 
     params = preset()
     for seed in range(3):

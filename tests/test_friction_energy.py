@@ -4,8 +4,8 @@ import math
 import numpy as np
 import pytest
 
-from bplir_drake.analysis.freeswing import simulate_free_swing
-from bplir_drake.analysis.friction_table import (friction_table, published_setup,
+from bplir_drake.analysis.model.freeswing import simulate_free_swing
+from bplir_drake.analysis.model.friction_table import (friction_table, published_setup,
                                                  rmse_candidate)
 from bplir_drake.params import FrictionParams
 from bplir_drake.systems.friction import (JointFriction, joint_friction,

@@ -18,7 +18,7 @@ from hypothesis import strategies as st
 
 from bplir_drake import cli
 from bplir_drake.analysis import montecarlo as mc
-from bplir_drake.analysis.calibration import CalibrationError, read_calibration_csv
+from bplir_drake.analysis.identification.calibration import CalibrationError, read_calibration_csv
 from bplir_drake.estimation import LogError, read_imu_csv, write_imu_csv
 from bplir_drake.io import dumps_strict
 from bplir_drake.params import ParameterError, load_toml
@@ -184,7 +184,7 @@ def test_unusable_output_locations(tmp_path):
 
 
 def test_swing_checks_its_output_before_simulating(monkeypatch, tmp_path, capsys):
-    import bplir_drake.analysis.swing as S
+    import bplir_drake.analysis.swing.run as S
 
     def boom(*a, **k):
         raise AssertionError("simulated before checking the output directory")
@@ -246,7 +246,9 @@ def test_results_table_rewrite_is_atomic(monkeypatch, tmp_path):
             for k in range(3)]
     mc.ResultWriter(path, mc.columns(study), rows).close()
     good = path.read_bytes()
-    real = mc._fmt
+    from bplir_drake.analysis.montecarlo import store
+
+    real = store._fmt
     calls = {"n": 0}
 
     def failing(v):
@@ -255,7 +257,7 @@ def test_results_table_rewrite_is_atomic(monkeypatch, tmp_path):
             raise KeyboardInterrupt
         return real(v)
 
-    monkeypatch.setattr(mc, "_fmt", failing)
+    monkeypatch.setattr(store, "_fmt", failing)
     with pytest.raises(KeyboardInterrupt):
         mc.ResultWriter(path, mc.columns(study), rows)
     assert path.read_bytes() == good
@@ -354,8 +356,8 @@ def test_plan_depends_only_on_the_nominal_model_and_a_hit_is_bit_identical(tmp_p
     fresh solve bit for bit."""
     import dataclasses as dc
 
-    from bplir_drake.analysis import plan_cache
-    from bplir_drake.analysis.swing_plan import plan_swing
+    from bplir_drake.analysis.swing import plan_cache
+    from bplir_drake.analysis.swing.plan import plan_swing
     from bplir_drake.params import preset
 
     monkeypatch.setenv("BPLIR_CACHE_DIR", str(tmp_path))

@@ -4,8 +4,8 @@ import dataclasses as dc
 import numpy as np
 import pytest
 
-from bplir_drake.analysis.estimation_study import simulate_estimation
-from bplir_drake.analysis.observability import observability_along
+from bplir_drake.analysis.estimation.study import simulate_estimation
+from bplir_drake.analysis.estimation.observability import observability_along
 from bplir_drake.diagrams import build_sensor_swing
 from bplir_drake.estimation import estimate
 from bplir_drake.params import EstimatorParams, ImuParams, PlantParams
@@ -174,7 +174,7 @@ def test_observability_full_map_full_rank_gyro_only_loses_rank_at_5_17(params):
 
 
 def test_drake_is_observable_on_plant(params):
-    from bplir_drake.analysis.observability import plant_gyro_observability
+    from bplir_drake.analysis.estimation.observability import plant_gyro_observability
 
     r = plant_gyro_observability(params)
     assert r["is_observable_raw"] and r["is_observable_scaled"]

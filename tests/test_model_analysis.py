@@ -4,8 +4,8 @@ import math
 import numpy as np
 import pytest
 
-from bplir_drake.analysis.linearization import hanging_linearization
-from bplir_drake.analysis.pendulum import com_radius, pendulum_periods
+from bplir_drake.analysis.model.linearization import hanging_linearization
+from bplir_drake.analysis.model.pendulum import com_radius, pendulum_periods
 
 
 def test_T_min_as_published(params):

@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from bplir_drake.analysis.swing import run_swing
-from bplir_drake.analysis.swing_plan import planned_target, tracking_plan
+from bplir_drake.analysis.swing.run import run_swing
+from bplir_drake.analysis.swing.plan import planned_target, tracking_plan
 from bplir_drake.params import ParameterError, preset
 from bplir_drake.systems.plan_tracker import PlanTracker
 from bplir_drake.systems.plant import gripper_position

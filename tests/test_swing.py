@@ -6,7 +6,7 @@ from concurrent.futures import ProcessPoolExecutor
 import numpy as np
 import pytest
 
-from bplir_drake.analysis.swing import run_swing
+from bplir_drake.analysis.swing.run import run_swing
 from bplir_drake.cli import main
 
 
@@ -133,7 +133,7 @@ def test_bad_scenario_files_exit_2(tmp_path, toml, words, capsys):
 
 
 def test_compare_presets_and_examples(tmp_path, monkeypatch, params):
-    from bplir_drake.analysis.compare import compare_presets, comparison_table, plot_comparison
+    from bplir_drake.analysis.swing.compare import compare_presets, comparison_table, plot_comparison
 
     rows = compare_presets(params)
     by = {r["variant"]: r for r in rows}

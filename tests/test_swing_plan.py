@@ -9,7 +9,7 @@ import pytest
 
 matplotlib.use("Agg")
 
-from bplir_drake.analysis.swing_plan import plan_swing, plot_plan  # noqa: E402
+from bplir_drake.analysis.swing.plan import plan_swing, plot_plan  # noqa: E402
 from bplir_drake.cli import main  # noqa: E402
 from bplir_drake.diagrams import swing_geometry  # noqa: E402
 from bplir_drake.params import BplirParams  # noqa: E402

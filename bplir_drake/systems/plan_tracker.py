@@ -1,6 +1,6 @@
 """Tracking a planned swing: a time-varying LQR around the plan.
 
-The plan (:func:`bplir_drake.analysis.swing_plan.plan_swing`) is a
+The plan (:func:`bplir_drake.analysis.swing.plan.plan_swing`) is a
 full-state trajectory of the *nominal* model.  Drake's
 ``FiniteHorizonLinearQuadraticRegulator`` linearises the nominal plant (with
 its friction model) along it and integrates the Riccati equation backwards;
@@ -12,7 +12,7 @@ limit.
 By default this controller is indexed by **time** since the start of the
 swing: it is the way to climb a steep line, where the planned motion swings
 link 1 back before going forward and so is not a path ``q2 = phi(q1)`` (see
-:mod:`bplir_drake.analysis.swing_plan`).  With ``indexing = "state"`` it
+:mod:`bplir_drake.analysis.swing.plan`).  With ``indexing = "state"`` it
 reads no clock: the plan is evaluated at the phase nearest to the estimate
 (mostly in the joint angles; rates weigh (0.1 s)^2), searched forward
 only.  The LQR's feedback then acts across the plan, not along it: timing

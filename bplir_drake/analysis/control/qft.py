@@ -494,7 +494,7 @@ def linearized_cpfl_plant(params, x0) -> control.TransferFunction:
     e.g. with link 1 falling near the horizontal)."""
     from pydrake.systems.primitives import FirstOrderTaylorApproximation
 
-    from ..diagrams import build_cpfl_plant
+    from ...diagrams import build_cpfl_plant
 
     built = build_cpfl_plant(params)
     ctx = built.diagram.CreateDefaultContext()
@@ -548,7 +548,7 @@ def v_max_over_box(params, n: int = 9, torque_limit: float | None = None) -> dic
     less) and the smallest |v| guaranteed in both directions at every state
     (zero: in parts of the box 20 N m is not even enough to hold the elbow
     against b(q, qd))."""
-    from ..systems.controller import cpfl_terms
+    from ...systems.controller import cpfl_terms
 
     tmax = params.controller.torque_limit if torque_limit is None else torque_limit
     grids = [np.linspace(lo, hi, n) for lo, hi in STATE_BOX]

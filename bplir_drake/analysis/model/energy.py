@@ -3,9 +3,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..params import FrictionParams, PlantParams
-from ..systems.friction import friction_torques
-from ..systems.plant import kinetic_energy, potential_energy
+from ...params import FrictionParams, PlantParams
+from ...systems.friction import friction_torques
+from ...systems.plant import kinetic_energy, potential_energy
 
 
 def energy(x, p: PlantParams):

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import dataclasses as dc
 
-from ..params import BplirParams, ControllerParams
-from .swing import run_swing
+from ...params import BplirParams, ControllerParams
+from .run import run_swing
 
 #: (label, controller preset, path mode, estimator in the loop)
 VARIANTS = (("qft (EKF)", "qft", "adaptive", True),
@@ -40,14 +40,14 @@ def comparison_table(rows) -> str:
 
 
 def plot_comparison(rows, path):
-    from .plots import _plt, _save
+    from ..plotting import _plt, _save
 
     plt = _plt()
     fig, ax = plt.subplots(1, 3, figsize=(15, 4.5))
     for r in rows:
         st = r["_result"].logs["state"]
         tp = r["_result"].params.simulated_plant
-        from ..systems.plant import gripper_position
+        from ...systems.plant import gripper_position
 
         gp = [gripper_position(x[:2], tp.l1, tp.l2) for x in st.data]
         ax[0].plot(st.t, st.data[:, 1], label=r["variant"])

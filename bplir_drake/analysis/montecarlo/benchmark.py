@@ -24,8 +24,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..params import BplirParams, ParameterError
-from .montecarlo import apply_values, base_value, error_text, map_jobs, pinned
+from ...params import BplirParams, ParameterError
+from .executors import map_jobs
+from .sampling import apply_values, base_value, error_text, pinned
 
 MODEL_FIELDS = ("true_plant.m1", "true_plant.m2", "true_plant.I1", "true_plant.I2",
                 "true_plant.lc1", "true_plant.lc2", "true_friction.fv1", "true_friction.fv2",
@@ -78,7 +79,7 @@ def case_seed(root: int, case: dict, repeat: int) -> int:
 
 
 def _run_case(params: BplirParams, job: dict) -> dict:
-    from .swing import run_swing
+    from ..swing.run import run_swing
 
     row = {k: job[k] for k in ("controller", "category", "label", "case", "repeat", "seed")}
     try:
@@ -100,7 +101,7 @@ def run_benchmark(params: BplirParams, controllers=("qft", "dissertation", "lab"
                   categories=CATEGORIES) -> dict:
     """Score each controller preset; returns scores and the per-case rows.
     ``categories`` restricts the benchmark to some of :data:`CATEGORIES`."""
-    from ..params import ControllerParams
+    from ...params import ControllerParams
 
     for c in controllers:
         ControllerParams.preset_named(c)  # unknown names fail here, before any work
@@ -138,7 +139,7 @@ CASE_COLUMNS = ("controller", "category", "label", "case", "repeat", "seed", "ou
 
 
 def write_cases_csv(rows, path) -> Path:
-    from ..io import atomic_path
+    from ...io import atomic_path
 
     path = Path(path)
     with atomic_path(path) as tmp, tmp.open("w", newline="") as fh:
@@ -161,7 +162,7 @@ def benchmark_table(result: dict) -> str:
 
 
 def plot_benchmark(result: dict, path) -> Path:
-    from .plots import _plt, _save
+    from ..plotting import _plt, _save
 
     plt = _plt()
     ctrls = list(result["scores"])

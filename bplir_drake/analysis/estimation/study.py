@@ -9,11 +9,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..diagrams import build_sensor_swing
-from ..estimation import gyro_integral
-from ..params import BplirParams
-from ..simulate import logs, make_simulator, run
-from ..systems.plant import absolute_from_relative
+from ...diagrams import build_sensor_swing
+from ...estimation import gyro_integral
+from ...params import BplirParams
+from ...simulate import logs, make_simulator, run
+from ...systems.plant import absolute_from_relative
 
 #: the default scenario of 5.5: free response, actuation, knock
 DEFAULT_TORQUE = ((0.0, 3.0, 3.6), (0.0, 3.0, 0.0))

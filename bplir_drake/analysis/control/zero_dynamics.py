@@ -13,9 +13,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from ..params import FrictionParams, PlantParams
-from ..systems.friction import friction_torques
-from ..systems.plant import gravity_vector, mass_matrix
+from ...params import FrictionParams, PlantParams
+from ...systems.friction import friction_torques
+from ...systems.plant import gravity_vector, mass_matrix
 
 
 @dataclass

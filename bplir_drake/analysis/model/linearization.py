@@ -5,8 +5,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..diagrams import build_plant_with_friction
-from ..params import BplirParams
+from ...diagrams import build_plant_with_friction
+from ...params import BplirParams
 
 
 @dataclass(frozen=True)

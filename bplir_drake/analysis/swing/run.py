@@ -16,12 +16,12 @@ from pathlib import Path
 
 import numpy as np
 
-from ..io import atomic_path
+from ...io import atomic_path
 
-from ..diagrams import build_swing, set_swing_sample, swing_geometry, swing_structure
-from ..params import BplirParams, to_dict
-from ..simulate import Log, logs, make_simulator, run_until_outcome
-from ..systems.plant import gripper_position, gripper_velocity, kinetic_energy, potential_energy
+from ...diagrams import build_swing, set_swing_sample, swing_geometry, swing_structure
+from ...params import BplirParams, to_dict
+from ...simulate import Log, logs, make_simulator, run_until_outcome
+from ...systems.plant import gripper_position, gripper_velocity, kinetic_energy, potential_energy
 
 
 def draw_true_friction(params: BplirParams, seed: int) -> BplirParams:
@@ -73,7 +73,7 @@ class SwingRunner:
         if self.built is None or self.built.structure != swing_structure(params, use_estimator):
             gains = None
             if params.path.mode == "plan":
-                from .swing_plan import tracking_plan
+                from .plan import tracking_plan
 
                 gains = tracking_plan(params)[1]
             self.built = build_swing(params, seed=seed, use_estimator=use_estimator,

@@ -6,9 +6,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..io import atomic_path
-from .plots import _plt, _save
-from .swing import log_table
+from ...io import atomic_path
+from ..plotting import _plt, _save
+from .run import log_table
 
 
 def plot_swing(result, path, title=None) -> Path:

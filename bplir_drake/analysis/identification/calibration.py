@@ -34,9 +34,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..io import atomic_path
+from ...io import atomic_path
 
-from ..params import BplirParams
+from ...params import BplirParams
 
 CALIBRATION_COLUMNS = ("t", "q1", "q2")
 FITTABLE = {
@@ -62,7 +62,7 @@ class CalibrationLog:
 
 
 def read_calibration_csv(path, torque_per_amp: float) -> CalibrationLog:
-    from ..estimation import csv_rows
+    from ...estimation import csv_rows
 
     path = Path(path)
     header, body = csv_rows(path, "log", CalibrationError)
@@ -110,8 +110,8 @@ def check_calibration_log(t, q, tau, qd0=None, *, min_duration: float = 2.0) -> 
 
 def simulate_log(params: BplirParams, log: CalibrationLog, *, accuracy: float = 1e-6) -> np.ndarray:
     """Joint angles of the (nominal) model driven by the logged torque."""
-    from ..diagrams import build_free_swing
-    from ..simulate import Log, make_simulator, run
+    from ...diagrams import build_free_swing
+    from ...simulate import Log, make_simulator, run
 
     p = params.with_(true_plant=None, true_friction=None)
     built = build_free_swing(p, (log.t, log.tau), log_period=float(np.median(np.diff(log.t))))
@@ -158,7 +158,7 @@ def friction_from_inverse_dynamics(params: BplirParams, log: CalibrationLog,
     the start of :func:`calibrate`."""
     from scipy.signal import savgol_filter
 
-    from ..systems.plant import bias_term, gravity_vector, mass_matrix
+    from ...systems.plant import bias_term, gravity_vector, mass_matrix
 
     dt = float(np.median(np.diff(log.t)))
     w = max(5, int(round(window / dt)) | 1)
@@ -237,8 +237,8 @@ def identify_deadband(params: BplirParams, *, ramp_rate: float = 0.05, start: fl
     model from the hanging rest state; the identified dead-band is the
     command at which |q2'| first exceeds ``rate_threshold``, forward and
     reverse."""
-    from ..diagrams import build_free_swing
-    from ..simulate import logs, make_simulator, run
+    from ...diagrams import build_free_swing
+    from ...simulate import logs, make_simulator, run
 
     out = {}
     T = (max_torque - start) / ramp_rate
@@ -263,8 +263,8 @@ def cpfl_step_response(params: BplirParams, v: float, q0=(0.0, 0.0), qd0=(0.0, 0
                        duration: float = 0.6, t_step: float = 0.05):
     """q2 response of the CPFL loop (discrete at Ts, through the motor) to a
     step of the outer-loop signal ``v`` at ``t_step``; returns (t, q2 - q2(t_step))."""
-    from ..diagrams import build_cpfl_step
-    from ..simulate import logs, make_simulator, run
+    from ...diagrams import build_cpfl_step
+    from ...simulate import logs, make_simulator, run
 
     built = build_cpfl_step(params, ((0.0, t_step), (0.0, v)))
     sim = make_simulator(built, q0, qd0, accuracy=1e-6)
@@ -322,7 +322,7 @@ class PlantFamilyFit:
         on the corners of the ranges."""
         import control
 
-        from .qft import Plant, PlantFamily
+        from ..control.qft import Plant, PlantFamily
 
         plants = [Plant(control.tf([g], [1.0, c, 0.0]), d, f"g={g:.3g} c={c:.3g} Td={d:.3g}")
                   for g in self.ranges["g"] for c in self.ranges["c"] for d in self.ranges["Td"]]
@@ -333,7 +333,7 @@ def identify_plant_family(params: BplirParams, steps=(10.0, 20.0, 40.0, -20.0), 
                           seed: int = 0) -> PlantFamilyFit:
     """Step tests of the CPFL loop on ``n_plants`` robots with friction drawn
     within +/-20 % (the first one nominal), for each step size in ``steps``."""
-    from .swing import draw_true_friction
+    from ..swing.run import draw_true_friction
 
     fits, responses = [], []
     for i in range(n_plants):
@@ -347,7 +347,7 @@ def identify_plant_family(params: BplirParams, steps=(10.0, 20.0, 40.0, -20.0), 
 
 
 def write_calibrated_toml(result: CalibrationResult, path) -> Path:
-    from ..params import save_toml
+    from ...params import save_toml
 
     path = Path(path)
     save_toml(result.params, path)
@@ -355,7 +355,7 @@ def write_calibrated_toml(result: CalibrationResult, path) -> Path:
 
 
 def plot_calibration(result: CalibrationResult, path):
-    from .plots import _plt, _save
+    from ..plotting import _plt, _save
 
     plt = _plt()
     fig, ax = plt.subplots(2, 1, figsize=(10, 6), sharex=True)
@@ -380,8 +380,8 @@ def synthetic_log(params: BplirParams, *, q0=(0.8, 0.3), free_time: float = 6.0,
     """A Fig. 4.7-style log of the *simulated* robot (``params.true_*``): a
     free swing, then an elbow torque square wave of +/- ``torque`` (so the
     elbow moves both ways), with white angle noise of ``noise`` rad."""
-    from ..diagrams import build_free_swing
-    from ..simulate import logs, make_simulator, run
+    from ...diagrams import build_free_swing
+    from ...simulate import logs, make_simulator, run
 
     T = free_time + torque_time
     t = np.arange(0.0, T + 1e-9, dt)

@@ -5,9 +5,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..diagrams import build_free_swing
-from ..params import BplirParams
-from ..simulate import logs, make_simulator, run
+from ...diagrams import build_free_swing
+from ...params import BplirParams
+from ...simulate import logs, make_simulator, run
 from .energy import energy, energy_rate_from_forces
 
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .plots import _plt, _save
+from ..plotting import _plt, _save
 
 
 def _nichols_xy(values):

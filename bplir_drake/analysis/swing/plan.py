@@ -29,7 +29,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..params import BplirParams, ParameterError
+from ...params import BplirParams, ParameterError
 
 #: smallest Coulomb smoothing velocity the planner uses (rad/s)
 PLAN_FRICTION_SMOOTHING = 0.2
@@ -99,7 +99,7 @@ def plan_model(params: BplirParams):
     """(model, friction): the nominal plant with its friction (Coulomb
     smoothing widened to ``PLAN_FRICTION_SMOOTHING``) as a diagram with the
     elbow torque as input and the state as output."""
-    from ..diagrams import build_plant_with_friction
+    from ...diagrams import build_plant_with_friction
 
     friction = replace(params.friction, b=max(params.friction.b, PLAN_FRICTION_SMOOTHING))
     return build_plant_with_friction(params.with_(friction=friction), nominal=True).diagram, \
@@ -121,7 +121,7 @@ def plan_swing(params: BplirParams, *, power_limit: float | None = None, knots: 
     final braking.  With ``cache`` the plan is read from, or written to, the
     disk cache (:func:`plan_cache_path`: keyed by every input the planner
     reads; a solve takes about a minute)."""
-    from ..systems.plant import initial_configuration
+    from ...systems.plant import initial_configuration
 
     if not 5 <= knots <= 400:
         raise ParameterError(f"knots = {knots} is out of range; allowed [5, 400]")
@@ -157,7 +157,7 @@ def _solve_plan(params, q0, qT, tau_max, power, tmax, knots, time_weight, guess_
     from pydrake.all import (DirectCollocation, PiecewisePolynomial, SnoptSolver, Solve,
                              SolverOptions)
 
-    from ..systems.friction import friction_torques
+    from ...systems.friction import friction_torques
 
     system, friction = plan_model(params)
     dircol = DirectCollocation(system, system.CreateDefaultContext(), num_time_samples=knots,
@@ -212,8 +212,8 @@ _GAINS: dict = {}
 def _gains_for(plant, friction, plan: SwingPlan):
     """Finite-horizon LQR gains along ``plan`` on the nominal model (plant,
     friction), memoised per (model, plan contents) in this process."""
-    from ..params import BplirParams as _P
-    from ..systems.plan_tracker import plan_gains
+    from ...params import BplirParams as _P
+    from ...systems.plan_tracker import plan_gains
 
     key = (plant, friction, plan.times.tobytes(), plan.states.tobytes(), plan.torque.tobytes())
     if key not in _GAINS:
@@ -226,7 +226,7 @@ def planned_target(params: BplirParams, end_depth: float = 0.0) -> np.ndarray:
     """The mirror target (7.1) of the nominal robot, turned about the pivot
     so that the free gripper rests ``end_depth`` below the line at the same
     distance along it."""
-    from ..systems.plant import initial_configuration
+    from ...systems.plant import initial_configuration
 
     sc = params.scenario
     D = sc.grip_spacing
@@ -239,8 +239,8 @@ def plot_plan(plan: SwingPlan, path, params: BplirParams):
     the robot drawn at a few instants on the line."""
     import matplotlib.pyplot as plt
 
-    from ..io import atomic_path
-    from ..systems.plant import elbow_position, gripper_position
+    from ...io import atomic_path
+    from ...systems.plant import elbow_position, gripper_position
 
     fig, ax = plt.subplots(1, 3, figsize=(15, 4.2))
     t, X = plan.times, plan.states

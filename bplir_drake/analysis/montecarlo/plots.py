@@ -13,8 +13,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .montecarlo import Study, influence
-from .plots import _plt, _save
+from .statistics import influence
+from .study import Study
+from ..plotting import _plt, _save
 
 OUTCOME_COLOURS = {"captured": "tab:green", "crash": "tab:red", "timeout": "tab:orange",
                    "fault": "tab:purple", "error": "black"}

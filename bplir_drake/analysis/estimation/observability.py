@@ -19,8 +19,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..params import EstimatorParams
-from ..systems.ekf import jacobians, kinematic_f, kinematic_h
+from ...params import EstimatorParams
+from ...systems.ekf import jacobians, kinematic_f, kinematic_h
 
 DEFAULT_THRESHOLD = 1e-3
 
@@ -153,7 +153,7 @@ def drake_is_observable(A, C, threshold: float | None = None) -> bool:
 def plant_gyro_observability(params, threshold: float = 1e-6) -> dict:
     """Drake's ``IsObservable`` on the linearised plant + friction at rest
     with gyro outputs (omega1, omega2 = q1d, q1d + q2d), scaled and raw."""
-    from .linearization import hanging_linearization
+    from ..model.linearization import hanging_linearization
 
     lin = hanging_linearization(params)
     C = np.array([[0, 0, 1.0, 0], [0, 0, 1.0, 1.0]])

@@ -64,7 +64,7 @@ def _save(plan, path: Path) -> None:
 
 
 def _load(path: Path):
-    from .swing_plan import SwingPlan
+    from .plan import SwingPlan
 
     with np.load(path, allow_pickle=False) as data:
         meta = json.loads(str(data["meta"]))

@@ -7,9 +7,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..diagrams import build_control_loop
-from ..params import BplirParams
-from ..simulate import logs, make_simulator, run
+from ...diagrams import build_control_loop
+from ...params import BplirParams
+from ...simulate import logs, make_simulator, run
 
 
 @dataclass

@@ -1,0 +1,2 @@
+"""Estimation studies: the EKF on a simulated swing against the truth and
+gyro integration, and observability along a trajectory."""

@@ -1,0 +1,2 @@
+"""Identification from logs: friction, dead band and the CPFL plant family
+fitted to measured or synthetic swings."""

@@ -1,0 +1,88 @@
+"""Where samples run: a local process pool (forked workers) or a Dask
+cluster; results are yielded as they finish."""
+from __future__ import annotations
+
+import os
+from typing import Callable, Iterable
+
+from .study import StudyError
+
+# ------------------------------------------------------------ execution
+
+def _pool_map(fn: Callable, args: list[tuple], workers: int) -> Iterable:
+    """Yield fn(*a) as they finish, in a process pool (or inline).
+
+    Workers are forked where the platform allows it (no re-import of the
+    caller's script, no pydrake start-up per worker); each sample builds its
+    own diagram, so no Drake object crosses a process boundary."""
+    if workers <= 1:
+        for a in args:
+            yield fn(*a)
+        return
+    import multiprocessing as mp
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+
+    method = "fork" if "fork" in mp.get_all_start_methods() else "spawn"
+    ex = ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context(method))
+    futures = [ex.submit(fn, *a) for a in args]
+    finished = False
+    try:
+        for fut in as_completed(futures):
+            yield fut.result()
+        finished = True
+    finally:
+        if finished:
+            ex.shutdown(wait=True)
+        else:  # interrupted: do not wait for the samples still running
+            procs = list(getattr(ex, "_processes", {}).values())
+            ex.shutdown(wait=False, cancel_futures=True)
+            for proc in procs:
+                proc.terminate()
+
+
+def _dask_map(fn: Callable, args: list[tuple], scheduler: str | None, workers: int) -> Iterable:
+    """Yield fn(*a) as they finish on a Dask cluster: an existing one at
+    ``scheduler`` or a LocalCluster of ``workers`` single-threaded processes."""
+    try:
+        from dask.distributed import Client, LocalCluster, as_completed
+    except ImportError:
+        raise StudyError("Dask is not installed; install the extra: pip install "
+                         "'bplir-drake[dask]'") from None
+    cluster = None
+    try:
+        if scheduler:
+            try:
+                client = Client(scheduler, timeout="10s")
+            except Exception as exc:  # noqa: BLE001 - Dask raises many kinds here
+                msg = " ".join(str(exc).split())[:200]
+                raise StudyError(f"cannot reach the Dask scheduler at {scheduler}: {msg}; "
+                                 "expected an address like tcp://HOST:8786") from None
+        else:
+            cluster = LocalCluster(n_workers=max(1, workers), threads_per_worker=1,
+                                   processes=True, dashboard_address=None)
+            client = Client(cluster)
+        with client:
+            futures = [client.submit(fn, *a, pure=False) for a in args]
+            for fut in as_completed(futures):
+                yield fut.result()
+    finally:
+        if cluster is not None:
+            cluster.close()
+
+
+def map_jobs(fn: Callable, args: list[tuple], *, workers: int = 0, dask: bool = False,
+             scheduler: str | None = None, progress: bool = False,
+             desc: str = "samples") -> Iterable:
+    """Run ``fn(*a)`` for every ``a``; yields results as they finish."""
+    workers = workers or os.cpu_count() or 1
+    if dask or scheduler:
+        it = _dask_map(fn, args, scheduler, workers)
+    else:
+        it = _pool_map(fn, args, min(workers, max(1, len(args))))
+    if progress:
+        from tqdm import tqdm
+
+        it = tqdm(it, total=len(args), desc=desc, unit="swing", leave=False)
+    yield from it
+
+

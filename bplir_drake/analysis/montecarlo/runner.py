@@ -1,0 +1,113 @@
+"""Monte Carlo robustness studies of the brachiation swing.
+
+A *study* is a scenario (a base parameter set), distributions over uncertain
+quantities of the simulated robot, its sensors and its environment, a number
+of samples and a root seed.  Sample ``k`` is fully determined by
+``(study, k)``: its parameter draws come from
+``default_rng([root_seed, k, crc32(name)])`` (one stream per quantity, so
+adding a quantity does not change the others) and its swing seed (sensor
+noise, gusts) from ``SeedSequence([root_seed, k])``.  Results therefore do
+not depend on the number of workers or the order samples finish in, and any
+sample can be replayed exactly (:func:`sample_params`).
+
+Controllers and estimators keep the nominal model: distributions may only
+address the simulated robot (``true_plant``, ``true_friction``), the sensors
+(``imu``), the motor hardware (``motor``) and the scenario (wind, gusts,
+grip spacing, incline, ...).
+
+Study file (TOML)::
+
+    samples = 1000
+    seed = 0
+    [parameters]                  # a parameter set, as for --config
+    preset = "dissertation"
+    [parameters.scenario]
+    incline_deg = 0.0
+    [uncertain."true_friction.fv1"]
+    dist = "uniform"              # uniform | normal | truncnormal
+    rel = 0.2                     # half-width (uniform) or sigma, relative to the base value
+    # abs = 0.03                  # ... or absolute; center = x overrides the base value
+    # clip = 2.0                  # truncnormal: truncated at +/- clip sigma
+
+Without ``[uncertain]`` the dissertation's study is used: the four friction
+coefficients uniform within +/- 20 % of nominal (3.3).
+
+Execution (:func:`run_study`): a local process pool (all cores by default)
+or a Dask cluster; one CSV row is appended per finished sample, so an
+interrupted study resumes without recomputing finished samples; a sample that
+raises is recorded with its error and the study goes on.
+"""
+from __future__ import annotations
+
+import os
+import time
+from pathlib import Path
+
+from ...io import write_json_atomic
+from .executors import map_jobs
+from .sampling import run_sample, sample_params
+from .statistics import summarize
+from .store import ResultWriter, columns, read_results
+from .study import RESULTS_FILE, STUDY_FILE, SUMMARY_FILE, Study, StudyError, load_study, save_study
+
+def prepare_out(study: Study, out: Path) -> list[dict]:
+    """Create or reopen a study directory; return the rows already done.
+
+    A directory holding a different study (other than its sample count) is
+    refused rather than mixed with new results.
+    """
+    out.mkdir(parents=True, exist_ok=True)
+    saved = out / STUDY_FILE
+    if saved.exists():
+        old = load_study(saved)
+        if old.identity() != study.identity():
+            raise StudyError(f"{out} holds results of a different study; use another --out "
+                             "or remove the directory")
+    save_study(study, saved)
+    return read_results(out / RESULTS_FILE, columns(study))
+
+
+def run_study(study: Study, out, *, workers: int = 0, dask: bool = False,
+              scheduler: str | None = None, progress: bool = False) -> dict:
+    """Run (or resume) ``study`` into directory ``out``; returns the summary
+    (also written to ``summary.json``).  Results: ``results.csv``."""
+    out = Path(out)
+    existing = prepare_out(study, out)  # finished rows are never deleted
+    have = {r["index"] for r in existing}
+    done = [r for r in existing if r["index"] < study.samples]
+    todo = [(study, k) for k in range(study.samples) if k not in have]
+    writer = ResultWriter(out / RESULTS_FILE, columns(study), existing)
+    t0 = time.perf_counter()
+    try:
+        for row in map_jobs(run_sample, todo, workers=workers, dask=dask, scheduler=scheduler,
+                            progress=progress):
+            writer.write(row)
+    finally:
+        writer.close()
+    rows = sorted(read_results(out / RESULTS_FILE), key=lambda r: r["index"])
+    # the finished table in sample order: identical whatever the workers did
+    ResultWriter(out / RESULTS_FILE, columns(study), rows).close()
+    # a smaller -n than a previous run reports its first samples
+    summary = summarize(study, [r for r in rows if r["index"] < study.samples])
+    summary["run"] = {"computed_now": len(todo), "resumed_from": len(done),
+                      "wall_time_s": time.perf_counter() - t0,
+                      "workers": workers or os.cpu_count(),
+                      "executor": "dask" if (dask or scheduler) else "process pool"}
+    write_json_atomic(out / SUMMARY_FILE, summary)
+    return summary
+
+
+def replay(study_dir, index: int):
+    """Re-run sample ``index`` of a study directory: (SwingResult, recorded row or None)."""
+    from ..swing.run import run_swing
+
+    study_dir = Path(study_dir)
+    if not (study_dir / STUDY_FILE).exists():
+        raise StudyError(f"{study_dir} is not a study directory (no {STUDY_FILE})")
+    study = load_study(study_dir / STUDY_FILE)
+    if isinstance(index, bool) or not isinstance(index, int) or not 0 <= index < study.samples:
+        raise StudyError(f"--sample {index} is out of range; allowed 0..{study.samples - 1}")
+    p, seed, _ = sample_params(study, index)
+    recorded = next((r for r in read_results(study_dir / RESULTS_FILE) if r["index"] == index),
+                    None)
+    return run_swing(p, seed=seed), recorded

@@ -1,0 +1,83 @@
+"""Statistics of a study's rows: success rate with its Wilson interval,
+outcome classes, percentiles, and which quantity drives the result."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .study import Study
+
+# ------------------------------------------------------------ statistics
+
+def wilson_interval(successes: int, n: int, confidence: float = 0.95) -> tuple[float, float]:
+    """Wilson score interval of a binomial proportion (scipy)."""
+    if n == 0:
+        return (math.nan, math.nan)
+    from scipy.stats import binomtest
+
+    ci = binomtest(successes, n).proportion_ci(confidence, method="wilson")
+    return (float(ci.low), float(ci.high))
+
+
+PERCENTILE_FIELDS = ("capture_speed_mps", "swing_time_s", "peak_torque_Nm", "peak_motor_power_W",
+                     "energy_in_J", "max_estimation_error_rad")
+
+
+def summarize(study: Study, rows: list[dict]) -> dict:
+    ran = [r for r in rows if r["outcome"] != "error"]
+    errors = [r for r in rows if r["outcome"] == "error"]
+    k = sum(bool(r["success"]) for r in ran)
+    n = len(ran)
+    lo, hi = wilson_interval(k, n)
+    outcomes: dict[str, int] = {}
+    for r in rows:
+        outcomes[r["outcome"]] = outcomes.get(r["outcome"], 0) + 1
+    pct = {}
+    for f in PERCENTILE_FIELDS:
+        v = np.array([r[f] for r in ran if r[f] is not None and np.isfinite(r[f])], dtype=float)
+        pct[f] = ({q: float(np.percentile(v, int(q[1:]))) for q in ("p5", "p50", "p95")}
+                  | {"max": float(v.max())}) if v.size else {}
+    return {
+        "samples": len(rows),
+        "samples_requested": study.samples,
+        "seed": study.seed,
+        "successes": k,
+        "success_rate": k / n if n else math.nan,
+        "success_rate_ci95": [lo, hi],
+        "ci_method": "Wilson score, 95 %, over samples that ran (errors excluded)",
+        "outcomes": outcomes,
+        "failed_samples": [{"index": r["index"], "seed": r["seed"], "error": r["error"]}
+                           for r in errors],
+        "unsuccessful_samples": [{"index": r["index"], "outcome": r["outcome"],
+                                  "capture_speed_mps": r["capture_speed_mps"]}
+                                 for r in ran if not r["success"]],
+        "fixed_gripper_opened_early": sum(bool(r["fixed_gripper_open"]) and not r["success"]
+                                          for r in rows),
+        "percentiles": pct,
+        "uncertain": {d.name: d.as_dict() for d in study.distributions},
+        "incline_deg": study.params.scenario.incline_deg,
+        "controller": study.params.controller.preset,
+    }
+
+
+def influence(study: Study, rows: list[dict]) -> dict[str, float]:
+    """How strongly each uncertain quantity drives the result: |correlation|
+    with success when both outcomes occur, else with the capture speed."""
+    ran = [r for r in rows if r["outcome"] != "error"]
+    succ = np.array([float(r["success"]) for r in ran])
+    if 0 < succ.sum() < len(succ):
+        target = succ
+    else:
+        target = np.array([r["capture_speed_mps"] for r in ran], dtype=float)
+    out = {}
+    for name in study.names:
+        x = np.array([r[name] for r in ran], dtype=float)
+        ok = np.isfinite(x) & np.isfinite(target)
+        if ok.sum() > 2 and np.std(x[ok]) > 0 and np.std(target[ok]) > 0:
+            out[name] = float(abs(np.corrcoef(x[ok], target[ok])[0, 1]))
+        else:
+            out[name] = 0.0
+    return out
+
+

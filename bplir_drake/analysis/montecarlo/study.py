@@ -1,0 +1,203 @@
+"""A Monte Carlo study: its schema (base parameters, distributions over the
+simulated robot and its world, samples, root seed) and its TOML file."""
+from __future__ import annotations
+
+import dataclasses as dc
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ...io import write_text_atomic
+from ...params import BLOCKS, BplirParams, ParameterError, from_dict, read_toml, to_dict
+
+DIST_KINDS = ("uniform", "normal", "truncnormal")
+#: blocks a distribution may address (never the nominal model)
+UNCERTAIN_BLOCKS = ("true_plant", "true_friction", "imu", "motor", "scenario")
+#: swing summary fields kept per sample
+RESULT_FIELDS = ("outcome", "success", "swing_time_s", "capture_distance_m", "capture_speed_mps",
+                 "closest_distance_m", "travel_m", "fixed_gripper_open", "peak_torque_Nm",
+                 "peak_motor_power_W", "energy_in_J", "max_estimation_error_rad",
+                 "mirror_error_rad")
+STUDY_FILE, RESULTS_FILE, SUMMARY_FILE = "study.toml", "results.csv", "summary.json"
+
+
+class StudyError(ParameterError):
+    """A study file or study directory is invalid (one-line message)."""
+
+
+# ------------------------------------------------------------ distributions
+
+@dataclass(frozen=True)
+class Distribution:
+    """One uncertain quantity ``name`` = ``"block.field"``."""
+
+    name: str
+    dist: str = "uniform"
+    rel: float | None = None
+    abs: float | None = None
+    center: float | None = None
+    clip: float = 2.0
+
+    def __post_init__(self):
+        where = f"uncertain.\"{self.name}\""
+        if self.dist not in DIST_KINDS:
+            raise StudyError(f"{where}: dist = '{self.dist}' is unknown; allowed: "
+                             + ", ".join(DIST_KINDS))
+        if (self.rel is None) == (self.abs is None):
+            raise StudyError(f"{where}: give exactly one of rel (relative spread) or abs "
+                             "(absolute spread)")
+        spread = self.rel if self.rel is not None else self.abs
+        if not _is_number(spread) or not math.isfinite(spread) or spread < 0:
+            raise StudyError(f"{where}: spread = {spread!r} must be a finite number >= 0")
+        if self.center is not None and (not _is_number(self.center)
+                                        or not math.isfinite(self.center)):
+            raise StudyError(f"{where}: center = {self.center!r} must be a finite number")
+        if not _is_number(self.clip) or not (0 < self.clip <= 10):
+            raise StudyError(f"{where}: clip = {self.clip!r} must lie in (0, 10] sigmas")
+        _check_name(self.name)
+
+    @property
+    def block(self) -> str:
+        return self.name.split(".")[0]
+
+    @property
+    def field(self) -> str:
+        return self.name.split(".")[1]
+
+    def draw(self, base_value: float, rng: np.random.Generator) -> float:
+        center = base_value if self.center is None else self.center
+        scale = self.abs if self.abs is not None else self.rel * abs(center)
+        if self.dist == "uniform":
+            u = rng.uniform(-1.0, 1.0)
+        elif self.dist == "normal":
+            u = rng.standard_normal()
+        else:  # truncated normal by rejection (clip >= a fraction of sigma)
+            while True:
+                u = rng.standard_normal()
+                if abs(u) <= self.clip:
+                    break
+        return float(center + scale * u)
+
+    def as_dict(self) -> dict:
+        d = {"dist": self.dist}
+        for key in ("rel", "abs", "center"):
+            if getattr(self, key) is not None:
+                d[key] = getattr(self, key)
+        if self.dist == "truncnormal":
+            d["clip"] = self.clip
+        return d
+
+
+def _is_number(x) -> bool:
+    return isinstance(x, (int, float)) and not isinstance(x, bool)
+
+
+def _check_name(name: str) -> None:
+    parts = name.split(".") if isinstance(name, str) else []
+    if len(parts) != 2 or parts[0] not in UNCERTAIN_BLOCKS:
+        hint = ""
+        if len(parts) == 2 and parts[0] in ("plant", "friction"):
+            hint = f" (the nominal model is what the controller uses; perturb true_{name})"
+        raise StudyError(f"unknown uncertain parameter '{name}'{hint}; allowed: "
+                         + ", ".join(f"{b}.<field>" for b in UNCERTAIN_BLOCKS))
+    cls = BLOCKS[parts[0]]
+    numeric = {f.name for f in dc.fields(cls) if "lo" in f.metadata}
+    if parts[1] not in numeric:
+        raise StudyError(f"unknown uncertain parameter '{name}'; numeric fields of "
+                         f"[{parts[0]}]: " + ", ".join(sorted(numeric)))
+
+
+def dissertation_distributions() -> tuple[Distribution, ...]:
+    """Friction of both joints uniform within +/- 20 % of nominal (3.3)."""
+    return tuple(Distribution(f"true_friction.{k}", "uniform", rel=0.2)
+                 for k in ("fv1", "fv2", "fc1", "fc2"))
+
+
+# ------------------------------------------------------------ study
+
+@dataclass(frozen=True)
+class Study:
+    params: BplirParams = field(default_factory=BplirParams)
+    distributions: tuple[Distribution, ...] = field(default_factory=dissertation_distributions)
+    samples: int = 100
+    seed: int = 0
+
+    def __post_init__(self):
+        if isinstance(self.samples, bool) or not isinstance(self.samples, int) or self.samples < 1:
+            raise StudyError(f"samples = {self.samples!r} must be a whole number >= 1")
+        if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
+            raise StudyError(f"seed = {self.seed!r} must be a whole number >= 0")
+        names = [d.name for d in self.distributions]
+        if len(set(names)) != len(names):
+            raise StudyError("an uncertain parameter is listed twice")
+
+    @property
+    def names(self) -> list[str]:
+        return [d.name for d in self.distributions]
+
+    def with_(self, **kw) -> "Study":
+        return dc.replace(self, **kw)
+
+    def as_dict(self) -> dict:
+        return {"samples": self.samples, "seed": self.seed,
+                "parameters": to_dict(self.params),
+                "uncertain": {d.name: d.as_dict() for d in self.distributions}}
+
+    def identity(self) -> dict:
+        """What fixes every sample's result (everything but the sample count)."""
+        d = self.as_dict()
+        d.pop("samples")
+        return d
+
+
+def study_from_dict(data: dict, source: str = "study") -> Study:
+    if not isinstance(data, dict):
+        raise StudyError(f"{source}: a study must be a table")
+    allowed = {"samples", "seed", "parameters", "uncertain"}
+    unknown = set(data) - allowed
+    if unknown:
+        raise StudyError(f"{source}: unknown key '{sorted(unknown)[0]}'; allowed: "
+                         + ", ".join(sorted(allowed)))
+    table = data.get("parameters", {})
+    if not isinstance(table, dict):
+        raise StudyError(f"{source}: [parameters] must be a table of parameter blocks")
+    params = from_dict(table)
+    unc = data.get("uncertain")
+    if unc is None:
+        dists = dissertation_distributions()
+    else:
+        if not isinstance(unc, dict):
+            raise StudyError(f"{source}: [uncertain] must be a table of distributions")
+        dists = []
+        for name, spec in unc.items():
+            if not isinstance(spec, dict):
+                raise StudyError(f"{source}: uncertain.\"{name}\" must be a table "
+                                 "(dist, rel|abs, center, clip)")
+            extra = set(spec) - {"dist", "rel", "abs", "center", "clip"}
+            if extra:
+                raise StudyError(f"{source}: uncertain.\"{name}\": unknown key "
+                                 f"'{sorted(extra)[0]}'; allowed: dist, rel, abs, center, clip")
+            dists.append(Distribution(name, **spec))
+        dists = tuple(dists)
+    return Study(params, dists, data.get("samples", 100), data.get("seed", 0))
+
+
+def load_study(path) -> Study:
+    path = Path(path)
+    data = read_toml(path, "study file", StudyError)
+    try:
+        return study_from_dict(data, str(path))
+    except StudyError:
+        raise
+    except ParameterError as exc:
+        raise StudyError(f"{path}: {exc}") from None
+
+
+def save_study(study: Study, path) -> None:
+    import tomli_w
+
+    write_text_atomic(path, tomli_w.dumps(study.as_dict()))
+
+

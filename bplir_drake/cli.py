@@ -13,6 +13,7 @@ from pathlib import Path
 
 from .analysis.identification.calibration import CalibrationError
 from .analysis.control.qft import QftError
+from .analysis.plotting import save_figure
 from .estimation import LogError
 from .io import (atomic_path, check_output_dir, check_output_file, dumps_strict,
                  write_json_atomic, write_text_atomic)
@@ -132,7 +133,6 @@ def cmd_model(args) -> int:
 # ------------------------------------------------------------------ freeswing
 def cmd_freeswing(args) -> int:
     from .analysis.model.freeswing import simulate_free_swing
-    from .analysis.plotting import plot_free_swing
 
     params = _load_params(args)
     q0 = _floats(args.q0, 2, "--q0")
@@ -141,7 +141,7 @@ def cmd_freeswing(args) -> int:
     out_dir = _out_dir(args.out)
     res = simulate_free_swing(params, q0, args.duration, elbow_torque=args.torque,
                               friction=not args.no_friction, log_period=0.005)
-    plot = plot_free_swing(res, out_dir / "freeswing.png")
+    plot = save_figure(res.plot(), out_dir / "freeswing.png")
     summary = res.summary() | {"plot": str(plot), "friction": not args.no_friction,
                                "elbow_torque_Nm": args.torque}
     _write_json(out_dir / "freeswing.json", summary)
@@ -155,7 +155,7 @@ def cmd_freeswing(args) -> int:
 def cmd_estimate(args) -> int:
     from dataclasses import replace
 
-    from .analysis.plotting import plot_estimate
+    from .analysis.estimation.plots import plot_estimate
     from .estimation import estimate, read_imu_csv, write_estimate_csv
 
     params = _load_params(args)
@@ -187,8 +187,8 @@ def cmd_estimate(args) -> int:
             import numpy as np
 
             truth = np.column_stack([log.extra["theta1"], log.extra["theta2"]])
-        summary["plot"] = str(plot_estimate(res.t, res.x, res.gyro_integral, args.plot,
-                                            truth=truth))
+        fig = plot_estimate(res.t, res.x, res.gyro_integral, truth=truth)
+        summary["plot"] = str(save_figure(fig, args.plot))
     _emit(summary, args.json, [
         f"estimated {len(res.t)} samples ({summary['duration_s']:.2f} s), "
         f"{res.skipped} isolated NaN rows skipped",
@@ -202,7 +202,6 @@ def cmd_estimate(args) -> int:
 def cmd_observability(args) -> int:
     from .analysis.estimation.study import simulate_estimation
     from .analysis.estimation.observability import observability_along, plant_gyro_observability
-    from .analysis.plotting import plot_observability
     from .systems.plant import initial_configuration
 
     params = _load_params(args)
@@ -218,7 +217,7 @@ def cmd_observability(args) -> int:
     out = res.summary() | {"drake_is_observable_plant": plant_gyro_observability(params),
                            "scenario": {"q0": list(map(float, q0)), "duration_s": args.duration,
                                         "elbow_torque_Nm_after_1s": args.torque}}
-    out["plot"] = str(plot_observability(res, out_dir / "observability.png"))
+    out["plot"] = str(save_figure(res.plot(), out_dir / "observability.png"))
     _write_json(out_dir / "observability.json", out)
     n_loss = sum(1 for e in res.events if e["rank_gyro"] < 4)
     _emit(out, args.json, [
@@ -232,77 +231,21 @@ def cmd_observability(args) -> int:
 
 # ------------------------------------------------------------------ qft
 def cmd_qft(args) -> int:
-    import control
-    import numpy as np
-
-    from .analysis.control import qft as Q
-    from .analysis.control.plots import (plot_family_responses, plot_nichols, plot_tracking,
-                                     plot_zero_dynamics)
-    from .analysis.control.zero_dynamics import zero_dynamics_portrait
-    from .params import ControllerParams
+    from .analysis.control.report import qft_report
 
     params = _load_params(args)
-    ctrl = ControllerParams.preset_named(args.controller) if args.controller else params.controller
-    specs = Q.QftSpecs()
     if args.family == "diagram":
         _in_range("--plants", args.plants, 2, 10000)
         _in_range("--seed", args.seed, 0, 2 ** 32 - 1)
     out_dir = _out_dir(args.out)
-    report = {"family": args.family, "controller": ctrl.preset}
-    if args.family == "dissertation":
-        fam_nodelay = Q.dissertation_family(td=None)
-        fam = Q.dissertation_family()
-        d = ctrl.design
-        K = control.tf(d["k_num"], d["k_den"])  # as published: negative for (4.16)
-        F = control.tf(d["f_num"], d["f_den"])
-        v0 = Q.verify(fam_nodelay, K, F, specs)
-        vd = Q.verify(fam, K, F, specs)
-        dc = [float(np.real(control.dcgain(F * control.feedback(p.tf * K, 1))))
-              for p in fam_nodelay.plants]
-        report |= {
-            "without_delay": v0.summary(),
-            "with_delay_0.15_0.3_s": vd.summary(),
-            "dc_tracking_band_without_delay": [min(dc), max(dc)],
-            "largest_delay_published_K_keeps_stable": Q.max_stable_delay(fam_nodelay, K),
-        }
-        ver, fam_plot = v0, fam_nodelay
-    else:
-        fam = Q.diagram_family(params, args.plants, seed=args.seed)
-        d = ctrl.design
-        k_num = np.asarray(d["k_num"])
-        if ctrl.sign_correct and k_num[np.nonzero(k_num)[0][0]] < 0:
-            k_num = -k_num
-        K = control.tf(k_num, d["k_den"])
-        F = control.tf(d["f_num"], d["f_den"])
-        if args.design:
-            des = Q.design_qft(fam, specs, seed=args.seed)
-            K, F = des["K"], des["F"]
-            report["design"] = {"K": Q.tf_coefficients(K), "F": Q.tf_coefficients(F),
-                                "worst_ratio": des["worst_ratio"], "params": des["params"]}
-        ver = Q.verify(fam, K, F, specs)
-        report |= {"verification": ver.summary(),
-                   "v_max_6_19": Q.v_max_over_box(params),
-                   "largest_delay_K_keeps_stable": Q.max_stable_delay(fam, K)}
-        fam_plot = fam
-    bounds = Q.compute_bounds(fam_plot, specs)
-    w_dense = np.logspace(-1, 3, 500)
-    P0 = fam_plot.plants[fam_plot.nominal]
-    L0 = P0(w_dense) * np.asarray(K(1j * w_dense))
-    L0_at = P0(bounds.omegas) * np.asarray(K(1j * bounds.omegas))
-    report["nominal_loop_vs_bounds"] = Q.check_loop(bounds, L0_at)
-    figs = {
-        "nichols": plot_nichols(bounds, Q.templates(fam_plot, bounds.omegas), L0, w_dense,
-                                out_dir / "nichols.png"),
-        "tracking": plot_tracking(ver, out_dir / "tracking_bode.png"),
-        "responses": plot_family_responses(ver, out_dir / "family_responses.png"),
-        "zero_dynamics": plot_zero_dynamics(
-            [zero_dynamics_portrait(params.plant, None),
-             zero_dynamics_portrait(params.plant, params.friction, duration=40.0)],
-            out_dir / "zero_dynamics.png"),
-    }
+    res = qft_report(params, args.controller, family=args.family, plants=args.plants,
+                     seed=args.seed, design=args.design)
+    report, ver, fam_plot = res.report, res.verification, res.family
+    figs = {name.split(".")[0]: save_figure(fig, out_dir / name)
+            for name, fig in res.figures().items()}
     report["figures"] = {k: str(v) for k, v in figs.items()}
     _write_json(out_dir / "qft.json", report)
-    lines = [f"family: {fam_plot.name}, {len(fam_plot)} plants, controller {ctrl.preset}"]
+    lines = [f"family: {fam_plot.name}, {len(fam_plot)} plants, controller {report['controller']}"]
     for name, c in ver.checks.items():
         lines.append(f"  {name}: {'holds' if c['holds'] else 'FAILS'} (worst {c['worst']:.4g}, "
                      f"limit {c['limit']:.4g})")
@@ -344,7 +287,7 @@ def _swing_params(args):
 
 def cmd_swing(args) -> int:
     from .analysis.swing.run import run_swing, summary_with_params, write_log_csv
-    from .analysis.swing.plots import animate_swing, plot_swing
+    from .analysis.swing.plots import animate_swing
 
     replay_info = None
     out_dir = _out_dir(args.out)
@@ -356,7 +299,7 @@ def cmd_swing(args) -> int:
         from .analysis.swing.compare import comparison_table, compare_presets, plot_comparison
 
         rows = compare_presets(params)
-        fig = plot_comparison(rows, out_dir / "comparison.png")
+        fig = save_figure(plot_comparison(rows), out_dir / "comparison.png")
         table = comparison_table(rows)
         write_text_atomic(out_dir / "comparison.md", table + "\n")
         data = [{k: v for k, v in r.items() if k != "_result"} for r in rows]
@@ -365,7 +308,7 @@ def cmd_swing(args) -> int:
         return 0
     if replay_info is None:
         res = run_swing(params)
-    files = {"figure": str(plot_swing(res, out_dir / "swing.png")),
+    files = {"figure": str(save_figure(res.plot(), out_dir / "swing.png")),
              "log_csv": str(write_log_csv(res, out_dir / "swing_log.csv"))}
     if not args.no_animation:
         files["animation"] = str(animate_swing(res, out_dir / "swing.gif"))
@@ -446,15 +389,15 @@ def _study(args):
 
 
 def cmd_montecarlo(args) -> int:
-    from .analysis.montecarlo import read_results, run_study, RESULTS_FILE
-    from .analysis.montecarlo.plots import plot_study
+    from .analysis.montecarlo import RESULTS_FILE, StudyResult, run_study
 
     study = _study(args)
     out = _out_dir(args.out)
     summary = run_study(study, out, workers=args.workers or 0, dask=args.dask,
                         scheduler=args.scheduler, progress=not args.json and sys.stderr.isatty())
-    rows = read_results(out / RESULTS_FILE)
-    figs = [str(f) for f in plot_study(study, rows, out)] if not args.no_plots else []
+    figs = ([str(save_figure(fig, out / name))
+             for name, fig in StudyResult.load(out).figures().items()]
+            if not args.no_plots else [])
     summary["files"] = {"results": str(out / RESULTS_FILE), "summary": str(out / "summary.json"),
                         "figures": figs}
     _write_json(out / "summary.json", summary)
@@ -492,7 +435,7 @@ def cmd_benchmark(args) -> int:
     result = run_benchmark(params, presets, quick=args.quick, workers=args.workers or 0,
                            seed=args.seed, progress=not args.json and sys.stderr.isatty(),
                            out=out)
-    fig = plot_benchmark(result, out / "benchmark.png")
+    fig = save_figure(plot_benchmark(result), out / "benchmark.png")
     table = benchmark_table(result)
     write_text_atomic(out / "benchmark.md", table + "\n")
     result["files"] = {"figure": str(fig), "table": str(out / "benchmark.md"),
@@ -516,7 +459,7 @@ def cmd_plan(args) -> int:
     out = _out_dir(args.out)
     # plan_swing validates the scenario, the power limit and the knots
     plan = plan_swing(params, power_limit=args.power, knots=args.knots)
-    figure = plot_plan(plan, out / "plan.png", params)
+    figure = save_figure(plot_plan(plan, params), out / "plan.png")
     summary = plan.summary() | {"figure": str(figure)}
     _write_json(out / "plan.json", summary)
     with atomic_path(out / "plan.csv") as tmp:
@@ -537,7 +480,7 @@ def cmd_plan(args) -> int:
 # ------------------------------------------------------------------ calibrate
 def cmd_calibrate(args) -> int:
     from .analysis.identification.calibration import (calibrate, identify_deadband, identify_plant_family,
-                                       plot_calibration, read_calibration_csv,
+                                       read_calibration_csv,
                                        write_calibrated_toml)
 
     params = _load_params(args)
@@ -547,7 +490,7 @@ def cmd_calibrate(args) -> int:
     res = calibrate(params, log, fit)
     summary = res.summary() | {
         "toml": str(write_calibrated_toml(res, out_dir / "calibrated.toml")),
-        "plot": str(plot_calibration(res, out_dir / "calibration.png"))}
+        "plot": str(save_figure(res.plot(), out_dir / "calibration.png"))}
     if args.deadband:
         summary["deadband"] = identify_deadband(res.params)
     if args.family:

@@ -57,3 +57,30 @@ def test_a_structural_change_is_refused_and_rebuilt():
     runner.run(p, seed=0)
     runner.run(other, seed=0)
     assert runner.builds == 2
+
+
+def test_results_plot_on_the_callers_axes_and_serialise(tmp_path):
+    """Results draw on axes a user passes (and leave that figure's layout
+    alone) or on a new figure; they serialise to strict JSON."""
+    import json
+
+    from matplotlib.figure import Figure
+
+    from bplir_drake.analysis.model.freeswing import simulate_free_swing
+    from bplir_drake.analysis.plotting import save_figure
+
+    res = simulate_free_swing(BplirParams(), (0.5, 0.2), 1.0)
+    own = res.plot()
+    assert len(own.axes) == 3 and own._suptitle.get_text() == "BPLIR free swing"
+    np.testing.assert_array_equal(own.axes[0].lines[0].get_xdata(), res.t)
+    np.testing.assert_array_equal(own.axes[2].lines[0].get_ydata(), res.total)
+    mine = Figure()
+    axes = mine.subplots(1, 3)
+    assert res.plot(axes) is mine and mine._suptitle is None
+    np.testing.assert_array_equal(axes[1].lines[1].get_ydata(), res.x[:, 3])
+    with pytest.raises(ValueError, match="draws on 3 axes; 2 given"):
+        res.plot(Figure().subplots(1, 2))
+    assert save_figure(own, tmp_path / "f.png").read_bytes()[:4] == b"\x89PNG"
+    data = json.loads(res.to_json())
+    assert data == res.summary()  # JSON round trip of plain floats is exact
+    assert data["energy_end_J"] < data["energy_start_J"]  # friction dissipates

@@ -5,6 +5,7 @@ import math
 import numpy as np
 import pytest
 
+from bplir_drake.analysis.plotting import save_figure
 from bplir_drake.cli import main
 from bplir_drake.systems.disturbance import CommandDelay, disturbance_schedule
 
@@ -71,7 +72,7 @@ def test_benchmark_scores_actuation_delay(tmp_path, params):
     assert rows["30 ms"]["outcome"] == "crash" and rows["30 ms"]["capture_speed_mps"] > 5
     assert sc["categories"] == {"delay": 0.0} and sc["overall"] == 0.0
     assert "| delay | 0.00 |" in benchmark_table(res)
-    assert plot_benchmark(res, tmp_path / "b.png").stat().st_size > 20_000
+    assert save_figure(plot_benchmark(res), tmp_path / "b.png").stat().st_size > 20_000
     assert (tmp_path / "benchmark_cases.csv").read_text().count("\n") == 3
 
 

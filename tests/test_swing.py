@@ -6,6 +6,7 @@ from concurrent.futures import ProcessPoolExecutor
 import numpy as np
 import pytest
 
+from bplir_drake.analysis.plotting import save_figure
 from bplir_drake.analysis.swing.run import run_swing
 from bplir_drake.cli import main
 
@@ -142,7 +143,7 @@ def test_compare_presets_and_examples(tmp_path, monkeypatch, params):
     assert by["lab firmware (EKF)"]["outcome"] == "crash"
     assert by["lab firmware (EKF)"]["peak_motor_power_W"] > 220   # beyond the rating
     assert comparison_table(rows).count("\n") == len(rows) + 1
-    assert plot_comparison(rows, tmp_path / "c.png").stat().st_size > 30_000
+    assert save_figure(plot_comparison(rows), tmp_path / "c.png").stat().st_size > 30_000
     # the examples run as written
     import runpy
     import pathlib

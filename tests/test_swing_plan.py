@@ -1,4 +1,4 @@
-"""Trajectory-optimised swing plans (analysis/swing_plan.py, `bplir plan`):
+"""Trajectory-optimised swing plans (analysis/swing/plan.py, `bplir plan`):
 is the 20 degree uphill swing feasible within the motor's 220 W rating?"""
 import dataclasses as dc
 import json
@@ -9,7 +9,8 @@ import pytest
 
 matplotlib.use("Agg")
 
-from bplir_drake.analysis.swing.plan import plan_swing, plot_plan  # noqa: E402
+from bplir_drake.analysis.plotting import save_figure  # noqa: E402
+from bplir_drake.analysis.swing.plan import plan_swing  # noqa: E402
 from bplir_drake.cli import main  # noqa: E402
 from bplir_drake.diagrams import swing_geometry  # noqa: E402
 from bplir_drake.params import BplirParams  # noqa: E402
@@ -57,7 +58,7 @@ def test_uphill_plan_needs_a_back_swing(uphill):
 
 def test_plan_figure_and_cli_errors(uphill, tmp_path, capsys):
     p, plan = uphill
-    path = plot_plan(plan, tmp_path / "plan.png", p)
+    path = save_figure(plan.plot(params=p), tmp_path / "plan.png")
     assert path.stat().st_size > 20_000
     assert main(["plan", "--incline", "95", "--out", str(tmp_path)]) == 2
     assert main(["plan", "--knots", "2", "--out", str(tmp_path)]) == 2

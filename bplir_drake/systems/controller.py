@@ -92,10 +92,19 @@ def tf_to_ss(num, den, period: float = 0.0) -> StateSpace:
 def outer_loop(ctrl: ControllerParams, period: float = 0.0):
     """(K, F) state-space realisations of the configured design."""
     d = ctrl.design
-    k_num = np.asarray(d["k_num"], dtype=float)
+    return (tf_to_ss(outer_loop_numerator(ctrl), d["k_den"], period),
+            tf_to_ss(d["f_num"], d["f_den"], period))
+
+
+def outer_loop_numerator(ctrl: ControllerParams) -> np.ndarray:
+    """The numerator of K as the controller uses it: the configured one,
+    negated when ``sign_correct`` is set and its leading coefficient is
+    negative (the published K = -216 matches the measured plant's sign,
+    the simulated CPFL plant ``q2'' = v`` is positive; README errata)."""
+    k_num = np.asarray(ctrl.design["k_num"], dtype=float)
     if ctrl.sign_correct and k_num[np.nonzero(k_num)[0][0]] < 0:
         k_num = -k_num
-    return (tf_to_ss(k_num, d["k_den"], period), tf_to_ss(d["f_num"], d["f_den"], period))
+    return k_num
 
 
 def saturate_with_antiwindup(e, xK, K: StateSpace, a, b, limit, X: float):

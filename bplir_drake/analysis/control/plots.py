@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..plotting import _plt, _save
+from ..plotting import figure_axes, finish
 
 
 def _nichols_xy(values):
@@ -13,12 +13,13 @@ def _nichols_xy(values):
     return ph, 20 * np.log10(np.abs(values))
 
 
-def plot_nichols(bounds, templates_at_w, L0_dense, w_dense, path, title="QFT Nichols chart"):
+def plot_nichols(bounds, templates_at_w, L0_dense, w_dense, axes=None, title="QFT Nichols chart"):
     """Bounds (contours of the allowed region per design frequency), the
     templates shifted to the nominal loop, and the nominal loop L0."""
-    plt = _plt()
-    fig, ax = plt.subplots(figsize=(9, 7))
-    colors = plt.cm.viridis(np.linspace(0, 1, len(bounds.omegas)))
+    fig, ax = figure_axes(axes, figsize=(9, 7))
+    from matplotlib import colormaps
+
+    colors = colormaps["viridis"](np.linspace(0, 1, len(bounds.omegas)))
     comb = bounds.combined
     for k, (w, c) in enumerate(zip(bounds.omegas, colors)):
         ax.contour(bounds.phases_deg, bounds.mags_db, comb[k].T.astype(float), levels=[0.5],
@@ -37,15 +38,14 @@ def plot_nichols(bounds, templates_at_w, L0_dense, w_dense, path, title="QFT Nic
     ax.set_ylabel("open-loop gain [dB]")
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize=7, loc="lower left", ncol=2)
-    return _save(fig, path, title)
+    return finish(fig, title)
 
 
-def plot_tracking(verification, path, title="Tracking |F L/(1+L)| of the family vs (6.17)"):
-    plt = _plt()
+def plot_tracking(verification, axes=None, title="Tracking |F L/(1+L)| of the family vs (6.17)"):
     r = verification.responses
     w = r["w"]
     lo, up = r["bounds"]
-    fig, ax = plt.subplots(figsize=(8, 5))
+    fig, ax = figure_axes(axes, figsize=(8, 5))
     for m in r["TF_mag"]:
         ax.semilogx(w, 20 * np.log10(m), color="C0", lw=0.6, alpha=0.5)
     ax.semilogx(w, 20 * np.log10(lo), "k--", lw=1.5, label="(6.17) lower")
@@ -55,14 +55,13 @@ def plot_tracking(verification, path, title="Tracking |F L/(1+L)| of the family 
     ax.set_ylabel("magnitude [dB]")
     ax.grid(True, which="both", alpha=0.3)
     ax.legend()
-    return _save(fig, path, title)
+    return finish(fig, title)
 
 
-def plot_family_responses(verification, path, title="Family responses (Figs 6.10-6.12)"):
-    plt = _plt()
+def plot_family_responses(verification, axes=None, title="Family responses (Figs 6.10-6.12)"):
     r = verification.responses
     t = r["t"]
-    fig, axes = plt.subplots(2, 2, figsize=(11, 7))
+    fig, axes = figure_axes(axes, 2, 2, figsize=(11, 7))
     for key, ax, lab in (("step", axes[0, 0], "unit step tracking"),
                          ("u", axes[0, 1], "control v for a unit step"),
                          ("out_dist", axes[1, 0], "unit output disturbance"),
@@ -74,12 +73,11 @@ def plot_family_responses(verification, path, title="Family responses (Figs 6.10
         ax.set_xlabel("time [s]")
     axes[0, 0].axhline(1.1, color="k", ls="--", lw=0.8)
     axes[0, 0].axhline(0.9, color="k", ls="--", lw=0.8)
-    return _save(fig, path, title)
+    return finish(fig, title)
 
 
-def plot_zero_dynamics(portraits, path, title="Zero dynamics (Figs 6.2-6.3)"):
-    plt = _plt()
-    fig, axes = plt.subplots(1, len(portraits), figsize=(6 * len(portraits), 5))
+def plot_zero_dynamics(portraits, axes=None, title="Zero dynamics (Figs 6.2-6.3)"):
+    fig, axes = figure_axes(axes, 1, len(portraits), figsize=(6 * len(portraits), 5))
     axes = np.atleast_1d(axes)
     for ax, pp in zip(axes, portraits):
         for _, q1, qd in pp.trajectories:
@@ -89,4 +87,4 @@ def plot_zero_dynamics(portraits, path, title="Zero dynamics (Figs 6.2-6.3)"):
         ax.set_xlabel("q1 [rad]")
         ax.set_ylabel("q1' [rad/s]")
         ax.grid(True, alpha=0.3)
-    return _save(fig, path, title)
+    return finish(fig, title)

@@ -28,6 +28,7 @@ from dataclasses import dataclass, field
 
 import control
 import numpy as np
+from ..results import Result
 
 
 class QftError(ValueError):
@@ -231,7 +232,7 @@ def check_loop(bounds: Bounds, L0_values) -> dict:
 # ----------------------------------------------------------- verification
 
 @dataclass
-class Verification:
+class Verification(Result):
     family: str
     n_plants: int
     checks: dict          # spec -> {"holds": bool, "worst": float, "limit": float, "worst_plant": str}
@@ -240,6 +241,12 @@ class Verification:
     @property
     def all_hold(self) -> bool:
         return all(c["holds"] for c in self.checks.values())
+
+    def plot(self, axes=None):
+        """The family's step and disturbance responses against the specifications (four axes)."""
+        from .plots import plot_family_responses
+
+        return plot_family_responses(self, axes)
 
     def summary(self) -> dict:
         return {"family": self.family, "plants": self.n_plants, "all_hold": self.all_hold,

@@ -21,12 +21,13 @@ import numpy as np
 
 from ...params import EstimatorParams
 from ...systems.ekf import jacobians, kinematic_f, kinematic_h
+from ..results import Result
 
 DEFAULT_THRESHOLD = 1e-3
 
 
 @dataclass
-class ObservabilityResult:
+class ObservabilityResult(Result):
     t: np.ndarray
     rank_gyro: np.ndarray
     rank_full: np.ndarray
@@ -36,6 +37,12 @@ class ObservabilityResult:
     a42: np.ndarray
     threshold: float
     events: list[dict]         # (5.17) points: a31 or a42 exactly zero
+
+    def plot(self, axes=None):
+        """Relative smallest singular values and the A entries against time (two axes)."""
+        from .plots import plot_observability
+
+        return plot_observability(self, axes)
 
     def summary(self) -> dict:
         ev_g = [e["rank_gyro"] for e in self.events]

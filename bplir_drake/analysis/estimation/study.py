@@ -14,6 +14,7 @@ from ...estimation import gyro_integral
 from ...params import BplirParams
 from ...simulate import logs, make_simulator, run
 from ...systems.plant import absolute_from_relative
+from ..results import Result
 
 #: the default scenario of 5.5: free response, actuation, knock
 DEFAULT_TORQUE = ((0.0, 3.0, 3.6), (0.0, 3.0, 0.0))
@@ -21,7 +22,7 @@ DEFAULT_KNOCK = (6.0, 0.1, 4.0)
 
 
 @dataclass
-class EstimationRun:
+class EstimationRun(Result):
     t: np.ndarray          # filter ticks
     truth: np.ndarray      # (N, 4) absolute
     estimate: np.ndarray   # (N, 4) absolute
@@ -51,6 +52,12 @@ class EstimationRun:
             return float(self.t[0])
         k = int(np.nonzero(bad)[0][-1])
         return float(self.t[k + 1]) if k + 1 < len(self.t) else float("inf")
+
+    def plot(self, axes=None):
+        """EKF and gyro-integral angles against the truth, and their errors (three axes)."""
+        from .plots import plot_estimate
+
+        return plot_estimate(self.t, self.estimate, self.gyro_integral, axes, truth=self.truth)
 
     def summary(self) -> dict:
         r = self.rmse()

@@ -37,6 +37,7 @@ import numpy as np
 from ...io import atomic_path
 
 from ...params import BplirParams
+from ..results import Result
 
 CALIBRATION_COLUMNS = ("t", "q1", "q2")
 FITTABLE = {
@@ -129,7 +130,7 @@ def _with(params: BplirParams, names, values) -> BplirParams:
 
 
 @dataclass
-class CalibrationResult:
+class CalibrationResult(Result):
     names: tuple
     values: np.ndarray
     std_errors: np.ndarray
@@ -141,6 +142,10 @@ class CalibrationResult:
     before: np.ndarray
     after: np.ndarray
     nfev: int
+
+    def plot(self, axes=None):
+        """The log against the simulation before and after the fit (two axes)."""
+        return plot_calibration(self, axes)
 
     def summary(self) -> dict:
         return {"fitted": {n: float(v) for n, v in zip(self.names, self.values)},
@@ -354,11 +359,9 @@ def write_calibrated_toml(result: CalibrationResult, path) -> Path:
     return path
 
 
-def plot_calibration(result: CalibrationResult, path):
-    from ..plotting import _plt, _save
-
-    plt = _plt()
-    fig, ax = plt.subplots(2, 1, figsize=(10, 6), sharex=True)
+def plot_calibration(result: CalibrationResult, axes=None):
+    from ..plotting import figure_axes, finish
+    fig, ax = figure_axes(axes, 2, 1, figsize=(10, 6), sharex=True)
     for i, a in enumerate(ax):
         a.plot(result.t, result.logged[:, i], "k", lw=2, alpha=0.4, label="logged")
         a.plot(result.t, result.before[:, i], "C3:", lw=1, label="model before")
@@ -367,7 +370,7 @@ def plot_calibration(result: CalibrationResult, path):
         a.grid(True, alpha=0.3)
         a.legend(fontsize=8, loc="upper right")
     ax[1].set_xlabel("time [s]")
-    return _save(fig, path, f"Calibration (Fig. 4.7 style): RMSE {result.rmse_before:.4f} -> "
+    return finish(fig, f"Calibration (Fig. 4.7 style): RMSE {result.rmse_before:.4f} -> "
                             f"{result.rmse_after:.4f} rad")
 
 

@@ -9,10 +9,11 @@ from ...diagrams import build_free_swing
 from ...params import BplirParams
 from ...simulate import logs, make_simulator, run
 from .energy import energy, energy_rate_from_forces
+from ..results import Result
 
 
 @dataclass
-class FreeSwingResult:
+class FreeSwingResult(Result):
     t: np.ndarray            # (N,)
     x: np.ndarray            # (N, 4) q1, q2, q1d, q2d
     tau: np.ndarray          # (N,) elbow torque applied
@@ -29,6 +30,12 @@ class FreeSwingResult:
     @property
     def energy_end(self) -> float:
         return float(self.total[-1])
+
+    def plot(self, axes=None):
+        """Angles, rates and energies against time (three axes)."""
+        from .plots import plot_free_swing
+
+        return plot_free_swing(self, axes)
 
     def summary(self) -> dict:
         return {"duration_s": float(self.t[-1] - self.t[0]),

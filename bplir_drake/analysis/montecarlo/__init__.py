@@ -13,7 +13,7 @@
 * :mod:`.plots` -- plots of a study's rows.
 """
 from .executors import map_jobs
-from .runner import prepare_out, replay, run_study
+from .runner import StudyResult, prepare_out, replay, run_study
 from .sampling import (apply_values, base_value, draw_values, error_text, pinned, run_sample,
                        sample_params, sample_seed)
 from .statistics import PERCENTILE_FIELDS, influence, summarize, wilson_interval
@@ -22,7 +22,7 @@ from .study import (DIST_KINDS, RESULT_FIELDS, RESULTS_FILE, STUDY_FILE, SUMMARY
                     UNCERTAIN_BLOCKS, Distribution, Study, StudyError, dissertation_distributions,
                     load_study, save_study, study_from_dict)
 
-__all__ = ["map_jobs", "prepare_out", "replay", "run_study", "apply_values", "base_value",
+__all__ = ["StudyResult", "map_jobs", "prepare_out", "replay", "run_study", "apply_values", "base_value",
            "draw_values", "error_text", "pinned", "run_sample", "sample_params", "sample_seed",
            "PERCENTILE_FIELDS", "influence", "summarize", "wilson_interval", "ResultWriter",
            "columns", "read_results", "DIST_KINDS", "RESULT_FIELDS", "RESULTS_FILE", "STUDY_FILE",

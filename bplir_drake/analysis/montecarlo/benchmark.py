@@ -161,12 +161,10 @@ def benchmark_table(result: dict) -> str:
     return "\n".join(lines)
 
 
-def plot_benchmark(result: dict, path) -> Path:
-    from ..plotting import _plt, _save
-
-    plt = _plt()
+def plot_benchmark(result: dict, axes=None):
+    from ..plotting import figure_axes, finish
     ctrls = list(result["scores"])
-    fig, (ax, ax2) = plt.subplots(1, 2, figsize=(13, 4.8), gridspec_kw={"width_ratios": [2, 3]})
+    fig, (ax, ax2) = figure_axes(axes, 1, 2, figsize=(13, 4.8), gridspec_kw={"width_ratios": [2, 3]})
     cats = result["categories"]
     x = np.arange(len(cats) + 1)
     w = 0.8 / max(1, len(ctrls))
@@ -187,5 +185,5 @@ def plot_benchmark(result: dict, path) -> Path:
     ax2.set_yticks(range(len(ctrls)), ctrls)
     ax2.set_xticks(range(len(labels)), labels, rotation=90, fontsize=6)
     ax2.set_title("success per case (green = all swings captured)")
-    return _save(fig, path, "Robustness benchmark "
+    return finish(fig, "Robustness benchmark "
                             f"({'quick' if result['quick'] else 'full'}, seed {result['seed']})")

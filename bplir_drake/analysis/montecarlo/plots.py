@@ -9,13 +9,12 @@
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
 
 from .statistics import influence
 from .study import Study
-from ..plotting import _plt, _save
+from ..plotting import figure_axes, finish
 
 OUTCOME_COLOURS = {"captured": "tab:green", "crash": "tab:red", "timeout": "tab:orange",
                    "fault": "tab:purple", "error": "black"}
@@ -25,12 +24,11 @@ def _colour(rows):
     return [OUTCOME_COLOURS.get(r["outcome"], "grey") for r in rows]
 
 
-def plot_success_vs_parameters(study: Study, rows: list[dict], path) -> Path:
-    plt = _plt()
+def plot_success_vs_parameters(study: Study, rows: list[dict], axes=None):
     names = study.names or ["index"]
     ncol = min(3, len(names))
     nrow = math.ceil(len(names) / ncol)
-    fig, axes = plt.subplots(nrow, ncol, figsize=(4.6 * ncol, 3.4 * nrow), squeeze=False)
+    fig, axes = figure_axes(axes, nrow, ncol, figsize=(4.6 * ncol, 3.4 * nrow), squeeze=False)
     speed = np.array([r["capture_speed_mps"] for r in rows], dtype=float)
     succ = np.array([bool(r["success"]) for r in rows])
     for ax, name in zip(axes.flat, names):
@@ -50,17 +48,16 @@ def plot_success_vs_parameters(study: Study, rows: list[dict], path) -> Path:
             ax2.set_ylabel("success rate", color="tab:blue")
     for ax in list(axes.flat)[len(names):]:
         ax.axis("off")
-    return _save(fig, path, f"Monte Carlo: {len(rows)} samples, seed {study.seed} "
+    return finish(fig, f"Monte Carlo: {len(rows)} samples, seed {study.seed} "
                             "(green captured, red crash, orange timeout, black error)")
 
 
-def plot_histograms(study: Study, rows: list[dict], path) -> Path:
-    plt = _plt()
+def plot_histograms(study: Study, rows: list[dict], axes=None):
     fields = [("capture_speed_mps", "capture speed [m/s]", study.params.scenario.capture_speed),
               ("swing_time_s", "swing time [s]", None),
               ("peak_torque_Nm", "peak torque [N m]", None),
               ("peak_motor_power_W", "peak motor power [W]", study.params.motor.power_rating)]
-    fig, axes = plt.subplots(2, 2, figsize=(10, 7))
+    fig, axes = figure_axes(axes, 2, 2, figsize=(10, 7))
     for ax, (f, label, limit) in zip(axes.flat, fields):
         v = np.array([r[f] for r in rows if r["outcome"] != "error"], dtype=float)
         v = v[np.isfinite(v)]
@@ -71,14 +68,13 @@ def plot_histograms(study: Study, rows: list[dict], path) -> Path:
             ax.legend()
         ax.set_xlabel(label)
         ax.set_ylabel("samples")
-    return _save(fig, path, "Monte Carlo distributions")
+    return finish(fig, "Monte Carlo distributions")
 
 
-def plot_influence(study: Study, rows: list[dict], path) -> Path:
-    plt = _plt()
+def plot_influence(study: Study, rows: list[dict], axes=None):
     inf = influence(study, rows)
     ranked = sorted(inf, key=inf.get, reverse=True)
-    fig, ax = plt.subplots(figsize=(6.5, 5))
+    fig, ax = figure_axes(axes, figsize=(6.5, 5))
     if len(ranked) >= 2:
         a, b = ranked[:2]
         ax.scatter([r[a] for r in rows], [r[b] for r in rows], c=_colour(rows), s=12)
@@ -90,11 +86,13 @@ def plot_influence(study: Study, rows: list[dict], path) -> Path:
                    c=_colour(rows), s=12)
         ax.set_xlabel(a)
         ax.set_ylabel("capture speed [m/s]")
-    return _save(fig, path, "The two most influential quantities")
+    return finish(fig, "The two most influential quantities")
 
 
-def plot_study(study: Study, rows: list[dict], out) -> list[Path]:
-    out = Path(out)
-    return [plot_success_vs_parameters(study, rows, out / "success_vs_parameters.png"),
-            plot_histograms(study, rows, out / "histograms.png"),
-            plot_influence(study, rows, out / "influence.png")]
+def study_figures(study: Study, rows: list[dict]) -> dict:
+    """The figures of a study's rows by file name: success against each
+    uncertain quantity, histograms of the results, the two most influential
+    quantities."""
+    return {"success_vs_parameters.png": plot_success_vs_parameters(study, rows),
+            "histograms.png": plot_histograms(study, rows),
+            "influence.png": plot_influence(study, rows)}

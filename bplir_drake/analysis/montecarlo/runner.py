@@ -41,9 +41,11 @@ from __future__ import annotations
 
 import os
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 from ...io import write_json_atomic
+from ..results import Result
 from .executors import map_jobs
 from .sampling import run_sample, sample_params
 from .statistics import summarize
@@ -111,3 +113,39 @@ def replay(study_dir, index: int):
     recorded = next((r for r in read_results(study_dir / RESULTS_FILE) if r["index"] == index),
                     None)
     return run_swing(p, seed=seed), recorded
+
+
+@dataclass
+class StudyResult(Result):
+    """A study and its result rows (one dict per sample, sample order)."""
+
+    study: Study
+    rows: list
+
+    @classmethod
+    def load(cls, study_dir) -> "StudyResult":
+        """The study and finished rows of a study directory."""
+        study_dir = Path(study_dir)
+        if not (study_dir / STUDY_FILE).exists():
+            raise StudyError(f"{study_dir} is not a study directory (no {STUDY_FILE})")
+        study = load_study(study_dir / STUDY_FILE)
+        rows = sorted((r for r in read_results(study_dir / RESULTS_FILE, columns(study))
+                       if r["index"] < study.samples), key=lambda r: r["index"])
+        return cls(study, rows)
+
+    def summary(self) -> dict:
+        """Success rate with its Wilson interval, outcomes, percentiles
+        (:func:`~.statistics.summarize`)."""
+        return summarize(self.study, self.rows)
+
+    def plot(self, axes=None):
+        """Success against each uncertain quantity (one axis per quantity)."""
+        from .plots import plot_success_vs_parameters
+
+        return plot_success_vs_parameters(self.study, self.rows, axes)
+
+    def figures(self) -> dict:
+        """Every figure of the study by file name (:func:`~.plots.study_figures`)."""
+        from .plots import study_figures
+
+        return study_figures(self.study, self.rows)

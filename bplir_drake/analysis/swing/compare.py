@@ -39,11 +39,9 @@ def comparison_table(rows) -> str:
     return "\n".join(lines)
 
 
-def plot_comparison(rows, path):
-    from ..plotting import _plt, _save
-
-    plt = _plt()
-    fig, ax = plt.subplots(1, 3, figsize=(15, 4.5))
+def plot_comparison(rows, axes=None):
+    from ..plotting import figure_axes, finish
+    fig, ax = figure_axes(axes, 1, 3, figsize=(15, 4.5))
     for r in rows:
         st = r["_result"].logs["state"]
         tp = r["_result"].params.simulated_plant
@@ -64,4 +62,4 @@ def plot_comparison(rows, path):
     for a in ax:
         a.grid(True, alpha=0.3)
     ax[0].legend(fontsize=7)
-    return _save(fig, path, "Same swing, different controllers / state source")
+    return finish(fig, "Same swing, different controllers / state source")

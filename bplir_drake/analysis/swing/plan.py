@@ -30,13 +30,14 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ...params import BplirParams, ParameterError
+from ..results import Result
 
 #: smallest Coulomb smoothing velocity the planner uses (rad/s)
 PLAN_FRICTION_SMOOTHING = 0.2
 
 
 @dataclass
-class SwingPlan:
+class SwingPlan(Result):
     """A planned swing, sampled densely from the collocation solution."""
 
     times: np.ndarray          # (n,)
@@ -84,6 +85,11 @@ class SwingPlan:
         w = self.states[:, 2]
         moving = w[np.abs(w) > 0.05]
         return int(np.count_nonzero(np.diff(np.sign(moving)) != 0))
+
+    def plot(self, axes=None, *, params: BplirParams):
+        """Angles, torque and power, and the robot on the line drawn with the
+        nominal links and grip spacing of ``params`` (three axes)."""
+        return plot_plan(self, params, axes)
 
     def summary(self) -> dict:
         return {"incline_deg": self.incline_deg, "solved": self.solved,
@@ -234,15 +240,15 @@ def planned_target(params: BplirParams, end_depth: float = 0.0) -> np.ndarray:
     return np.array([-q[0] + math.radians(sc.incline_deg) - math.atan2(end_depth, D), -q[1]])
 
 
-def plot_plan(plan: SwingPlan, path, params: BplirParams):
+def plot_plan(plan: SwingPlan, params: BplirParams, axes=None):
     """Figure of a plan: joint angles, torque and power with the limits, and
-    the robot drawn at a few instants on the line."""
-    import matplotlib.pyplot as plt
+    the robot drawn at a few instants on the line (three axes)."""
+    from matplotlib import colormaps
 
-    from ...io import atomic_path
     from ...systems.plant import elbow_position, gripper_position
+    from ..plotting import figure_axes, finish
 
-    fig, ax = plt.subplots(1, 3, figsize=(15, 4.2))
+    fig, ax = figure_axes(axes, 1, 3, figsize=(15, 4.2))
     t, X = plan.times, plan.states
     ax[0].plot(t, X[:, 0], label="q1")
     ax[0].plot(t, X[:, 1], label="q2")
@@ -263,13 +269,9 @@ def plot_plan(plan: SwingPlan, path, params: BplirParams):
     for k, i in enumerate(np.linspace(0, len(t) - 1, 9).astype(int)):
         e = np.asarray(elbow_position(X[i, :2], p.l1))
         g = np.asarray(gripper_position(X[i, :2], p.l1, p.l2))
-        c = plt.cm.viridis(k / 8)
+        c = colormaps["viridis"](k / 8)
         ax[2].plot([0, e[0], g[0]], [0, e[1], g[1]], "-o", color=c, ms=3)
     ax[2].set_aspect("equal")
     ax[2].set(title=f"{plan.incline_deg:g} deg line, {plan.duration:.2f} s, "
                     f"link 1 reverses {plan.link1_reversals}x")
-    fig.tight_layout()
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=110)
-    plt.close(fig)
-    return path
+    return finish(fig)

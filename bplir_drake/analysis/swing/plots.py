@@ -7,18 +7,17 @@ from pathlib import Path
 import numpy as np
 
 from ...io import atomic_path
-from ..plotting import _plt, _save
+from ..plotting import figure_axes, finish
 from .run import log_table
 
 
-def plot_swing(result, path, title=None) -> Path:
+def plot_swing(result, axes=None, title=None):
     """Six panels in the style of Fig. 7.6: angles, rates, applied torque,
     friction torques, end-effector x/y, energy split."""
-    plt = _plt()
     cols, d = log_table(result)
     c = {k: d[:, i] for i, k in enumerate(cols)}
     s = result.summary
-    fig, ax = plt.subplots(3, 2, figsize=(12, 9), sharex=True)
+    fig, ax = figure_axes(axes, 3, 2, figsize=(12, 9), sharex=True)
     a = ax[0, 0]
     a.plot(c["t"], c["q1"], "C0", label="q1")
     a.plot(c["t"], c["q2"], "C1", label="q2")
@@ -66,12 +65,11 @@ def plot_swing(result, path, title=None) -> Path:
     title = title or (f"BPLIR swing: {s['outcome']} at {s['swing_time_s']:.2f} s, "
                       f"{s['capture_speed_mps']:.2f} m/s (seed {s['seed']}, incline "
                       f"{s['incline_deg']:g} deg, controller {s['controller']})")
-    return _save(fig, path, title)
+    return finish(fig, title)
 
 
 def animate_swing(result, path, fps: int = 25, max_frames: int = 120) -> Path:
     """GIF of the robot on the line (matplotlib + Pillow)."""
-    plt = _plt()
     p = result.params
     tp = p.simulated_plant
     st = result.logs["state"]
@@ -80,7 +78,12 @@ def animate_swing(result, path, fps: int = 25, max_frames: int = 120) -> Path:
                        .astype(int))
     alpha = math.radians(p.scenario.incline_deg)
     D = p.scenario.grip_spacing
-    fig, ax = plt.subplots(figsize=(7, 5))
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(7, 5))
+    FigureCanvasAgg(fig)  # the frames are blitted on an Agg canvas
+    ax = fig.subplots()
     L = tp.l1 + tp.l2
     ax.set_xlim(-L * 1.05, L * 1.05)
     ax.set_ylim(-L * 1.05, 0.6)
@@ -115,7 +118,6 @@ def animate_swing(result, path, fps: int = 25, max_frames: int = 120) -> Path:
         for artist in draw(k):
             ax.draw_artist(artist)
         images.append(Image.fromarray(np.asarray(fig.canvas.buffer_rgba())[..., :3].copy()))
-    plt.close(fig)
     # one palette for all frames, from the last (it holds every colour drawn)
     palette = images[-1].quantize(colors=64)
     frames_p = [im.quantize(palette=palette, dither=Image.Dither.NONE) for im in images]

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ...io import atomic_path
+from ...io import atomic_path, dumps_strict
 
 from ...diagrams import build_swing, set_swing_sample, swing_geometry, swing_structure
 from ...params import BplirParams, to_dict
@@ -40,13 +40,37 @@ def draw_true_friction(params: BplirParams, seed: int) -> BplirParams:
 
 @dataclass
 class SwingResult:
+    """One simulated swing.
+
+    ``summary``: the outcome and its figures (keys with units: outcome,
+    success, swing_time_s, capture_speed_mps, capture_distance_m,
+    peak_torque_Nm, peak_motor_power_W, energy_in_J, thresholds, seed, ...);
+    ``logs``: the logged signals by name (``state``, ``torque``, ``power``,
+    ``estimate``, ``reference``, ``imu``, ...); ``params``: the parameters
+    it ran with (the simulated friction drawn)."""
+
     summary: dict
     logs: dict[str, Log]
     params: BplirParams
 
     @property
     def success(self) -> bool:
+        """The swing captured the line (SPEC.md criteria)."""
         return bool(self.summary["success"])
+
+    def to_dict(self) -> dict:
+        """The summary with the parameters it ran with (``summary.json``)."""
+        return summary_with_params(self)
+
+    def to_json(self) -> str:
+        """:meth:`to_dict` as strict JSON text (NaN and infinity as null)."""
+        return dumps_strict(self.to_dict())
+
+    def plot(self, axes=None, title=None):
+        """Six panels (3 x 2 axes) in the style of Fig. 7.6; returns the figure."""
+        from .plots import plot_swing
+
+        return plot_swing(self, axes, title)
 
 
 #: integrator of a swing: error-controlled RK3 at this accuracy keeps the

@@ -145,16 +145,16 @@ class _CpflLaw:
         if not use_prefilter:
             self.F = tf_to_ss((1.0,), (1.0,))
         self.nK, self.nF = self.K.n, self.F.n
-        self.DeclareVectorInputPort("state", 4)
-        self.DeclareVectorInputPort("reference", 1)
-        self.DeclareVectorInputPort("feedforward", 1)
-        self.DeclareVectorInputPort("torque_available", 1)
+        self.state_port = self.DeclareVectorInputPort("state", 4)
+        self.reference_port = self.DeclareVectorInputPort("reference", 1)
+        self.feedforward_port = self.DeclareVectorInputPort("feedforward", 1)
+        self.available_port = self.DeclareVectorInputPort("torque_available", 1)
 
     def _law(self, context, xF, xK):
-        x = self.get_input_port(0).Eval(context)
-        r = self.get_input_port(1).Eval(context)[0]
-        v_ff = self.get_input_port(2).Eval(context)[0]
-        avail = self.get_input_port(3).Eval(context)[0]
+        x = self.state_port.Eval(context)
+        r = self.reference_port.Eval(context)[0]
+        v_ff = self.feedforward_port.Eval(context)[0]
+        avail = self.available_port.Eval(context)[0]
         F, K = self.F, self.K
         rf = ((F.C @ xF)[0] if self.nF else 0.0 * r) + F.D[0, 0] * r
         e = rf - x[1]
@@ -169,6 +169,7 @@ class _CpflLaw:
         return r, e_t, tau_hat, v_hat + v_ff, tau0
 
     def _split(self, vec):
+        """(prefilter state xF, outer-loop state xK) of a state vector."""
         return vec[:self.nF], vec[self.nF:self.nF + self.nK]
 
 
@@ -185,15 +186,17 @@ class DiscreteCpflController(_CpflLaw, LeafSystem):
         LeafSystem.__init__(self)
         self._setup(plant, ctrl, friction, False, use_prefilter)
         n = self.nF + self.nK
-        # [xF, xK, command of the previous tick (for delay_samples = 1)]
+        # [xF (nF), xK (nK), command of the previous tick (for delay_samples = 1)]:
+        # _split() names the filter states
         self._xd = self.DeclareDiscreteState(n + 1)
         self._tick = declare_tick_result(
             self, self._tick_law, {self.xd_ticket(), self.all_input_ports_ticket()})
         declare_store(self, ctrl.period, self._store)
         dep = {self._tick.ticket()}
-        self.DeclareVectorOutputPort("torque", 1, self._result(0), dep)
-        self.DeclareVectorOutputPort("v", 1, self._result(1), dep)
-        self.DeclareVectorOutputPort("torque_unsaturated", 1, self._result(2), dep)
+        self.torque_port = self.DeclareVectorOutputPort("torque", 1, self._result(0), dep)
+        self.v_port = self.DeclareVectorOutputPort("v", 1, self._result(1), dep)
+        self.unsaturated_port = self.DeclareVectorOutputPort("torque_unsaturated", 1,
+                                                             self._result(2), dep)
 
     def _tick_law(self, context):
         """(applied torque, v, unsaturated torque, next filter state)."""

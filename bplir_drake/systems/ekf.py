@@ -266,26 +266,32 @@ class KinematicEkf(LeafSystem):
         self.params = params
         init = initial_state(params, x0, sigmas)
         self.n = n = len(init.x)
-        self.DeclareVectorInputPort("imu", 6)
-        # [x (n), P (n*n), previous accelerometer input (2), first-sample flag]
+        self.imu_port = self.DeclareVectorInputPort("imu", 6)
+        # [x (n), P (n*n), previous accelerometer input (2), first-sample flag]: _unpack()
         packed = np.concatenate([init.x, init.P.ravel(), [0.0, 0.0], [1.0]])
         self._state = self.DeclareDiscreteState(packed)
         self._post = declare_tick_result(self, self._posterior,
                                          {self.xd_ticket(), self.all_input_ports_ticket()})
         declare_store(self, params.period, self._store)
         dep = {self._post.ticket()}
-        self.DeclareVectorOutputPort("estimate", 4, self._out_abs, dep)
-        self.DeclareVectorOutputPort("estimate_relative", 4, self._out_rel, dep)
-        self.DeclareVectorOutputPort("covariance_diagonal", n, self._out_cov, dep)
-        self.DeclareVectorOutputPort("gyro_bias", 2, self._out_bias, dep)
+        self.estimate_port = self.DeclareVectorOutputPort("estimate", 4, self._out_abs, dep)
+        self.relative_port = self.DeclareVectorOutputPort("estimate_relative", 4, self._out_rel,
+                                                          dep)
+        self.covariance_port = self.DeclareVectorOutputPort("covariance_diagonal", n,
+                                                            self._out_cov, dep)
+        self.bias_port = self.DeclareVectorOutputPort("gyro_bias", 2, self._out_bias, dep)
+
+    def _unpack(self, v):
+        """(filter state, previous accelerometer input, first-sample flag) of
+        the packed discrete state."""
+        n = self.n
+        return (EkfState(v[:n].copy(), v[n:n + n * n].reshape(n, n).copy()),
+                v[n + n * n:n + n * n + 2], v[-1] > 0.5)
 
     def _posterior(self, context):
         """The packed filter state after this tick's sample."""
-        v = context.get_discrete_state(self._state).get_value()
-        n = self.n
-        s = EkfState(v[:n].copy(), v[n:n + n * n].reshape(n, n).copy())
-        sample = self.get_input_port(0).Eval(context)
-        s, u = ekf_step(s, v[n + n * n:n + n * n + 2], sample, self.params, first=v[-1] > 0.5)
+        s, u_prev, first = self._unpack(context.get_discrete_state(self._state).get_value())
+        s, u = ekf_step(s, u_prev, self.imu_port.Eval(context), self.params, first=first)
         return np.concatenate([s.x, s.P.ravel(), u, [0.0]])
 
     def _store(self, context, discrete_state):

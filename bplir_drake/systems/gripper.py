@@ -25,6 +25,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from pydrake.common.containers import namedview
 from pydrake.systems.framework import LeafSystem
 
 from ..params import ScenarioParams
@@ -121,8 +122,10 @@ def first_arrival(x0, x1, T: float, g: LineGeometry, sc: ScenarioParams, passed:
 class GripperInterlock(LeafSystem):
     """Inputs ``state`` (true plant state), ``tripped`` (driver interlock),
     ``estimate`` (the filter's relative state) and ``torque`` (applied).
-    Output ``status`` = [mode index, fixed gripper open, event time, speed at
-    arrival, distance at arrival, travel at arrival, closest distance].
+    Output ``status`` = the first :attr:`N` entries of :attr:`State`: mode
+    index (:data:`OUTCOMES`), fixed gripper open, event time (s), speed at
+    arrival (m/s), distance at arrival (m), travel at arrival (m), closest
+    distance (m).
 
     Decides at every tick ``t_k`` (``period``, the controller rate) from the
     true state at ``t_{k-1}`` and ``t_k``: the first arrival in between is
@@ -131,61 +134,67 @@ class GripperInterlock(LeafSystem):
     tick.  Once decided, the update ends the simulation
     (``EventStatus.ReachedTermination``)."""
 
+    #: the discrete state, by name; the first ``N`` entries are the status
+    State = namedview("InterlockState", [
+        "mode", "fixed_open", "event_time", "speed", "distance", "travel", "closest",
+        "passed", "last_normal", "q1", "q2", "q1d", "q2d"])
     N = 7
 
     def __init__(self, geometry: LineGeometry, scenario: ScenarioParams, period: float = 0.01):
         super().__init__()
         self.geometry, self.scenario, self.period = geometry, scenario, period
-        self.DeclareVectorInputPort("state", 4)
-        self.DeclareVectorInputPort("tripped", 1)
-        self.DeclareVectorInputPort("estimate", 4)
-        self.DeclareVectorInputPort("torque", 1)
-        # [mode, fixed_open, t_event, speed, distance, travel, min_dist, passed, last_normal,
-        #  state at the previous tick (4)]
-        self._xd = self.DeclareDiscreteState(np.array(
-            [0, 0, math.nan, math.nan, math.nan, math.nan, math.inf, 0, -math.inf,
-             0, 0, 0, 0], dtype=float))
+        self.state_port = self.DeclareVectorInputPort("state", 4)
+        self.tripped_port = self.DeclareVectorInputPort("tripped", 1)
+        self.estimate_port = self.DeclareVectorInputPort("estimate", 4)
+        self.torque_port = self.DeclareVectorInputPort("torque", 1)
+        start = self.State(np.zeros(len(self.State._fields)))
+        start.event_time = start.speed = start.distance = start.travel = math.nan
+        start.closest, start.last_normal = math.inf, -math.inf
+        self._xd = self.DeclareDiscreteState(start[:])
         self.DeclareInitializationDiscreteUpdateEvent(self._start)
         declare_store(self, period, self._update)
-        self.DeclareVectorOutputPort("status", self.N, self._out, {self.xd_ticket()})
+        self.status_port = self.DeclareVectorOutputPort("status", self.N, self._out,
+                                                        {self.xd_ticket()})
+
+    def _stored(self, context):
+        return self.State(context.get_discrete_state(self._xd).get_value().copy())
 
     def _start(self, context, discrete_state):
-        d = context.get_discrete_state(self._xd).get_value().copy()
-        d[9:13] = self.get_input_port(0).Eval(context)
-        discrete_state.get_mutable_vector(self._xd).SetFromVector(d)
+        d = self._stored(context)
+        d[9:13] = self.state_port.Eval(context)  # q1, q2, q1d, q2d at t_0
+        discrete_state.get_mutable_vector(self._xd).SetFromVector(d[:])
 
     def _update(self, context, discrete_state):
         from pydrake.systems.framework import EventStatus
 
-        d = context.get_discrete_state(self._xd).get_value().copy()
-        if d[0] != 0:
+        d = self._stored(context)
+        if d.mode != 0:
             return EventStatus.ReachedTermination(self, "swing ended")
         t = context.get_time()
         sc, g = self.scenario, self.geometry
-        x = self.get_input_port(0).Eval(context).tolist()
+        x = self.state_port.Eval(context).tolist()
         s, xa, passed, normal, closest = first_arrival(d[9:13], x, self.period, g, sc,
-                                                       d[7] > 0.5, d[8])
-        d[6] = min(d[6], closest)
-        d[7] = 1.0 if passed else 0.0
-        est = self.get_input_port(2).Eval(context)
-        tau = self.get_input_port(3).Eval(context)[0]
+                                                       d.passed > 0.5, d.last_normal)
+        d.closest = min(d.closest, closest)
+        d.passed = 1.0 if passed else 0.0
+        est = self.estimate_port.Eval(context)
+        tau = self.torque_port.Eval(context)[0]
         if s is not None:
             _, _, travel, speed = line_metrics(xa, g)
             ok = speed <= sc.capture_speed
-            d[0] = OUTCOMES.index("captured" if ok else "crash")
-            d[1] = 1.0 if ok else 0.0
-            d[2:6] = [t - self.period + s * self.period, speed, abs(normal), travel]
-        elif self.get_input_port(1).Eval(context)[0] > 0.5 or not (
+            d.mode = OUTCOMES.index("captured" if ok else "crash")
+            d.fixed_open = 1.0 if ok else 0.0
+            d.event_time = t - self.period + s * self.period
+            d.speed, d.distance, d.travel = speed, abs(normal), travel
+        elif self.tripped_port.Eval(context)[0] > 0.5 or not (
                 np.all(np.isfinite(est)) and math.isfinite(tau)):
-            d[0] = OUTCOMES.index("fault")
-            d[2] = t
+            d.mode, d.event_time = OUTCOMES.index("fault"), t
         elif t >= sc.max_time - 1e-9:
-            d[0] = OUTCOMES.index("timeout")
-            d[2] = t
-        d[8] = normal
+            d.mode, d.event_time = OUTCOMES.index("timeout"), t
+        d.last_normal = normal
         d[9:13] = x
-        discrete_state.get_mutable_vector(self._xd).SetFromVector(d)
-        if d[0] != 0:
+        discrete_state.get_mutable_vector(self._xd).SetFromVector(d[:])
+        if d.mode != 0:
             return EventStatus.ReachedTermination(self, "swing ended")
         return EventStatus.Succeeded()
 
@@ -193,12 +202,14 @@ class GripperInterlock(LeafSystem):
         out.SetFromVector(context.get_discrete_state(self._xd).get_value()[:self.N])
 
     def outcome(self, context) -> str:
-        return OUTCOMES[int(self.GetMyContextFromRoot(context).get_discrete_state(self._xd)
-                            .get_value()[0])]
+        """The outcome so far in ``context`` (root): one of
+        :data:`OUTCOMES`."""
+        return OUTCOMES[int(self._stored(self.GetMyContextFromRoot(context)).mode)]
 
     def status(self, context) -> dict:
-        d = self.GetMyContextFromRoot(context).get_discrete_state(self._xd).get_value()
-        return {"outcome": OUTCOMES[int(d[0])], "fixed_gripper_open": bool(d[1] > 0.5),
-                "event_time_s": float(d[2]), "capture_speed_mps": float(d[3]),
-                "capture_distance_m": float(d[4]), "travel_m": float(d[5]),
-                "closest_distance_m": float(d[6])}
+        """The decision in ``context`` (root) with its figures (s, m/s, m)."""
+        d = self._stored(self.GetMyContextFromRoot(context))
+        return {"outcome": OUTCOMES[int(d.mode)], "fixed_gripper_open": bool(d.fixed_open > 0.5),
+                "event_time_s": float(d.event_time), "capture_speed_mps": float(d.speed),
+                "capture_distance_m": float(d.distance), "travel_m": float(d.travel),
+                "closest_distance_m": float(d.closest)}

@@ -70,8 +70,8 @@ class DriverLogic(LeafSystem):
         super().__init__()
         self.params = params
         self._budget = interlock_budget(params)
-        cmd = self.DeclareVectorInputPort("torque_command", 1)
-        self.DeclareVectorInputPort("current", 1)
+        self.command_port = cmd = self.DeclareVectorInputPort("torque_command", 1)
+        self.current_port = self.DeclareVectorInputPort("current", 1)
         self._h = self.DeclareDiscreteState(2)
         self.DeclarePeriodicDiscreteUpdateEvent(params.driver_period, 0.0, self._update)
         xd = {self.xd_ticket()}
@@ -84,7 +84,7 @@ class DriverLogic(LeafSystem):
         return context.get_discrete_state(self._h).GetAtIndex(1) > 0.5
 
     def _update(self, context, discrete_state):
-        i = self.get_input_port(1).Eval(context)[0]
+        i = self.current_port.Eval(context)[0]
         h, tripped = context.get_discrete_state(self._h).get_value()
         p = self.params
         h = max(0.0, h + p.driver_period * (i * i - p.i_cont ** 2))
@@ -95,7 +95,7 @@ class DriverLogic(LeafSystem):
         discrete_state.get_mutable_vector(self._h).SetFromVector([h, tripped])
 
     def _calc_target(self, context, out):
-        tau = self.get_input_port(0).Eval(context)[0]
+        tau = self.command_port.Eval(context)[0]
         out.SetAtIndex(0, current_command(tau, self.params, self._tripped(context)))
 
     def _calc_tripped(self, context, out):

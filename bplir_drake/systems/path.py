@@ -341,9 +341,15 @@ def step_blend_end(s_e, s, qd1, g: PathGeometry, pp: PathParams, p: PlantParams,
 
 # ----------------------------------------------------------- the system
 
+from pydrake.common.containers import namedview  # noqa: E402
 from pydrake.autodiffutils import AutoDiffXd  # noqa: E402
 from pydrake.systems.framework import LeafSystem_  # noqa: E402
 from pydrake.systems.scalar_conversion import TemplateSystem  # noqa: E402
+
+
+#: the path generator's discrete state, by name
+PATH_STATE = namedview("PathState", ["blend_end", "blend_floor", "latched", "calibration_s0",
+                                     "calibration_Y0", "link1_damping"])
 
 
 @TemplateSystem.define("PathGenerator_", T_list=(float, AutoDiffXd))
@@ -357,8 +363,10 @@ def PathGenerator_(T):
         tick's path state (:meth:`_advance`: blend end, blend floor, latch,
         calibration) is computed once from the stored state and the input,
         the outputs are evaluated on it, and it is stored at the next tick.
-        Discrete state ``[s_e, blend floor, latched, calibration s0, Y0 (nan
-        until recorded), effective link-1 damping]``."""
+        Discrete state :data:`PATH_STATE`: the blend end ``s_e`` (rad), the
+        blend floor, the latch flag, the calibration's start ``s0`` (rad) and
+        ``Y0`` (its squared rate, nan until recorded, -1 once used) and the
+        effective link-1 damping (N m s/rad)."""
 
         def _construct(self, plant: PlantParams, path: PathParams, geometry: PathGeometry,
                        period: float, fv1: float = 0.0, converter=None):
@@ -366,9 +374,9 @@ def PathGenerator_(T):
             LeafSystem_[T].__init__(self, converter)
             self.plant_params, self.path, self.geometry = plant, path, geometry
             self.period, self.fv1 = period, fv1
-            self.DeclareVectorInputPort("state", 4)
+            self.state_port = self.DeclareVectorInputPort("state", 4)
             self._xd = self.DeclareDiscreteState(
-                np.array([geometry.s_f, 0.0, 0.0, np.nan, np.nan, fv1]))
+                np.array([geometry.s_f, 0.0, 0.0, np.nan, np.nan, fv1]))  # PATH_STATE
             self._next = declare_tick_result(self, self._advance,
                                              {self.xd_ticket(), self.all_input_ports_ticket()})
             # the path and its derivatives at the estimate, once per tick for both outputs
@@ -376,17 +384,21 @@ def PathGenerator_(T):
                 self, self._phi, {self._next.ticket(), self.all_input_ports_ticket()})
             declare_store(self, period, self._store)
             dep = {self._next.ticket()}
-            self.DeclareVectorOutputPort("reference", 1, self._out_ref, {self._path_at.ticket()})
-            self.DeclareVectorOutputPort("feedforward", 1, self._out_ff, {self._path_at.ticket()})
-            self.DeclareVectorOutputPort("blend_end", 2, self._out_blend, dep)
+            at = {self._path_at.ticket()}
+            self.reference_port = self.DeclareVectorOutputPort("reference", 1, self._out_ref, at)
+            self.feedforward_port = self.DeclareVectorOutputPort("feedforward", 1, self._out_ff,
+                                                                 at)
+            self.blend_end_port = self.DeclareVectorOutputPort("blend_end", 2, self._out_blend,
+                                                               dep)
 
         def _construct_copy(self, other, converter=None):
             Impl._construct(self, other.plant_params, other.path, other.geometry, other.period,
                             other.fv1, converter=converter)
 
         def _phi(self, context):
-            x = self.get_input_port(0).Eval(context)
-            s_e, floor, latched = self._next.Eval(context)[:3]
+            x = self.state_port.Eval(context)
+            st = PATH_STATE(self._next.Eval(context))
+            s_e, floor, latched = st.blend_end, st.blend_floor, st.latched
             g, pp = self.geometry, self.path
             s = x[0] - g.alpha + x[2] * pp.lead_time
             if pp.mode == "lab":
@@ -446,9 +458,11 @@ def PathGenerator_(T):
 
         def _advance(self, context):
             """This tick's path state from the stored one and the estimate."""
-            x = np.array([float(_value(v)) for v in self.get_input_port(0).Eval(context)])
-            d = [float(_value(v)) for v in context.get_discrete_state(self._xd).CopyToVector()]
-            s_e, floor, latched, cal_s, cal_Y, fv = d
+            x = np.array([float(_value(v)) for v in self.state_port.Eval(context)])
+            st = PATH_STATE(np.array([float(_value(v))
+                                      for v in context.get_discrete_state(self._xd).CopyToVector()]))
+            s_e, floor, latched = st.blend_end, st.blend_floor, st.latched
+            cal_s, cal_Y, fv = st.calibration_s0, st.calibration_Y0, st.link1_damping
             g, pp = self.geometry, self.path
             s, w = x[0] - g.alpha, x[2]
             if pp.mode == "adaptive" and pp.calibrate and s < 0:

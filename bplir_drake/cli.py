@@ -507,119 +507,114 @@ def cmd_calibrate(args) -> int:
 
 # ------------------------------------------------------------------ main
 def build_parser() -> argparse.ArgumentParser:
+    """The ``bplir`` command line: one subcommand per job."""
     parser = _Parser(prog="bplir", description="Brachiating Power Line Inspection Robot tools")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
 
-    def common(p):
+    def command(name, func, help, out=None):
+        """A subcommand with the parameter options (and ``--out DIR``)."""
+        p = sub.add_parser(name, help=help)
         p.add_argument("--preset", default=None, help="parameter preset (dissertation, lab)")
         p.add_argument("--config", default=None, help="parameter TOML file")
         p.add_argument("--json", action="store_true", help="print JSON on stdout")
+        if out:
+            p.add_argument("--out", default=out, help=f"output directory (default {out})")
+        p.set_defaults(func=func)
+        return p
 
-    p = sub.add_parser("model", help="model facts: T_min, Table 4.1, hanging eigenvalues")
-    common(p)
-    p.set_defaults(func=cmd_model)
+    def option(p, name, kind=None, default=None, help=None, **kw):
+        if kind is bool:
+            return p.add_argument(name, action="store_true", help=help)
+        return p.add_argument(name, type=kind, default=default, help=help, **kw)
 
-    p = sub.add_parser("freeswing", help="simulate a free swing (plant + friction)")
-    common(p)
-    p.add_argument("--q0", default="0.8,0.0", help="initial angles Q1,Q2 in rad")
-    p.add_argument("--duration", type=float, default=10.0, help="seconds to simulate")
-    p.add_argument("--torque", type=float, default=0.0, help="constant elbow torque (N m)")
-    p.add_argument("--no-friction", action="store_true", help="switch friction off")
-    p.add_argument("--out", default="out/freeswing", help="output directory")
-    p.set_defaults(func=cmd_freeswing)
+    def shared(p, *names):
+        """Options several subcommands share, by name."""
+        table = {"incline": ("--incline", float, None, "line incline in degrees"),
+                 "controller": ("--controller", None, None,
+                                "controller preset (qft, dissertation, lab)"),
+                 "workers": ("--workers", int, None, "worker processes (default: all cores)")}
+        for n in names:
+            option(p, *table[n])
 
-    p = sub.add_parser("estimate", help="run the kinematic EKF over an IMU log (CSV)")
-    common(p)
+    command("model", cmd_model, "model facts: T_min, Table 4.1, hanging eigenvalues")
+
+    p = command("freeswing", cmd_freeswing, "simulate a free swing (plant + friction)",
+                "out/freeswing")
+    option(p, "--q0", None, "0.8,0.0", "initial angles Q1,Q2 in rad")
+    option(p, "--duration", float, 10.0, "seconds to simulate")
+    option(p, "--torque", float, 0.0, "constant elbow torque (N m)")
+    option(p, "--no-friction", bool, help="switch friction off")
+
+    p = command("estimate", cmd_estimate, "run the kinematic EKF over an IMU log (CSV)")
     p.add_argument("log", help="CSV with header t,gyro1,gyro2,acc1_x,acc1_y,acc2_x,acc2_y")
-    p.add_argument("--r1", type=float, default=None, help="IMU 1 distance from joint 1 (m)")
-    p.add_argument("--r2", type=float, default=None, help="IMU 2 distance from the elbow (m)")
-    p.add_argument("--l1", type=float, default=None, help="link 1 length (m)")
-    p.add_argument("--period", type=float, default=None, help="sampling period (s)")
-    p.add_argument("--x0", default=None, help="initial T1,T2,W1,W2 (absolute)")
-    p.add_argument("--no-bias", action="store_true", help="no gyro-bias states")
-    p.add_argument("--calibrate", type=float, default=0.0,
-                   help="seconds of stationary data at the start to calibrate gyro bias")
-    p.add_argument("--out", default=None, help="estimate CSV to write")
-    p.add_argument("--plot", default=None, help="PNG to write")
-    p.set_defaults(func=cmd_estimate)
+    for name, what in (("--r1", "IMU 1 distance from joint 1 (m)"),
+                       ("--r2", "IMU 2 distance from the elbow (m)"),
+                       ("--l1", "link 1 length (m)"), ("--period", "sampling period (s)")):
+        option(p, name, float, None, what)
+    option(p, "--x0", None, None, "initial T1,T2,W1,W2 (absolute)")
+    option(p, "--no-bias", bool, help="no gyro-bias states")
+    option(p, "--calibrate", float, 0.0,
+           "seconds of stationary data at the start to calibrate gyro bias")
+    option(p, "--out", None, None, "estimate CSV to write")
+    option(p, "--plot", None, None, "PNG to write")
 
-    p = sub.add_parser("observability", help="observability of the kinematic model along a swing")
-    common(p)
-    p.add_argument("--duration", type=float, default=4.0)
-    p.add_argument("--torque", type=float, default=8.0, help="elbow torque after 1 s (N m)")
-    p.add_argument("--threshold", type=float, default=1e-3, help="relative rank threshold")
-    p.add_argument("--out", default="out/observability")
-    p.set_defaults(func=cmd_observability)
+    p = command("observability", cmd_observability,
+                "observability of the kinematic model along a swing", "out/observability")
+    option(p, "--duration", float, 4.0, "seconds to simulate")
+    option(p, "--torque", float, 8.0, "elbow torque after 1 s (N m)")
+    option(p, "--threshold", float, 1e-3, "relative rank threshold")
 
-    p = sub.add_parser("swing", help="one brachiation swing (the main job)")
-    common(p)
-    p.add_argument("--incline", type=float, default=None, help="line incline in degrees")
-    p.add_argument("--controller", default=None, help="controller preset (qft, dissertation, lab)")
-    p.add_argument("--seed", type=int, default=None, help="seed of friction draw and sensor noise")
-    p.add_argument("--true-state", action="store_true", help="control from the true state")
-    p.add_argument("--no-animation", action="store_true", help="skip the GIF")
-    p.add_argument("--compare", action="store_true",
-                   help="run the swing with each controller preset and the true state")
-    p.add_argument("--replay", default=None, metavar="STUDY_DIR",
-                   help="re-run one sample of a Monte Carlo study (with --sample)")
-    p.add_argument("--sample", type=int, default=None, metavar="K", help="sample index to replay")
-    p.add_argument("--out", default="out/swing")
-    p.set_defaults(func=cmd_swing)
+    p = command("swing", cmd_swing, "one brachiation swing (the main job)", "out/swing")
+    shared(p, "incline", "controller")
+    option(p, "--seed", int, None, "seed of friction draw and sensor noise")
+    option(p, "--true-state", bool, help="control from the true state")
+    option(p, "--no-animation", bool, help="skip the GIF")
+    option(p, "--compare", bool, help="run the swing with each controller preset and the true state")
+    option(p, "--replay", None, None, "re-run one sample of a Monte Carlo study (with --sample)",
+           metavar="STUDY_DIR")
+    option(p, "--sample", int, None, "sample index to replay", metavar="K")
 
-    p = sub.add_parser("montecarlo", help="Monte Carlo robustness study over uncertain parameters")
-    common(p)
+    p = command("montecarlo", cmd_montecarlo,
+                "Monte Carlo robustness study over uncertain parameters", "out/montecarlo")
     p.add_argument("-n", "--samples", type=int, default=None, help="number of swings")
-    p.add_argument("--seed", type=int, default=None, help="root seed of the study")
-    p.add_argument("--workers", type=int, default=None, help="worker processes (default: all cores)")
-    p.add_argument("--study", default=None, help="study TOML file (distributions, scenario)")
-    p.add_argument("--incline", type=float, default=None, help="line incline in degrees")
+    option(p, "--seed", int, None, "root seed of the study")
+    shared(p, "workers", "incline")
+    option(p, "--study", None, None, "study TOML file (distributions, scenario)")
     g = p.add_mutually_exclusive_group()
     g.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="run on an existing Dask cluster")
     g.add_argument("--dask", action="store_true", help="run on a local Dask cluster")
-    p.add_argument("--no-plots", action="store_true", help="skip the figures")
-    p.add_argument("--out", default="out/montecarlo")
-    p.set_defaults(func=cmd_montecarlo)
+    option(p, "--no-plots", bool, help="skip the figures")
 
-    p = sub.add_parser("benchmark", help="robustness benchmark of the controller presets")
-    common(p)
-    p.add_argument("--quick", action="store_true", help="fewer cases (about a minute)")
-    p.add_argument("--controllers", default="qft,dissertation,lab",
-                   help="controller presets to score")
-    p.add_argument("--workers", type=int, default=None, help="worker processes (default: all cores)")
-    p.add_argument("--seed", type=int, default=0, help="root seed of the benchmark")
-    p.add_argument("--out", default="out/benchmark")
-    p.set_defaults(func=cmd_benchmark)
+    p = command("benchmark", cmd_benchmark, "robustness benchmark of the controller presets",
+                "out/benchmark")
+    option(p, "--quick", bool, help="fewer cases (about a minute)")
+    option(p, "--controllers", None, "qft,dissertation,lab", "controller presets to score")
+    shared(p, "workers")
+    option(p, "--seed", int, 0, "root seed of the benchmark")
 
-    p = sub.add_parser("plan", help="plan a swing by trajectory optimisation (torque and power limits)")
-    common(p)
-    p.add_argument("--incline", type=float, default=None, help="line incline in degrees")
-    p.add_argument("--power", type=float, default=None, help="motor power limit in W (default: rating)")
-    p.add_argument("--knots", type=int, default=41, help="collocation knots")
-    p.add_argument("--out", default="out/plan")
-    p.set_defaults(func=cmd_plan)
+    p = command("plan", cmd_plan,
+                "plan a swing by trajectory optimisation (torque and power limits)", "out/plan")
+    shared(p, "incline")
+    option(p, "--power", float, None, "motor power limit in W (default: rating)")
+    option(p, "--knots", int, 41, "collocation knots")
 
-    p = sub.add_parser("calibrate", help="fit the plant model to a logged run (4.5)")
-    common(p)
+    p = command("calibrate", cmd_calibrate, "fit the plant model to a logged run (4.5)",
+                "out/calibration")
     p.add_argument("log", help="CSV with t,q1,q2 and tau (N m) or i_cmd (A)")
-    p.add_argument("--fit", default="fv1,fv2,fc1,fc2",
-                   help="parameters to fit (fv1,fv2,fc1,fc2,I1,I2,lc1,lc2,m1,m2)")
-    p.add_argument("--deadband", action="store_true",
-                   help="also identify the dead-band of the calibrated model (4.6)")
-    p.add_argument("--family", action="store_true",
-                   help="also identify the CPFL plant family of the calibrated model (4.7)")
-    p.add_argument("--out", default="out/calibration")
-    p.set_defaults(func=cmd_calibrate)
+    option(p, "--fit", None, "fv1,fv2,fc1,fc2",
+           "parameters to fit (fv1,fv2,fc1,fc2,I1,I2,lc1,lc2,m1,m2)")
+    option(p, "--deadband", bool, help="also identify the dead-band of the calibrated model (4.6)")
+    option(p, "--family", bool,
+           help="also identify the CPFL plant family of the calibrated model (4.7)")
 
-    p = sub.add_parser("qft", help="QFT design/verification on a plant family")
-    common(p)
-    p.add_argument("--family", choices=("dissertation", "diagram"), default="diagram")
-    p.add_argument("--controller", default=None, help="controller preset (qft, dissertation, lab)")
-    p.add_argument("--plants", type=int, default=60, help="sampled plants of the diagram family")
-    p.add_argument("--seed", type=int, default=1, help="seed of the sampled family")
-    p.add_argument("--design", action="store_true", help="re-run the loop-shaping design")
-    p.add_argument("--out", default="out/qft")
-    p.set_defaults(func=cmd_qft)
+    p = command("qft", cmd_qft, "QFT design/verification on a plant family", "out/qft")
+    p.add_argument("--family", choices=("dissertation", "diagram"), default="diagram",
+                   help="plant family: published or linearised from the diagram")
+    shared(p, "controller")
+    option(p, "--plants", int, 60, "sampled plants of the diagram family")
+    option(p, "--seed", int, 1, "seed of the sampled family")
+    option(p, "--design", bool, help="re-run the loop-shaping design")
     return parser
 
 

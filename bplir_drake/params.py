@@ -39,6 +39,16 @@ def _p(default, unit: str, lo: float = -INF, hi: float = INF, *, lo_open=False,
                                                 doc=doc))
 
 
+def _positive(default, unit: str, *, doc: str = ""):
+    """A numeric field that must be > 0 (a length, mass, period, ...)."""
+    return _p(default, unit, 0, lo_open=True, doc=doc)
+
+
+def _fraction(default, *, doc: str = ""):
+    """A dimensionless field in (0, 1] (an efficiency, a share)."""
+    return _p(default, "", 0, 1, lo_open=True, doc=doc)
+
+
 def _range_text(md) -> str:
     lo, hi = md["lo"], md["hi"]
     left = "(" if md["lo_open"] or lo == -INF else "["
@@ -126,14 +136,14 @@ class PlantParams(_Block):
     """Rigid-body parameters of the two-link acrobot (Table 4.3)."""
 
     _name = "plant"
-    m1: float = _p(3.2287, "kg", 0, lo_open=True, doc="mass of link 1 (gripper-side link)")
-    m2: float = _p(1.5155, "kg", 0, lo_open=True, doc="mass of link 2 (free link)")
-    l1: float = _p(0.9091, "m", 0, lo_open=True, doc="length of link 1 (pivot to elbow)")
-    l2: float = _p(1.2451, "m", 0, lo_open=True, doc="length of link 2 (elbow to free gripper)")
+    m1: float = _positive(3.2287, "kg", doc="mass of link 1 (gripper-side link)")
+    m2: float = _positive(1.5155, "kg", doc="mass of link 2 (free link)")
+    l1: float = _positive(0.9091, "m", doc="length of link 1 (pivot to elbow)")
+    l2: float = _positive(1.2451, "m", doc="length of link 2 (elbow to free gripper)")
     lc1: float = _p(0.2167, "m", 0, doc="pivot to centre of mass of link 1")
     lc2: float = _p(0.5459, "m", 0, doc="elbow to centre of mass of link 2")
-    I1: float = _p(0.1539, "kg m^2", 0, lo_open=True, doc="inertia of link 1 about its CoM")
-    I2: float = _p(0.2191, "kg m^2", 0, lo_open=True, doc="inertia of link 2 about its CoM")
+    I1: float = _positive(0.1539, "kg m^2", doc="inertia of link 1 about its CoM")
+    I2: float = _positive(0.2191, "kg m^2", doc="inertia of link 2 about its CoM")
     g: float = _p(9.81, "m/s^2", 0, 30, lo_open=True, doc="gravitational acceleration")
 
     def _check(self):
@@ -175,8 +185,16 @@ class FrictionParams(_Block):
         return k * self.area1, k * self.area2
 
     def scaled(self, viscous: float = 1.0, coulomb: float = 1.0) -> "FrictionParams":
-        return replace(self, fv1=self.fv1 * viscous, fv2=self.fv2 * viscous,
-                       fc1=self.fc1 * coulomb, fc2=self.fc2 * coulomb)
+        """Both viscous coefficients times ``viscous``, both Coulomb ones
+        times ``coulomb``."""
+        return self.with_factors((viscous, viscous, coulomb, coulomb))
+
+    def with_factors(self, factors) -> "FrictionParams":
+        """``(fv1, fv2, fc1, fc2)`` each times its factor (a perturbed
+        friction, e.g. drawn within +/- 20 % as in 3.3)."""
+        k = [float(v) for v in factors]
+        return replace(self, fv1=self.fv1 * k[0], fv2=self.fv2 * k[1], fc1=self.fc1 * k[2],
+                       fc2=self.fc2 * k[3])
 
 
 # ---------------------------------------------------------------- motor
@@ -192,19 +210,19 @@ class MotorParams(_Block):
     """
 
     _name = "motor"
-    km: float = _p(3.43 / 124.0, "N m/A", 0, lo_open=True, doc="motor torque constant")
-    gear_ratio: float = _p(74.0, "", 0, lo_open=True, doc="gearbox ratio N")
-    eta_g: float = _p(0.72, "", 0, 1, lo_open=True, doc="gearbox efficiency")
-    eta_m: float = _p(0.90, "", 0, 1, lo_open=True, doc="motor efficiency")
-    i_peak: float = _p(15.0, "A", 0, lo_open=True, doc="driver peak current")
-    t_peak: float = _p(2.675, "s", 0, lo_open=True, doc="time the driver holds peak current")
-    i_cont: float = _p(5.0, "A", 0, lo_open=True, doc="driver continuous current")
+    km: float = _positive(3.43 / 124.0, "N m/A", doc="motor torque constant")
+    gear_ratio: float = _positive(74.0, "", doc="gearbox ratio N")
+    eta_g: float = _fraction(0.72, doc="gearbox efficiency")
+    eta_m: float = _fraction(0.90, doc="motor efficiency")
+    i_peak: float = _positive(15.0, "A", doc="driver peak current")
+    t_peak: float = _positive(2.675, "s", doc="time the driver holds peak current")
+    i_cont: float = _positive(5.0, "A", doc="driver continuous current")
     tau_current: float = _p(0.005, "s", 0, 0.01, lo_open=True,
                             doc="current-loop time constant (<= 10 ms, 4.4)")
     deadband: float = _p(0.82336, "N m", 0, doc="torque dead-band (4.14)")
     torque_limit: float = _p(20.0, "N m", 0, lo_open=True,
                              doc="torque saturation (20 theoretical, 15 practical)")
-    power_rating: float = _p(220.0, "W", 0, lo_open=True, doc="motor power rating")
+    power_rating: float = _positive(220.0, "W", doc="motor power rating")
     driver_period: float = _p(0.01, "s", 0, 1, lo_open=True,
                               doc="update period of the driver's i^2 t interlock")
 
@@ -233,8 +251,8 @@ class ImuParams(_Block):
     """
 
     _name = "imu"
-    r1: float = _p(0.5, "m", 0, lo_open=True, doc="IMU 1 distance from the gripper joint along link 1")
-    r2: float = _p(0.5, "m", 0, lo_open=True, doc="IMU 2 distance from the elbow along link 2")
+    r1: float = _positive(0.5, "m", doc="IMU 1 distance from the gripper joint along link 1")
+    r2: float = _positive(0.5, "m", doc="IMU 2 distance from the elbow along link 2")
     rate_hz: float = _p(100.0, "Hz", 1, 10000, doc="sampling rate (zero-order hold)")
     accel_sigma: float = _p(0.02156, "m/s^2", 0, doc="accelerometer white noise per sample (5.36)")
     gyro_sigma: float = _p(0.0166, "rad/s", 0, doc="gyro white noise per sample (5.37)")
@@ -286,27 +304,27 @@ class EstimatorParams(_Block):
                 raise ParameterError(f"estimator.{name} = '{getattr(self, name)}' is unknown; "
                                      "allowed: euler, trapezoid")
 
-    r1: float = _p(0.5, "m", 0, lo_open=True, doc="IMU 1 distance from joint 1 (filter geometry)")
-    r2: float = _p(0.5, "m", 0, lo_open=True, doc="IMU 2 distance from the elbow")
-    l1: float = _p(0.9091, "m", 0, lo_open=True, doc="link 1 length (filter geometry)")
+    r1: float = _positive(0.5, "m", doc="IMU 1 distance from joint 1 (filter geometry)")
+    r2: float = _positive(0.5, "m", doc="IMU 2 distance from the elbow")
+    l1: float = _positive(0.9091, "m", doc="link 1 length (filter geometry)")
     g: float = _p(9.81, "m/s^2", 0, 30, lo_open=True, doc="gravity used by the filter")
     period: float = _p(0.01, "s", 0, 1, lo_open=True, doc="filter period (100 Hz)")
-    accel_process_sigma: float = _p(0.427, "m/s^2", 0, lo_open=True, doc="(5.39) process noise on the accelerometer inputs")
-    gyro_meas_sigma: float = _p(0.02, "rad/s", 0, lo_open=True, doc="(5.40) gyro measurement noise")
-    accel_meas_sigma: float = _p(0.427, "m/s^2", 0, lo_open=True, doc="accelerometer measurement noise (5.39)")
+    accel_process_sigma: float = _positive(0.427, "m/s^2", doc="(5.39) process noise on the accelerometer inputs")
+    gyro_meas_sigma: float = _positive(0.02, "rad/s", doc="(5.40) gyro measurement noise")
+    accel_meas_sigma: float = _positive(0.427, "m/s^2", doc="accelerometer measurement noise (5.39)")
     integration: str = "euler"
-    loop_accel_process_sigma: float = _p(2.0, "m/s^2", 0, lo_open=True, doc="in-loop tuning: process noise")
-    loop_gyro_meas_sigma: float = _p(0.0166, "rad/s", 0, lo_open=True, doc="in-loop tuning: gyro noise (Table 5.1)")
-    loop_accel_meas_sigma: float = _p(0.05, "m/s^2", 0, lo_open=True, doc="in-loop tuning: accelerometer noise")
+    loop_accel_process_sigma: float = _positive(2.0, "m/s^2", doc="in-loop tuning: process noise")
+    loop_gyro_meas_sigma: float = _positive(0.0166, "rad/s", doc="in-loop tuning: gyro noise (Table 5.1)")
+    loop_accel_meas_sigma: float = _positive(0.05, "m/s^2", doc="in-loop tuning: accelerometer noise")
     loop_integration: str = "trapezoid"
-    p0_angle: float = _p(1.0, "rad", 0, lo_open=True, doc="initial angle standard deviation")
-    p0_rate: float = _p(0.5, "rad/s", 0, lo_open=True, doc="initial rate standard deviation")
-    start_angle_sigma: float = _p(0.02, "rad", 0, lo_open=True, doc="initial angle sd when a swing starts from its known pose on the line")
-    start_rate_sigma: float = _p(0.05, "rad/s", 0, lo_open=True, doc="initial rate sd at a swing start (at rest)")
-    start_bias_sigma: float = _p(0.002, "rad/s", 0, lo_open=True, doc="gyro-bias sd at a swing start (calibrated while held on the line)")
+    p0_angle: float = _positive(1.0, "rad", doc="initial angle standard deviation")
+    p0_rate: float = _positive(0.5, "rad/s", doc="initial rate standard deviation")
+    start_angle_sigma: float = _positive(0.02, "rad", doc="initial angle sd when a swing starts from its known pose on the line")
+    start_rate_sigma: float = _positive(0.05, "rad/s", doc="initial rate sd at a swing start (at rest)")
+    start_bias_sigma: float = _positive(0.002, "rad/s", doc="gyro-bias sd at a swing start (calibrated while held on the line)")
     estimate_bias: bool = True
-    bias_sigma0: float = _p(0.05, "rad/s", 0, lo_open=True, doc="initial gyro-bias standard deviation")
-    bias_walk: float = _p(1e-3, "rad/s/sqrt(s)", 0, lo_open=True, doc="gyro-bias random walk")
+    bias_sigma0: float = _positive(0.05, "rad/s", doc="initial gyro-bias standard deviation")
+    bias_walk: float = _positive(1e-3, "rad/s/sqrt(s)", doc="gyro-bias random walk")
 
     def for_loop(self) -> "EstimatorParams":
         """The same filter with the in-loop tuning (used by the swing)."""
@@ -346,7 +364,7 @@ class ControllerParams(_Block):
     _name = "controller"
     preset: str = "qft"
     period: float = _p(0.01, "s", 0, 1, lo_open=True, doc="controller sample time Ts")
-    torque_limit: float = _p(20.0, "N m", 0, lo_open=True, doc="saturation in the controller")
+    torque_limit: float = _positive(20.0, "N m", doc="saturation in the controller")
     aw_gain: float = _p(100.0, "", 0, doc="anti-windup gain X >> 1 (Fig. 6.7); 0 disables")
     delay_samples: float = _p(0.0, "samples", 0, 1, doc="command applied this many samples late (0 or 1)")
     torque_quantum: float = _p(0.0, "N m", 0, 5, doc="truncate the torque to multiples of this (firmware: 1)")
@@ -436,13 +454,13 @@ class PathParams(_Block):
     arrival_rate: float = _p(0.45, "rad/s", 0, 2, lo_open=True, doc="link-1 rate aimed for where the gripper enters the capture band")
     adapt_window: float = _p(0.3, "", 0, 1, doc="s_e adapts from s > -adapt_window * s_f ...")
     adapt_stop: float = _p(0.8, "", 0, 1, doc="... until s > adapt_stop * s_e")
-    adapt_rate: float = _p(0.3, "rad/s", 0, lo_open=True, doc="largest rate of change of s_e")
+    adapt_rate: float = _positive(0.3, "rad/s", doc="largest rate of change of s_e")
     blend_end_min: float = _p(0.75, "", 0.1, 1, doc="s_e >= this * s_f")
     blend_end_max: float = _p(1.5, "", 1, 3, doc="s_e <= this * s_f")
     predict_step: float = _p(0.005, "rad", 1e-4, 0.1, doc="RK4 step of the reduced-dynamics prediction")
     latch_rate: float = _p(0.3, "rad/s", 0, doc="latch to pure line seeking when q1' falls below this")
     latch_fraction: float = _p(0.85, "", 0, 1, doc="... and s >= this * s_e")
-    latch_ramp: float = _p(2.0, "1/s", 0, lo_open=True, doc="after the latch the blend weight rises to 1 at this rate")
+    latch_ramp: float = _positive(2.0, "1/s", doc="after the latch the blend weight rises to 1 at this rate")
     latch_lift: float = _p(0.01, "m", -0.1, 0.1, doc="after the latch the line-seeking path aims this far above the line (tracking error margin)")
     lead_time: float = _p(0.01, "s", 0, 0.1, doc="path evaluated at s + q1' * lead_time (ZOH + motor lag)")
     predict_friction: bool = True
@@ -469,12 +487,12 @@ class ScenarioParams(_Block):
     """One swing: geometry of the line, thresholds of success, noise seeds."""
 
     _name = "scenario"
-    grip_spacing: float = _p(1.2, "m", 0, lo_open=True, doc="distance D between the grippers on the line")
+    grip_spacing: float = _positive(1.2, "m", doc="distance D between the grippers on the line")
     incline_deg: float = _p(0.0, "deg", -90, 90, lo_open=True, hi_open=True,
                             doc="line incline (positive: rising in the direction of travel)")
     max_time: float = _p(3.0, "s", 0, 60, lo_open=True, doc="timeout of one swing")
-    capture_distance: float = _p(0.02, "m", 0, lo_open=True, doc="gripper-to-line distance that counts as arrival")
-    capture_speed: float = _p(0.5, "m/s", 0, lo_open=True, doc="largest gripper speed at arrival (faster is a crash)")
+    capture_distance: float = _positive(0.02, "m", doc="gripper-to-line distance that counts as arrival")
+    capture_speed: float = _positive(0.5, "m/s", doc="largest gripper speed at arrival (faster is a crash)")
     min_travel_fraction: float = _p(0.8, "", 0, 2, lo_open=True, doc="arrival must be at least this fraction of D along the line")
     friction_uncertainty: float = _p(0.2, "", 0, 0.99, doc="simulated friction drawn within +/- this fraction of nominal")
     wind_torque1: float = _p(0.0, "N m", -20, 20, doc="constant external torque on joint 1 (wind)")

@@ -476,7 +476,7 @@ def perturbed(params, rng, friction_spread: float = 0.2, mass_spread: float = 0.
     f, p = params.friction, params.plant
     u = rng.uniform(1 - friction_spread, 1 + friction_spread, 4)
     m = rng.uniform(1 - mass_spread, 1 + mass_spread, 4)
-    tf_ = replace(f, fv1=f.fv1 * u[0], fv2=f.fv2 * u[1], fc1=f.fc1 * u[2], fc2=f.fc2 * u[3])
+    tf_ = f.with_factors(u)
     tp = replace(p, m1=p.m1 * m[0], m2=p.m2 * m[1], I1=p.I1 * m[2], I2=p.I2 * m[3])
     return params.with_(true_plant=tp, true_friction=tf_)
 

@@ -11,53 +11,43 @@ from ..plotting import figure_axes, finish
 from .run import log_table
 
 
+#: the panels of :func:`plot_swing`: (row, column, y label, [(log column,
+#: style, label), ...])
+SWING_PANELS = (
+    (0, 0, "angle [rad]", [("q1", "C0", "q1"), ("q2", "C1", "q2"), ("q1_est", "C0:", "q1 estimate"),
+                           ("q2_est", "C1:", "q2 estimate"), ("q2_ref", "k--", "q2 reference")]),
+    (0, 1, "rate [rad/s]", [("q1d", "C0", "q1'"), ("q2d", "C1", "q2'")]),
+    (1, 0, "elbow torque [N m]", [("torque", "C3", "applied (motor)"),
+                                  ("torque_cmd", "k:", "commanded")]),
+    (1, 1, "friction torque [N m]", [("f1", "C0", "f1 (gripper joint)"),
+                                     ("f2", "C1", "f2 (elbow)")]),
+    (2, 0, "free gripper [m]", [("gripper_x", "C2", "x"), ("gripper_y", "C4", "y")]),
+    (2, 1, "energy [J]", [("energy", "k", "total"), ("kinetic", "C1", "kinetic"),
+                          ("potential", "C0", "potential")]),
+)
+
+
 def plot_swing(result, axes=None, title=None):
-    """Six panels in the style of Fig. 7.6: angles, rates, applied torque,
-    friction torques, end-effector x/y, energy split."""
+    """Six panels (3 x 2 axes) in the style of Fig. 7.6: angles, rates,
+    applied torque, friction torques, free-gripper x/y, energy split; the
+    decision time marked.  Returns the figure."""
     cols, d = log_table(result)
     c = {k: d[:, i] for i, k in enumerate(cols)}
     s = result.summary
     fig, ax = figure_axes(axes, 3, 2, figsize=(12, 9), sharex=True)
-    a = ax[0, 0]
-    a.plot(c["t"], c["q1"], "C0", label="q1")
-    a.plot(c["t"], c["q2"], "C1", label="q2")
-    a.plot(c["t"], c["q1_est"], "C0:", label="q1 estimate")
-    a.plot(c["t"], c["q2_est"], "C1:", label="q2 estimate")
-    a.plot(c["t"], c["q2_ref"], "k--", lw=0.8, label="q2 reference")
-    a.set_ylabel("angle [rad]")
-    a.legend(fontsize=7, ncol=2)
-    a = ax[0, 1]
-    a.plot(c["t"], c["q1d"], "C0", label="q1'")
-    a.plot(c["t"], c["q2d"], "C1", label="q2'")
-    a.set_ylabel("rate [rad/s]")
-    a.legend(fontsize=7)
-    a = ax[1, 0]
-    a.plot(c["t"], c["torque"], "C3", label="applied (motor)")
-    a.plot(c["t"], c["torque_cmd"], "k:", lw=0.8, label="commanded")
+    for row, col, ylabel, lines in SWING_PANELS:
+        a = ax[row, col]
+        for name, style, label in lines:
+            a.plot(c["t"], c[name], style, lw=0.8 if style.startswith("k") and name != "energy"
+                   else None, label=label)
+        a.set_ylabel(ylabel)
+        a.legend(fontsize=7, ncol=2 if len(lines) > 3 else 1)
     lim = s["thresholds"]["torque_limit_Nm"]
-    a.axhline(lim, color="grey", lw=0.6)
-    a.axhline(-lim, color="grey", lw=0.6)
-    a.set_ylabel("elbow torque [N m]")
-    a.legend(fontsize=7)
-    a = ax[1, 1]
-    a.plot(c["t"], c["f1"], "C0", label="f1 (gripper joint)")
-    a.plot(c["t"], c["f2"], "C1", label="f2 (elbow)")
-    a.set_ylabel("friction torque [N m]")
-    a.legend(fontsize=7)
-    a = ax[2, 0]
-    a.plot(c["t"], c["gripper_x"], "C2", label="x")
-    a.plot(c["t"], c["gripper_y"], "C4", label="y")
-    a.axhline(0, color="k", lw=0.6)
-    a.set_ylabel("free gripper [m]")
-    a.set_xlabel("time [s]")
-    a.legend(fontsize=7)
-    a = ax[2, 1]
-    a.plot(c["t"], c["energy"], "k", label="total")
-    a.plot(c["t"], c["kinetic"], "C1", label="kinetic")
-    a.plot(c["t"], c["potential"], "C0", label="potential")
-    a.set_ylabel("energy [J]")
-    a.set_xlabel("time [s]")
-    a.legend(fontsize=7)
+    for sign in (1, -1):
+        ax[1, 0].axhline(sign * lim, color="grey", lw=0.6)
+    ax[2, 0].axhline(0, color="k", lw=0.6)
+    for a in ax[2]:
+        a.set_xlabel("time [s]")
     for a in ax.flat:
         a.grid(True, alpha=0.3)
         if math.isfinite(s["swing_time_s"]):

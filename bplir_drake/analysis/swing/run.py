@@ -34,8 +34,7 @@ def draw_true_friction(params: BplirParams, seed: int) -> BplirParams:
     rng = np.random.default_rng([seed, 1])
     k = rng.uniform(1 - u, 1 + u, 4)
     f = params.friction
-    tf = dc.replace(f, fv1=f.fv1 * k[0], fv2=f.fv2 * k[1], fc1=f.fc1 * k[2], fc2=f.fc2 * k[3])
-    return params.with_(true_friction=tf)
+    return params.with_(true_friction=f.with_factors(k))
 
 
 @dataclass
@@ -121,7 +120,7 @@ class SwingRunner:
         built.diagram.ForcedPublish(sim.get_context())
         status = built.systems["interlock"].status(sim.get_context())
         lg = logs(built, sim)
-        return SwingResult(summarize(p, lg, status, seed, use_est), lg, p)
+        return SwingResult(swing_summary(p, lg, status, seed, use_est), lg, p)
 
 
 def run_swing(params: BplirParams, *, seed: int | None = None, use_estimator: bool | None = None,
@@ -140,7 +139,10 @@ def run_swing(params: BplirParams, *, seed: int | None = None, use_estimator: bo
                              integrator=integrator)
 
 
-def summarize(p: BplirParams, lg: dict[str, Log], status: dict, seed: int, use_est: bool) -> dict:
+def swing_summary(p: BplirParams, lg: dict[str, Log], status: dict, seed: int,
+                  use_est: bool) -> dict:
+    """The summary of a swing from its logs and the interlock's ``status``
+    (SPEC.md criteria, peaks, energy, estimation error, thresholds, seed)."""
     sc = p.scenario
     st = lg["state"]
     x, t = st.data, st.t

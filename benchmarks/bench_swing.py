@@ -45,6 +45,26 @@ def closed_loop(seeds: int):
     return sim, wall, outcomes
 
 
+def reuse(seeds: int):
+    """(wall s with a fresh diagram per swing, wall s with one SwingRunner
+    reusing its diagram) over the same seeds, in one run: what setting a
+    Monte Carlo sample in the context saves."""
+    from bplir_drake.analysis.swing.run import SwingRunner, run_swing
+    from bplir_drake.params import preset
+
+    p = preset()
+    runner = SwingRunner()
+    runner.run(p, seed=0)
+    t0 = time.perf_counter()
+    for seed in range(seeds):
+        run_swing(p, seed=seed)
+    fresh = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    for seed in range(seeds):
+        runner.run(p, seed=seed)
+    return fresh, time.perf_counter() - t0
+
+
 def breakdown():
     """Wall time of the Python callbacks of one swing (exclusive of nested
     calls is not separated: the controller's tick pulls the path's, which
@@ -98,6 +118,9 @@ def main():
           f"({wall / seeds * 1e3:.0f} ms per swing; {dict(outcomes)})")
     print(f"ratio closed loop / free swing: {loop / free:.3f}; goal >= 20 simulated s per wall s: "
           f"{'met' if loop >= 20 else 'not met'}")
+    fresh, reused = reuse(seeds)
+    print(f"{seeds} swings, a diagram built per swing {fresh:.2f} s, one diagram reused "
+          f"(samples set in the context) {reused:.2f} s: ratio {reused / fresh:.3f}")
     total, spent = breakdown()
     print(f"one swing {total * 1e3:.0f} ms; Python callbacks (inclusive):")
     for k, v in sorted(spent.items(), key=lambda kv: -kv[1]):

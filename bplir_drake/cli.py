@@ -86,6 +86,7 @@ def _in_range(name: str, value, lo: float, hi: float, *, lo_open: bool = False,
 
 # ------------------------------------------------------------------ model
 def cmd_model(args) -> int:
+    """``bplir model``: minimum pendulum period, Table 4.1, hanging eigenvalues."""
     from .analysis.model.friction_table import PUBLISHED_TABLE_4_1, friction_table, published_setup
     from .analysis.model.linearization import hanging_linearization
     from .analysis.model.pendulum import pendulum_periods
@@ -132,6 +133,7 @@ def cmd_model(args) -> int:
 
 # ------------------------------------------------------------------ freeswing
 def cmd_freeswing(args) -> int:
+    """``bplir freeswing``: simulate a free swing, write its plot and summary."""
     from .analysis.model.freeswing import simulate_free_swing
 
     params = _load_params(args)
@@ -153,6 +155,7 @@ def cmd_freeswing(args) -> int:
 
 # ------------------------------------------------------------------ estimate
 def cmd_estimate(args) -> int:
+    """``bplir estimate``: run the kinematic EKF over an IMU log."""
     from dataclasses import replace
 
     from .analysis.estimation.plots import plot_estimate
@@ -200,6 +203,7 @@ def cmd_estimate(args) -> int:
 
 # ------------------------------------------------------------------ observability
 def cmd_observability(args) -> int:
+    """``bplir observability``: observability of the kinematic model along a swing."""
     from .analysis.estimation.study import simulate_estimation
     from .analysis.estimation.observability import observability_along, plant_gyro_observability
     from .systems.plant import initial_configuration
@@ -231,6 +235,7 @@ def cmd_observability(args) -> int:
 
 # ------------------------------------------------------------------ qft
 def cmd_qft(args) -> int:
+    """``bplir qft``: verify (or design) the outer loop on a plant family."""
     from .analysis.control.report import qft_report
 
     params = _load_params(args)
@@ -286,6 +291,7 @@ def _swing_params(args):
 
 
 def cmd_swing(args) -> int:
+    """``bplir swing``: one swing (or a comparison, or a study sample's replay)."""
     from .analysis.swing.run import run_swing, summary_with_params, write_log_csv
     from .analysis.swing.plots import animate_swing
 
@@ -389,6 +395,7 @@ def _study(args):
 
 
 def cmd_montecarlo(args) -> int:
+    """``bplir montecarlo``: run or resume a Monte Carlo study."""
     from .analysis.montecarlo import RESULTS_FILE, StudyResult, run_study
 
     study = _study(args)
@@ -418,6 +425,7 @@ def cmd_montecarlo(args) -> int:
 
 # ------------------------------------------------------------------ benchmark
 def cmd_benchmark(args) -> int:
+    """``bplir benchmark``: score controller presets by category."""
     from .analysis.montecarlo.benchmark import benchmark_table, plot_benchmark, run_benchmark
 
     from .params import CONTROLLER_PRESETS
@@ -447,6 +455,7 @@ def cmd_benchmark(args) -> int:
 
 # ------------------------------------------------------------------ plan
 def cmd_plan(args) -> int:
+    """``bplir plan``: plan a swing by trajectory optimisation."""
     import dataclasses as dc
 
     import numpy as np
@@ -479,6 +488,7 @@ def cmd_plan(args) -> int:
 
 # ------------------------------------------------------------------ calibrate
 def cmd_calibrate(args) -> int:
+    """``bplir calibrate``: fit the model to a logged run."""
     from .analysis.identification.calibration import (calibrate, identify_deadband, identify_plant_family,
                                        read_calibration_csv,
                                        write_calibrated_toml)
@@ -619,6 +629,8 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv=None) -> int:
+    """Run the command line; returns the exit status (2 with a one-line ``bplir: error:`` on bad
+    input)."""
     parser = build_parser()
     args = parser.parse_args(argv)
     try:

@@ -42,6 +42,8 @@ class LogError(ValueError):
 
 @dataclass
 class ImuLog:
+    """An IMU log: times (s), samples (N, 6) in ``IMU_COLUMNS`` order, and any further columns by
+    name."""
     t: np.ndarray         # (N,)
     samples: np.ndarray   # (N, 6) in IMU_COLUMNS order
     extra: dict[str, np.ndarray]
@@ -49,6 +51,8 @@ class ImuLog:
 
 @dataclass
 class EstimateResult:
+    """The filter over a log: times (s), absolute estimate (N, 4), covariance diagonal, gyro-bias
+    estimate (rad/s), the gyro-integral baseline (5.41), skipped rows."""
     t: np.ndarray
     x: np.ndarray             # (N, 4) theta1, theta2, omega1, omega2
     cov_diag: np.ndarray      # (N, n)
@@ -203,6 +207,7 @@ def estimate(t, samples, params: EstimatorParams, x0=(0.0, 0.0, 0.0, 0.0), *,
 
 
 def write_estimate_csv(result: EstimateResult, path: str | Path) -> Path:
+    """The estimate as CSV at ``path`` (atomic)."""
     path = Path(path)
     cols = list(EST_COLUMNS) + ["gyr_theta1", "gyr_theta2", "bias1", "bias2",
                                 "var_theta1", "var_theta2"]

@@ -98,6 +98,7 @@ def write_text_atomic(path, text: str) -> Path:
 
 
 def write_json_atomic(path, obj) -> Path:
+    """``obj`` as strict JSON at ``path`` (atomic)."""
     return write_text_atomic(path, dumps_strict(obj) + "\n")
 
 

@@ -181,6 +181,7 @@ class FrictionParams(_Block):
     enabled: bool = True
 
     def drag_coefficients(self) -> tuple[float, float]:
+        """(k1, k2) = 0.5 rho Cd A of each joint (N m s^2/rad^2)."""
         k = 0.5 * self.rho_air * self.cd
         return k * self.area1, k * self.area2
 
@@ -267,6 +268,7 @@ class ImuParams(_Block):
 
     @property
     def period(self) -> float:
+        """Sampling period (s)."""
         return 1.0 / self.rate_hz
 
 
@@ -425,6 +427,7 @@ class ControllerParams(_Block):
 
     @property
     def design(self) -> dict:
+        """The outer loop's K and F coefficients: the explicit ones if set, else the preset's."""
         d = dict(OUTER_LOOP_DESIGNS[self.preset])
         for key in ("k_num", "k_den", "f_num", "f_den"):
             if getattr(self, key):
@@ -542,13 +545,16 @@ class BplirParams:
 
     @property
     def simulated_plant(self) -> PlantParams:
+        """The plant the simulator uses: ``true_plant`` or the nominal one."""
         return self.true_plant if self.true_plant is not None else self.plant
 
     @property
     def simulated_friction(self) -> FrictionParams:
+        """The friction the simulator uses: ``true_friction`` or the nominal one."""
         return self.true_friction if self.true_friction is not None else self.friction
 
     def with_(self, **blocks) -> "BplirParams":
+        """A copy with whole blocks replaced."""
         return replace(self, **blocks)
 
     def with_controller(self, name: str) -> "BplirParams":
@@ -654,6 +660,7 @@ def load_toml(path: str | Path) -> BplirParams:
 
 
 def to_dict(params: BplirParams) -> dict[str, Any]:
+    """The parameters as a dict of tables (a TOML document)."""
     out: dict[str, Any] = {"preset": params.preset_name}
     for key in BLOCKS:
         block = getattr(params, key)
@@ -663,18 +670,21 @@ def to_dict(params: BplirParams) -> dict[str, Any]:
 
 
 def to_toml(params: BplirParams) -> str:
+    """The parameters as TOML text."""
     import tomli_w
 
     return tomli_w.dumps(to_dict(params))
 
 
 def save_toml(params: BplirParams, path: str | Path) -> None:
+    """Write the parameters as TOML at ``path`` (atomic)."""
     from .io import write_text_atomic
 
     write_text_atomic(path, to_toml(params))
 
 
 def as_jsonable(params: BplirParams) -> dict[str, Any]:
+    """The parameters as JSON-ready data (= :func:`to_dict`)."""
     return to_dict(params)
 
 

@@ -26,6 +26,7 @@ class Log:
 
     @classmethod
     def from_logger(cls, logger, context) -> "Log":
+        """The log of a Drake logger (or TickLogger) in ``context``."""
         if hasattr(logger, "arrays"):  # TickLogger
             return cls(*logger.arrays(context))
         log = logger.FindLog(context)
@@ -66,6 +67,7 @@ def run(sim, duration: float) -> None:
 
 
 def logs(built, sim) -> dict[str, Log]:
+    """Every logger of ``built`` in the simulator's context, by name."""
     ctx = sim.get_context()
     return {name: Log.from_logger(lg, ctx) for name, lg in built.loggers.items()}
 

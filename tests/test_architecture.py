@@ -84,3 +84,58 @@ def test_results_plot_on_the_callers_axes_and_serialise(tmp_path):
     data = json.loads(res.to_json())
     assert data == res.summary()  # JSON round trip of plain floats is exact
     assert data["energy_end_J"] < data["energy_start_J"]  # friction dissipates
+
+
+def _modules():
+    import ast
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parent.parent / "bplir_drake"
+    for path in sorted(root.rglob("*.py")):
+        yield path.relative_to(root.parent), ast.parse(path.read_text())
+
+
+def test_every_public_definition_has_a_docstring():
+    import ast
+
+    missing = []
+    for rel, tree in _modules():
+        def visit(node, prefix=""):
+            for n in ast.iter_child_nodes(node):
+                if isinstance(n, (ast.FunctionDef, ast.ClassDef)) and not n.name.startswith("_"):
+                    if not ast.get_docstring(n):
+                        missing.append(f"{rel}:{n.lineno} {prefix}{n.name}")
+                    if isinstance(n, ast.ClassDef):
+                        visit(n, prefix + n.name + ".")
+        visit(tree)
+    assert not missing, "\n".join(missing)
+
+
+# what each layer may import from the package (ARCHITECTURE.md): imports only go down
+LAYERS = {"io": set(), "params": {"io"}, "systems": {"params", "io"},
+          "diagrams": {"params", "io", "systems"},
+          "simulate": {"params", "io", "systems"},
+          "estimation": {"params", "io", "systems"},
+          "analysis": {"params", "io", "systems", "diagrams", "simulate", "estimation"},
+          "cli": {"params", "io", "systems", "diagrams", "simulate", "estimation", "analysis"}}
+
+
+def test_imports_only_go_down_the_layers():
+    import ast
+
+    wrong = []
+    for rel, tree in _modules():
+        parts = rel.with_suffix("").parts[1:]
+        layer = parts[0]
+        if layer == "__init__":
+            continue
+        for n in ast.walk(tree):
+            if isinstance(n, ast.ImportFrom) and n.level:
+                # resolve the relative import against this module's package
+                pkg = list(parts[:-1]) if len(parts) > 1 else []
+                base = pkg[:len(pkg) - (n.level - 1)] if n.level > 1 else pkg
+                target = (base + (n.module.split(".") if n.module else []))
+                top = target[0] if target else None
+                if top and top != layer and top not in LAYERS[layer]:
+                    wrong.append(f"{rel}:{n.lineno} imports {'.'.join(target)}")
+    assert not wrong, "\n".join(wrong)

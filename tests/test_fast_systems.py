@@ -14,28 +14,38 @@ from pydrake.systems.primitives import ConstantVectorSource, LogVectorOutput
 from bplir_drake.params import (EstimatorParams, FrictionParams, MotorParams, ScenarioParams,
                                 preset)
 from bplir_drake.systems import ekf as E
-from bplir_drake.systems.friction import JointFriction, friction_system, friction_torques
+from bplir_drake.systems.friction import (JointFriction, friction_system, friction_torques,
+                                          set_friction)
 from bplir_drake.systems.gripper import LineGeometry, first_arrival, line_metrics
 from bplir_drake.systems.motor import DriverLogic, MotorDriver, current_command
 from bplir_drake.systems.path import (PathGeometry, PathShape, ReducedDynamics, path_derivatives,
                                       path_q2, predict_rate_squared)
 
 
-def test_symbolic_friction_equals_the_templated_law():
+@pytest.mark.parametrize("in_context", [False, True])
+def test_symbolic_friction_equals_the_templated_law(in_context):
     p = FrictionParams(area1=0.01, area2=0.02)
-    fast, ref = friction_system(p), JointFriction(p)
-    cf, cr = fast.CreateDefaultContext(), ref.CreateDefaultContext()
+    fast = friction_system(p, in_context=in_context)
+    cf = fast.CreateDefaultContext()
     rng = np.random.default_rng(0)
-    for _ in range(200):
-        x = rng.normal(size=4) * [1.0, 1.0, 5.0, 0.05]
-        fast.get_input_port(0).FixValue(cf, x)
-        ref.get_input_port(0).FixValue(cr, x)
-        np.testing.assert_allclose(fast.get_output_port(0).Eval(cf),
-                                   ref.get_output_port(0).Eval(cr), rtol=0, atol=1e-12)
-        # its state integrates the power friction dissipates
-        f = friction_torques(x[2:4], p)
-        assert fast.EvalTimeDerivatives(cf).CopyToVector()[0] == pytest.approx(
-            f[0] * x[2] + f[1] * x[3], rel=1e-12, abs=1e-15)
+    laws = [p]
+    if in_context:  # other coefficients set in the context, same b and drag
+        laws.append(p.with_factors((1.2, 0.8, 1.15, 0.9)))
+    for law in laws:
+        if in_context:
+            set_friction(fast, cf, law)
+        ref = JointFriction(law)
+        cr = ref.CreateDefaultContext()
+        for _ in range(100):
+            x = rng.normal(size=4) * [1.0, 1.0, 5.0, 0.05]
+            fast.get_input_port(0).FixValue(cf, x)
+            ref.get_input_port(0).FixValue(cr, x)
+            np.testing.assert_allclose(fast.get_output_port(0).Eval(cf),
+                                       ref.get_output_port(0).Eval(cr), rtol=0, atol=1e-12)
+            # its state integrates the power friction dissipates
+            f = friction_torques(x[2:4], law)
+            assert fast.EvalTimeDerivatives(cf).CopyToVector()[0] == pytest.approx(
+                f[0] * x[2] + f[1] * x[3], rel=1e-12, abs=1e-15)
 
 
 def test_driver_target_current_is_the_current_command_law():

@@ -133,7 +133,7 @@ def test_bad_scenario_files_exit_2(tmp_path, toml, words, capsys):
     assert err.count("\n") == 1 and words in err
 
 
-def test_compare_presets_and_examples(tmp_path, monkeypatch, params):
+def test_compare_presets_and_examples(tmp_path, monkeypatch, params, capsys):
     from bplir_drake.analysis.swing.compare import compare_presets, comparison_table, plot_comparison
 
     rows = compare_presets(params)
@@ -155,3 +155,7 @@ def test_compare_presets_and_examples(tmp_path, monkeypatch, params):
     monkeypatch.setattr("sys.argv", ["x", str(tmp_path / "out" / "swing_log.csv")])
     runpy.run_path(str(ex / "plot_saved_log.py"))
     assert (tmp_path / "saved_log.png").stat().st_size > 10_000
+    runpy.run_path(str(ex / "one_swing.py"))
+    assert (tmp_path / "one_swing.png").stat().st_size > 30_000
+    runpy.run_path(str(ex / "samples_in_context.py"))
+    assert "diagrams built: 1" in capsys.readouterr().out

@@ -16,6 +16,7 @@ class Result:
     ``to_json``; subclasses define ``summary`` and ``plot``."""
 
     def summary(self) -> dict:  # pragma: no cover - defined by every result
+        """The JSON-ready numbers of this result."""
         raise NotImplementedError
 
     def to_dict(self) -> dict:

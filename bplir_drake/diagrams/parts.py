@@ -69,13 +69,15 @@ def torque_source(builder, elbow_torque):
 
 def add_plant_with_friction(builder, plant_params: PlantParams,
                             friction_params: FrictionParams, *, scene_graph=False,
-                            disturbance=None, linearizable: bool = False):
+                            disturbance=None, linearizable: bool = False,
+                            friction_in_context: bool = False):
     """Plant + friction force element wired into the applied-force port.
 
     ``disturbance`` (optional) is an output port of 2 generalized forces
     (e.g. wind or a knock) added to the friction force.  The friction is the
     C++ symbolic system (:func:`~bplir_drake.systems.friction.friction_system`,
-    with its dissipated-energy state) for simulation, or with
+    with its dissipated-energy state) for simulation -- its coefficients
+    settable per context with ``friction_in_context=True`` -- or with
     ``linearizable=True`` the templated :class:`JointFriction` (no extra
     state, converts to AutoDiffXd for ``Linearize``).
     """
@@ -84,7 +86,8 @@ def add_plant_with_friction(builder, plant_params: PlantParams,
     out = add_acrobot_plant(builder, plant_params, scene_graph=scene_graph)
     plant = out[0] if scene_graph else out
     friction = builder.AddSystem(JointFriction(friction_params) if linearizable
-                                 else friction_system(friction_params))
+                                 else friction_system(friction_params,
+                                                      in_context=friction_in_context))
     friction.set_name("joint_friction")
     builder.Connect(plant.get_state_output_port(), friction.get_input_port(0))
     if disturbance is None:

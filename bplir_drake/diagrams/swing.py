@@ -16,14 +16,15 @@ Every sampled system runs on the one tick of
 :mod:`~bplir_drake.systems.schedule` (period ``controller.period``).
 
 **Samples in the context.**  What a Monte Carlo sample draws for the
-simulated robot and its world -- the links' inertial parameters, friction,
-the IMUs' error model, wind and gusts, and the seed of every random draw --
-is held in the context (:data:`SAMPLE_FIELDS`), so one built diagram runs
-many samples: :func:`set_swing_sample` writes a sample into a context.  The
-rest (link lengths, incline, grip spacing, actuation delay, the nominal
-model and controller) is the diagram's *structure*
-(:func:`swing_structure`); a sample with another structure needs its own
-build.
+simulated robot and its world -- the links' inertial parameters, the
+friction coefficients, the IMUs' error model, wind and gusts, and the seed
+of every random draw -- is held in the context (:data:`SAMPLE_FIELDS`), so
+one built diagram runs many samples: :func:`set_swing_sample` writes a
+sample into a context.  The rest (link lengths, the friction's smoothing
+and drag, whether there are disturbances at all, incline, grip spacing,
+actuation delay, the nominal model and controller) is the diagram's
+*structure* (:func:`swing_structure`); a sample with another structure
+needs its own build.
 """
 from __future__ import annotations
 
@@ -38,19 +39,20 @@ from pydrake.systems.primitives import LogVectorOutput, ZeroOrderHold
 
 from ..params import BplirParams, ScenarioParams, to_dict
 from ..systems.controller import CpflController
-from ..systems.disturbance import CommandDelay, DisturbanceSource, delay_steps, disturbance_schedule
+from ..systems.disturbance import (CommandDelay, DisturbanceSource, delay_steps,
+                                   disturbance_schedule, has_disturbance)
 from ..systems.ekf import KinematicEkf
-from ..systems.friction import set_friction
+from ..systems.friction import FRICTION_PARAMETERS, set_friction
 from ..systems.motor import MotorDriver
 from ..systems.plant import INERTIAL_FIELDS, absolute_from_relative, set_inertial_parameters
 from ..systems.schedule import TickLogger
 from .parts import Built, add_imus, add_plant_with_friction, sampled
 
 #: the parameter fields a context carries (:func:`set_swing_sample`), by
-#: block; ``true_friction`` is carried whole
+#: block (the disturbance fields only when the built swing has disturbances)
 SAMPLE_FIELDS: dict[str, tuple[str, ...]] = {
     "true_plant": INERTIAL_FIELDS,
-    "true_friction": ("*",),
+    "true_friction": FRICTION_PARAMETERS,
     "imu": ("accel_sigma", "gyro_sigma", "gyro_bias1", "gyro_bias2", "gyro_drift", "misalign1",
             "misalign2", "accel_scale1", "accel_scale2", "noise"),
     "scenario": ("seed", "friction_uncertainty", "wind_torque1", "wind_torque2", "gust_torque",
@@ -84,14 +86,13 @@ def swing_structure(params: BplirParams, use_estimator: bool) -> str:
     canonical JSON text of every parameter outside :data:`SAMPLE_FIELDS`
     (and whether the estimator is in the loop).  Two parameter sets with
     the same structure run through one built diagram."""
-    d = to_dict(params.with_(true_plant=params.simulated_plant, true_friction=None))
+    d = to_dict(params.with_(true_plant=params.simulated_plant,
+                             true_friction=params.simulated_friction))
     for block, fields in SAMPLE_FIELDS.items():
-        if fields == ("*",):
-            d.pop(block, None)
-            continue
         for name in fields:
-            d.get(block, {}).pop(name, None)
-    return json.dumps({"params": d, "use_estimator": bool(use_estimator)}, sort_keys=True)
+            d[block].pop(name, None)
+    return json.dumps({"params": d, "use_estimator": bool(use_estimator),
+                       "disturbance": has_disturbance(params.scenario)}, sort_keys=True)
 
 
 def set_swing_sample(built: Built, context, params: BplirParams, seed: int) -> None:
@@ -107,8 +108,9 @@ def set_swing_sample(built: Built, context, params: BplirParams, seed: int) -> N
     set_inertial_parameters(built.plant, context, params.simulated_plant)
     set_friction(built.systems["friction"], context, params.simulated_friction)
     built.systems["imu"].set_sensor(context, params.imu, seed)
-    built.systems["disturbance"].set_schedule(
-        context, _disturbance_torques(params.scenario, seed, params.controller.period))
+    if "disturbance" in built.systems:
+        built.systems["disturbance"].set_schedule(
+            context, _disturbance_torques(params.scenario, seed, params.controller.period))
 
 
 def _disturbance_torques(sc: ScenarioParams, seed: int, period: float) -> np.ndarray:
@@ -128,15 +130,18 @@ class Robot:
 
 def add_robot(builder, params: BplirParams, seed: int) -> Robot:
     """The simulated (true) plant with friction, the external forces of the
-    scenario (a :class:`DisturbanceSource`, zero without wind or gusts) and
-    the motor and driver (its limit the smaller of the motor's and the
-    controller's) driving the elbow."""
+    scenario (a :class:`DisturbanceSource`, when it has wind, gusts or torque
+    noise) and the motor and driver (its limit the smaller of the motor's and
+    the controller's) driving the elbow."""
     period = params.controller.period
-    dist = builder.AddNamedSystem("disturbance", DisturbanceSource(
-        _disturbance_torques(params.scenario, seed, period), period))
+    dist = None
+    if has_disturbance(params.scenario):
+        dist = builder.AddNamedSystem("disturbance", DisturbanceSource(
+            _disturbance_torques(params.scenario, seed, period), period))
     plant, friction = add_plant_with_friction(builder, params.simulated_plant,
                                               params.simulated_friction,
-                                              disturbance=dist.force_port)
+                                              disturbance=dist.force_port if dist else None,
+                                              friction_in_context=True)
     limit = min(params.motor.torque_limit, params.controller.torque_limit)
     motor = builder.AddNamedSystem("motor", MotorDriver(replace(params.motor, torque_limit=limit)))
     builder.Connect(plant.get_state_output_port(), motor.GetInputPort("state"))
@@ -272,7 +277,9 @@ def build_swing(params: BplirParams, *, seed: int | None = None, use_estimator: 
     loggers = add_swing_loggers(builder, params, robot, sampler, ekf, control, log_period)
     diagram = builder.Build()
     diagram.set_name("brachiation_swing")
-    systems = {"friction": robot.friction, "disturbance": robot.disturbance,
-               "motor": robot.motor, "imu": sampler, "ekf": ekf, **control, "interlock": lock}
+    systems = {"friction": robot.friction, "motor": robot.motor, "imu": sampler, "ekf": ekf,
+               **control, "interlock": lock}
+    if robot.disturbance is not None:
+        systems["disturbance"] = robot.disturbance
     return Built(diagram, robot.plant, systems, loggers, params, q0,
                  swing_structure(params, use_est))

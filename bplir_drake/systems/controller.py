@@ -56,12 +56,14 @@ def cpfl_terms(q, qd, p: PlantParams, friction: FrictionParams | None = None):
 
 
 def cpfl_torque(q, qd, v, p: PlantParams, friction: FrictionParams | None = None):
+    """The elbow torque (N m) that makes q2'' = v (rad/s^2) on the nominal model (4.13)."""
     a, b = cpfl_terms(q, qd, p, friction)
     return a * v + b
 
 
 @dataclass(frozen=True)
 class StateSpace:
+    """A state-space realisation (A, B, C, D) of a SISO filter."""
     A: np.ndarray
     B: np.ndarray
     C: np.ndarray
@@ -69,6 +71,7 @@ class StateSpace:
 
     @property
     def n(self) -> int:
+        """Number of states."""
         return self.A.shape[0]
 
 
@@ -220,6 +223,8 @@ class DiscreteCpflController(_CpflLaw, LeafSystem):
 
 @TemplateSystem.define("ContinuousCpflController_", T_list=(float, AutoDiffXd))
 def ContinuousCpflController_(T):
+    """The CPFL controller in continuous time, scalar-templated (double, AutoDiffXd) so a loop
+    holding it linearises; ports as :func:`CpflController`."""
     class Impl(_CpflLaw, LeafSystem_[T]):
         """K and F in continuous time, so a loop containing the controller
         can be linearised (converts to AutoDiffXd).  Ports as

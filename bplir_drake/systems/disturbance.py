@@ -29,6 +29,7 @@ from .schedule import declare_sample, declare_store
 
 
 def has_disturbance(sc: ScenarioParams) -> bool:
+    """The scenario has wind, gusts or torque noise."""
     return bool(sc.wind_torque1 or sc.wind_torque2 or sc.torque_noise
                 or (sc.gust_torque and sc.gust_rate))
 

@@ -94,6 +94,7 @@ def jacobians(fun, x, u, p: EstimatorParams):
 
 @dataclass
 class EkfState:
+    """The filter's state estimate x (n) and covariance P (n, n)."""
     x: np.ndarray   # (n,)
     P: np.ndarray   # (n, n)
 

@@ -50,6 +50,8 @@ def friction_torques(qd, p: FrictionParams):
 
 @TemplateSystem.define("JointFriction_")
 def JointFriction_(T):
+    """Joint friction as a scalar-templated system (double, AutoDiffXd, Expression), for
+    ``Linearize`` and the planner."""
     class Impl(LeafSystem_[T]):
         """Input ``state`` (q1, q2, q1d, q2d); output ``generalized_force`` = -f(qd)."""
 
@@ -74,57 +76,75 @@ def JointFriction_(T):
 JointFriction = JointFriction_[None]
 
 
-#: the numeric parameter of :func:`friction_system`, in this order
-FRICTION_PARAMETERS = ("fv1", "fv2", "fc1", "fc2", "b", "k_drag1", "k_drag2")
+#: the coefficients a context carries in :func:`friction_system`, in this
+#: order; the Coulomb smoothing ``b`` and the drag are fixed when it is built
+FRICTION_PARAMETERS = ("fv1", "fv2", "fc1", "fc2")
 
 
 def friction_parameter_vector(p: FrictionParams) -> np.ndarray:
-    """:data:`FRICTION_PARAMETERS` of ``p`` (coefficients zero when friction
-    is disabled; ``b`` kept so the law stays defined)."""
+    """:data:`FRICTION_PARAMETERS` of ``p`` (zero when friction is disabled)."""
     if not p.enabled:
-        return np.array([0.0, 0.0, 0.0, 0.0, p.b, 0.0, 0.0])
-    return np.array([p.fv1, p.fv2, p.fc1, p.fc2, p.b, *p.drag_coefficients()])
+        return np.zeros(len(FRICTION_PARAMETERS))
+    return np.array([p.fv1, p.fv2, p.fc1, p.fc2])
 
 
-def friction_system(params: FrictionParams):
+def friction_structure(p: FrictionParams) -> tuple:
+    """What :func:`friction_system` fixes when it is built: the Coulomb
+    smoothing ``b`` (rad/s) and the drag coefficients (zero when disabled)."""
+    return (p.b, *(p.drag_coefficients() if p.enabled else (0.0, 0.0)))
+
+
+def friction_system(params: FrictionParams, *, in_context: bool = False):
     """Joint friction as C++ systems for simulation: the same law
     (:func:`joint_friction`, evaluated on symbolic variables) in a
     ``SymbolicVectorSystem``, so no Python runs while the integrator steps.
 
-    A diagram with input ``state`` (q1, q2, q1d, q2d) and output
-    ``generalized_force`` ``-f(qd)`` (2).  The coefficients
-    (:data:`FRICTION_PARAMETERS`, default from ``params``) are the value of
-    a ``ConstantVectorSource`` inside it, a numeric parameter of the
-    context, so a context can carry other friction (:func:`set_friction`)
-    without rebuilding the diagram.  The symbolic system's one continuous
-    state is the energy friction has dissipated, ``W' = f1 q1d + f2 q2d``
-    (J): Drake 1.51's ``SymbolicVectorSystem`` cannot be stateless inside a
-    continuous diagram, and the dissipated energy is worth having.  For
-    ``Linearize`` use :class:`JointFriction` (templated, no extra state)."""
+    Input ``state`` (q1, q2, q1d, q2d); output ``generalized_force``
+    ``-f(qd)`` (2).  Its one continuous state is the energy friction has
+    dissipated, ``W' = f1 q1d + f2 q2d`` (J): Drake 1.51's
+    ``SymbolicVectorSystem`` cannot be stateless inside a continuous
+    diagram, and the dissipated energy is worth having.
+
+    By default the coefficients are constants of the law (the fastest
+    form).  With ``in_context=True`` the coefficients
+    (:data:`FRICTION_PARAMETERS`, default from ``params``) are the value of a
+    ``ConstantVectorSource`` inside a small diagram, a numeric parameter of
+    the context, so a context can carry other friction (:func:`set_friction`)
+    without rebuilding; ``b`` and the drag stay constants
+    (:func:`friction_structure`).  That form costs about 7 % of a swing's
+    time (README, "Speed").  For ``Linearize`` use :class:`JointFriction`
+    (templated, no extra state)."""
     from pydrake.symbolic import MakeVectorVariable, Variable
     from pydrake.systems.framework import DiagramBuilder
     from pydrake.systems.primitives import ConstantVectorSource, Multiplexer, SymbolicVectorSystem
 
     x = MakeVectorVariable(4, "x")
-    c = [Variable(name) for name in FRICTION_PARAMETERS]
     work = Variable("dissipated")
-    f = [joint_friction(x[2 + i], c[i], c[2 + i], c[4], c[5 + i]) for i in range(2)]
+    if not in_context:
+        f = friction_torques(x[2:4], params)
+        return SymbolicVectorSystem(state=[work], input=x, dynamics=[f[0] * x[2] + f[1] * x[3]],
+                                    output=[-f[0], -f[1]])
+    c = [Variable(name) for name in FRICTION_PARAMETERS]
+    b, *drag = friction_structure(params)
+    f = [joint_friction(x[2 + i], c[i], c[2 + i], b, drag[i]) for i in range(2)]
     law = SymbolicVectorSystem(state=[work], input=[*x, *c],
                                dynamics=[f[0] * x[2] + f[1] * x[3]], output=[-f[0], -f[1]])
-    b = DiagramBuilder()
-    law = b.AddNamedSystem("law", law)
-    coeffs = b.AddNamedSystem("coefficients", ConstantVectorSource(friction_parameter_vector(params)))
-    mux = b.AddNamedSystem("mux", Multiplexer([4, len(FRICTION_PARAMETERS)]))
-    b.ExportInput(mux.get_input_port(0), "state")
-    b.Connect(coeffs.get_output_port(0), mux.get_input_port(1))
-    b.Connect(mux.get_output_port(0), law.get_input_port(0))
-    b.ExportOutput(law.get_output_port(0), "generalized_force")
-    return b.Build()
+    builder = DiagramBuilder()
+    law = builder.AddNamedSystem("law", law)
+    coeffs = builder.AddNamedSystem("coefficients",
+                                    ConstantVectorSource(friction_parameter_vector(params)))
+    mux = builder.AddNamedSystem("mux", Multiplexer([4, len(FRICTION_PARAMETERS)]))
+    builder.ExportInput(mux.get_input_port(0), "state")
+    builder.Connect(coeffs.get_output_port(0), mux.get_input_port(1))
+    builder.Connect(mux.get_output_port(0), law.get_input_port(0))
+    builder.ExportOutput(law.get_output_port(0), "generalized_force")
+    return builder.Build()
 
 
 def set_friction(system, context, p: FrictionParams) -> None:
-    """Set the friction of :func:`friction_system` ``system`` in ``context``
-    (the root context of a diagram holding it)."""
+    """Set the coefficients of ``system`` (a :func:`friction_system` built
+    ``in_context``) in ``context`` (the root context of a diagram holding
+    it); ``p`` must have the built :func:`friction_structure`."""
     src = system.GetSubsystemByName("coefficients")
     src.get_mutable_source_value(src.GetMyMutableContextFromRoot(context)).SetFromVector(
         friction_parameter_vector(p))

@@ -36,6 +36,8 @@ OUTCOMES = ("swinging", "captured", "crash", "timeout", "fault")
 
 @dataclass(frozen=True)
 class LineGeometry:
+    """The true geometry the interlock judges: link lengths (m), line incline (rad) and grip
+    spacing (m)."""
     l1: float
     l2: float
     alpha: float

@@ -45,6 +45,8 @@ from .schedule import declare_store, declare_tick_result
 
 @dataclass(frozen=True)
 class PathGeometry:
+    """The path's geometry on the nominal model: link lengths (m), line incline alpha (rad), the
+    target s_f (rad) and elbow angle q2_f (rad), and the capture band (m)."""
     l1: float
     l2: float
     alpha: float      # line incline (rad)
@@ -54,11 +56,14 @@ class PathGeometry:
 
     @property
     def k_f(self) -> float:
+        """Ratio q2_f / s_f of the straight path."""
         return self.q2_f / self.s_f
 
     @classmethod
     def from_scenario(cls, plant: PlantParams, grip_spacing: float, incline: float,
                       band: float = 0.02):
+        """The geometry of a swing on a line inclined by ``incline`` (rad) with grippers
+        ``grip_spacing`` (m) apart."""
         q0 = initial_configuration(grip_spacing, plant, 0.0)
         return cls(plant.l1, plant.l2, incline, -q0[0], -q0[1], band)
 
@@ -75,6 +80,7 @@ def q2_line_seeking(s, l1: float, l2: float, lift: float = 0.0):
 
 
 def smoothstep(x):
+    """3 x^2 - 2 x^3 (0 at 0, 1 at 1, flat at both ends)."""
     return 3.0 * x * x - 2.0 * x * x * x
 
 
@@ -354,6 +360,7 @@ PATH_STATE = namedview("PathState", ["blend_end", "blend_floor", "latched", "cal
 
 @TemplateSystem.define("PathGenerator_", T_list=(float, AutoDiffXd))
 def PathGenerator_(T):
+    """The path generator (chapter 7), scalar-templated (double, AutoDiffXd)."""
     class Impl(LeafSystem_[T]):
         """Input ``state`` (q1, q2, q1d, q2d: estimated, relative).  Outputs
         ``reference`` (q2_ref), ``feedforward`` (q2'' of the constraint,

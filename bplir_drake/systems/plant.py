@@ -65,6 +65,7 @@ def potential_energy(q, p: PlantParams):
 
 
 def kinetic_energy(q, v, p: PlantParams):
+    """Kinetic energy (J) at (q, v)."""
     v = np.asarray(v)
     return 0.5 * v @ mass_matrix(q, p) @ v
 
@@ -82,6 +83,7 @@ def forward_dynamics(q, v, tau2, f, p: PlantParams):
 
 
 def elbow_position(q, l1):
+    """Elbow position (x, y) in m in the line frame."""
     return np.array([l1 * dmath.sin(q[0]), -l1 * dmath.cos(q[0])])
 
 
@@ -93,6 +95,7 @@ def gripper_position(q, l1, l2):
 
 
 def gripper_velocity(q, v, l1, l2):
+    """Free-gripper velocity (m/s) in the line frame."""
     c1, s1 = dmath.cos(q[0]), dmath.sin(q[0])
     c12, s12 = dmath.cos(q[0] + q[1]), dmath.sin(q[0] + q[1])
     w12 = v[0] + v[1]

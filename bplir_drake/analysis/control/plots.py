@@ -42,6 +42,8 @@ def plot_nichols(bounds, templates_at_w, L0_dense, w_dense, axes=None, title="QF
 
 
 def plot_tracking(verification, axes=None, title="Tracking |F L/(1+L)| of the family vs (6.17)"):
+    """Closed-loop tracking magnitudes of the family against the bounds (6.17) on one axis; returns
+    the figure."""
     r = verification.responses
     w = r["w"]
     lo, up = r["bounds"]
@@ -59,6 +61,8 @@ def plot_tracking(verification, axes=None, title="Tracking |F L/(1+L)| of the fa
 
 
 def plot_family_responses(verification, axes=None, title="Family responses (Figs 6.10-6.12)"):
+    """Step and disturbance responses of every plant of the family (2 x 2 axes); returns the
+    figure."""
     r = verification.responses
     t = r["t"]
     fig, axes = figure_axes(axes, 2, 2, figsize=(11, 7))
@@ -77,6 +81,8 @@ def plot_family_responses(verification, axes=None, title="Family responses (Figs
 
 
 def plot_zero_dynamics(portraits, axes=None, title="Zero dynamics (Figs 6.2-6.3)"):
+    """Phase portraits (q1, q1' in rad, rad/s) of the zero dynamics, one axis per portrait; returns
+    the figure."""
     fig, axes = figure_axes(axes, 1, len(portraits), figsize=(6 * len(portraits), 5))
     axes = np.atleast_1d(axes)
     for ax, pp in zip(axes, portraits):

@@ -39,6 +39,8 @@ class QftError(ValueError):
 
 @dataclass
 class Plant:
+    """One plant of a family: a transfer function from v to q2 and an input delay (s); calling it
+    at frequencies w (rad/s) gives the complex response."""
     tf: control.TransferFunction
     delay: float = 0.0
     label: str = ""
@@ -57,6 +59,7 @@ class Plant:
 
 @dataclass
 class PlantFamily:
+    """The plants a QFT design must hold for, with the index of the nominal one."""
     plants: list[Plant]
     name: str = "family"
     nominal: int = 0
@@ -103,6 +106,7 @@ def _s():
 
 
 def default_tracking_bounds():
+    """(lower, upper) tracking models of (6.17) as transfer functions in s."""
     s = _s()
     lower = 0.9 / ((s / 10) ** 2 + 0.15 * s + 1)
     upper = 1.1 / ((s / 26) ** 2 + 0.077 * s + 1)
@@ -150,9 +154,11 @@ class QftSpecs:
 
     @property
     def stability_max(self) -> float:
+        """The stability margin bound |L/(1+L)| <= this, as a ratio (from ``stability_db``)."""
         return 10 ** (self.stability_db / 20)
 
     def tracking_spread_db(self, w) -> np.ndarray:
+        """Allowed spread (dB) of the closed-loop tracking magnitude at frequencies ``w`` (rad/s)."""
         return 20 * np.log10(np.abs(self.tracking_upper(1j * np.asarray(w)))
                              / np.abs(self.tracking_lower(1j * np.asarray(w))))
 
@@ -166,6 +172,8 @@ def templates(family: PlantFamily, omegas) -> np.ndarray:
 
 @dataclass
 class Bounds:
+    """QFT bounds on the Nichols plane: per design frequency (rad/s), a mask of allowed (phase deg,
+    gain dB) of the nominal loop for each specification."""
     omegas: np.ndarray
     phases_deg: np.ndarray
     mags_db: np.ndarray
@@ -174,6 +182,7 @@ class Bounds:
 
     @property
     def combined(self) -> np.ndarray:
+        """The allowed region of every specification at once, (n_w, n_phase, n_mag) bool."""
         out = np.ones_like(next(iter(self.masks.values())))
         for m in self.masks.values():
             out &= m
@@ -233,6 +242,8 @@ def check_loop(bounds: Bounds, L0_values) -> dict:
 
 @dataclass
 class Verification(Result):
+    """The closed loops of a family checked against the specifications: one entry per check (worst
+    value, limit, holds) and the responses to plot."""
     family: str
     n_plants: int
     checks: dict          # spec -> {"holds": bool, "worst": float, "limit": float, "worst_plant": str}
@@ -240,6 +251,7 @@ class Verification(Result):
 
     @property
     def all_hold(self) -> bool:
+        """Every specification holds for every plant."""
         return all(c["holds"] for c in self.checks.values())
 
     def plot(self, axes=None):
@@ -249,6 +261,7 @@ class Verification(Result):
         return plot_family_responses(self, axes)
 
     def summary(self) -> dict:
+        """The checks and the family as JSON-ready data."""
         return {"family": self.family, "plants": self.n_plants, "all_hold": self.all_hold,
                 "specifications": self.checks}
 
@@ -392,6 +405,7 @@ def lead_pid(k, zi, z, p):
 
 
 def second_order_prefilter(wf, zeta, gain=1.0):
+    """F(s) = gain wf^2 / (s^2 + 2 zeta wf s + wf^2), ``wf`` in rad/s."""
     return control.tf([gain * wf ** 2], [1.0, 2 * zeta * wf, wf ** 2])
 
 
@@ -460,6 +474,7 @@ def design_qft(family: PlantFamily, specs: QftSpecs, *, crossover_max: float = 2
 
 
 def tf_coefficients(sys: control.TransferFunction) -> tuple[tuple, tuple]:
+    """(numerator, denominator) coefficients of a SISO transfer function, highest power first."""
     num = np.atleast_1d(np.squeeze(sys.num[0][0]))
     den = np.atleast_1d(np.squeeze(sys.den[0][0]))
     return tuple(float(c) for c in num), tuple(float(c) for c in den)

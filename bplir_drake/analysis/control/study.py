@@ -14,6 +14,9 @@ from ...simulate import logs, make_simulator, run
 
 @dataclass
 class StepMetrics:
+    """An elbow step of the closed loop: settling time (s), final error and overshoot (relative to
+    the step), largest outer-loop signal v (rad/s^2) and torque (N m), and the response
+    q2(t) (rad)."""
     settling_time: float      # into +/- band of the step, after the step
     final_error: float        # relative
     overshoot: float          # relative

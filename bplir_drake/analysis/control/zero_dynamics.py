@@ -20,11 +20,14 @@ from ...systems.plant import gravity_vector, mass_matrix
 
 @dataclass
 class PhasePortrait:
+    """Orbits (t, q1, q1') of link 1 with the elbow held at ``q2_star`` (rad), with or without
+    friction."""
     q2_star: float
     friction: bool
     trajectories: list  # each (t, q1, q1d)
 
     def final_radius(self) -> np.ndarray:
+        """Distance of each orbit's end from the origin in the (q1, q1') plane."""
         return np.array([np.hypot(q1[-1], qd[-1]) for _, q1, qd in self.trajectories])
 
     def energy_like(self, p: PlantParams) -> list[np.ndarray]:

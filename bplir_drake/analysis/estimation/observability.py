@@ -28,6 +28,9 @@ DEFAULT_THRESHOLD = 1e-3
 
 @dataclass
 class ObservabilityResult(Result):
+    """Observability along a trajectory: relative smallest singular values of the observability
+    matrix (gyro only and full) at each time (s), the A entries a31, a42 and the rank-loss
+    events."""
     t: np.ndarray
     rank_gyro: np.ndarray
     rank_full: np.ndarray
@@ -45,6 +48,7 @@ class ObservabilityResult(Result):
         return plot_observability(self, axes)
 
     def summary(self) -> dict:
+        """Smallest ranks, rank-loss events and their times as JSON-ready data."""
         ev_g = [e["rank_gyro"] for e in self.events]
         ev_f = [e["rank_full"] for e in self.events]
         return {
@@ -63,6 +67,7 @@ class ObservabilityResult(Result):
 
 
 def observability_matrix(A: np.ndarray, C: np.ndarray) -> np.ndarray:
+    """[C; C A; ...; C A^(n-1)] of the pair (A, C)."""
     n = A.shape[0]
     blocks, M = [], C
     for _ in range(n):

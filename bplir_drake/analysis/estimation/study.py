@@ -23,6 +23,9 @@ DEFAULT_KNOCK = (6.0, 0.1, 4.0)
 
 @dataclass
 class EstimationRun(Result):
+    """The EKF on a simulated swing: filter ticks (s), the true and estimated absolute states, the
+    gyro integral, the samples it used, covariance diagonal and gyro-bias estimates, its
+    start estimate and seed."""
     t: np.ndarray          # filter ticks
     truth: np.ndarray      # (N, 4) absolute
     estimate: np.ndarray   # (N, 4) absolute
@@ -35,13 +38,16 @@ class EstimationRun(Result):
 
     @property
     def error(self) -> np.ndarray:
+        """Estimate minus truth at each tick, (N, 4) rad and rad/s."""
         return self.estimate - self.truth
 
     def rmse(self, t_from: float = 0.0) -> np.ndarray:
+        """Root-mean-square error of each state from ``t_from`` (s) on."""
         m = self.t >= t_from
         return np.sqrt(np.mean(self.error[m] ** 2, axis=0))
 
     def rmse_gyro_integral(self, t_from: float = 0.0) -> np.ndarray:
+        """Root-mean-square angle error (rad) of the gyro integral (5.41) from ``t_from`` (s) on."""
         m = self.t >= t_from
         return np.sqrt(np.mean((self.gyro_integral[m] - self.truth[m, :2]) ** 2, axis=0))
 
@@ -60,6 +66,7 @@ class EstimationRun(Result):
         return plot_estimate(self.t, self.estimate, self.gyro_integral, axes, truth=self.truth)
 
     def summary(self) -> dict:
+        """RMS errors, convergence time and seed as JSON-ready data."""
         r = self.rmse()
         return {"rmse_theta1_rad": float(r[0]), "rmse_theta2_rad": float(r[1]),
                 "rmse_omega1_rad_s": float(r[2]), "rmse_omega2_rad_s": float(r[3]),

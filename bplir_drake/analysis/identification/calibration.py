@@ -56,6 +56,8 @@ class CalibrationError(ValueError):
 
 @dataclass
 class CalibrationLog:
+    """A logged run to calibrate against: times (s), joint angles (N, 2) rad, elbow torque (N,) N m
+    and the initial rates (rad/s)."""
     t: np.ndarray
     q: np.ndarray          # (N, 2)
     tau: np.ndarray        # (N,) elbow torque
@@ -63,6 +65,9 @@ class CalibrationLog:
 
 
 def read_calibration_csv(path, torque_per_amp: float) -> CalibrationLog:
+    """A calibration CSV (t, q1, q2 and tau in N m or i_cmd in A, converted with
+    ``torque_per_amp``) as a checked :class:`CalibrationLog`; a bad file raises
+    :class:`CalibrationError`."""
     from ...estimation import csv_rows
 
     path = Path(path)
@@ -90,6 +95,8 @@ def read_calibration_csv(path, torque_per_amp: float) -> CalibrationLog:
 
 
 def check_calibration_log(t, q, tau, qd0=None, *, min_duration: float = 2.0) -> CalibrationLog:
+    """A :class:`CalibrationLog` from arrays, checked: at least 20 finite samples over
+    ``min_duration`` seconds with increasing times."""
     t, q, tau = np.asarray(t, float), np.asarray(q, float), np.asarray(tau, float)
     if len(t) < 20 or t[-1] - t[0] < min_duration:
         dur = (t[-1] - t[0]) if len(t) else 0.0
@@ -131,6 +138,8 @@ def _with(params: BplirParams, names, values) -> BplirParams:
 
 @dataclass
 class CalibrationResult(Result):
+    """A fit of model parameters to a log: the parameters before and after, the fitted values, RMSE
+    (rad) before and after, and the simulated angles to plot."""
     names: tuple
     values: np.ndarray
     std_errors: np.ndarray
@@ -148,6 +157,7 @@ class CalibrationResult(Result):
         return plot_calibration(self, axes)
 
     def summary(self) -> dict:
+        """Fitted values and RMSE before and after as JSON-ready data."""
         return {"fitted": {n: float(v) for n, v in zip(self.names, self.values)},
                 "std_errors": {n: float(s) for n, s in zip(self.names, self.std_errors)},
                 "rmse_before_rad": self.rmse_before, "rmse_after_rad": self.rmse_after,
@@ -292,6 +302,8 @@ def damped_integrator_response(t, v, g, c, Td):
 
 
 def fit_step(t, y, v) -> dict:
+    """Least-squares fit of the damped integrator with delay (:func:`damped_integrator_response`)
+    to a step response y(t) to v: gain, damping, delay and RMSE."""
     from scipy.optimize import least_squares
 
     def res(z):
@@ -308,6 +320,8 @@ def fit_step(t, y, v) -> dict:
 
 @dataclass
 class PlantFamilyFit:
+    """Step fits of the CPFL plant (4.7): one fit per step, the responses, and the parameter ranges
+    the family spans."""
     fits: list
     responses: list   # (t, y, v)
     ranges: dict      # k, a, Td -> (min, max)
@@ -352,6 +366,7 @@ def identify_plant_family(params: BplirParams, steps=(10.0, 20.0, 40.0, -20.0), 
 
 
 def write_calibrated_toml(result: CalibrationResult, path) -> Path:
+    """The calibrated parameters as a TOML parameter file at ``path`` (atomic)."""
     from ...params import save_toml
 
     path = Path(path)
@@ -360,6 +375,8 @@ def write_calibrated_toml(result: CalibrationResult, path) -> Path:
 
 
 def plot_calibration(result: CalibrationResult, axes=None):
+    """The logged angles against the simulation before and after the fit (two axes); returns the
+    figure."""
     from ..plotting import figure_axes, finish
     fig, ax = figure_axes(axes, 2, 1, figsize=(10, 6), sharex=True)
     for i, a in enumerate(ax):

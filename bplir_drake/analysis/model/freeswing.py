@@ -14,6 +14,8 @@ from ..results import Result
 
 @dataclass
 class FreeSwingResult(Result):
+    """A free swing: times (s), state (N, 4), applied elbow torque (N m), generalized friction
+    force, kinetic, potential and total energy (J) and its rate (W)."""
     t: np.ndarray            # (N,)
     x: np.ndarray            # (N, 4) q1, q2, q1d, q2d
     tau: np.ndarray          # (N,) elbow torque applied
@@ -25,10 +27,12 @@ class FreeSwingResult(Result):
 
     @property
     def energy_start(self) -> float:
+        """Total energy at the start (J)."""
         return float(self.total[0])
 
     @property
     def energy_end(self) -> float:
+        """Total energy at the end (J)."""
         return float(self.total[-1])
 
     def plot(self, axes=None):
@@ -38,6 +42,7 @@ class FreeSwingResult(Result):
         return plot_free_swing(self, axes)
 
     def summary(self) -> dict:
+        """Duration, energies and start/end angles as JSON-ready data."""
         return {"duration_s": float(self.t[-1] - self.t[0]),
                 "energy_start_J": self.energy_start, "energy_end_J": self.energy_end,
                 "energy_change_J": self.energy_end - self.energy_start,
@@ -47,6 +52,9 @@ class FreeSwingResult(Result):
 def simulate_free_swing(params: BplirParams, q0, duration: float, *, v0=(0.0, 0.0),
                         elbow_torque=0.0, friction: bool = True, motor: bool = False,
                         accuracy: float = 1e-6, log_period: float = 0.001) -> FreeSwingResult:
+    """Simulate the plant (with friction unless ``friction=False``, through the motor with
+    ``motor=True``) from ``q0``, ``v0`` for ``duration`` s under a constant or scheduled
+    ``elbow_torque``."""
     built = build_free_swing(params, elbow_torque, friction=friction, motor=motor,
                              log_period=log_period)
     sim = make_simulator(built, q0, v0, accuracy=accuracy)

@@ -49,6 +49,8 @@ def range_for_candidate_rmse(target: float, fc: float, b: float) -> float:
 
 @dataclass(frozen=True)
 class FrictionTable:
+    """One row of Table 4.1: Coulomb level ``fc`` (N m), smoothing ``b`` (rad/s), speed range
+    (rad/s) and the RMS errors of the candidate and the viscous-only model."""
     fc: float
     b: float
     vmax: float
@@ -57,6 +59,7 @@ class FrictionTable:
 
 
 def friction_table(fc: float, b: float, vmax: float = 40.0) -> FrictionTable:
+    """The Table 4.1 row for ``fc``, ``b`` over speeds up to ``vmax`` (rad/s)."""
     return FrictionTable(fc, b, vmax, rmse_candidate(fc, b, vmax),
                          rmse_viscous_only(fc, b, vmax))
 

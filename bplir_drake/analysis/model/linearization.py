@@ -11,6 +11,7 @@ from ...params import BplirParams
 
 @dataclass(frozen=True)
 class Linearization:
+    """A linearised plant x' = A x + B u, y = C x + D u and its eigenvalues."""
     A: np.ndarray
     B: np.ndarray
     C: np.ndarray

@@ -37,6 +37,8 @@ def compound_pendulum_period(p: PlantParams, q2: float) -> float:
 
 @dataclass(frozen=True)
 class PendulumPeriods:
+    """Pendulum periods (s) of the robot: (6.14) as printed and its radius (m), and the simple and
+    compound periods folded (q2 = pi) and straight (q2 = 0)."""
     T_min_printed: float      # (6.14) as printed -> 1.57 s (really q2 = 0, straight)
     r_printed: float
     T_folded: float           # q2 = pi, the smallest CoM radius
@@ -45,6 +47,7 @@ class PendulumPeriods:
 
 
 def pendulum_periods(p: PlantParams) -> PendulumPeriods:
+    """The :class:`PendulumPeriods` of plant ``p``."""
     r_printed = (p.m1 * p.lc1 + (p.l1 + p.lc2) * p.m2) / (p.m1 + p.m2)  # (6.14)
     return PendulumPeriods(
         T_min_printed=simple_pendulum_period(r_printed, p.g),

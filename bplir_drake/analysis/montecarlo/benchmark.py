@@ -139,6 +139,7 @@ CASE_COLUMNS = ("controller", "category", "label", "case", "repeat", "seed", "ou
 
 
 def write_cases_csv(rows, path) -> Path:
+    """One CSV row per benchmark case at ``path`` (atomic)."""
     from ...io import atomic_path
 
     path = Path(path)
@@ -151,6 +152,7 @@ def write_cases_csv(rows, path) -> Path:
 
 
 def benchmark_table(result: dict) -> str:
+    """The benchmark's scores by controller and category as a Markdown table."""
     ctrls = list(result["scores"])
     lines = ["| category | " + " | ".join(ctrls) + " |", "| --- " * (len(ctrls) + 1) + "|"]
     for k in result["categories"]:
@@ -162,6 +164,7 @@ def benchmark_table(result: dict) -> str:
 
 
 def plot_benchmark(result: dict, axes=None):
+    """Scores by category and the outcome of every case (two axes); returns the figure."""
     from ..plotting import figure_axes, finish
     ctrls = list(result["scores"])
     fig, (ax, ax2) = figure_axes(axes, 1, 2, figsize=(13, 4.8), gridspec_kw={"width_ratios": [2, 3]})

@@ -25,6 +25,8 @@ def _colour(rows):
 
 
 def plot_success_vs_parameters(study: Study, rows: list[dict], axes=None):
+    """Capture speed (m/s) against each uncertain quantity, coloured by outcome (one axis per
+    quantity); returns the figure."""
     names = study.names or ["index"]
     ncol = min(3, len(names))
     nrow = math.ceil(len(names) / ncol)
@@ -53,6 +55,8 @@ def plot_success_vs_parameters(study: Study, rows: list[dict], axes=None):
 
 
 def plot_histograms(study: Study, rows: list[dict], axes=None):
+    """Histograms of capture speed, swing time, peak torque and peak power (2 x 2 axes); returns
+    the figure."""
     fields = [("capture_speed_mps", "capture speed [m/s]", study.params.scenario.capture_speed),
               ("swing_time_s", "swing time [s]", None),
               ("peak_torque_Nm", "peak torque [N m]", None),
@@ -72,6 +76,8 @@ def plot_histograms(study: Study, rows: list[dict], axes=None):
 
 
 def plot_influence(study: Study, rows: list[dict], axes=None):
+    """The samples over the two most influential quantities, coloured by outcome (one axis);
+    returns the figure."""
     inf = influence(study, rows)
     ranked = sorted(inf, key=inf.get, reverse=True)
     fig, ax = figure_axes(axes, figsize=(6.5, 5))

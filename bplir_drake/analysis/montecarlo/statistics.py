@@ -25,6 +25,9 @@ PERCENTILE_FIELDS = ("capture_speed_mps", "swing_time_s", "peak_torque_Nm", "pea
 
 
 def summarize(study: Study, rows: list[dict]) -> dict:
+    """The statistics of a study's rows: success rate over the samples that ran with its 95 %
+    Wilson interval, outcome counts, failed and unsuccessful samples, percentiles of the
+    result fields."""
     ran = [r for r in rows if r["outcome"] != "error"]
     errors = [r for r in rows if r["outcome"] == "error"]
     k = sum(bool(r["success"]) for r in ran)

@@ -14,6 +14,7 @@ from .study import RESULT_FIELDS, Study, StudyError
 # ------------------------------------------------------------ result table
 
 def columns(study: Study) -> list[str]:
+    """The columns of a study's results CSV."""
     return ["index", "seed", *study.names, *RESULT_FIELDS, "error"]
 
 
@@ -79,11 +80,13 @@ class ResultWriter:
         self._w = csv.writer(self._fh)
 
     def write(self, row: dict) -> None:
+        """Append one row and flush it to disk."""
         self._w.writerow([_fmt(row.get(c)) for c in self.cols])
         self._fh.flush()
         os.fsync(self._fh.fileno())
 
     def close(self) -> None:
+        """Close the file."""
         self._fh.close()
 
 

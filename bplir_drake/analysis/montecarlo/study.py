@@ -60,13 +60,16 @@ class Distribution:
 
     @property
     def block(self) -> str:
+        """The parameter block the quantity lives in."""
         return self.name.split(".")[0]
 
     @property
     def field(self) -> str:
+        """The field of the quantity in its block."""
         return self.name.split(".")[1]
 
     def draw(self, base_value: float, rng: np.random.Generator) -> float:
+        """One draw around ``base_value`` (or ``center``) from ``rng``."""
         center = base_value if self.center is None else self.center
         scale = self.abs if self.abs is not None else self.rel * abs(center)
         if self.dist == "uniform":
@@ -81,6 +84,7 @@ class Distribution:
         return float(center + scale * u)
 
     def as_dict(self) -> dict:
+        """The distribution as its TOML table."""
         d = {"dist": self.dist}
         for key in ("rel", "abs", "center"):
             if getattr(self, key) is not None:
@@ -119,6 +123,7 @@ def dissertation_distributions() -> tuple[Distribution, ...]:
 
 @dataclass(frozen=True)
 class Study:
+    """A Monte Carlo study: base parameters, distributions, number of samples, root seed."""
     params: BplirParams = field(default_factory=BplirParams)
     distributions: tuple[Distribution, ...] = field(default_factory=dissertation_distributions)
     samples: int = 100
@@ -135,12 +140,15 @@ class Study:
 
     @property
     def names(self) -> list[str]:
+        """The uncertain quantities' names, in order."""
         return [d.name for d in self.distributions]
 
     def with_(self, **kw) -> "Study":
+        """A copy with fields replaced."""
         return dc.replace(self, **kw)
 
     def as_dict(self) -> dict:
+        """The study as its TOML document."""
         return {"samples": self.samples, "seed": self.seed,
                 "parameters": to_dict(self.params),
                 "uncertain": {d.name: d.as_dict() for d in self.distributions}}
@@ -153,6 +161,7 @@ class Study:
 
 
 def study_from_dict(data: dict, source: str = "study") -> Study:
+    """A :class:`Study` from a parsed study document; errors name ``source``."""
     if not isinstance(data, dict):
         raise StudyError(f"{source}: a study must be a table")
     allowed = {"samples", "seed", "parameters", "uncertain"}
@@ -185,6 +194,7 @@ def study_from_dict(data: dict, source: str = "study") -> Study:
 
 
 def load_study(path) -> Study:
+    """Read a study TOML file; errors are :class:`StudyError` naming the file."""
     path = Path(path)
     data = read_toml(path, "study file", StudyError)
     try:
@@ -196,6 +206,7 @@ def load_study(path) -> Study:
 
 
 def save_study(study: Study, path) -> None:
+    """Write ``study`` as TOML at ``path`` (atomic)."""
     import tomli_w
 
     write_text_atomic(path, tomli_w.dumps(study.as_dict()))

@@ -18,6 +18,8 @@ COLUMNS = ("outcome", "swing_time_s", "capture_speed_mps", "peak_torque_Nm",
 
 
 def compare_presets(params: BplirParams, seed: int | None = None) -> list[dict]:
+    """The swing of ``params`` with every controller preset, on the estimate and on the true state:
+    one row per run with its summary figures."""
     rows = []
     for label, ctrl, mode, est in VARIANTS:
         p = params.with_(controller=ControllerParams.preset_named(ctrl),
@@ -29,6 +31,7 @@ def compare_presets(params: BplirParams, seed: int | None = None) -> list[dict]:
 
 
 def comparison_table(rows) -> str:
+    """The comparison rows as a Markdown table."""
     head = "| variant | " + " | ".join(COLUMNS) + " |"
     sep = "| --- " * (len(COLUMNS) + 1) + "|"
     lines = [head, sep]
@@ -40,6 +43,7 @@ def comparison_table(rows) -> str:
 
 
 def plot_comparison(rows, axes=None):
+    """Elbow angle, torque and gripper path of every run (three axes); returns the figure."""
     from ..plotting import figure_axes, finish
     fig, ax = figure_axes(axes, 1, 3, figsize=(15, 4.5))
     for r in rows:

@@ -54,18 +54,22 @@ class SwingPlan(Result):
 
     @property
     def duration(self) -> float:
+        """Duration of the plan (s)."""
         return float(self.times[-1])
 
     @property
     def power(self) -> np.ndarray:
+        """Mechanical elbow power along the plan (W)."""
         return self.torque * self.states[:, 3]
 
     @property
     def peak_torque(self) -> float:
+        """Largest |torque| of the plan (N m)."""
         return float(np.max(np.abs(self.torque)))
 
     @property
     def peak_power(self) -> float:
+        """Largest |power| of the plan (W)."""
         return float(np.max(np.abs(self.power)))
 
     @property
@@ -92,6 +96,7 @@ class SwingPlan(Result):
         return plot_plan(self, params, axes)
 
     def summary(self) -> dict:
+        """Feasibility, duration, peaks and limits as JSON-ready data."""
         return {"incline_deg": self.incline_deg, "solved": self.solved,
                 "feasible": self.feasible, "solver": self.solver,
                 "duration_s": self.duration, "peak_torque_Nm": self.peak_torque,

@@ -45,6 +45,7 @@ def plan_key(inputs: dict) -> str:
 
 
 def plan_cache_path(inputs: dict) -> Path:
+    """Where the plan of ``inputs`` is cached."""
     return cache_dir() / f"plan-{plan_key(inputs)}.npz"
 
 

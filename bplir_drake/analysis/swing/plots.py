@@ -41,7 +41,8 @@ def plot_swing(result, axes=None, title=None):
             a.plot(c["t"], c[name], style, lw=0.8 if style.startswith("k") and name != "energy"
                    else None, label=label)
         a.set_ylabel(ylabel)
-        a.legend(fontsize=7, ncol=2 if len(lines) > 3 else 1)
+        if a.get_legend() is None:  # overlaid swings: the first one's legend
+            a.legend(fontsize=7, ncol=2 if len(lines) > 3 else 1)
     lim = s["thresholds"]["torque_limit_Nm"]
     for sign in (1, -1):
         ax[1, 0].axhline(sign * lim, color="grey", lw=0.6)

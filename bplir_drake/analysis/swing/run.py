@@ -200,6 +200,9 @@ LOG_COLUMNS = ("t", "q1", "q2", "q1d", "q2d", "q1_est", "q2_est", "q1d_est", "q2
 
 
 def log_table(result: SwingResult) -> tuple[list[str], np.ndarray]:
+    """(column names, table) of a swing's logs on the state's time grid: truth, estimate,
+    reference, torques, power, current, friction, gripper position and energies
+    (:data:`LOG_COLUMNS`)."""
     lg, p = result.logs, result.params
     st = lg["state"]
     t, x = st.t, st.data
@@ -217,6 +220,7 @@ def log_table(result: SwingResult) -> tuple[list[str], np.ndarray]:
 
 
 def write_log_csv(result: SwingResult, path) -> Path:
+    """The :func:`log_table` as CSV at ``path`` (atomic)."""
     cols, data = log_table(result)
     path = Path(path)
     with atomic_path(path) as tmp:
@@ -225,10 +229,12 @@ def write_log_csv(result: SwingResult, path) -> Path:
 
 
 def summary_with_params(result: SwingResult) -> dict:
+    """The swing's summary with the parameters it ran with."""
     return result.summary | {"parameters": to_dict(result.params)}
 
 
 def gripper_speed(result: SwingResult) -> np.ndarray:
+    """Free-gripper speed (m/s) at each logged state."""
     tp = result.params.simulated_plant
     return np.array([np.linalg.norm(gripper_velocity(r[:2], r[2:], tp.l1, tp.l2))
                      for r in result.logs["state"].data])

@@ -19,7 +19,7 @@ MATLAB QFT toolbox used in chapter 6 does, as data:
   tracking, input and output disturbance (Figs 6.10-6.12);
 * a loop-shaping design by constrained optimisation (:func:`design_qft`).
 
-Compute functions return data; :mod:`bplir_drake.analysis.qft_plots` plots it.
+Compute functions return data; :mod:`bplir_drake.analysis.control.plots` plots it.
 """
 from __future__ import annotations
 

@@ -3,7 +3,7 @@
 A DirectCollocation solve of a swing takes about a minute; a Monte Carlo
 study, the tests and ``bplir swing`` with ``path.mode = "plan"`` need the same
 few plans again and again.  :func:`cached` stores a
-:class:`~bplir_drake.analysis.swing_plan.SwingPlan` as ``plan-<key>.npz`` in
+:class:`~bplir_drake.analysis.swing.plan.SwingPlan` as ``plan-<key>.npz`` in
 the cache directory (``$BPLIR_CACHE_DIR``, default ``~/.cache/bplir-drake``),
 where ``key`` is the SHA-256 of the planner's inputs (nominal model,
 scenario geometry, limits, solver settings), the Drake version and

@@ -41,7 +41,9 @@ from ..params import BplirParams, ScenarioParams, to_dict
 from ..systems.controller import CpflController
 from ..systems.disturbance import (CommandDelay, DisturbanceSource, delay_steps,
                                    disturbance_schedule, has_disturbance)
+from ..systems.calibration import ImuCalibration, calibrate_standstill
 from ..systems.ekf import KinematicEkf
+from ..systems.imu import standstill_samples
 from ..systems.friction import FRICTION_PARAMETERS, set_friction
 from ..systems.motor import MotorDriver
 from ..systems.plant import INERTIAL_FIELDS, absolute_from_relative, set_inertial_parameters
@@ -108,6 +110,7 @@ def set_swing_sample(built: Built, context, params: BplirParams, seed: int) -> N
     set_inertial_parameters(built.plant, context, params.simulated_plant)
     set_friction(built.systems["friction"], context, params.simulated_friction)
     built.systems["imu"].set_sensor(context, params.imu, seed)
+    built.systems["ekf"].set_calibration(context, standstill_calibration(params, built.q0, seed))
     if "disturbance" in built.systems:
         built.systems["disturbance"].set_schedule(
             context, _disturbance_torques(params.scenario, seed, params.controller.period))
@@ -149,15 +152,32 @@ def add_robot(builder, params: BplirParams, seed: int) -> Robot:
     return Robot(plant, friction, dist, motor)
 
 
+def standstill_calibration(params: BplirParams, q0, seed: int) -> ImuCalibration:
+    """The IMU calibration the robot makes before the swing, held on the line
+    at rest in the pose ``q0`` (its joint encoders and the grip geometry):
+    ``estimator.standstill_samples`` samples of the simulated sensors
+    (:func:`~bplir_drake.systems.imu.standstill_samples`, seeded by ``seed``)
+    reduced by :func:`~bplir_drake.systems.calibration.calibrate_standstill`
+    with the filter's gravity.  No calibration (identity) with 0 samples."""
+    n = int(round(params.estimator.standstill_samples))
+    if n < 2:
+        return ImuCalibration()
+    theta = absolute_from_relative(np.asarray(q0[:2], dtype=float))
+    samples = standstill_samples(params.imu, theta, params.simulated_plant.g, seed, n)
+    return calibrate_standstill(samples, theta, params.estimator.g)
+
+
 def add_sensing(builder, params: BplirParams, robot: Robot, q0, seed: int):
     """Two IMUs on the simulated links and the kinematic EKF (nominal
-    geometry, started at the known pose ``q0`` at rest).  Returns
-    ``(sampler, ekf)``."""
+    geometry, started at the known pose ``q0`` at rest, with the standstill
+    calibration of :func:`standstill_calibration`).  Returns ``(sampler,
+    ekf)``."""
     sampler = add_imus(builder, robot.plant, params, seed)
     est = params.estimator.for_loop()
     x0_abs = absolute_from_relative(np.array([q0[0], q0[1], 0.0, 0.0]))
     ekf = builder.AddNamedSystem("ekf", KinematicEkf(
-        est, x0_abs, sigmas=(est.start_angle_sigma, est.start_rate_sigma, est.start_bias_sigma)))
+        est, x0_abs, sigmas=(est.start_angle_sigma, est.start_rate_sigma, est.start_bias_sigma),
+        calibration=standstill_calibration(params, q0, seed)))
     builder.Connect(sampler.get_output_port(0), ekf.get_input_port(0))
     return sampler, ekf
 

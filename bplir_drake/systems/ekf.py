@@ -29,9 +29,11 @@ from functools import lru_cache
 import numpy as np
 import pydrake.math as dmath
 from pydrake.autodiffutils import AutoDiffXd, ExtractGradient, ExtractValue, InitializeAutoDiff
+from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import LeafSystem
 
 from ..params import EstimatorParams
+from .calibration import ImuCalibration
 from .schedule import declare_store, declare_tick_result
 
 
@@ -260,17 +262,23 @@ class KinematicEkf(LeafSystem):
     which is stored at the next tick.
     """
 
-    def __init__(self, params: EstimatorParams, x0=(0.0, 0.0, 0.0, 0.0), sigmas=None):
+    def __init__(self, params: EstimatorParams, x0=(0.0, 0.0, 0.0, 0.0), sigmas=None,
+                 calibration: ImuCalibration | None = None):
         super().__init__()
         if not isinstance(params, EstimatorParams):
             raise TypeError("KinematicEkf takes EstimatorParams (geometry and noise only)")
         self.params = params
+        calibration = calibration or ImuCalibration()
+        if params.estimate_bias:
+            x0 = (*np.asarray(x0, dtype=float)[:4], *calibration.bias)
         init = initial_state(params, x0, sigmas)
         self.n = n = len(init.x)
         self.imu_port = self.DeclareVectorInputPort("imu", 6)
         # [x (n), P (n*n), previous accelerometer input (2), first-sample flag]: _unpack()
         packed = np.concatenate([init.x, init.P.ravel(), [0.0, 0.0], [1.0]])
         self._state = self.DeclareDiscreteState(packed)
+        # the standstill calibration: samples are corrected before the update
+        self._calibration = self.DeclareAbstractParameter(AbstractValue.Make(calibration))
         self._post = declare_tick_result(self, self._posterior,
                                          {self.xd_ticket(), self.all_input_ports_ticket()})
         declare_store(self, params.period, self._store)
@@ -292,11 +300,24 @@ class KinematicEkf(LeafSystem):
     def _posterior(self, context):
         """The packed filter state after this tick's sample."""
         s, u_prev, first = self._unpack(context.get_discrete_state(self._state).get_value())
-        s, u = ekf_step(s, u_prev, self.imu_port.Eval(context), self.params, first=first)
+        sample = context.get_abstract_parameter(self._calibration).get_value().correct(
+            self.imu_port.Eval(context))
+        s, u = ekf_step(s, u_prev, sample, self.params, first=first)
         return np.concatenate([s.x, s.P.ravel(), u, [0.0]])
 
     def _store(self, context, discrete_state):
         discrete_state.get_mutable_vector(self._state).SetFromVector(self._post.Eval(context))
+
+    def set_calibration(self, context, calibration: ImuCalibration) -> None:
+        """Use ``calibration`` in ``context`` (root, before the run): its
+        corrections on every sample and its gyro biases as the initial bias
+        estimate."""
+        own = self.GetMyMutableContextFromRoot(context)
+        own.get_mutable_abstract_parameter(self._calibration).set_value(calibration)
+        if self.n > 4:
+            state = own.get_mutable_discrete_state(self._state)
+            state.SetAtIndex(4, calibration.bias[0])
+            state.SetAtIndex(5, calibration.bias[1])
 
     def _out_abs(self, context, out):
         out.SetFromVector(self._post.Eval(context)[:4])

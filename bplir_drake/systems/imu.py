@@ -76,6 +76,18 @@ def corrupt(ideal, params: ImuParams, bias, rng) -> np.ndarray:
     return out
 
 
+def standstill_samples(params: ImuParams, theta, g: float, seed: int, n: int) -> np.ndarray:
+    """``n`` samples (n, 6) of the IMUs with the robot held still at the
+    absolute link angles ``theta`` (rad): gravity ``g`` in each link frame,
+    through the sensors' errors (:func:`corrupt`, constant gyro bias) with
+    noise from ``default_rng((seed, 3, k))`` -- a stream of its own, so the
+    swing's samples do not change.  The simulated sensor before a swing."""
+    ideal = imu_kinematics(theta, (0.0, 0.0), (0.0, 0.0), params.r1, params.r2, 0.0, g)
+    bias = np.array([params.gyro_bias1, params.gyro_bias2])
+    return np.array([corrupt(ideal, params, bias, np.random.default_rng((seed, 3, k)))
+                     for k in range(n)])
+
+
 class ImuSampler(LeafSystem):
     """Samples Drake's four sensor outputs at the IMU rate (zero-order hold).
 

@@ -372,6 +372,7 @@ class ControllerParams(_Block):
     delay_samples: float = _p(0.0, "samples", 0, 1, doc="command applied this many samples late (0 or 1)")
     torque_quantum: float = _p(0.0, "N m", 0, 5, doc="truncate the torque to multiples of this (firmware: 1)")
     compute_latency: float = _p(3e-4, "s", 0, 0.01, doc="time from the IMU sample to the command reaching the driver (< period)")
+    delay_compensation: float = _p(0.0, "s", 0, 0.1, doc="actuation delay the controller assumes (whole periods): it acts on the state predicted this far ahead from the estimate and its own past commands (0: none)")
     friction_compensation: bool = False
     sign_correct: bool = True
     k_num: tuple = ()

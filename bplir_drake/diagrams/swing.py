@@ -188,8 +188,19 @@ def add_swing_controller(builder, params: BplirParams, state_port, robot: Robot,
     estimate or the sampled true state): ``{"controller": PlanTracker}`` for
     ``"plan"`` (Drake's finite-horizon LQR along a planned swing,
     ``plan_gains``), else ``{"path": PathGenerator, "controller":
-    CpflController}``.  Every system uses the nominal model."""
+    CpflController}``, both reading the state predicted over
+    ``controller.delay_compensation`` (a :class:`DelayPredictor`, also
+    returned) when that is set.  Every system uses the nominal model."""
     T = params.controller.period
+    steps = delay_steps(params.controller.delay_compensation, T)
+    predictor = None
+    if steps and params.path.mode != "plan":
+        from ..systems.predictor import DelayPredictor
+
+        predictor = builder.AddNamedSystem("predictor", DelayPredictor(
+            params.plant, params.friction, T, steps))
+        builder.Connect(state_port, predictor.estimate_port)
+        state_port = predictor.predicted_port
     if params.path.mode == "plan":
         from ..systems.plan_tracker import PlanTracker
 
@@ -211,6 +222,9 @@ def add_swing_controller(builder, params: BplirParams, state_port, robot: Robot,
     builder.Connect(path.GetOutputPort("reference"), ctrl.GetInputPort("reference"))
     builder.Connect(path.GetOutputPort("feedforward"), ctrl.GetInputPort("feedforward"))
     builder.Connect(robot.motor.GetOutputPort("available"), ctrl.GetInputPort("torque_available"))
+    if predictor is not None:
+        builder.Connect(ctrl.GetOutputPort("torque"), predictor.command_port)
+        return {"predictor": predictor, "path": path, "controller": ctrl}
     return {"path": path, "controller": ctrl}
 
 

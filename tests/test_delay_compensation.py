@@ -1,0 +1,46 @@
+"""Actuation-delay compensation (issue 17): the controller and path act on
+the state predicted over the delay from the estimate and their own past
+commands, on the nominal model."""
+import dataclasses as dc
+
+import numpy as np
+import pytest
+
+from bplir_drake.analysis.swing import SwingRunner
+from bplir_drake.diagrams import build_free_swing
+from bplir_drake.params import BplirParams
+from bplir_drake.simulate import make_simulator
+from bplir_drake.systems.predictor import predict_state
+
+
+def test_prediction_equals_the_nominal_plant_simulated_by_drake():
+    p = BplirParams()
+    p = p.with_(true_plant=p.plant, true_friction=p.friction)
+    x0 = np.array([-0.3, -1.9, 0.4, 2.5])
+    commands = [6.0, -4.0]
+    T = p.controller.period
+    built = build_free_swing(p, (np.array([0.0, T]), np.array(commands)), log_period=T)
+    sim = make_simulator(built, x0[:2], x0[2:], accuracy=1e-10, integrator="runge_kutta5")
+    sim.AdvanceTo(2 * T)
+    drake = built.plant.GetPositionsAndVelocities(
+        built.plant.GetMyContextFromRoot(sim.get_context()))
+    ours = predict_state(x0, commands, T, p.plant, p.friction, substeps=4)
+    np.testing.assert_allclose(ours, drake, rtol=0, atol=2e-6)
+
+
+@pytest.mark.parametrize("delay", [0.01, 0.02])
+def test_a_known_delay_is_compensated(delay):
+    """Held-out seeds 4-11 (seeds 0-3 were looked at while building it; the
+    compensation has no tuned gain, it predicts over the delay).  Measured:
+    without compensation 0 of 8 captured at 10 and at 20 ms (crashes at
+    1.4-8 m/s); with it 5 of 8 at 10 ms and 5 of 8 at 20 ms."""
+    p = BplirParams()
+    p = p.with_(scenario=dc.replace(p.scenario, actuation_delay=delay))
+    runner = SwingRunner()
+
+    def captured(params):
+        return sum(runner.run(params, seed=s).success for s in range(4, 12))
+
+    assert captured(p) == 0
+    compensated = p.with_(controller=dc.replace(p.controller, delay_compensation=delay))
+    assert captured(compensated) >= 5

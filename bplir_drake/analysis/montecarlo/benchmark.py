@@ -10,7 +10,11 @@ thing at a time is made worse, in categories
 * ``torque noise``: white noise on the applied elbow torque;
 * ``delay``: actuation delay of 10..40 ms;
 * ``gusts``: random torque pulses on both joints (2 per second, 0.1 s);
-* ``incline``: the line inclined up or down.
+* ``incline``: the line inclined up or down;
+* ``link-2 parameters``: m2, I2 or lc2 of the real robot off by 10-20 %;
+* ``IMU bias and misalignment``: gyro biases of 0.03 rad/s, accelerometers
+  mounted 2.5 deg off;
+* ``grip spacing``: the grippers 1.1-1.3 m apart.
 
 Each category scores the fraction of successful swings over its cases (and
 ``repeats`` noise seeds per case); the overall score is the mean of the
@@ -58,10 +62,24 @@ def cases(quick: bool = False) -> list[dict]:
                                       "scenario.gust_rate": ("set", 2.0)})
     for v in ((-10.0, 10.0) if quick else (-20.0, -10.0, 10.0, 20.0)):
         add("incline", f"{v:+g} deg", **{"scenario.incline_deg": ("set", v)})
+    for f in ("true_plant.m2", "true_plant.I2", "true_plant.lc2"):
+        for k in ((0.9, 1.1) if quick else (0.8, 0.9, 1.1, 1.2)):
+            add("link-2 parameters", f"{f} x{k:g}", **{f: ("scale", k)})
+    imu = [("gyro bias +/-0.03 rad/s", {"imu.gyro_bias1": 0.03, "imu.gyro_bias2": -0.03}),
+           ("misalignment +/-2.5 deg", {"imu.misalign1": 0.0436, "imu.misalign2": -0.0436})]
+    if not quick:
+        imu += [("gyro bias -/+0.03 rad/s", {"imu.gyro_bias1": -0.03, "imu.gyro_bias2": 0.03}),
+                ("bias and misalignment", {"imu.gyro_bias1": 0.02, "imu.gyro_bias2": 0.02,
+                                           "imu.misalign1": -0.03, "imu.misalign2": 0.03})]
+    for label, values in imu:
+        add("IMU bias and misalignment", label, **{k: ("set", v) for k, v in values.items()})
+    for v in ((1.1, 1.3) if quick else (1.1, 1.15, 1.25, 1.3)):
+        add("grip spacing", f"{v:g} m", **{"scenario.grip_spacing": ("set", v)})
     return out
 
 
-CATEGORIES = ("model parameters", "sensor noise", "torque noise", "delay", "gusts", "incline")
+CATEGORIES = ("model parameters", "sensor noise", "torque noise", "delay", "gusts", "incline",
+              "link-2 parameters", "IMU bias and misalignment", "grip spacing")
 
 
 def case_params(params: BplirParams, controller: str, changes: dict) -> BplirParams:

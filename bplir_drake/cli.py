@@ -363,6 +363,15 @@ def _replay(args):
 
 
 # ------------------------------------------------------------------ montecarlo
+def _check_plugin(params) -> None:
+    """Build a plugged-in controller once, so a broken one fails here with
+    its one-line error instead of in every sample."""
+    if params.controller.plugin:
+        from .diagrams.plugin import make_plugin
+
+        make_plugin(params)
+
+
 def _study(args):
     import dataclasses as dc
 
@@ -385,9 +394,12 @@ def _study(args):
         p = study.params
         study = study.with_(params=p.with_(scenario=dc.replace(p.scenario,
                                                                incline_deg=args.incline)))
+    if args.controller:
+        study = study.with_(params=study.params.with_controller(args.controller))
     from .diagrams import swing_geometry
 
     swing_geometry(study.params)  # the nominal scenario must be possible
+    _check_plugin(study.params)
     if args.workers is not None:
         _in_range("--workers", args.workers, 1, 256)
     _in_range("--samples", study.samples, 1, 1_000_000)
@@ -426,16 +438,20 @@ def cmd_montecarlo(args) -> int:
 # ------------------------------------------------------------------ benchmark
 def cmd_benchmark(args) -> int:
     """``bplir benchmark``: score controller presets by category."""
-    from .analysis.montecarlo.benchmark import benchmark_table, plot_benchmark, run_benchmark
+    from .analysis.montecarlo.benchmark import (benchmark_table, leaderboard, leaderboard_table,
+                                                plot_benchmark, run_benchmark)
 
-    from .params import CONTROLLER_PRESETS
+    from .params import CONTROLLER_PRESETS, _is_plugin
 
     params = _load_params(args)
     presets = [c.strip() for c in args.controllers.split(",") if c.strip()]
-    if not presets or any(c not in CONTROLLER_PRESETS for c in presets):
+    if not presets or any(c not in CONTROLLER_PRESETS and not _is_plugin(c) for c in presets):
         bad = next((c for c in presets if c not in CONTROLLER_PRESETS), args.controllers)
-        raise InputError(f"--controllers: '{bad}' is not a controller preset; allowed a "
-                         "comma-separated list of " + ", ".join(CONTROLLER_PRESETS))
+        raise InputError(f"--controllers: '{bad}' is not a controller; allowed a "
+                         "comma-separated list of " + ", ".join(CONTROLLER_PRESETS)
+                         + " and module:factory plugins")
+    for c in presets:
+        _check_plugin(params.with_controller(c))
     if args.workers is not None:
         _in_range("--workers", args.workers, 1, 256)
     _in_range("--seed", args.seed, 0, 2 ** 32 - 1)
@@ -443,14 +459,39 @@ def cmd_benchmark(args) -> int:
     result = run_benchmark(params, presets, quick=args.quick, workers=args.workers or 0,
                            seed=args.seed, progress=not args.json and sys.stderr.isatty(),
                            out=out)
+    realistic = _realistic_studies(args, presets, out) if args.realistic else None
     fig = save_figure(plot_benchmark(result), out / "benchmark.png")
     table = benchmark_table(result)
     write_text_atomic(out / "benchmark.md", table + "\n")
+    board = leaderboard(result, realistic)
+    board_md = leaderboard_table(board)
+    write_text_atomic(out / "leaderboard.md", board_md + "\n")
+    _write_json(out / "leaderboard.json", board)
+    result["leaderboard"] = board
     result["files"] = {"figure": str(fig), "table": str(out / "benchmark.md"),
-                       "cases": str(out / "benchmark_cases.csv")}
+                       "cases": str(out / "benchmark_cases.csv"),
+                       "leaderboard": str(out / "leaderboard.md")}
     _write_json(out / "benchmark.json", result)
-    _emit(result, args.json, [table, f"figure: {fig}"])
+    _emit(result, args.json, [table, "", board_md, f"figure: {fig}"])
     return 0
+
+
+def _realistic_studies(args, controllers, out) -> dict:
+    """The ``--realistic`` study run for each controller into
+    ``out/realistic/<controller>``: controller -> summary."""
+    import re
+
+    from .analysis.montecarlo import load_study, run_study
+
+    _in_range("--realistic-samples", args.realistic_samples, 1, 1_000_000)
+    base = load_study(args.realistic).with_(samples=args.realistic_samples)
+    summaries = {}
+    for c in controllers:
+        study = base.with_(params=base.params.with_controller(c))
+        where = out / "realistic" / re.sub(r"[^A-Za-z0-9_.-]+", "_", c)
+        summaries[c] = run_study(study, where, workers=args.workers or 0,
+                                 progress=not args.json and sys.stderr.isatty())
+    return summaries
 
 
 # ------------------------------------------------------------------ plan
@@ -541,7 +582,10 @@ def build_parser() -> argparse.ArgumentParser:
         """Options several subcommands share, by name."""
         table = {"incline": ("--incline", float, None, "line incline in degrees"),
                  "controller": ("--controller", None, None,
-                                "controller preset (qft, dissertation, lab)"),
+                                "controller preset (qft, dissertation, lab) or your own, "
+                                "module:factory (a module or .py file)"),
+                 "preset": ("--controller", None, None,
+                            "controller preset (qft, dissertation, lab)"),
                  "workers": ("--workers", int, None, "worker processes (default: all cores)")}
         for n in names:
             option(p, *table[n])
@@ -588,7 +632,7 @@ def build_parser() -> argparse.ArgumentParser:
                 "Monte Carlo robustness study over uncertain parameters", "out/montecarlo")
     p.add_argument("-n", "--samples", type=int, default=None, help="number of swings")
     option(p, "--seed", int, None, "root seed of the study")
-    shared(p, "workers", "incline")
+    shared(p, "workers", "incline", "controller")
     option(p, "--study", None, None, "study TOML file (distributions, scenario)")
     g = p.add_mutually_exclusive_group()
     g.add_argument("--scheduler", default=None, metavar="ADDRESS",
@@ -599,9 +643,14 @@ def build_parser() -> argparse.ArgumentParser:
     p = command("benchmark", cmd_benchmark, "robustness benchmark of the controller presets",
                 "out/benchmark")
     option(p, "--quick", bool, help="fewer cases (about a minute)")
-    option(p, "--controllers", None, "qft,dissertation,lab", "controller presets to score")
+    option(p, "--controllers", None, "qft,dissertation,lab",
+           "controllers to score: presets and module:factory plugins")
     shared(p, "workers")
     option(p, "--seed", int, 0, "root seed of the benchmark")
+    option(p, "--realistic", None, None,
+           "also run this study (e.g. examples/study_realistic.toml) per controller for the "
+           "leaderboard")
+    option(p, "--realistic-samples", int, 100, "samples of that study per controller")
 
     p = command("plan", cmd_plan,
                 "plan a swing by trajectory optimisation (torque and power limits)", "out/plan")
@@ -621,7 +670,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = command("qft", cmd_qft, "QFT design/verification on a plant family", "out/qft")
     p.add_argument("--family", choices=("dissertation", "diagram"), default="diagram",
                    help="plant family: published or linearised from the diagram")
-    shared(p, "controller")
+    shared(p, "preset")
     option(p, "--plants", int, 60, "sampled plants of the diagram family")
     option(p, "--seed", int, 1, "seed of the sampled family")
     option(p, "--design", bool, help="re-run the loop-shaping design")

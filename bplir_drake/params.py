@@ -49,6 +49,14 @@ def _fraction(default, *, doc: str = ""):
     return _p(default, "", 0, 1, lo_open=True, doc=doc)
 
 
+def _is_plugin(spec) -> bool:
+    """``spec`` has the form ``module:factory`` (the module may be a path)."""
+    if not isinstance(spec, str) or ":" not in spec:
+        return False
+    module, factory = spec.rsplit(":", 1)
+    return bool(module) and factory.isidentifier()
+
+
 def _range_text(md) -> str:
     lo, hi = md["lo"], md["hi"]
     left = "(" if md["lo_open"] or lo == -INF else "["
@@ -375,12 +383,17 @@ class ControllerParams(_Block):
     delay_compensation: float = _p(0.0, "s", 0, 0.1, doc="actuation delay the controller assumes (whole periods): it acts on the state predicted this far ahead from the estimate and its own past commands (0: none)")
     friction_compensation: bool = False
     sign_correct: bool = True
+    plugin: str = ""   # "module:factory" of a user's controller (replaces path + CPFL)
     k_num: tuple = ()
     k_den: tuple = ()
     f_num: tuple = ()
     f_den: tuple = ()
 
     def _check(self):
+        if not isinstance(self.plugin, str) or (self.plugin and not _is_plugin(self.plugin)):
+            raise ParameterError(
+                f"controller.plugin = {self.plugin!r} must be 'module:factory' (a module "
+                "name or a .py file, a colon, a function returning a Drake system)")
         if self.preset not in CONTROLLER_PRESETS:
             raise ParameterError(
                 f"controller.preset = '{self.preset}' is unknown; allowed: "
@@ -423,7 +436,8 @@ class ControllerParams(_Block):
         """Controller parameters of a named preset (with its firmware quirks)."""
         if name not in CONTROLLER_PRESETS:
             raise ParameterError(
-                f"unknown controller preset '{name}'; allowed: " + ", ".join(CONTROLLER_PRESETS))
+                f"unknown controller preset '{name}'; allowed: " + ", ".join(CONTROLLER_PRESETS)
+                + ", or module:factory (your own controller)")
         extra = {"lab": dict(aw_gain=0.0, delay_samples=1.0, torque_quantum=1.0)}.get(name, {})
         return cls(preset=name, **(extra | overrides))
 
@@ -561,7 +575,11 @@ class BplirParams:
 
     def with_controller(self, name: str) -> "BplirParams":
         """The controller preset ``name``; the ``lab`` firmware also brings its
-        own path (``path.mode = "lab"``), the others keep the path block."""
+        own path (``path.mode = "lab"``), the others keep the path block.  A
+        ``module:factory`` name plugs in a user's controller
+        (``controller.plugin``; the preset's parameters stay as they are)."""
+        if _is_plugin(name):
+            return replace(self, controller=replace(self.controller, plugin=name))
         path = replace(self.path, mode="lab") if name == "lab" else self.path
         return replace(self, controller=ControllerParams.preset_named(name), path=path)
 

@@ -79,5 +79,5 @@ def test_benchmark_scores_actuation_delay(tmp_path, params):
 def test_benchmark_rejects_unknown_controller(tmp_path, capsys):
     assert main(["benchmark", "--quick", "--controllers", "qft,pid", "--out", str(tmp_path)]) == 2
     err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "--controllers: 'pid' is not a controller preset" in err
+    assert err.count("\n") == 1 and "--controllers: 'pid' is not a controller; allowed" in err
     assert "qft, dissertation, lab" in err

@@ -342,7 +342,7 @@ def test_every_json_output_is_strict(tmp_path, capsys):
         if argv[0] == "swing":
             assert data["outcome"] == "timeout" and data["capture_speed_mps"] is None
     files = list(tmp_path.rglob("*.json"))
-    assert len(files) == 6   # freeswing, observability, swing, montecarlo, benchmark, qft
+    assert len(files) == 7   # freeswing, observability, swing, montecarlo, benchmark (+ leaderboard), qft
     for f in files:
         strict_json(f.read_text())
 

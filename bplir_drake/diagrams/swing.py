@@ -184,14 +184,25 @@ def add_sensing(builder, params: BplirParams, robot: Robot, q0, seed: int):
 
 def add_swing_controller(builder, params: BplirParams, state_port, robot: Robot, path_geometry,
                          plan_gains=None) -> dict[str, Any]:
-    """The swing controller by ``path.mode``, reading ``state_port`` (the
-    estimate or the sampled true state): ``{"controller": PlanTracker}`` for
+    """The swing controller, reading ``state_port`` (the estimate or the
+    sampled true state): a user's (``controller.plugin``,
+    :mod:`.plugin`) as ``{"controller": system}``; by ``path.mode``,
+    ``{"controller": PlanTracker}`` for
     ``"plan"`` (Drake's finite-horizon LQR along a planned swing,
     ``plan_gains``), else ``{"path": PathGenerator, "controller":
     CpflController}``, both reading the state predicted over
     ``controller.delay_compensation`` (a :class:`DelayPredictor`, also
     returned) when that is set.  Every system uses the nominal model."""
     T = params.controller.period
+    if params.controller.plugin:
+        from .plugin import make_plugin
+
+        ctrl = builder.AddNamedSystem("controller", make_plugin(params))
+        builder.Connect(state_port, ctrl.GetInputPort("state"))
+        if ctrl.HasInputPort("torque_available"):
+            builder.Connect(robot.motor.GetOutputPort("available"),
+                            ctrl.GetInputPort("torque_available"))
+        return {"controller": ctrl}
     steps = delay_steps(params.controller.delay_compensation, T)
     predictor = None
     if steps and params.path.mode != "plan":
@@ -265,7 +276,8 @@ def add_swing_loggers(builder, params: BplirParams, robot: Robot, sampler, ekf,
     """Continuous signals every ``log_period``; sampled ones at their ticks."""
     T = params.controller.period
     motor, ctrl = robot.motor, control["controller"]
-    reference = control.get("path", ctrl).GetOutputPort("reference")
+    source = control.get("path", ctrl)
+    reference = source.GetOutputPort("reference") if source.HasOutputPort("reference") else None
     loggers = {
         "state": LogVectorOutput(robot.plant.get_state_output_port(), builder, log_period),
         "torque": LogVectorOutput(motor.GetOutputPort("torque"), builder, log_period),
@@ -274,9 +286,10 @@ def add_swing_loggers(builder, params: BplirParams, robot: Robot, sampler, ekf,
         "friction": LogVectorOutput(robot.friction.get_output_port(0), builder, log_period),
         "estimate": TickLogger(builder, ekf.GetOutputPort("estimate_relative"), T),
         "command": TickLogger(builder, ctrl.GetOutputPort("torque"), T),
-        "reference": TickLogger(builder, reference, T),
         "imu": TickLogger(builder, sampler.get_output_port(0), params.imu.period),
     }
+    if reference is not None:
+        loggers["reference"] = TickLogger(builder, reference, T)
     if "path" in control:
         loggers["v"] = TickLogger(builder, ctrl.GetOutputPort("v"), T)
         loggers["blend_end"] = TickLogger(builder, control["path"].GetOutputPort("blend_end"), T)

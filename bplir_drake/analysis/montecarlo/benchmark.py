@@ -105,11 +105,13 @@ def _run_case(params: BplirParams, job: dict) -> dict:
         s = run_swing(p, seed=job["seed"]).summary
         row |= {"outcome": s["outcome"], "success": bool(s["success"]),
                 "capture_speed_mps": s["capture_speed_mps"], "swing_time_s": s["swing_time_s"],
-                "peak_torque_Nm": s["peak_torque_Nm"], "error": ""}
+                "peak_torque_Nm": s["peak_torque_Nm"], "peak_motor_power_W":
+                s["peak_motor_power_W"], "energy_in_J": s["energy_in_J"], "error": ""}
     except Exception as exc:
-        row |= {"outcome": "error", "success": False, "capture_speed_mps": float("nan"),
-                "swing_time_s": float("nan"), "peak_torque_Nm": float("nan"),
-                "error": error_text(exc)}
+        nan = float("nan")
+        row |= {"outcome": "error", "success": False, "capture_speed_mps": nan,
+                "swing_time_s": nan, "peak_torque_Nm": nan, "peak_motor_power_W": nan,
+                "energy_in_J": nan, "error": error_text(exc)}
     return row
 
 
@@ -119,10 +121,8 @@ def run_benchmark(params: BplirParams, controllers=("qft", "dissertation", "lab"
                   categories=CATEGORIES) -> dict:
     """Score each controller preset; returns scores and the per-case rows.
     ``categories`` restricts the benchmark to some of :data:`CATEGORIES`."""
-    from ...params import ControllerParams
-
     for c in controllers:
-        ControllerParams.preset_named(c)  # unknown names fail here, before any work
+        params.with_controller(c)  # unknown names fail here, before any work
     repeats = (1 if quick else 3) if repeats is None else repeats
     unknown = set(categories) - set(CATEGORIES)
     if unknown:
@@ -153,7 +153,55 @@ def run_benchmark(params: BplirParams, controllers=("qft", "dissertation", "lab"
 
 
 CASE_COLUMNS = ("controller", "category", "label", "case", "repeat", "seed", "outcome",
-                "success", "capture_speed_mps", "swing_time_s", "peak_torque_Nm", "error")
+                "success", "capture_speed_mps", "swing_time_s", "peak_torque_Nm",
+                "peak_motor_power_W", "energy_in_J", "error")
+
+
+def leaderboard(result: dict, realistic: dict | None = None) -> list[dict]:
+    """One entry per controller, best first: overall and category scores,
+    the median capture speed (m/s) of its captured swings, mean energy put
+    in per swing (J) and the largest peak motor power (W) over the
+    benchmark's swings; with ``realistic`` (controller -> a Monte Carlo
+    summary) its success rate and Wilson interval."""
+    board = []
+    for c, sc in result["scores"].items():
+        mine = [r for r in result["rows"] if r["controller"] == c and r["outcome"] != "error"]
+        speeds = [r["capture_speed_mps"] for r in mine if r["success"]]
+        entry = {"controller": c, "overall": sc["overall"], "categories": sc["categories"],
+                 "capture_speed_median_mps": float(np.median(speeds)) if speeds else None,
+                 "energy_per_swing_J": float(np.mean([r["energy_in_J"] for r in mine]))
+                 if mine else None,
+                 "peak_power_max_W": float(np.max([r["peak_motor_power_W"] for r in mine]))
+                 if mine else None}
+        if realistic and c in realistic:
+            entry["realistic_success_rate"] = realistic[c]["success_rate"]
+            entry["realistic_ci95"] = realistic[c]["success_rate_ci95"]
+            entry["realistic_samples"] = realistic[c]["samples"]
+        board.append(entry)
+    return sorted(board, key=lambda e: (-(e.get("realistic_success_rate") or 0.0),
+                                        -e["overall"], e["controller"]))
+
+
+def leaderboard_table(board: list[dict]) -> str:
+    """The leaderboard as a Markdown table."""
+    def num(v, fmt):
+        return "--" if v is None else format(v, fmt)
+
+    real = any("realistic_success_rate" in e for e in board)
+    head = ["rank", "controller", "overall"] + (["realistic study (95 % CI)"] if real else []) \
+        + ["capture speed median (m/s)", "energy per swing (J)", "peak power max (W)"]
+    lines = ["| " + " | ".join(head) + " |", "|" + " --- |" * len(head)]
+    for i, e in enumerate(board, 1):
+        cells = [str(i), f"`{e['controller']}`", f"{e['overall']:.2f}"]
+        if real:
+            lo, hi = e.get("realistic_ci95", (None, None))
+            cells.append(f"{e['realistic_success_rate']:.1%} ({lo:.1%}-{hi:.1%}, "
+                         f"n = {e['realistic_samples']})" if "realistic_success_rate" in e
+                         else "--")
+        cells += [num(e["capture_speed_median_mps"], ".2f"), num(e["energy_per_swing_J"], ".1f"),
+                  num(e["peak_power_max_W"], ".0f")]
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
 
 
 def write_cases_csv(rows, path) -> Path:

@@ -207,7 +207,7 @@ def log_table(result: SwingResult) -> tuple[list[str], np.ndarray]:
     st = lg["state"]
     t, x = st.t, st.data
     est = lg["estimate"].at(t)
-    ref = lg["reference"].at(t)
+    ref = lg["reference"].at(t) if "reference" in lg else np.full((len(t), 1), np.nan)
     cmd = lg["command"].at(t)
     tp = p.simulated_plant
     gp = np.array([gripper_position(r[:2], tp.l1, tp.l2) for r in x])

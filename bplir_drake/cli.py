@@ -478,13 +478,14 @@ def cmd_benchmark(args) -> int:
 
 def _realistic_studies(args, controllers, out) -> dict:
     """The ``--realistic`` study run for each controller into
-    ``out/realistic/<controller>``: controller -> summary."""
+    ``out/realistic/<controller>``, with the benchmark's ``--seed`` as its
+    root seed: controller -> summary."""
     import re
 
     from .analysis.montecarlo import load_study, run_study
 
     _in_range("--realistic-samples", args.realistic_samples, 1, 1_000_000)
-    base = load_study(args.realistic).with_(samples=args.realistic_samples)
+    base = load_study(args.realistic).with_(samples=args.realistic_samples, seed=args.seed)
     summaries = {}
     for c in controllers:
         study = base.with_(params=base.params.with_controller(c))
@@ -650,7 +651,8 @@ def build_parser() -> argparse.ArgumentParser:
     option(p, "--realistic", None, None,
            "also run this study (e.g. examples/study_realistic.toml) per controller for the "
            "leaderboard")
-    option(p, "--realistic-samples", int, 100, "samples of that study per controller")
+    option(p, "--realistic-samples", int, 100,
+           "samples of that study per controller (root seed: --seed)")
 
     p = command("plan", cmd_plan,
                 "plan a swing by trajectory optimisation (torque and power limits)", "out/plan")

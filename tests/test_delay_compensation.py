@@ -30,17 +30,17 @@ def test_prediction_equals_the_nominal_plant_simulated_by_drake():
 
 @pytest.mark.parametrize("delay", [0.01, 0.02])
 def test_a_known_delay_is_compensated(delay):
-    """Held-out seeds 4-11 (seeds 0-3 were looked at while building it; the
+    """Held-out seeds 4-9 (seeds 0-3 were looked at while building it; the
     compensation has no tuned gain, it predicts over the delay).  Measured:
-    without compensation 0 of 8 captured at 10 and at 20 ms (crashes at
-    1.4-8 m/s); with it 5 of 8 at 10 ms and 5 of 8 at 20 ms."""
+    without compensation 0 of 6 captured at 10 and at 20 ms (crashes at
+    1.4-8 m/s); with it 4 of 6 at 10 ms and 3 of 6 at 20 ms."""
     p = BplirParams()
     p = p.with_(scenario=dc.replace(p.scenario, actuation_delay=delay))
     runner = SwingRunner()
 
     def captured(params):
-        return sum(runner.run(params, seed=s).success for s in range(4, 12))
+        return sum(runner.run(params, seed=s).success for s in range(4, 10))
 
     assert captured(p) == 0
     compensated = p.with_(controller=dc.replace(p.controller, delay_compensation=delay))
-    assert captured(compensated) >= 5
+    assert captured(compensated) >= {0.01: 4, 0.02: 3}[delay]

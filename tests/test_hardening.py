@@ -418,3 +418,28 @@ def test_file_readers_return_a_result_or_a_one_line_error(tmp_path, data):
             reader(path)
         except error as exc:
             assert "\n" not in str(exc) and str(exc)
+
+
+def test_shipped_plans_serve_a_fresh_install(monkeypatch, tmp_path):
+    """The plans the examples and tests use ship with the package under
+    their cache keys: with an empty cache they are read, never solved."""
+    import dataclasses as dc
+
+    from bplir_drake.analysis.swing import plan as P
+    from bplir_drake.analysis.swing import plan_cache
+    from bplir_drake.params import load_toml
+
+    shipped = sorted(plan_cache.PACKAGED.glob("plan-*.npz"))
+    assert len(shipped) == 2
+    monkeypatch.setenv("BPLIR_CACHE_DIR", str(tmp_path))
+
+    def no_solve(*a, **k):
+        raise AssertionError("solved a plan the package ships")
+
+    monkeypatch.setattr(P, "_solve_plan", no_solve)
+    p = load_toml(Path(__file__).resolve().parents[1] / "examples" / "uphill_plan.toml")
+    p = p.with_(scenario=dc.replace(p.scenario, incline_deg=20.0))
+    for depth in (0.0, p.path.plan_end_depth):      # test_swing_plan's, the tracker's
+        plan = P.plan_swing(p, end_depth=depth)
+        assert plan.feasible and plan.incline_deg == 20.0
+    assert not list(tmp_path.glob("plan-*.npz"))     # read in place, not copied

@@ -116,10 +116,11 @@ def test_the_example_plugin_through_the_command_line(tmp_path, capsys):
                  "--no-plots", "--json", "--out", str(tmp_path / "mc")]) == 0
     summary = json.loads(capsys.readouterr().out)
     assert summary["samples"] == 2 and summary["outcomes"] == {"timeout": 2}
-    assert main(["benchmark", "--quick", "--controllers", f"qft,{EXAMPLE}", "--workers", "2",
+    assert main(["benchmark", "--quick", "--controllers", EXAMPLE, "--workers", "2",
                  "--json", "--out", str(tmp_path / "bench")]) == 0
     result = json.loads(capsys.readouterr().out)
-    board = {e["controller"]: e for e in result["leaderboard"]}
-    assert board[EXAMPLE]["overall"] == 0.0 and board["qft"]["overall"] == pytest.approx(0.38, abs=0.01)
-    assert [e["controller"] for e in result["leaderboard"]] == ["qft", EXAMPLE]
+    (entry,) = result["leaderboard"]
+    # seed 0 of the quick benchmark: the example never captures (measured)
+    assert entry["controller"] == EXAMPLE and entry["overall"] == 0.0
+    assert entry["capture_speed_median_mps"] is None and entry["peak_power_max_W"] < 220
     assert f"`{EXAMPLE}`" in (tmp_path / "bench" / "leaderboard.md").read_text()

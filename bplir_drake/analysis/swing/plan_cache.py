@@ -11,7 +11,10 @@ scenario geometry, limits, solver settings), the Drake version and
 the simulated robot.  Files are written to a temporary name and renamed, and
 a lock file makes concurrent processes (parallel tests, study workers) wait
 for one solve instead of repeating it.  An unreadable or unwritable cache is
-bypassed: the plan is then solved in the process.
+bypassed: the plan is then solved in the process.  The package ships the
+plans its examples and tests use (``bplir_drake/data/plans``, under the
+same keys): they are read when the cache has no copy, so a fresh install
+with the Drake version they were solved with does not solve them again.
 """
 from __future__ import annotations
 
@@ -47,6 +50,16 @@ def plan_key(inputs: dict) -> str:
 def plan_cache_path(inputs: dict) -> Path:
     """Where the plan of ``inputs`` is cached."""
     return cache_dir() / f"plan-{plan_key(inputs)}.npz"
+
+
+#: plans shipped with the package (read-only; same file names and keys as
+#: the cache, so they are used only for exactly these inputs and this Drake)
+PACKAGED = Path(__file__).resolve().parents[2] / "data" / "plans"
+
+
+def packaged_plan_path(inputs: dict) -> Path:
+    """Where a shipped plan of ``inputs`` would be."""
+    return PACKAGED / f"plan-{plan_key(inputs)}.npz"
 
 
 def _save(plan, path: Path) -> None:
@@ -95,11 +108,12 @@ def cached(inputs: dict, solve):
     except OSError:  # no usable cache directory
         return solve()
     try:
-        if path.exists():
-            try:
-                return _load(path)
-            except (OSError, ValueError, KeyError, TypeError):
-                pass  # a damaged file: solve again and replace it
+        for candidate in (path, packaged_plan_path(inputs)):
+            if candidate.exists():
+                try:
+                    return _load(candidate)
+                except (OSError, ValueError, KeyError, TypeError):
+                    pass  # a damaged file: solve again and replace it
         plan = solve()
         with contextlib.suppress(OSError):
             _save(plan, path)

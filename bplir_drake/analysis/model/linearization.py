@@ -28,14 +28,19 @@ class Linearization:
 
 def linearize_plant(params: BplirParams, x0=(0.0, 0.0, 0.0, 0.0), u0=0.0, *,
                     nominal: bool = False) -> Linearization:
-    """Linearise plant + friction (templated, so AutoDiff works) at (x0, u0)."""
-    from pydrake.systems.primitives import Linearize
+    """Linearise plant + friction (templated, so AutoDiff works) at the state
+    ``x0`` (q1, q2, q1d, q2d) and elbow torque ``u0`` (N m): Drake's
+    first-order Taylor approximation, so (x0, u0) need not be an equilibrium
+    (a point of a swing); at an equilibrium it is ``Linearize``'s system.
+    ``nominal`` linearises the controller's model instead of the simulated
+    robot."""
+    from pydrake.systems.primitives import FirstOrderTaylorApproximation
 
     built = build_plant_with_friction(params, nominal=nominal)
     ctx = built.diagram.CreateDefaultContext()
     built.diagram.get_input_port(0).FixValue(ctx, [float(u0)])
     ctx.SetContinuousState(np.asarray(x0, dtype=float))
-    lin = Linearize(built.diagram, ctx)
+    lin = FirstOrderTaylorApproximation(built.diagram, ctx)
     A = np.array(lin.A())
     return Linearization(A, np.array(lin.B()), np.array(lin.C()), np.array(lin.D()),
                          np.linalg.eigvals(A))

@@ -45,6 +45,8 @@ class ImuCalibration:
         misalignment and scale removed (the gyro biases stay: the filter
         estimates them, starting from :attr:`bias`)."""
         out = np.array(sample, dtype=float)
+        if not any(self.misalign) and not any(self.scale):  # nothing to correct
+            return out
         for i in range(2):
             eps, k = self.misalign[i], 1.0 + self.scale[i]
             ax, ay = out[2 + 2 * i], out[3 + 2 * i]

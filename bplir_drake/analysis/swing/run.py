@@ -92,7 +92,8 @@ class SwingRunner:
         self.builds = 0
 
     def diagram_for(self, params: BplirParams, seed: int, use_estimator: bool):
-        """The built swing for ``params`` (reused when the structure matches)."""
+        """``(built swing, fresh)`` for ``params``: reused when the structure
+        matches (``fresh`` False: the sample must be set in the context)."""
         if self.built is None or self.built.structure != swing_structure(params, use_estimator):
             gains = None
             if params.path.mode == "plan":
@@ -102,7 +103,8 @@ class SwingRunner:
             self.built = build_swing(params, seed=seed, use_estimator=use_estimator,
                                      plan_gains=gains)
             self.builds += 1
-        return self.built
+            return self.built, True
+        return self.built, False
 
     def run(self, params: BplirParams, *, seed: int | None = None,
             use_estimator: bool | None = None, accuracy: float = SWING_ACCURACY,
@@ -112,9 +114,11 @@ class SwingRunner:
         seed = sc.seed if seed is None else int(seed)
         use_est = sc.use_estimator if use_estimator is None else use_estimator
         p = draw_true_friction(params, seed)
-        built = self.diagram_for(p, seed, use_est)
+        built, fresh = self.diagram_for(p, seed, use_est)
+        # a fresh build's default context already holds this sample
+        sample = None if fresh else (lambda ctx: set_swing_sample(built, ctx, p, seed))
         sim = make_simulator(built, built.q0, accuracy=accuracy, integrator=integrator,
-                             set_context=lambda ctx: set_swing_sample(built, ctx, p, seed))
+                             set_context=sample)
         run_until_outcome(sim, built, sc.max_time)
         # record the state at the moment the interlock decided
         built.diagram.ForcedPublish(sim.get_context())

@@ -456,10 +456,16 @@ def cmd_benchmark(args) -> int:
         _in_range("--workers", args.workers, 1, 256)
     _in_range("--seed", args.seed, 0, 2 ** 32 - 1)
     out = _out_dir(args.out)
+    base = None
+    if args.realistic:  # checked before any work
+        from .analysis.montecarlo import load_study
+
+        _in_range("--realistic-samples", args.realistic_samples, 1, 1_000_000)
+        base = load_study(args.realistic).with_(samples=args.realistic_samples, seed=args.seed)
     result = run_benchmark(params, presets, quick=args.quick, workers=args.workers or 0,
                            seed=args.seed, progress=not args.json and sys.stderr.isatty(),
                            out=out)
-    realistic = _realistic_studies(args, presets, out) if args.realistic else None
+    realistic = _realistic_studies(args, base, presets, out) if base is not None else None
     fig = save_figure(plot_benchmark(result), out / "benchmark.png")
     table = benchmark_table(result)
     write_text_atomic(out / "benchmark.md", table + "\n")
@@ -476,16 +482,14 @@ def cmd_benchmark(args) -> int:
     return 0
 
 
-def _realistic_studies(args, controllers, out) -> dict:
-    """The ``--realistic`` study run for each controller into
-    ``out/realistic/<controller>``, with the benchmark's ``--seed`` as its
-    root seed: controller -> summary."""
+def _realistic_studies(args, base, controllers, out) -> dict:
+    """The study ``base`` (``--realistic``, with the benchmark's ``--seed`` as
+    its root seed) run for each controller into ``out/realistic/<controller>``:
+    controller -> summary."""
     import re
 
-    from .analysis.montecarlo import load_study, run_study
+    from .analysis.montecarlo import run_study
 
-    _in_range("--realistic-samples", args.realistic_samples, 1, 1_000_000)
-    base = load_study(args.realistic).with_(samples=args.realistic_samples, seed=args.seed)
     summaries = {}
     for c in controllers:
         study = base.with_(params=base.params.with_controller(c))

@@ -81,3 +81,24 @@ def test_benchmark_rejects_unknown_controller(tmp_path, capsys):
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "--controllers: 'pid' is not a controller; allowed" in err
     assert "qft, dissertation, lab" in err
+
+
+@pytest.mark.parametrize("extra, message", [
+    (["--realistic", "no_such_study.toml"], "cannot read study file no_such_study.toml"),
+    (["--realistic", "examples/study_realistic.toml", "--realistic-samples", "0"],
+     "--realistic-samples = 0 is out of range; allowed [1, 1e+06]"),
+])
+def test_benchmark_checks_its_realistic_study_before_any_work(tmp_path, capsys, monkeypatch,
+                                                              extra, message):
+    from pathlib import Path
+
+    import bplir_drake.analysis.montecarlo.benchmark as B
+
+    def no_work(*a, **k):
+        raise AssertionError("benchmarked before checking --realistic")
+
+    monkeypatch.setattr(B, "run_benchmark", no_work)
+    monkeypatch.chdir(Path(__file__).resolve().parents[1])
+    assert main(["benchmark", "--quick", *extra, "--out", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and message in err

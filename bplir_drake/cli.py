@@ -293,7 +293,7 @@ def _swing_params(args):
 def cmd_swing(args) -> int:
     """``bplir swing``: one swing (or a comparison, or a study sample's replay)."""
     from .analysis.swing.run import run_swing, summary_with_params, write_log_csv
-    from .analysis.swing.plots import animate_swing
+    from .analysis.swing.plots import animate_swing, replay_swing_html
 
     replay_info = None
     out_dir = _out_dir(args.out)
@@ -318,6 +318,8 @@ def cmd_swing(args) -> int:
              "log_csv": str(write_log_csv(res, out_dir / "swing_log.csv"))}
     if not args.no_animation:
         files["animation"] = str(animate_swing(res, out_dir / "swing.gif"))
+    if args.html:
+        files["replay_html"] = str(replay_swing_html(res, out_dir / "swing.html"))
     extra = {"files": files} | ({"replay": replay_info} if replay_info else {})
     summary = summary_with_params(res) | extra
     _write_json(out_dir / "summary.json", summary)
@@ -628,6 +630,8 @@ def build_parser() -> argparse.ArgumentParser:
     option(p, "--seed", int, None, "seed of friction draw and sensor noise")
     option(p, "--true-state", bool, help="control from the true state")
     option(p, "--no-animation", bool, help="skip the GIF")
+    option(p, "--html", bool, help="also write swing.html: a Meshcat 3-D replay to open in a "
+           "browser (self-contained, works offline)")
     option(p, "--compare", bool, help="run the swing with each controller preset and the true state")
     option(p, "--replay", None, None, "re-run one sample of a Monte Carlo study (with --sample)",
            metavar="STUDY_DIR")

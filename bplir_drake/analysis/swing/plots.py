@@ -117,3 +117,36 @@ def animate_swing(result, path, fps: int = 25, max_frames: int = 120) -> Path:
         frames_p[0].save(tmp, save_all=True, append_images=frames_p[1:],
                          duration=int(round(1000 / fps)), loop=0)
     return path
+
+
+def swing_replay_scene(result):
+    """The :class:`~bplir_drake.analysis.replay.ReplayScene` of a swing:
+    the line through the holding gripper at the scenario's incline, the
+    target one grip spacing along it, the holding gripper's clamp, and the
+    arriving gripper's clamp from the capture on (a captured swing)."""
+    from ..replay import ReplayScene
+
+    p, s = result.params, result.summary
+    alpha = math.radians(p.scenario.incline_deg)
+    D = p.scenario.grip_spacing
+    reach = p.plant.l1 + p.plant.l2
+    u = np.array([math.cos(alpha), math.sin(alpha)])
+    clamps = [(0.0, 0.0, alpha, 0.0, math.inf)]
+    if result.success:
+        clamps.append((*(D * u), alpha, float(s["swing_time_s"]), math.inf))
+    return ReplayScene(line=[tuple(-reach * u), tuple((D + reach) * u)],
+                       targets=[tuple(D * u)], clamps=clamps)
+
+
+def replay_swing_html(result, path, fps: float = 30.0) -> Path:
+    """A self-contained HTML Meshcat replay of a swing (the simulated
+    robot's true motion), written atomically to ``path``."""
+    from ..replay import replay_html, write_replay_html
+
+    st = result.logs["state"]
+    s = result.summary
+    title = (f"BPLIR swing: {s['outcome']} (seed {s['seed']}, incline "
+             f"{s['incline_deg']:g} deg)")
+    html = replay_html(result.params.simulated_plant, st.t, st.data[:, :2],
+                       swing_replay_scene(result), fps=fps, title=title)
+    return write_replay_html(path, html)

@@ -66,6 +66,11 @@ def _write_json(path, obj) -> str:
     return str(write_json_atomic(path, obj))
 
 
+def _progress(args) -> bool:
+    """Show progress bars: standard error is a terminal and ``--json`` is off."""
+    return not getattr(args, "json", False) and sys.stderr.isatty()
+
+
 def _out_dir(path) -> Path:
     """The output directory, created and proven writable before any work."""
     return check_output_dir(path, InputError)
@@ -176,7 +181,8 @@ def cmd_estimate(args) -> int:
         if getattr(args, opt):
             check_output_file(getattr(args, opt), InputError)
     log = read_imu_csv(args.log)
-    res = estimate(log.t, log.samples, est, x0, calibrate_window=args.calibrate)
+    res = estimate(log.t, log.samples, est, x0, calibrate_window=args.calibrate,
+                   progress=_progress(args))
     summary = {"samples": int(len(res.t)), "duration_s": float(res.t[-1] - res.t[0]),
                "skipped_updates": res.skipped,
                "final_estimate": res.x[-1].tolist(),
@@ -244,7 +250,7 @@ def cmd_qft(args) -> int:
         _in_range("--seed", args.seed, 0, 2 ** 32 - 1)
     out_dir = _out_dir(args.out)
     res = qft_report(params, args.controller, family=args.family, plants=args.plants,
-                     seed=args.seed, design=args.design)
+                     seed=args.seed, design=args.design, progress=_progress(args))
     report, ver, fam_plot = res.report, res.verification, res.family
     figs = {name.split(".")[0]: save_figure(fig, out_dir / name)
             for name, fig in res.figures().items()}
@@ -415,7 +421,7 @@ def cmd_montecarlo(args) -> int:
     study = _study(args)
     out = _out_dir(args.out)
     summary = run_study(study, out, workers=args.workers or 0, dask=args.dask,
-                        scheduler=args.scheduler, progress=not args.json and sys.stderr.isatty())
+                        scheduler=args.scheduler, progress=_progress(args))
     figs = ([str(save_figure(fig, out / name))
              for name, fig in StudyResult.load(out).figures().items()]
             if not args.no_plots else [])
@@ -465,7 +471,7 @@ def cmd_benchmark(args) -> int:
         _in_range("--realistic-samples", args.realistic_samples, 1, 1_000_000)
         base = load_study(args.realistic).with_(samples=args.realistic_samples, seed=args.seed)
     result = run_benchmark(params, presets, quick=args.quick, workers=args.workers or 0,
-                           seed=args.seed, progress=not args.json and sys.stderr.isatty(),
+                           seed=args.seed, progress=_progress(args),
                            out=out)
     realistic = _realistic_studies(args, base, presets, out) if base is not None else None
     fig = save_figure(plot_benchmark(result), out / "benchmark.png")
@@ -497,7 +503,7 @@ def _realistic_studies(args, base, controllers, out) -> dict:
         study = base.with_(params=base.params.with_controller(c))
         where = out / "realistic" / re.sub(r"[^A-Za-z0-9_.-]+", "_", c)
         summaries[c] = run_study(study, where, workers=args.workers or 0,
-                                 progress=not args.json and sys.stderr.isatty())
+                                 progress=_progress(args))
     return summaries
 
 
@@ -515,7 +521,7 @@ def cmd_plan(args) -> int:
         params = params.with_(scenario=dc.replace(params.scenario, incline_deg=args.incline))
     out = _out_dir(args.out)
     # plan_swing validates the scenario, the power limit and the knots
-    plan = plan_swing(params, power_limit=args.power, knots=args.knots)
+    plan = plan_swing(params, power_limit=args.power, knots=args.knots, progress=_progress(args))
     figure = save_figure(plot_plan(plan, params), out / "plan.png")
     summary = plan.summary() | {"figure": str(figure)}
     _write_json(out / "plan.json", summary)
@@ -545,7 +551,7 @@ def cmd_calibrate(args) -> int:
     out_dir = _out_dir(args.out)
     log = read_calibration_csv(args.log, params.motor.torque_per_amp)
     fit = tuple(n.strip() for n in args.fit.split(",") if n.strip())
-    res = calibrate(params, log, fit)
+    res = calibrate(params, log, fit, progress=_progress(args))
     summary = res.summary() | {
         "toml": str(write_calibrated_toml(res, out_dir / "calibrated.toml")),
         "plot": str(save_figure(res.plot(), out_dir / "calibration.png"))}

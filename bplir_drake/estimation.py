@@ -172,14 +172,17 @@ def gyro_integral(t, samples, theta0) -> np.ndarray:
 
 
 def estimate(t, samples, params: EstimatorParams, x0=(0.0, 0.0, 0.0, 0.0), *,
-             calibrate_window: float = 0.0) -> EstimateResult:
+             calibrate_window: float = 0.0, progress: bool = False) -> EstimateResult:
     """Run the EKF over a log.
 
     ``x0`` is the initial absolute state.  With ``calibrate_window > 0`` the
     robot is assumed still for that many seconds at the start: the mean gyro
     reading there initialises the bias estimate (and is removed from the
-    baseline).
+    baseline).  ``progress``: the samples filtered so far, on standard
+    error (shown for logs of 20 000 samples or more).
     """
+    from .progress import progress_bar
+
     t = np.asarray(t, dtype=float)
     samples = np.asarray(samples, dtype=float)
     skip = check_log(t, samples, params.period)
@@ -194,7 +197,10 @@ def estimate(t, samples, params: EstimatorParams, x0=(0.0, 0.0, 0.0, 0.0), *,
     N = len(t)
     xs, covs, biases = np.zeros((N, 4)), np.zeros((N, n)), np.zeros((N, 2))
     u_prev = None
+    bar = progress_bar(progress and N >= 20_000, desc="estimate", unit="samples", total=N)
     for k in range(N):
+        if k % 1000 == 999:
+            bar.update(1000)
         if skip[k]:
             s = ekf_predict(s, u_prev, params)
         else:
@@ -202,6 +208,7 @@ def estimate(t, samples, params: EstimatorParams, x0=(0.0, 0.0, 0.0, 0.0), *,
         xs[k] = s.x[:4]
         covs[k] = np.diag(s.P)
         biases[k] = s.x[4:6] if n > 4 else 0.0
+    bar.close()
     base = gyro_integral(t, samples - np.concatenate([bias0, np.zeros(4)]), x0)
     return EstimateResult(t, xs, covs, biases, base, int(skip.sum()))
 

@@ -442,15 +442,19 @@ def _violation(P, Kw, Fw, w, specs, crossover_max):
 
 
 def design_qft(family: PlantFamily, specs: QftSpecs, *, crossover_max: float = 25.0,
-               seed: int = 0, maxiter: int = 300) -> dict:
+               seed: int = 0, maxiter: int = 300, progress: bool = False) -> dict:
     """Loop shaping as a min-max problem, solved by differential evolution:
     the integral + lead ``K`` (:func:`lead_pid`) and second-order prefilter
     ``F`` minimising the worst ratio of every plant's response to the bounds
     (6.17), (6.18), (6.20), with the nominal loop crossing over below
     ``crossover_max`` (well below the Nyquist frequency pi/Ts, where the
     half-sample delay model of the zero-order hold holds).  A result below 1
-    meets every specification on the frequency grid."""
+    meets every specification on the frequency grid.  ``progress``: the
+    generations (at most ``maxiter``) and the best worst ratio so far, on
+    standard error."""
     from scipy.optimize import differential_evolution
+
+    from ...progress import progress_bar
 
     w = np.logspace(-1, 4, 400)
     P = family.response(w)
@@ -464,8 +468,14 @@ def design_qft(family: PlantFamily, specs: QftSpecs, *, crossover_max: float = 2
         Kw, Fw = build(x)
         return max(_violation(P, Kw, Fw, w, specs, crossover_max).values())
 
-    res = differential_evolution(cost, [(math.log(a), math.log(b)) for a, b in DESIGN_BOUNDS],
-                                 seed=seed, maxiter=maxiter, popsize=20, tol=1e-10, polish=True)
+    with progress_bar(progress, desc="QFT design", unit="generations", total=maxiter) as bar:
+        def generation(intermediate_result):
+            bar.update()
+            bar.set_postfix_str(f"worst ratio {intermediate_result.fun:.3f}")
+
+        res = differential_evolution(cost, [(math.log(a), math.log(b)) for a, b in DESIGN_BOUNDS],
+                                     seed=seed, maxiter=maxiter, popsize=20, tol=1e-10,
+                                     polish=True, callback=generation if progress else None)
     k, zi, z, p, wf, zf, g = np.exp(res.x)
     K, F = lead_pid(k, zi, z, p), second_order_prefilter(wf, zf, g)
     return {"K": K, "F": F, "worst_ratio": float(res.fun),

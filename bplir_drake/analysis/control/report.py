@@ -82,7 +82,7 @@ def _published(ctrl: ControllerParams, specs) -> tuple[dict, Any, Any, Any]:
 
 
 def _from_diagram(params: BplirParams, ctrl: ControllerParams, specs, plants: int, seed: int,
-                  design: bool) -> tuple[dict, Any, Any, Any]:
+                  design: bool, progress: bool = False) -> tuple[dict, Any, Any, Any]:
     import control
 
     from ...systems.controller import outer_loop_numerator
@@ -93,7 +93,7 @@ def _from_diagram(params: BplirParams, ctrl: ControllerParams, specs, plants: in
     F = control.tf(d["f_num"], d["f_den"])
     report: dict = {}
     if design:
-        des = Q.design_qft(fam, specs, seed=seed)
+        des = Q.design_qft(fam, specs, seed=seed, progress=progress)
         K, F = des["K"], des["F"]
         report["design"] = {"K": Q.tf_coefficients(K), "F": Q.tf_coefficients(F),
                             "worst_ratio": des["worst_ratio"], "params": des["params"]}
@@ -106,13 +106,13 @@ def _from_diagram(params: BplirParams, ctrl: ControllerParams, specs, plants: in
 
 def qft_report(params: BplirParams, controller: str | None = None, *,
                family: str = "dissertation", plants: int = 60, seed: int = 0,
-               design: bool = False) -> QftReport:
+               design: bool = False, progress: bool = False) -> QftReport:
     """Verify (and with ``design`` redesign) the outer loop of ``controller``
     (a preset name; default ``params.controller``) on ``family``:
     ``"dissertation"`` (published plants, K as published) or ``"diagram"``
     (``plants`` plants linearised from the simulated diagram with friction
     and masses drawn from ``seed``; K sign-corrected as the controller uses
-    it)."""
+    it).  ``progress``: the design's generations on standard error."""
     from .zero_dynamics import zero_dynamics_portrait
 
     ctrl = ControllerParams.preset_named(controller) if controller else params.controller
@@ -120,7 +120,7 @@ def qft_report(params: BplirParams, controller: str | None = None, *,
     if family == "dissertation":
         body, fam, ver, K = _published(ctrl, specs)
     else:
-        body, fam, ver, K = _from_diagram(params, ctrl, specs, plants, seed, design)
+        body, fam, ver, K = _from_diagram(params, ctrl, specs, plants, seed, design, progress)
     report = {"family": family, "controller": ctrl.preset} | body
     bounds = Q.compute_bounds(fam, specs)
     w_dense = np.logspace(-1, 3, 500)

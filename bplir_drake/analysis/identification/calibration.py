@@ -196,8 +196,11 @@ def friction_from_inverse_dynamics(params: BplirParams, log: CalibrationLog,
 
 
 def calibrate(params: BplirParams, log: CalibrationLog, fit=DEFAULT_FIT, *,
-              accuracy: float = 1e-6) -> CalibrationResult:
-    """Least squares on the joint angles (4.5); ``params`` is the start."""
+              accuracy: float = 1e-6, progress: bool = False) -> CalibrationResult:
+    """Least squares on the joint angles (4.5); ``params`` is the start.
+    ``progress``: count the simulations (residual evaluations, Jacobian
+    columns included) on standard error."""
+    from ...progress import progress_bar
     from scipy.optimize import least_squares
 
     fit = tuple(fit)
@@ -217,17 +220,20 @@ def calibrate(params: BplirParams, log: CalibrationLog, fit=DEFAULT_FIT, *,
                    else getattr(params.plant, "l1" if n == "lc1" else "l2") for n in fit])
     scale = np.maximum(np.abs(x0), 1e-3)
     count = [0]
+    bar = progress_bar(progress, desc="calibrate", unit="simulations")
 
     def residuals(z):
         count[0] += 1
+        bar.update()
         try:
             sim = simulate_log(_with(params, fit, z * scale), log, accuracy=accuracy)
         except Exception:  # an impossible parameter set: a large, finite residual
             return np.full(2 * len(log.t), 10.0)
         return (sim - log.q).ravel()
 
-    res = least_squares(residuals, x0 / scale, bounds=(lo / scale, hi / scale),
-                        x_scale="jac", diff_step=1e-3, xtol=1e-6, ftol=1e-8, max_nfev=60)
+    with bar:
+        res = least_squares(residuals, x0 / scale, bounds=(lo / scale, hi / scale),
+                            x_scale="jac", diff_step=1e-3, xtol=1e-6, ftol=1e-8, max_nfev=60)
     values = res.x * scale
     J = res.jac / scale
     dof = max(1, res.fun.size - len(fit))

@@ -79,10 +79,11 @@ def map_jobs(fn: Callable, args: list[tuple], *, workers: int = 0, dask: bool = 
         it = _dask_map(fn, args, scheduler, workers)
     else:
         it = _pool_map(fn, args, min(workers, max(1, len(args))))
-    if progress:
-        from tqdm import tqdm
+    from ...progress import progress_bar
 
-        it = tqdm(it, total=len(args), desc=desc, unit="swing", leave=False)
-    yield from it
+    with progress_bar(progress, desc=desc, unit="swings", total=len(args)) as bar:
+        for result in it:
+            bar.update()
+            yield result
 
 

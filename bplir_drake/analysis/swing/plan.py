@@ -121,7 +121,7 @@ def plan_swing(params: BplirParams, *, power_limit: float | None = None, knots: 
                time_weight: float = 1.0, max_duration: float | None = None,
                guess_duration: float = 1.5, tolerance: float = 1e-4,
                iterations: int = 1500, end_depth: float = 0.0,
-               cache: bool = True) -> SwingPlan:
+               cache: bool = True, progress: bool = False) -> SwingPlan:
     """Plan the scenario's swing on the nominal model, from the nominal start
     pose (what the controller knows; the simulated robot never enters).
     ``power_limit`` defaults to the motor's rating, the torque limit to the
@@ -131,7 +131,8 @@ def plan_swing(params: BplirParams, *, power_limit: float | None = None, knots: 
     the band is entered just before the end, slowly, instead of during the
     final braking.  With ``cache`` the plan is read from, or written to, the
     disk cache (:func:`plan_cache_path`: keyed by every input the planner
-    reads; a solve takes about a minute)."""
+    reads; a solve takes about a minute).  ``progress``: count SNOPT's
+    evaluations on standard error while it solves."""
     from ...systems.plant import initial_configuration
 
     if not 5 <= knots <= 400:
@@ -152,18 +153,19 @@ def plan_swing(params: BplirParams, *, power_limit: float | None = None, knots: 
                   knots=knots, time_weight=time_weight, guess_duration=guess_duration,
                   tolerance=tolerance, iterations=iterations,
                   incline_deg=params.scenario.incline_deg)
-    if not cache:
+    def solve():
         return _solve_plan(params, q0, qT, tau_max, power, tmax, knots, time_weight,
-                           guess_duration, tolerance, iterations)
+                           guess_duration, tolerance, iterations, progress)
+
+    if not cache:
+        return solve()
     from .plan_cache import cached
 
-    return cached(inputs, lambda: _solve_plan(params, q0, qT, tau_max, power, tmax, knots,
-                                              time_weight, guess_duration, tolerance,
-                                              iterations))
+    return cached(inputs, solve)
 
 
 def _solve_plan(params, q0, qT, tau_max, power, tmax, knots, time_weight, guess_duration,
-                tolerance, iterations) -> SwingPlan:
+                tolerance, iterations, progress=False) -> SwingPlan:
     """The DirectCollocation solve of :func:`plan_swing`."""
     from pydrake.all import (DirectCollocation, PiecewisePolynomial, SnoptSolver, Solve,
                              SolverOptions)
@@ -191,7 +193,12 @@ def _solve_plan(params, q0, qT, tau_max, power, tmax, knots, time_weight, guess_
     options = SolverOptions()
     snopt = SnoptSolver().solver_id()
     options.SetOption(snopt, "Major iterations limit", int(iterations))
-    result = Solve(prog, None, options)
+    from ...progress import progress_bar
+
+    with progress_bar(progress, desc="plan (SNOPT)", unit="evaluations") as bar:
+        if progress:  # Drake calls it at every evaluation of the costs and constraints
+            prog.AddVisualizationCallback(lambda z: bar.update(), prog.decision_variables())
+        result = Solve(prog, None, options)
     feasible = not result.GetInfeasibleConstraintNames(prog, tolerance)
     xs = dircol.ReconstructStateTrajectory(result)
     us = dircol.ReconstructInputTrajectory(result)

@@ -1,0 +1,83 @@
+"""Progress on standard error (issue 19): the long computations count their
+steps (SNOPT evaluations, calibration simulations, QFT generations, EKF
+samples), the bars report the counts the results report, and the command
+line shows them only on a terminal without ``--json``."""
+import fcntl
+import os
+import pty
+import re
+import struct
+import subprocess
+import sys
+import termios
+
+import numpy as np
+
+from bplir_drake.analysis.control.qft import QftSpecs, design_qft, dissertation_family
+from bplir_drake.analysis.identification.calibration import calibrate, synthetic_log
+from bplir_drake.analysis.swing.plan import plan_swing
+from bplir_drake.estimation import write_imu_csv
+from bplir_drake.params import preset
+
+
+def _last_count(err: str, desc: str) -> int:
+    """The last count a bar ``desc`` printed (tqdm redraws with \\r)."""
+    counts = re.findall(re.escape(desc) + r":\s+(?:\d+%\|[^|]*\|\s*)?(\d+)", err)
+    assert counts, err
+    return int(counts[-1])
+
+
+def test_qft_design_counts_generations(capsys):
+    design_qft(dissertation_family(), QftSpecs(), maxiter=3, progress=True)
+    err = capsys.readouterr().err
+    assert _last_count(err, "QFT design") == 3 and "3/3" in err and "worst ratio" in err
+    design_qft(dissertation_family(), QftSpecs(), maxiter=2)
+    assert capsys.readouterr().err == ""  # silent by default
+
+
+def test_calibration_counts_its_simulations(capsys):
+    p = preset()
+    result = calibrate(p, synthetic_log(p, free_time=2.0), ("fv1",), progress=True)
+    err = capsys.readouterr().err
+    assert _last_count(err, "calibrate") == result.nfev > 1
+
+
+def test_plan_counts_snopt_evaluations(capsys):
+    plan_swing(preset(), knots=11, iterations=20, cache=False, progress=True)
+    err = capsys.readouterr().err
+    assert _last_count(err, "plan (SNOPT)") > 10
+
+
+def _run_on_terminal(args) -> tuple[int, str]:
+    """Run ``bplir args`` with standard error on a pseudo-terminal (24 x 100)."""
+    master, slave = pty.openpty()
+    fcntl.ioctl(slave, termios.TIOCSWINSZ, struct.pack("HHHH", 24, 100, 0, 0))
+    proc = subprocess.Popen([sys.executable, "-m", "bplir_drake.cli", *args],
+                            stdout=subprocess.DEVNULL, stderr=slave)
+    os.close(slave)
+    chunks = []
+    while True:
+        try:
+            data = os.read(master, 65536)
+        except OSError:  # the child closed the terminal
+            break
+        if not data:
+            break
+        chunks.append(data)
+    os.close(master)
+    return proc.wait(timeout=300), b"".join(chunks).decode(errors="replace")
+
+
+def test_cli_progress_only_on_a_terminal_without_json(tmp_path):
+    n = 25_000  # long logs (>= 20 000 samples) show the EKF's progress
+    t = np.arange(n) * 0.01
+    samples = np.zeros((n, 6))
+    samples[:, [3, 5]] = 9.81  # hanging still: each accelerometer reads gravity
+    log = write_imu_csv(t, samples, tmp_path / "long.csv")
+    code, err = _run_on_terminal(["estimate", str(log)])
+    assert code == 0 and _last_count(err, "estimate") >= 20_000
+    code, err = _run_on_terminal(["estimate", str(log), "--json"])
+    assert code == 0 and "estimate:" not in err
+    run = subprocess.run([sys.executable, "-m", "bplir_drake.cli", "estimate", str(log)],
+                         capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0 and run.stderr == ""  # a pipe is not a terminal

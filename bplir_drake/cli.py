@@ -290,6 +290,8 @@ def _swing_params(args):
     params = params.with_(scenario=sc)
     if args.controller:
         params = params.with_controller(args.controller)
+    if args.estimator:
+        params = params.with_estimator(args.estimator)
     from .diagrams import swing_geometry
 
     swing_geometry(params)  # validates grip spacing / incline for this robot
@@ -372,12 +374,13 @@ def _replay(args):
 
 # ------------------------------------------------------------------ montecarlo
 def _check_plugin(params) -> None:
-    """Build a plugged-in controller once, so a broken one fails here with
-    its one-line error instead of in every sample."""
-    if params.controller.plugin:
-        from .diagrams.plugin import make_plugin
+    """Build a plugged-in controller and estimator once, so a broken one
+    fails here with its one-line error instead of in every sample."""
+    from .diagrams.plugin import make_plugin
 
-        make_plugin(params)
+    for kind in ("controller", "estimator"):
+        if getattr(params, kind).plugin:
+            make_plugin(params, kind)
 
 
 def _study(args):
@@ -404,6 +407,8 @@ def _study(args):
                                                                incline_deg=args.incline)))
     if args.controller:
         study = study.with_(params=study.params.with_controller(args.controller))
+    if args.estimator:
+        study = study.with_(params=study.params.with_estimator(args.estimator))
     from .diagrams import swing_geometry
 
     swing_geometry(study.params)  # the nominal scenario must be possible
@@ -452,6 +457,8 @@ def cmd_benchmark(args) -> int:
     from .params import CONTROLLER_PRESETS, _is_plugin
 
     params = _load_params(args)
+    if args.estimator:
+        params = params.with_estimator(args.estimator)
     presets = [c.strip() for c in args.controllers.split(",") if c.strip()]
     if not presets or any(c not in CONTROLLER_PRESETS and not _is_plugin(c) for c in presets):
         bad = next((c for c in presets if c not in CONTROLLER_PRESETS), args.controllers)
@@ -470,6 +477,8 @@ def cmd_benchmark(args) -> int:
 
         _in_range("--realistic-samples", args.realistic_samples, 1, 1_000_000)
         base = load_study(args.realistic).with_(samples=args.realistic_samples, seed=args.seed)
+        if args.estimator:
+            base = base.with_(params=base.params.with_estimator(args.estimator))
     result = run_benchmark(params, presets, quick=args.quick, workers=args.workers or 0,
                            seed=args.seed, progress=_progress(args),
                            out=out)
@@ -599,6 +608,9 @@ def build_parser() -> argparse.ArgumentParser:
                                 "module:factory (a module or .py file)"),
                  "preset": ("--controller", None, None,
                             "controller preset (qft, dissertation, lab)"),
+                 "estimator": ("--estimator", None, None,
+                               "your own estimator instead of the EKF, module:factory "
+                               "(a module or .py file)"),
                  "workers": ("--workers", int, None, "worker processes (default: all cores)")}
         for n in names:
             option(p, *table[n])
@@ -632,7 +644,7 @@ def build_parser() -> argparse.ArgumentParser:
     option(p, "--threshold", float, 1e-3, "relative rank threshold")
 
     p = command("swing", cmd_swing, "one brachiation swing (the main job)", "out/swing")
-    shared(p, "incline", "controller")
+    shared(p, "incline", "controller", "estimator")
     option(p, "--seed", int, None, "seed of friction draw and sensor noise")
     option(p, "--true-state", bool, help="control from the true state")
     option(p, "--no-animation", bool, help="skip the GIF")
@@ -647,7 +659,7 @@ def build_parser() -> argparse.ArgumentParser:
                 "Monte Carlo robustness study over uncertain parameters", "out/montecarlo")
     p.add_argument("-n", "--samples", type=int, default=None, help="number of swings")
     option(p, "--seed", int, None, "root seed of the study")
-    shared(p, "workers", "incline", "controller")
+    shared(p, "workers", "incline", "controller", "estimator")
     option(p, "--study", None, None, "study TOML file (distributions, scenario)")
     g = p.add_mutually_exclusive_group()
     g.add_argument("--scheduler", default=None, metavar="ADDRESS",
@@ -660,7 +672,7 @@ def build_parser() -> argparse.ArgumentParser:
     option(p, "--quick", bool, help="fewer cases (about a minute)")
     option(p, "--controllers", None, "qft,dissertation,lab",
            "controllers to score: presets and module:factory plugins")
-    shared(p, "workers")
+    shared(p, "workers", "estimator")
     option(p, "--seed", int, 0, "root seed of the benchmark")
     option(p, "--realistic", None, None,
            "also run this study (e.g. examples/study_realistic.toml) per controller for the "

@@ -309,6 +309,10 @@ class EstimatorParams(_Block):
         if self.r1 > self.l1:
             raise ParameterError(f"estimator.r1 = {self.r1:g} m exceeds estimator.l1 = "
                                  f"{self.l1:g} m; allowed (0, l1]")
+        if not isinstance(self.plugin, str) or (self.plugin and not _is_plugin(self.plugin)):
+            raise ParameterError(
+                f"estimator.plugin = {self.plugin!r} must be 'module:factory' (a module "
+                "name or a .py file, a colon, a function returning a Drake system)")
         for name in ("integration", "loop_integration"):
             if getattr(self, name) not in ("euler", "trapezoid"):
                 raise ParameterError(f"estimator.{name} = '{getattr(self, name)}' is unknown; "
@@ -336,6 +340,7 @@ class EstimatorParams(_Block):
     estimate_bias: bool = True
     bias_sigma0: float = _positive(0.05, "rad/s", doc="initial gyro-bias standard deviation")
     bias_walk: float = _positive(1e-3, "rad/s/sqrt(s)", doc="gyro-bias random walk")
+    plugin: str = ""   # "module:factory" of a user's estimator (replaces the EKF in a swing)
 
     def for_loop(self) -> "EstimatorParams":
         """The same filter with the in-loop tuning (used by the swing)."""
@@ -582,6 +587,11 @@ class BplirParams:
             return replace(self, controller=replace(self.controller, plugin=name))
         path = replace(self.path, mode="lab") if name == "lab" else self.path
         return replace(self, controller=ControllerParams.preset_named(name), path=path)
+
+    def with_estimator(self, spec: str) -> "BplirParams":
+        """A user's estimator ``"module:factory"`` in the swing
+        (``estimator.plugin``) instead of the EKF; ``""`` restores the EKF."""
+        return replace(self, estimator=replace(self.estimator, plugin=spec))
 
 
 BLOCKS = {

@@ -1,4 +1,4 @@
-"""Bring your own controller (issue 19): the example plugin runs a swing, a
+"""Bring your own controller or estimator (issue 19): the example plugins run a swing, a
 Monte Carlo study and the benchmark through Python and the command line; a
 controller that breaks the port contract gets a one-line error naming the
 port; the factory never sees the simulated robot."""
@@ -124,3 +124,86 @@ def test_the_example_plugin_through_the_command_line(tmp_path, capsys):
     assert entry["controller"] == EXAMPLE and entry["overall"] == 0.0
     assert entry["capture_speed_median_mps"] is None and entry["peak_power_max_W"] < 220
     assert f"`{EXAMPLE}`" in (tmp_path / "bench" / "leaderboard.md").read_text()
+
+
+# ----------------------------------------------------------- estimators
+
+EXAMPLE_EST = str(Path(__file__).resolve().parents[1] / "examples" / "my_estimator.py") + ":make"
+
+BAD_EST = '''
+from pydrake.systems.framework import LeafSystem
+
+
+class Est(LeafSystem):
+    def __init__(self, inputs, out_name, out_size):
+        super().__init__()
+        for name, size in inputs:
+            self.DeclareVectorInputPort(name, size)
+        self.DeclareVectorOutputPort(out_name, out_size,
+                                     lambda c, o: o.SetFromVector([0.0] * out_size))
+
+
+def gyro_only(params):
+    return Est([("imu", 2)], "state", 4)
+
+
+def absolute(params):
+    return Est([("imu", 6)], "theta", 4)
+
+
+def needs_torque(params):
+    return Est([("imu", 6), ("torque", 1)], "state", 4)
+'''
+
+
+def test_the_example_estimator_runs_a_swing_from_python():
+    from bplir_drake.diagrams import build_swing
+    from bplir_drake.diagrams.plugin import load_factory
+
+    ekf = run_swing(BplirParams(), seed=0).summary
+    mine = run_swing(BplirParams().with_estimator(EXAMPLE_EST), seed=0).summary
+    # the gyro integral (5.41) carries the nominal swing to a capture, with
+    # about 4x the EKF's largest angle error (measured 0.0143 vs 0.0038 rad)
+    assert mine["outcome"] == "captured"
+    assert mine["max_estimation_error_rad"] == pytest.approx(0.0143, abs=0.002)
+    assert mine["max_estimation_error_rad"] > 3 * ekf["max_estimation_error_rad"]
+    # build_swing(estimator=...) takes the factory itself, too
+    factory = load_factory(EXAMPLE_EST, "estimator")
+    built = build_swing(BplirParams(), estimator=factory)
+    assert type(built["estimator"]).__name__ == "GyroIntegral" and "ekf" not in built.systems
+
+
+def test_the_example_estimator_through_the_command_line(tmp_path, capsys):
+    assert main(["swing", "--estimator", EXAMPLE_EST, "--no-animation", "--json", "--seed", "0",
+                 "--out", str(tmp_path / "swing")]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["outcome"] == "captured"
+    assert out["max_estimation_error_rad"] == pytest.approx(0.0143, abs=0.002)
+    assert main(["montecarlo", "--estimator", EXAMPLE_EST, "-n", "2", "--workers", "1",
+                 "--no-plots", "--json", "--out", str(tmp_path / "mc")]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["samples"] == 2 and sum(summary["outcomes"].values()) == 2
+
+
+def test_the_benchmark_names_the_estimator(tmp_path):
+    from bplir_drake.analysis.montecarlo.benchmark import leaderboard, run_benchmark
+
+    result = run_benchmark(BplirParams().with_estimator(EXAMPLE_EST), ["qft"], quick=True,
+                           workers=1, categories=["incline"])
+    (entry,) = leaderboard(result)
+    assert entry["estimator"] == EXAMPLE_EST and result["scores"]["qft"]["swings"] == 2
+
+
+@pytest.mark.parametrize("factory, message", [
+    ("gyro_only", "input port 'imu' has size 2; the contract says 6"),
+    ("absolute", "needs an output port 'state' of size 4"),
+    ("needs_torque", "unknown input port 'torque'; allowed: imu"),
+])
+def test_a_broken_estimator_is_refused_naming_the_port(tmp_path, factory, message, capsys):
+    path = tmp_path / "bad_estimators.py"
+    path.write_text(BAD_EST)
+    assert main(["swing", "--estimator", f"{path}:{factory}", "--no-animation",
+                 "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("bplir: error: estimator plugin")
+    assert message in err[0]

@@ -4,7 +4,8 @@
 
 1. :func:`add_robot` -- the simulated plant with friction, the external
    forces (wind, gusts, torque noise) and the motor/driver;
-2. :func:`add_sensing` -- two IMUs and the kinematic EKF (nominal geometry);
+2. :func:`add_sensing` -- two IMUs and the kinematic EKF (nominal geometry),
+   or a user's estimator (:mod:`.plugin`);
 3. :func:`add_swing_controller` -- by ``path.mode``: the path generator and
    CPFL controller, or the plan tracker;
 4. :func:`add_actuation` -- actuation delay and compute latency between the
@@ -110,7 +111,9 @@ def set_swing_sample(built: Built, context, params: BplirParams, seed: int) -> N
     set_inertial_parameters(built.plant, context, params.simulated_plant)
     set_friction(built.systems["friction"], context, params.simulated_friction)
     built.systems["imu"].set_sensor(context, params.imu, seed)
-    built.systems["ekf"].set_calibration(context, standstill_calibration(params, built.q0, seed))
+    if "ekf" in built.systems:  # a user's estimator calibrates itself, or not
+        built.systems["ekf"].set_calibration(context,
+                                             standstill_calibration(params, built.q0, seed))
     if "disturbance" in built.systems:
         built.systems["disturbance"].set_schedule(
             context, _disturbance_torques(params.scenario, seed, params.controller.period))
@@ -167,26 +170,34 @@ def standstill_calibration(params: BplirParams, q0, seed: int) -> ImuCalibration
     return calibrate_standstill(samples, theta, params.estimator.g)
 
 
-def add_sensing(builder, params: BplirParams, robot: Robot, q0, seed: int):
+def add_sensing(builder, params: BplirParams, robot: Robot, q0, seed: int, estimator=None):
     """Two IMUs on the simulated links and the kinematic EKF (nominal
     geometry, started at the known pose ``q0`` at rest, with the standstill
-    calibration of :func:`standstill_calibration`).  Returns ``(sampler,
-    ekf)``."""
+    calibration of :func:`standstill_calibration`), or a user's estimator
+    (``estimator``, a factory, or ``estimator.plugin``: :mod:`.plugin`).
+    Returns ``(sampler, estimator, estimate port)``."""
     sampler = add_imus(builder, robot.plant, params, seed)
+    if estimator is not None or params.estimator.plugin:
+        from .plugin import make_plugin
+
+        user = builder.AddNamedSystem("estimator", make_plugin(params, "estimator", estimator))
+        builder.Connect(sampler.get_output_port(0), user.GetInputPort("imu"))
+        return sampler, user, user.GetOutputPort("state")
     est = params.estimator.for_loop()
     x0_abs = absolute_from_relative(np.array([q0[0], q0[1], 0.0, 0.0]))
     ekf = builder.AddNamedSystem("ekf", KinematicEkf(
         est, x0_abs, sigmas=(est.start_angle_sigma, est.start_rate_sigma, est.start_bias_sigma),
         calibration=standstill_calibration(params, q0, seed)))
     builder.Connect(sampler.get_output_port(0), ekf.get_input_port(0))
-    return sampler, ekf
+    return sampler, ekf, ekf.GetOutputPort("estimate_relative")
 
 
 def add_swing_controller(builder, params: BplirParams, state_port, robot: Robot, path_geometry,
-                         plan_gains=None) -> dict[str, Any]:
+                         plan_gains=None, controller=None) -> dict[str, Any]:
     """The swing controller, reading ``state_port`` (the estimate or the
-    sampled true state): a user's (``controller.plugin``,
-    :mod:`.plugin`) as ``{"controller": system}``; by ``path.mode``,
+    sampled true state): a user's (``controller``, a factory, or
+    ``controller.plugin``: :mod:`.plugin`) as ``{"controller": system}``;
+    by ``path.mode``,
     ``{"controller": PlanTracker}`` for
     ``"plan"`` (Drake's finite-horizon LQR along a planned swing,
     ``plan_gains``), else ``{"path": PathGenerator, "controller":
@@ -194,10 +205,10 @@ def add_swing_controller(builder, params: BplirParams, state_port, robot: Robot,
     ``controller.delay_compensation`` (a :class:`DelayPredictor`, also
     returned) when that is set.  Every system uses the nominal model."""
     T = params.controller.period
-    if params.controller.plugin:
+    if controller is not None or params.controller.plugin:
         from .plugin import make_plugin
 
-        ctrl = builder.AddNamedSystem("controller", make_plugin(params))
+        ctrl = builder.AddNamedSystem("controller", make_plugin(params, "controller", controller))
         builder.Connect(state_port, ctrl.GetInputPort("state"))
         if ctrl.HasInputPort("torque_available"):
             builder.Connect(robot.motor.GetOutputPort("available"),
@@ -257,21 +268,22 @@ def add_actuation(builder, params: BplirParams, command, motor) -> None:
     builder.Connect(command, motor.GetInputPort("torque_command"))
 
 
-def add_interlock(builder, params: BplirParams, robot: Robot, ekf, line_geometry):
+def add_interlock(builder, params: BplirParams, robot: Robot, estimate_port, line_geometry):
     """The gripper interlock: judges the true state at the controller rate
-    and ends the run on an outcome."""
+    and ends the run on an outcome (``estimate_port``: what the robot
+    believes, for its record)."""
     from ..systems.gripper import GripperInterlock
 
     lock = builder.AddNamedSystem("interlock", GripperInterlock(
         line_geometry, params.scenario, params.controller.period))
     builder.Connect(robot.plant.get_state_output_port(), lock.GetInputPort("state"))
     builder.Connect(robot.motor.GetOutputPort("tripped"), lock.GetInputPort("tripped"))
-    builder.Connect(ekf.GetOutputPort("estimate_relative"), lock.GetInputPort("estimate"))
+    builder.Connect(estimate_port, lock.GetInputPort("estimate"))
     builder.Connect(robot.motor.GetOutputPort("torque"), lock.GetInputPort("torque"))
     return lock
 
 
-def add_swing_loggers(builder, params: BplirParams, robot: Robot, sampler, ekf,
+def add_swing_loggers(builder, params: BplirParams, robot: Robot, sampler, estimate_port,
                       control: dict[str, Any], log_period: float) -> dict[str, Any]:
     """Continuous signals every ``log_period``; sampled ones at their ticks."""
     T = params.controller.period
@@ -284,7 +296,7 @@ def add_swing_loggers(builder, params: BplirParams, robot: Robot, sampler, ekf,
         "power": LogVectorOutput(motor.GetOutputPort("power"), builder, log_period),
         "current": LogVectorOutput(motor.GetOutputPort("current"), builder, log_period),
         "friction": LogVectorOutput(robot.friction.get_output_port(0), builder, log_period),
-        "estimate": TickLogger(builder, ekf.GetOutputPort("estimate_relative"), T),
+        "estimate": TickLogger(builder, estimate_port, T),
         "command": TickLogger(builder, ctrl.GetOutputPort("torque"), T),
         "imu": TickLogger(builder, sampler.get_output_port(0), params.imu.period),
     }
@@ -297,34 +309,45 @@ def add_swing_loggers(builder, params: BplirParams, robot: Robot, sampler, ekf,
 
 
 def build_swing(params: BplirParams, *, seed: int | None = None, use_estimator: bool | None = None,
-                log_period: float = 0.005, plan_gains=None) -> Built:
+                log_period: float = 0.005, plan_gains=None, controller=None,
+                estimator=None) -> Built:
     """The full closed loop of one swing (see the module docstring).
 
     ``seed`` (default ``scenario.seed``) seeds the IMU noise and the
     disturbances; with ``use_estimator=False`` the controller reads the true
     state sampled at its tick instead of the estimate; ``plan_gains`` are
     the tracking gains of a planned swing for ``path.mode = "plan"``
-    (:func:`bplir_drake.analysis.swing.plan.tracking_plan`).  The returned
+    (:func:`bplir_drake.analysis.swing.plan.tracking_plan`).
+    ``controller`` / ``estimator``: your own (:mod:`.plugin`), a factory
+    ``factory(nominal params) -> System`` or a ``"module:factory"`` spec,
+    instead of the parameters' ones.  The returned
     record carries the start configuration ``q0`` and the ``structure`` a
     context cannot change (:func:`set_swing_sample`).
     """
+    if isinstance(controller, str):  # a spec travels in the parameters
+        params, controller = params.with_controller(controller), None
+    if isinstance(estimator, str):
+        params, estimator = params.with_estimator(estimator), None
     sc = params.scenario
     seed = sc.seed if seed is None else seed
     use_est = sc.use_estimator if use_estimator is None else use_estimator
     q0, _, path_geometry, line_geometry = swing_geometry(params)
     builder = DiagramBuilder()
     robot = add_robot(builder, params, seed)
-    sampler, ekf = add_sensing(builder, params, robot, q0, seed)
-    state_port = (ekf.GetOutputPort("estimate_relative") if use_est
+    sampler, est, estimate_port = add_sensing(builder, params, robot, q0, seed, estimator)
+    state_port = (estimate_port if use_est
                   else sampled(builder, robot.plant.get_state_output_port(),
                                params.controller.period))
-    control = add_swing_controller(builder, params, state_port, robot, path_geometry, plan_gains)
+    control = add_swing_controller(builder, params, state_port, robot, path_geometry, plan_gains,
+                                   controller)
     add_actuation(builder, params, control["controller"].GetOutputPort("torque"), robot.motor)
-    lock = add_interlock(builder, params, robot, ekf, line_geometry)
-    loggers = add_swing_loggers(builder, params, robot, sampler, ekf, control, log_period)
+    lock = add_interlock(builder, params, robot, estimate_port, line_geometry)
+    loggers = add_swing_loggers(builder, params, robot, sampler, estimate_port, control,
+                                log_period)
     diagram = builder.Build()
     diagram.set_name("brachiation_swing")
-    systems = {"friction": robot.friction, "motor": robot.motor, "imu": sampler, "ekf": ekf,
+    systems = {"friction": robot.friction, "motor": robot.motor, "imu": sampler,
+               "ekf" if isinstance(est, KinematicEkf) else "estimator": est,
                **control, "interlock": lock}
     if robot.disturbance is not None:
         systems["disturbance"] = robot.disturbance

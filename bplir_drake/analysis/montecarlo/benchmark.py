@@ -148,6 +148,7 @@ def run_benchmark(params: BplirParams, controllers=("qft", "dissertation", "lab"
     if out is not None:
         write_cases_csv(rows, Path(out) / "benchmark_cases.csv")
     return {"scores": scores, "quick": quick, "repeats": repeats, "seed": seed,
+            "estimator": params.estimator.plugin or "ekf",
             "categories": [k for k in CATEGORIES if k in categories], "cases": chosen,
             "rows": rows}
 
@@ -158,7 +159,8 @@ CASE_COLUMNS = ("controller", "category", "label", "case", "repeat", "seed", "ou
 
 
 def leaderboard(result: dict, realistic: dict | None = None) -> list[dict]:
-    """One entry per controller, best first: overall and category scores,
+    """One entry per controller, best first: the estimator it ran with
+    (``"ekf"`` or a plugin), overall and category scores,
     the median capture speed (m/s) of its captured swings, mean energy put
     in per swing (J) and the largest peak motor power (W) over the
     benchmark's swings; with ``realistic`` (controller -> a Monte Carlo
@@ -167,7 +169,8 @@ def leaderboard(result: dict, realistic: dict | None = None) -> list[dict]:
     for c, sc in result["scores"].items():
         mine = [r for r in result["rows"] if r["controller"] == c and r["outcome"] != "error"]
         speeds = [r["capture_speed_mps"] for r in mine if r["success"]]
-        entry = {"controller": c, "overall": sc["overall"], "categories": sc["categories"],
+        entry = {"controller": c, "estimator": result.get("estimator", "ekf"),
+                 "overall": sc["overall"], "categories": sc["categories"],
                  "capture_speed_median_mps": float(np.median(speeds)) if speeds else None,
                  "energy_per_swing_J": float(np.mean([r["energy_in_J"] for r in mine]))
                  if mine else None,
@@ -188,11 +191,13 @@ def leaderboard_table(board: list[dict]) -> str:
         return "--" if v is None else format(v, fmt)
 
     real = any("realistic_success_rate" in e for e in board)
-    head = ["rank", "controller", "overall"] + (["realistic study (95 % CI)"] if real else []) \
+    head = ["rank", "controller", "estimator", "overall"] \
+        + (["realistic study (95 % CI)"] if real else []) \
         + ["capture speed median (m/s)", "energy per swing (J)", "peak power max (W)"]
     lines = ["| " + " | ".join(head) + " |", "|" + " --- |" * len(head)]
     for i, e in enumerate(board, 1):
-        cells = [str(i), f"`{e['controller']}`", f"{e['overall']:.2f}"]
+        cells = [str(i), f"`{e['controller']}`", f"`{e.get('estimator', 'ekf')}`",
+                 f"{e['overall']:.2f}"]
         if real:
             lo, hi = e.get("realistic_ci95", (None, None))
             cells.append(f"{e['realistic_success_rate']:.1%} ({lo:.1%}-{hi:.1%}, "

@@ -75,6 +75,20 @@ def test_the_example_plugin_runs_a_swing_from_python():
     assert r.summary["peak_torque_Nm"] < 20.0
 
 
+def test_the_example_plugin_in_a_study_and_the_benchmark_from_python(tmp_path):
+    from bplir_drake.analysis.montecarlo import Study, run_study
+    from bplir_drake.analysis.montecarlo.benchmark import leaderboard, run_benchmark
+
+    p = BplirParams().with_controller(EXAMPLE)
+    summary = run_study(Study(params=p, samples=2, seed=0), tmp_path / "mc", workers=1)
+    assert summary["samples"] == 2 and summary["outcomes"] == {"timeout": 2}
+    result = run_benchmark(BplirParams(), [EXAMPLE], quick=True, workers=1,
+                           categories=["grip spacing"])
+    (entry,) = leaderboard(result)
+    assert entry["controller"] == EXAMPLE and entry["overall"] == 0.0
+    assert result["scores"][EXAMPLE]["swings"] == 2
+
+
 def test_the_factory_gets_the_nominal_model_only(bad):
     import sys
 

@@ -479,10 +479,12 @@ def cmd_benchmark(args) -> int:
         base = load_study(args.realistic).with_(samples=args.realistic_samples, seed=args.seed)
         if args.estimator:
             base = base.with_(params=base.params.with_estimator(args.estimator))
+        _realistic_studies(args, base, presets, out, run=False)  # resumable or refused now
     result = run_benchmark(params, presets, quick=args.quick, workers=args.workers or 0,
                            seed=args.seed, progress=_progress(args),
                            out=out)
-    realistic = _realistic_studies(args, base, presets, out) if base is not None else None
+    realistic = _realistic_studies(args, base, presets, out, run=True) \
+        if base is not None else None
     fig = save_figure(plot_benchmark(result), out / "benchmark.png")
     table = benchmark_table(result)
     write_text_atomic(out / "benchmark.md", table + "\n")
@@ -499,18 +501,23 @@ def cmd_benchmark(args) -> int:
     return 0
 
 
-def _realistic_studies(args, base, controllers, out) -> dict:
+def _realistic_studies(args, base, controllers, out, run: bool) -> dict:
     """The study ``base`` (``--realistic``, with the benchmark's ``--seed`` as
     its root seed) run for each controller into ``out/realistic/<controller>``:
-    controller -> summary."""
+    controller -> summary.  ``run=False`` only checks that every directory
+    is new or holds the same study (before the benchmark's work)."""
     import re
 
     from .analysis.montecarlo import run_study
+    from .analysis.montecarlo.runner import check_out
 
     summaries = {}
     for c in controllers:
         study = base.with_(params=base.params.with_controller(c))
         where = out / "realistic" / re.sub(r"[^A-Za-z0-9_.-]+", "_", c)
+        if not run:
+            check_out(study, where)
+            continue
         summaries[c] = run_study(study, where, workers=args.workers or 0,
                                  progress=_progress(args))
     return summaries

@@ -102,3 +102,27 @@ def test_benchmark_checks_its_realistic_study_before_any_work(tmp_path, capsys, 
     assert main(["benchmark", "--quick", *extra, "--out", str(tmp_path)]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and message in err
+
+
+def test_benchmark_refuses_a_realistic_directory_of_another_study_before_any_work(
+        tmp_path, capsys, monkeypatch):
+    from pathlib import Path
+
+    import bplir_drake.analysis.montecarlo.benchmark as B
+    from bplir_drake.analysis.montecarlo import Study
+    from bplir_drake.analysis.montecarlo.study import STUDY_FILE, save_study
+    from bplir_drake.params import BplirParams
+
+    def no_work(*a, **k):
+        raise AssertionError("benchmarked before checking the realistic study's directory")
+
+    monkeypatch.setattr(B, "run_benchmark", no_work)
+    monkeypatch.chdir(Path(__file__).resolve().parents[1])
+    other = tmp_path / "realistic" / "qft"
+    other.mkdir(parents=True)
+    save_study(Study(params=BplirParams(), samples=3, seed=5), other / STUDY_FILE)
+    assert main(["benchmark", "--quick", "--controllers", "qft", "--realistic",
+                 "examples/study_realistic.toml", "--realistic-samples", "2",
+                 "--out", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "holds results of a different study" in err

@@ -52,19 +52,22 @@ from .statistics import summarize
 from .store import ResultWriter, columns, read_results
 from .study import RESULTS_FILE, STUDY_FILE, SUMMARY_FILE, Study, StudyError, load_study, save_study
 
-def prepare_out(study: Study, out: Path) -> list[dict]:
-    """Create or reopen a study directory; return the rows already done.
+def check_out(study: Study, out) -> None:
+    """Refuse (``StudyError``) a directory that holds a different study
+    (other than its sample count): its results are never mixed with new
+    ones.  Nothing is written; callers check before any work."""
+    saved = Path(out) / STUDY_FILE
+    if saved.exists() and load_study(saved).identity() != study.identity():
+        raise StudyError(f"{out} holds results of a different study; use another --out "
+                         "or remove the directory")
 
-    A directory holding a different study (other than its sample count) is
-    refused rather than mixed with new results.
-    """
+
+def prepare_out(study: Study, out: Path) -> list[dict]:
+    """Create or reopen a study directory (:func:`check_out`); return the
+    rows already done."""
+    check_out(study, out)
     out.mkdir(parents=True, exist_ok=True)
     saved = out / STUDY_FILE
-    if saved.exists():
-        old = load_study(saved)
-        if old.identity() != study.identity():
-            raise StudyError(f"{out} holds results of a different study; use another --out "
-                             "or remove the directory")
     save_study(study, saved)
     return read_results(out / RESULTS_FILE, columns(study))
 

@@ -28,7 +28,8 @@ import numpy as np
 from .io import atomic_path
 
 from .params import EstimatorParams
-from .systems.ekf import EkfState, ekf_predict, ekf_step, initial_state
+from .systems.ekf import (EkfState, ekf_predict, ekf_update, initial_state, prediction_input,
+                          split_sample)
 from .systems.imu import IMU_COLUMNS
 
 LOG_COLUMNS = ("t",) + IMU_COLUMNS
@@ -59,6 +60,26 @@ class EstimateResult:
     gyro_bias: np.ndarray     # (N, 2)
     gyro_integral: np.ndarray  # (N, 2) baseline (5.41)
     skipped: int
+    #: normalised innovation squared of each update (NaN where skipped)
+    nis: np.ndarray | None = None
+    #: the Rauch-Tung-Striebel smoother's absolute state, covariance
+    #: diagonal and gyro biases (``estimate(..., smooth=True)``)
+    smoothed: np.ndarray | None = None
+    smoothed_cov_diag: np.ndarray | None = None
+    smoothed_bias: np.ndarray | None = None
+
+    def nis_check(self, confidence: float = 0.95) -> dict:
+        """The mean NIS against its two-sided ``confidence`` band: for a
+        consistent filter, ``N`` mean NIS is chi-square with ``4 N`` degrees
+        of freedom (4 measurements per update)."""
+        from scipy.stats import chi2
+
+        v = self.nis[np.isfinite(self.nis)]
+        n = len(v)
+        lo, hi = (chi2.ppf(q, 4 * n) / n for q in ((1 - confidence) / 2, (1 + confidence) / 2))
+        mean = float(v.mean())
+        return {"mean_nis": mean, "band": [float(lo), float(hi)], "updates": n,
+                "consistent": bool(lo <= mean <= hi)}
 
 
 def csv_rows(path, what: str, error) -> tuple[list[str], list[tuple[int, list[str]]]]:
@@ -172,21 +193,26 @@ def gyro_integral(t, samples, theta0) -> np.ndarray:
 
 
 def estimate(t, samples, params: EstimatorParams, x0=(0.0, 0.0, 0.0, 0.0), *,
-             calibrate_window: float = 0.0, progress: bool = False) -> EstimateResult:
+             calibrate_window: float = 0.0, progress: bool = False, smooth: bool = False,
+             sigmas=None) -> EstimateResult:
     """Run the EKF over a log.
 
     ``x0`` is the initial absolute state.  With ``calibrate_window > 0`` the
     robot is assumed still for that many seconds at the start: the mean gyro
     reading there initialises the bias estimate (and is removed from the
     baseline).  ``progress``: the samples filtered so far, on standard
-    error (shown for logs of 20 000 samples or more).
+    error (shown for logs of 20 000 samples or more).  ``smooth``: also run
+    the Rauch-Tung-Striebel backward pass over the same model (the
+    extended RTS smoother; :func:`rts_smooth`).  ``sigmas`` = (angle,
+    rate[, bias]) initial standard deviations (default ``p0_*``).  Every
+    update's normalised innovation squared is kept (``nis``).
     """
     from .progress import progress_bar
 
     t = np.asarray(t, dtype=float)
     samples = np.asarray(samples, dtype=float)
     skip = check_log(t, samples, params.period)
-    s = initial_state(params, x0)
+    s = initial_state(params, x0, sigmas)
     bias0 = np.zeros(2)
     if calibrate_window > 0:
         win = (t - t[0] <= calibrate_window) & ~skip
@@ -196,21 +222,59 @@ def estimate(t, samples, params: EstimatorParams, x0=(0.0, 0.0, 0.0, 0.0), *,
     n = len(s.x)
     N = len(t)
     xs, covs, biases = np.zeros((N, 4)), np.zeros((N, n)), np.zeros((N, 2))
+    nis = np.full(N, np.nan)
+    # what the backward pass needs: priors, posteriors, transition Jacobians
+    keep = ([None] * N, [None] * N, [np.eye(n)] * N) if smooth else None
     u_prev = None
     bar = progress_bar(progress and N >= 20_000, desc="estimate", unit="samples", total=N)
     for k in range(N):
         if k % 1000 == 999:
             bar.update(1000)
-        if skip[k]:
-            s = ekf_predict(s, u_prev, params)
+        A = np.eye(n)
+        if skip[k]:  # predict over the missing sample, no update
+            s, A = ekf_predict(s, u_prev, params, with_jacobian=True)
+            prior = s
         else:
-            s, u_prev = ekf_step(s, u_prev, samples[k], params, first=u_prev is None)
+            z, u = split_sample(samples[k])
+            if u_prev is not None:
+                s, A = ekf_predict(s, prediction_input(u_prev, u, params), params,
+                                   with_jacobian=True)
+            prior = s
+            s, nu, S = ekf_update(s, z, u, params, with_innovation=True)
+            nis[k] = float(nu @ np.linalg.solve(S, nu))
+            u_prev = u
+        if smooth:
+            keep[0][k], keep[1][k], keep[2][k] = prior, s, A
         xs[k] = s.x[:4]
         covs[k] = np.diag(s.P)
         biases[k] = s.x[4:6] if n > 4 else 0.0
     bar.close()
     base = gyro_integral(t, samples - np.concatenate([bias0, np.zeros(4)]), x0)
-    return EstimateResult(t, xs, covs, biases, base, int(skip.sum()))
+    result = EstimateResult(t, xs, covs, biases, base, int(skip.sum()), nis)
+    if smooth:
+        sm = rts_smooth(*keep)
+        result.smoothed = np.array([e.x[:4] for e in sm])
+        result.smoothed_cov_diag = np.array([np.diag(e.P) for e in sm])
+        result.smoothed_bias = np.array([e.x[4:6] if n > 4 else np.zeros(2) for e in sm])
+    return result
+
+
+def rts_smooth(priors, posteriors, jacobians) -> list[EkfState]:
+    """The Rauch-Tung-Striebel backward pass: ``priors[k]`` / ``posteriors[k]``
+    are the filter's state before / after the update of sample k and
+    ``jacobians[k]`` the transition Jacobian from k-1 to k.  Returns the
+    smoothed states ``x_k|N`` with their covariances."""
+    N = len(posteriors)
+    out = [None] * N
+    out[-1] = posteriors[-1]
+    for k in range(N - 2, -1, -1):
+        post, prior_next, A = posteriors[k], priors[k + 1], jacobians[k + 1]
+        # gain C = P_k|k A' P_k+1|k^-1 (P symmetric: solve instead of inverting)
+        C = np.linalg.solve(prior_next.P, A @ post.P).T
+        x = post.x + C @ (out[k + 1].x - prior_next.x)
+        P = post.P + C @ (out[k + 1].P - prior_next.P) @ C.T
+        out[k] = EkfState(x, 0.5 * (P + P.T))
+    return out
 
 
 def write_estimate_csv(result: EstimateResult, path: str | Path) -> Path:

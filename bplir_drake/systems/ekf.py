@@ -204,29 +204,33 @@ def kinematic_h_jacobian(x, u, p: EstimatorParams):
     return h, H
 
 
-def ekf_predict(s: EkfState, u, p: EstimatorParams) -> EkfState:
+def ekf_predict(s: EkfState, u, p: EstimatorParams, *, with_jacobian: bool = False):
     """(5.23)-(5.24): prediction over one period; ``A = df_d/dx`` and
-    ``W = df_d/du`` in closed form (:func:`discrete_f_jacobians`)."""
+    ``W = df_d/du`` in closed form (:func:`discrete_f_jacobians`).  With
+    ``with_jacobian`` returns ``(state, A)`` (for a smoother)."""
     x_new, A, W = discrete_f_jacobians(s.x, np.asarray(u, dtype=float), p)
     n = len(s.x)
     Qu, _, qb = noise_matrices(p)
     P = A @ s.P @ A.T + (W @ Qu) @ W.T
     if n > 4:
         P[4:, 4:] += qb * p.period * np.eye(2)
-    return EkfState(x_new, P)
+    return (EkfState(x_new, P), A) if with_jacobian else EkfState(x_new, P)
 
 
-def ekf_update(s: EkfState, z, u, p: EstimatorParams) -> EkfState:
-    """(5.29)-(5.31), Joseph form."""
+def ekf_update(s: EkfState, z, u, p: EstimatorParams, *, with_innovation: bool = False):
+    """(5.29)-(5.31), Joseph form.  With ``with_innovation`` returns
+    ``(state, innovation, its covariance S)`` (for consistency checks)."""
     h, H = kinematic_h_jacobian(s.x, np.asarray(u, dtype=float), p)
     _, R, _ = noise_matrices(p)
     PHt = s.P @ H.T
     S = H @ PHt + R
     K = np.linalg.solve(S, PHt.T).T
-    x = s.x + K @ (np.asarray(z, dtype=float) - h)
+    nu = np.asarray(z, dtype=float) - h
+    x = s.x + K @ nu
     IKH = np.eye(len(s.x)) - K @ H
     P = IKH @ s.P @ IKH.T + K @ R @ K.T
-    return EkfState(x, 0.5 * (P + P.T))
+    out = EkfState(x, 0.5 * (P + P.T))
+    return (out, nu, S) if with_innovation else out
 
 
 def split_sample(sample):
@@ -240,12 +244,15 @@ def ekf_step(s: EkfState, u_prev, sample, p: EstimatorParams, *, first: bool = F
     new sample.  Returns (new state, new input)."""
     z, u = split_sample(sample)
     if not first:
-        # (5.3): explicit Euler with the previous accelerations; "trapezoid"
-        # averages the accelerations at both ends of the period and steps the
-        # angles to second order
-        u_pred = u_prev if p.integration == "euler" else 0.5 * (np.asarray(u_prev) + u)
-        s = ekf_predict(s, u_pred, p)
+        s = ekf_predict(s, prediction_input(u_prev, u, p), p)
     return ekf_update(s, z, u, p), u
+
+
+def prediction_input(u_prev, u, p: EstimatorParams) -> np.ndarray:
+    """The accelerations a prediction over one period uses: (5.3), explicit
+    Euler with the previous ones; ``"trapezoid"`` averages both ends of the
+    period (and steps the angles to second order)."""
+    return np.asarray(u_prev) if p.integration == "euler" else 0.5 * (np.asarray(u_prev) + u)
 
 
 # ----------------------------------------------------------- Drake system

@@ -163,7 +163,7 @@ def cmd_estimate(args) -> int:
     """``bplir estimate``: run the kinematic EKF over an IMU log."""
     from dataclasses import replace
 
-    from .analysis.estimation.plots import plot_estimate
+    from .analysis.estimation.plots import plot_estimate, plot_estimate_report
     from .estimation import estimate, read_imu_csv, write_estimate_csv
 
     params = _load_params(args)
@@ -177,34 +177,50 @@ def cmd_estimate(args) -> int:
         est = replace(est, estimate_bias=False)
     _in_range("--calibrate", args.calibrate, 0.0, 3600.0, unit="s")
     x0 = _floats(args.x0, 4, "--x0") if args.x0 else [0.0, 0.0, 0.0, 0.0]
-    for opt in ("out", "plot"):
+    for opt in ("out", "plot", "report"):
         if getattr(args, opt):
             check_output_file(getattr(args, opt), InputError)
     log = read_imu_csv(args.log)
     res = estimate(log.t, log.samples, est, x0, calibrate_window=args.calibrate,
-                   progress=_progress(args))
+                   progress=_progress(args), smooth=args.smooth)
     summary = {"samples": int(len(res.t)), "duration_s": float(res.t[-1] - res.t[0]),
                "skipped_updates": res.skipped,
                "final_estimate": res.x[-1].tolist(),
                "final_gyro_bias": res.gyro_bias[-1].tolist(),
+               "nis": res.nis_check(),
                "geometry": {"r1": est.r1, "r2": est.r2, "l1": est.l1}}
+    if args.smooth:
+        summary["smoothed_start"] = res.smoothed[0].tolist()
     if args.out:
         summary["estimate_csv"] = str(write_estimate_csv(res, args.out))
+    truth = _logged_truth(log)
     if args.plot:
-        truth = None
-        if {"theta1", "theta2"} <= set(log.extra):
-            import numpy as np
-
-            truth = np.column_stack([log.extra["theta1"], log.extra["theta2"]])
-        fig = plot_estimate(res.t, res.x, res.gyro_integral, truth=truth)
+        fig = plot_estimate(res.t, res.x, res.gyro_integral,
+                            truth=None if truth is None else truth[:, :2])
         summary["plot"] = str(save_figure(fig, args.plot))
+    if args.report:
+        summary["report"] = str(save_figure(plot_estimate_report(res, truth=truth), args.report))
     _emit(summary, args.json, [
         f"estimated {len(res.t)} samples ({summary['duration_s']:.2f} s), "
         f"{res.skipped} isolated NaN rows skipped",
         "final theta1, theta2, omega1, omega2 = "
         + ", ".join(f"{v:.4f}" for v in res.x[-1])]
-        + [f"{k}: {summary[k]}" for k in ("estimate_csv", "plot") if k in summary])
+        + [f"NIS: mean {summary['nis']['mean_nis']:.2f} over {summary['nis']['updates']} "
+           f"updates, 95 % band [{summary['nis']['band'][0]:.2f}, "
+           f"{summary['nis']['band'][1]:.2f}] "
+           + ("(consistent)" if summary["nis"]["consistent"] else "(inconsistent)")]
+        + [f"{k}: {summary[k]}" for k in ("estimate_csv", "plot", "report") if k in summary])
     return 0
+
+
+def _logged_truth(log):
+    """The truth a log may carry (columns theta1, theta2[, omega1, omega2])."""
+    import numpy as np
+
+    cols = [c for c in ("theta1", "theta2", "omega1", "omega2") if c in log.extra]
+    if cols[:2] != ["theta1", "theta2"]:
+        return None
+    return np.column_stack([log.extra[c] for c in (cols if len(cols) == 4 else cols[:2])])
 
 
 # ------------------------------------------------------------------ observability
@@ -643,6 +659,10 @@ def build_parser() -> argparse.ArgumentParser:
            "seconds of stationary data at the start to calibrate gyro bias")
     option(p, "--out", None, None, "estimate CSV to write")
     option(p, "--plot", None, None, "PNG to write")
+    option(p, "--smooth", bool, help="also run the Rauch-Tung-Striebel smoother (offline: "
+           "uses the whole log); its columns are added beside the causal estimate")
+    option(p, "--report", None, None, "PNG report to write: angles, rates, gyro biases "
+           "with +/-2 sigma, NIS consistency", metavar="FILE.png")
 
     p = command("observability", cmd_observability,
                 "observability of the kinematic model along a swing", "out/observability")

@@ -281,9 +281,15 @@ def write_estimate_csv(result: EstimateResult, path: str | Path) -> Path:
     """The estimate as CSV at ``path`` (atomic)."""
     path = Path(path)
     cols = list(EST_COLUMNS) + ["gyr_theta1", "gyr_theta2", "bias1", "bias2",
-                                "var_theta1", "var_theta2"]
-    data = np.column_stack([result.t, result.x, result.gyro_integral, result.gyro_bias,
-                            result.cov_diag[:, :2]])
+                                "var_theta1", "var_theta2", "nis"]
+    parts = [result.t, result.x, result.gyro_integral, result.gyro_bias,
+             result.cov_diag[:, :2], result.nis]
+    if result.smoothed is not None:  # the smoother beside the causal estimate
+        cols += ["smooth_" + c for c in EST_COLUMNS[1:]] + ["smooth_bias1", "smooth_bias2",
+                                                            "smooth_var_theta1",
+                                                            "smooth_var_theta2"]
+        parts += [result.smoothed, result.smoothed_bias, result.smoothed_cov_diag[:, :2]]
+    data = np.column_stack(parts)
     with atomic_path(path) as tmp:
         np.savetxt(tmp, data, delimiter=",", header=",".join(cols), comments="", fmt="%.9g")
     return path

@@ -58,3 +58,60 @@ def plot_observability(result, axes=None):
     ax.legend(loc="upper right", fontsize=8)
     ax.grid(True, alpha=0.3)
     return finish(fig, "Observability along the swing (red: gyro-only rank loss, (5.17))")
+
+
+def plot_estimate_report(result, axes=None, *, truth=None, title="Estimation report"):
+    """What a user wants of a log (``result``: an
+    :class:`~bplir_drake.estimation.EstimateResult`): both angles and both
+    rates (filter, smoother when run, gyro integral, truth when known), the
+    estimated gyro biases with their +/-2 sigma bands, and the normalised
+    innovation squared (a 1 s moving mean) against its 95 % band with the
+    whole log's consistency verdict.  Six axes (3 x 2); returns the figure."""
+    t = result.t
+    fig, ax = figure_axes(axes, 3, 2, figsize=(12, 9), sharex=True)
+    for i in range(2):
+        for row, col, label, unit in ((0, i, f"theta{i + 1}", "rad"),
+                                      (1, i, f"omega{i + 1}", "rad/s")):
+            a = ax[row, col]
+            j = i + 2 * row
+            if truth is not None and truth.shape[1] > j:
+                a.plot(t, truth[:, j], "k", lw=2.2, alpha=0.35, label="truth")
+            a.plot(t, result.x[:, j], "C0", lw=1, label="filter (causal)")
+            if result.smoothed is not None:
+                a.plot(t, result.smoothed[:, j], "C2", lw=1, label="RTS smoother")
+            if row == 0:
+                a.plot(t, result.gyro_integral[:, i], "C3--", lw=0.8, label="gyro integral (5.41)")
+            a.set_ylabel(f"{label} [{unit}]")
+            a.legend(loc="upper right", fontsize=7)
+    a = ax[2, 0]
+    if result.cov_diag.shape[1] > 4:
+        for i in range(2):
+            b, sd = result.gyro_bias[:, i], 2 * np.sqrt(result.cov_diag[:, 4 + i])
+            a.plot(t, b, f"C{i}", label=f"bias {i + 1}")
+            a.fill_between(t, b - sd, b + sd, color=f"C{i}", alpha=0.2, lw=0)
+        a.legend(loc="upper right", fontsize=7)
+    else:
+        a.text(0.5, 0.5, "no bias states (--no-bias)", ha="center", transform=a.transAxes)
+    a.set_ylabel("gyro bias ±2σ [rad/s]")
+    a = ax[2, 1]
+    nis = result.nis
+    ok = np.isfinite(nis)
+    period = float(np.median(np.diff(t))) if len(t) > 1 else 1.0
+    w = max(1, int(round(1.0 / period)))
+    moving = np.convolve(np.where(ok, nis, 0.0), np.ones(w), "same") / np.maximum(
+        np.convolve(ok.astype(float), np.ones(w), "same"), 1)
+    check = result.nis_check()
+    a.plot(t, moving, "C0", lw=1, label="NIS, 1 s mean")
+    a.axhline(4.0, color="k", lw=0.8, label="expected (4 measurements)")
+    for v in check["band"]:
+        a.axhline(v, color="grey", lw=0.6, ls="--")
+    a.set_ylabel("NIS")
+    a.set_title(f"whole log: mean NIS {check['mean_nis']:.2f}, 95 % band "
+                f"[{check['band'][0]:.2f}, {check['band'][1]:.2f}]: "
+                + ("consistent" if check["consistent"] else "inconsistent"), fontsize=9)
+    a.legend(loc="upper right", fontsize=7)
+    for a in ax.flat:
+        a.grid(True, alpha=0.3)
+    for a in ax[2]:
+        a.set_xlabel("time [s]")
+    return finish(fig, title)

@@ -272,6 +272,8 @@ class ImuParams(_Block):
     misalign2: float = _p(0.0, "rad", -0.2, 0.2, doc="accelerometer misalignment, IMU 2")
     accel_scale1: float = _p(0.0, "", -0.2, 0.2, doc="accelerometer scale error, IMU 1")
     accel_scale2: float = _p(0.0, "", -0.2, 0.2, doc="accelerometer scale error, IMU 2")
+    gyro_scale1: float = _p(0.0, "", -0.2, 0.2, doc="gyro scale error, IMU 1 (reads (1 + s) omega)")
+    gyro_scale2: float = _p(0.0, "", -0.2, 0.2, doc="gyro scale error, IMU 2")
     noise: bool = True
 
     @property

@@ -197,3 +197,12 @@ def test_imu_noise_is_reproducible_from_seed(params):
     # white: successive gyro samples are uncorrelated
     g = noise[:, 0]
     assert abs(np.corrcoef(g[1:], g[:-1])[0, 1]) < 0.3
+
+
+def test_gyro_scale_error_multiplies_the_rate_before_the_bias():
+    from bplir_drake.systems.imu import corrupt
+
+    p = dc.replace(ImuParams(), gyro_scale1=0.02, gyro_scale2=-0.015, gyro_bias1=0.01,
+                   noise=False)
+    out = corrupt([2.0, -1.0, 0.0, 9.81, 0.0, 9.81], p, np.array([0.01, 0.0]), None)
+    assert out[0] == pytest.approx(1.02 * 2.0 + 0.01) and out[1] == pytest.approx(-0.985)

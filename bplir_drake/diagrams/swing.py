@@ -57,7 +57,7 @@ SAMPLE_FIELDS: dict[str, tuple[str, ...]] = {
     "true_plant": INERTIAL_FIELDS,
     "true_friction": FRICTION_PARAMETERS,
     "imu": ("accel_sigma", "gyro_sigma", "gyro_bias1", "gyro_bias2", "gyro_drift", "misalign1",
-            "misalign2", "accel_scale1", "accel_scale2", "noise"),
+            "misalign2", "accel_scale1", "accel_scale2", "gyro_scale1", "gyro_scale2", "noise"),
     "scenario": ("seed", "friction_uncertainty", "wind_torque1", "wind_torque2", "gust_torque",
                  "gust_rate", "gust_duration", "torque_noise"),
 }

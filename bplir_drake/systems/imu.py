@@ -55,7 +55,7 @@ def imu_kinematics(theta, omega, omega_dot, r1: float, r2: float, l1: float, g: 
 
 
 def corrupt(ideal, params: ImuParams, bias, rng) -> np.ndarray:
-    """Apply misalignment, scale error, gyro bias and white noise to one sample.
+    """Apply misalignment, scale errors, gyro bias and white noise to one sample.
 
     ``ideal`` is the noise-free 6-vector, ``bias`` the current gyro bias
     (constant + random walk).
@@ -68,6 +68,8 @@ def corrupt(ideal, params: ImuParams, bias, rng) -> np.ndarray:
         # sensor axes rotated by eps about z relative to the link frame
         out[2 + 2 * i] = (1.0 + scale) * (c * mx + s * my)
         out[3 + 2 * i] = (1.0 + scale) * (-s * mx + c * my)
+    out[0] *= 1.0 + params.gyro_scale1
+    out[1] *= 1.0 + params.gyro_scale2
     out[0:2] += bias
     if params.noise:
         n = rng.standard_normal(6)

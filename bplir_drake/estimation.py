@@ -35,6 +35,8 @@ from .systems.imu import IMU_COLUMNS
 LOG_COLUMNS = ("t",) + IMU_COLUMNS
 EST_COLUMNS = ("t", "theta1", "theta2", "omega1", "omega2")
 PERIOD_TOLERANCE = 0.2
+#: logs this long (samples) or longer show the filter's progress
+PROGRESS_MIN_SAMPLES = 20_000
 
 
 class LogError(ValueError):
@@ -226,7 +228,8 @@ def estimate(t, samples, params: EstimatorParams, x0=(0.0, 0.0, 0.0, 0.0), *,
     # what the backward pass needs: priors, posteriors, transition Jacobians
     keep = ([None] * N, [None] * N, [np.eye(n)] * N) if smooth else None
     u_prev = None
-    bar = progress_bar(progress and N >= 20_000, desc="estimate", unit="samples", total=N)
+    bar = progress_bar(progress and N >= PROGRESS_MIN_SAMPLES, desc="estimate", unit="samples",
+                       total=N)
     for k in range(N):
         if k % 1000 == 999:
             bar.update(1000)

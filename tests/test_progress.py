@@ -16,7 +16,6 @@ import numpy as np
 from bplir_drake.analysis.control.qft import QftSpecs, design_qft, dissertation_family
 from bplir_drake.analysis.identification.calibration import calibrate, synthetic_log
 from bplir_drake.analysis.swing.plan import plan_swing
-from bplir_drake.estimation import write_imu_csv
 from bplir_drake.params import preset
 
 
@@ -68,16 +67,28 @@ def _run_on_terminal(args) -> tuple[int, str]:
     return proc.wait(timeout=300), b"".join(chunks).decode(errors="replace")
 
 
-def test_cli_progress_only_on_a_terminal_without_json(tmp_path):
-    n = 25_000  # long logs (>= 20 000 samples) show the EKF's progress
+def test_long_estimation_logs_count_their_samples(capsys, monkeypatch):
+    import bplir_drake.estimation as E
+    from bplir_drake.params import EstimatorParams
+
+    assert E.PROGRESS_MIN_SAMPLES == 20_000  # logs this long show the EKF's progress
+    monkeypatch.setattr(E, "PROGRESS_MIN_SAMPLES", 3_000)  # the same, 7x quicker
+    n = 3_000
     t = np.arange(n) * 0.01
     samples = np.zeros((n, 6))
     samples[:, [3, 5]] = 9.81  # hanging still: each accelerometer reads gravity
-    log = write_imu_csv(t, samples, tmp_path / "long.csv")
-    code, err = _run_on_terminal(["estimate", str(log)])
-    assert code == 0 and _last_count(err, "estimate") >= 20_000
-    code, err = _run_on_terminal(["estimate", str(log), "--json"])
-    assert code == 0 and "estimate:" not in err
-    run = subprocess.run([sys.executable, "-m", "bplir_drake.cli", "estimate", str(log)],
-                         capture_output=True, text=True, timeout=300)
+    E.estimate(t, samples, EstimatorParams(), progress=True)
+    assert _last_count(capsys.readouterr().err, "estimate") == 3_000
+    E.estimate(t[:2_999], samples[:2_999], EstimatorParams(), progress=True)
+    assert capsys.readouterr().err == ""  # a shorter log is quick: no bar
+
+
+def test_cli_progress_only_on_a_terminal_without_json(tmp_path):
+    mc = ["montecarlo", "-n", "2", "--workers", "1", "--no-plots"]
+    code, err = _run_on_terminal(mc + ["--out", str(tmp_path / "a")])
+    assert code == 0 and _last_count(err, "samples") == 2
+    code, err = _run_on_terminal(mc + ["--json", "--out", str(tmp_path / "b")])
+    assert code == 0 and "samples:" not in err
+    run = subprocess.run([sys.executable, "-m", "bplir_drake.cli", *mc, "--out",
+                          str(tmp_path / "c")], capture_output=True, text=True, timeout=300)
     assert run.returncode == 0 and run.stderr == ""  # a pipe is not a terminal

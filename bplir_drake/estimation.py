@@ -226,14 +226,14 @@ def estimate(t, samples, params: EstimatorParams, x0=(0.0, 0.0, 0.0, 0.0), *,
     xs, covs, biases = np.zeros((N, 4)), np.zeros((N, n)), np.zeros((N, 2))
     nis = np.full(N, np.nan)
     # what the backward pass needs: priors, posteriors, transition Jacobians
-    keep = ([None] * N, [None] * N, [np.eye(n)] * N) if smooth else None
+    priors, posteriors, jacobians = [], [], []
     u_prev = None
     bar = progress_bar(progress and N >= PROGRESS_MIN_SAMPLES, desc="estimate", unit="samples",
                        total=N)
     for k in range(N):
         if k % 1000 == 999:
             bar.update(1000)
-        A = np.eye(n)
+        A = None  # no transition into the first sample
         if skip[k]:  # predict over the missing sample, no update
             s, A = ekf_predict(s, u_prev, params, with_jacobian=True)
             prior = s
@@ -247,7 +247,9 @@ def estimate(t, samples, params: EstimatorParams, x0=(0.0, 0.0, 0.0, 0.0), *,
             nis[k] = float(nu @ np.linalg.solve(S, nu))
             u_prev = u
         if smooth:
-            keep[0][k], keep[1][k], keep[2][k] = prior, s, A
+            priors.append(prior)
+            posteriors.append(s)
+            jacobians.append(A)
         xs[k] = s.x[:4]
         covs[k] = np.diag(s.P)
         biases[k] = s.x[4:6] if n > 4 else 0.0
@@ -255,7 +257,7 @@ def estimate(t, samples, params: EstimatorParams, x0=(0.0, 0.0, 0.0, 0.0), *,
     base = gyro_integral(t, samples - np.concatenate([bias0, np.zeros(4)]), x0)
     result = EstimateResult(t, xs, covs, biases, base, int(skip.sum()), nis)
     if smooth:
-        sm = rts_smooth(*keep)
+        sm = rts_smooth(priors, posteriors, jacobians)
         result.smoothed = np.array([e.x[:4] for e in sm])
         result.smoothed_cov_diag = np.array([np.diag(e.P) for e in sm])
         result.smoothed_bias = np.array([e.x[4:6] if n > 4 else np.zeros(2) for e in sm])
@@ -265,7 +267,7 @@ def estimate(t, samples, params: EstimatorParams, x0=(0.0, 0.0, 0.0, 0.0), *,
 def rts_smooth(priors, posteriors, jacobians) -> list[EkfState]:
     """The Rauch-Tung-Striebel backward pass: ``priors[k]`` / ``posteriors[k]``
     are the filter's state before / after the update of sample k and
-    ``jacobians[k]`` the transition Jacobian from k-1 to k.  Returns the
+    ``jacobians[k]`` the transition Jacobian from k-1 to k (``[0]`` unused).  Returns the
     smoothed states ``x_k|N`` with their covariances."""
     N = len(posteriors)
     out = [None] * N

@@ -13,8 +13,6 @@ import sys
 class _Silent:
     """The stand-in when progress is off: every call does nothing."""
 
-    n = 0
-
     def update(self, n: int = 1) -> None:
         """Count ``n`` more steps (ignored)."""
 

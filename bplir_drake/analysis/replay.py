@@ -110,6 +110,8 @@ def replay_html(plant: PlantParams, t, q, scene: ReplayScene, *, fps: float = 30
 
     from ..diagrams.visual import build_replay_visualizer
 
+    from pydrake.math import RigidTransform, RotationMatrix
+
     t = np.asarray(t, dtype=float)
     q = np.asarray(q, dtype=float).reshape(len(t), 2)
     if len(t) < 2 or not np.all(np.diff(t) >= 0):
@@ -122,25 +124,23 @@ def replay_html(plant: PlantParams, t, q, scene: ReplayScene, *, fps: float = 30
         plant_context = mbp.GetMyMutableContextFromRoot(context)
         frames = np.arange(int(math.floor((t[-1] - t[0]) * fps + 0.5)) + 1) / fps
         qs = np.column_stack([np.interp(frames + t[0], t, q[:, i]) for i in range(2)])
+        bs = None if base is None else np.column_stack(
+            [np.interp(frames + t[0], t, np.asarray(base, dtype=float)[:, i]) for i in range(3)])
         vis.StartRecording(False)
-        # the plane of motion (x right, y up) stands upright in Meshcat's
-        # z-up world: x stays, y becomes z
-        from pydrake.math import RigidTransform, RotationMatrix
-
         for k, (tk, qk) in enumerate(zip(frames, qs)):
             # the recording files a publish under frame floor(t fps): a hair
             # past k / fps keeps rounding from filing two frames under one
             context.SetTime(float(tk) + 1e-9)
             mbp.SetPositions(plant_context, qk)
             diagram.ForcedPublish(context)
-            if base is not None:
-                b = [np.interp(tk + t[0], t, np.asarray(base)[:, i]) for i in range(3)]
-                meshcat.SetTransform("/drake/robot", _plane_pose(*b), float(tk) + 1e-9)
+            if bs is not None:
+                meshcat.SetTransform("/drake/robot", _plane_pose(*bs[k]), float(tk) + 1e-9)
         _add_scene(meshcat, scene, float(frames[-1]))
         vis.StopRecording()
-        animation = vis.get_mutable_recording()
-        animation.set_autoplay(True)
+        vis.get_mutable_recording().set_autoplay(True)
         vis.PublishRecording()
+        # the plane of motion (x right, y up) stands upright in Meshcat's
+        # z-up world: x stays, y becomes z
         meshcat.SetTransform("/drake", RigidTransform(RotationMatrix.MakeXRotation(math.pi / 2)))
         _set_camera(meshcat, scene, plant)
         page = meshcat.StaticHtml()

@@ -55,6 +55,12 @@ class PathGeometry:
     band: float = 0.02  # capture distance the arrival is aimed at (m)
 
     @property
+    def s_reach(self) -> float:
+        """Smallest ``s`` at which the line-seeking path exists: 0 when link 2
+        is the longer one, ``acos(l2/l1)`` otherwise (the swapped robot)."""
+        return math.acos(self.l2 / self.l1) if self.l1 > self.l2 else 0.0
+
+    @property
     def k_f(self) -> float:
         """Ratio q2_f / s_f of the straight path."""
         return self.q2_f / self.s_f
@@ -72,9 +78,12 @@ class PathGeometry:
 
 def q2_line_seeking(s, l1: float, l2: float, lift: float = 0.0):
     """(7.18) for a line inclined by alpha, in ``s = q1 - alpha``: the elbow
-    angle that puts the gripper on the line (``lift`` above it)."""
+    angle that puts the gripper on the line (``lift`` above it).  Where the
+    line is out of the gripper's reach (a link 1 longer than link 2 near the
+    vertical, the swapped robot) it is the elbow angle that brings the
+    gripper closest to it (straight down, ``acos`` argument clipped at 1)."""
     if isinstance(s, float):  # fast path for plain numbers (the predictor)
-        return math.acos(-(l1 * math.cos(s) + lift) / l2) - s
+        return math.acos(max(-1.0, min(1.0, -(l1 * math.cos(s) + lift) / l2))) - s
     u = -(l1 * dmath.cos(s) + lift) / l2
     return dmath.acos(u) - s
 
@@ -151,7 +160,7 @@ class PathShape:
 
     def line_seeking(self, s):
         """(7.18) and its two derivatives in ``s``."""
-        u = -(self.l1 * np.cos(s) + self.lift) / self.l2
+        u = np.clip(-(self.l1 * np.cos(s) + self.lift) / self.l2, -1.0 + 1e-9, 1.0 - 1e-9)
         du, ddu = self.l1 * np.sin(s) / self.l2, self.l1 * np.cos(s) / self.l2
         r2 = 1.0 - u * u
         r = np.sqrt(r2)
@@ -190,7 +199,7 @@ class PathShape:
         if s <= 0.0:
             return self.kf * s * (1.0 + (self.lam - 1.0) * (1.0 - (s / self.s_f) ** 2))
         u = -(self.l1 * math.cos(s) + self.lift) / self.l2
-        T0 = math.acos(u) - s
+        T0 = math.acos(max(-1.0, min(1.0, u))) - s
         if s >= self.s_e:
             return T0
         x = s / self.s_e
@@ -331,7 +340,7 @@ def step_blend_end(s_e, s, qd1, g: PathGeometry, pp: PathParams, p: PlantParams,
                    fv1: float, max_step: float) -> float:
     """Move ``s_e`` toward the root of :func:`arrival_gap` by one secant step,
     at most ``max_step``, within the allowed bracket."""
-    lo = max(max(s, 0.0) + 0.02, pp.blend_end_min * g.s_f)
+    lo = max(max(s, 0.0) + 0.02, pp.blend_end_min * g.s_f, g.s_reach + 0.02)
     hi = pp.blend_end_max * g.s_f
     e0 = min(max(s_e, lo), hi)
     d = 0.005

@@ -122,6 +122,22 @@ def relative_from_absolute(theta):
     return out
 
 
+def swapped_state(x):
+    """The same physical pose seen from the other gripper (the swapped robot
+    of a traversal, :func:`bplir_drake.params.swapped`): link 2 pointing from
+    its gripper to the elbow is the new link 1, ``q1' = q1 + q2 + pi``
+    (wrapped to (-pi, pi]), ``q2' = -q2``; with rates (4-vector) the link
+    rates follow, ``q1d' = q1d + q2d``, ``q2d' = -q2d``.  Its own inverse."""
+    x = np.asarray(x, dtype=float)
+    q1 = math.remainder(x[0] + x[1] + math.pi, 2 * math.pi)
+    if q1 == -math.pi:
+        q1 = math.pi
+    out = [q1, -x[1]]
+    if x.shape[-1] == 4:
+        out += [x[2] + x[3], -x[3]]
+    return np.array(out)
+
+
 def line_frame(alpha: float):
     """Unit vectors along and normal (upward) to a line inclined by alpha."""
     return (np.array([math.cos(alpha), math.sin(alpha)]),

@@ -295,6 +295,7 @@ def add_swing_loggers(builder, params: BplirParams, robot: Robot, sampler, estim
         "torque": LogVectorOutput(motor.GetOutputPort("torque"), builder, log_period),
         "power": LogVectorOutput(motor.GetOutputPort("power"), builder, log_period),
         "current": LogVectorOutput(motor.GetOutputPort("current"), builder, log_period),
+        "tripped": LogVectorOutput(motor.GetOutputPort("tripped"), builder, log_period),
         "friction": LogVectorOutput(robot.friction.get_output_port(0), builder, log_period),
         "estimate": TickLogger(builder, estimate_port, T),
         "command": TickLogger(builder, ctrl.GetOutputPort("torque"), T),

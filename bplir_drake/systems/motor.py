@@ -55,6 +55,49 @@ def interlock_budget(p: MotorParams) -> float:
     return (p.i_peak ** 2 - p.i_cont ** 2) * p.t_peak
 
 
+def i2t_trace(h0: float, currents, p: MotorParams, tripped: bool = False):
+    """The driver's ``(h, tripped)`` after each ``driver_period`` of the
+    current sequence ``currents`` (A), from ``(h0, tripped)``: the update of
+    :class:`DriverLogic` run offline (a plan's currents, a rest)."""
+    budget = interlock_budget(p)
+    h, out_h, out_t = float(h0), [], []
+    for i in np.asarray(currents, dtype=float):
+        h = max(0.0, h + p.driver_period * (i * i - p.i_cont ** 2))
+        tripped = True if h >= budget else (False if h <= 0.0 else tripped)
+        out_h.append(h)
+        out_t.append(tripped)
+    return np.array(out_h), np.array(out_t, dtype=bool)
+
+
+def i2t_after_rest(h: float, duration: float, p: MotorParams) -> float:
+    """``h`` after ``duration`` s without current (it falls at ``i_cont^2``)."""
+    return max(0.0, h - p.i_cont ** 2 * duration)
+
+
+def rest_for(h: float, tripped: bool, currents, p: MotorParams, margin: float) -> float:
+    """The shortest rest (s) after which the current sequence ``currents``
+    (a planned swing, one value per driver period) keeps ``h`` below
+    ``(1 - margin)`` of the budget; a tripped driver first rests until it
+    resets (``h`` back to zero)."""
+    limit = (1.0 - margin) * interlock_budget(p)
+    rate = p.i_cont ** 2
+
+    def peak(h0):
+        return float(np.max(i2t_trace(h0, currents, p)[0], initial=h0))
+
+    if tripped:
+        return h / rate
+    if peak(h) <= limit:
+        return 0.0
+    lo, hi = 0.0, h / rate  # a full reset is enough unless the swing alone exceeds the limit
+    if peak(0.0) > limit:
+        return hi
+    for _ in range(40):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (lo, mid) if peak(i2t_after_rest(h, mid, p)) <= limit else (mid, hi)
+    return hi
+
+
 class DriverLogic(LeafSystem):
     """The driver's discrete logic (one Python evaluation a tick at most):
     the current it regulates to for the torque command
@@ -82,6 +125,15 @@ class DriverLogic(LeafSystem):
 
     def _tripped(self, context) -> bool:
         return context.get_discrete_state(self._h).GetAtIndex(1) > 0.5
+
+    def interlock_state(self, context) -> tuple[float, bool]:
+        """``(h, tripped)``: the i^2 t integral (A^2 s) and the trip flag."""
+        h, tripped = context.get_discrete_state(self._h).get_value()
+        return float(h), bool(tripped > 0.5)
+
+    def set_interlock_state(self, context, h: float, tripped: bool) -> None:
+        """Start from ``(h, tripped)`` (a driver carried over from earlier work)."""
+        context.SetDiscreteState(self._h, [float(h), 1.0 if tripped else 0.0])
 
     def _update(self, context, discrete_state):
         i = self.current_port.Eval(context)[0]
@@ -174,4 +226,5 @@ def max_torque(p: MotorParams) -> float:
 
 
 __all__ = ["MotorDriver", "duty_cycle_to_current", "current_to_duty_cycle",
-           "DriverLogic", "apply_deadband", "current_command", "interlock_budget", "max_torque"]
+           "DriverLogic", "apply_deadband", "current_command", "interlock_budget", "max_torque",
+           "i2t_trace", "i2t_after_rest", "rest_for"]

@@ -108,7 +108,7 @@ class SwingRunner:
 
     def run(self, params: BplirParams, *, seed: int | None = None,
             use_estimator: bool | None = None, accuracy: float = SWING_ACCURACY,
-            integrator: str = SWING_INTEGRATOR) -> SwingResult:
+            integrator: str = SWING_INTEGRATOR, driver_state=None) -> SwingResult:
         """One swing; the arguments are those of :func:`run_swing`."""
         sc = params.scenario
         seed = sc.seed if seed is None else int(seed)
@@ -116,20 +116,32 @@ class SwingRunner:
         p = draw_true_friction(params, seed)
         built, fresh = self.diagram_for(p, seed, use_est)
         # a fresh build's default context already holds this sample
-        sample = None if fresh else (lambda ctx: set_swing_sample(built, ctx, p, seed))
+        driver = built.systems["motor"].GetSubsystemByName("driver")
+
+        def set_context(ctx):
+            if not fresh:
+                set_swing_sample(built, ctx, p, seed)
+            if driver_state is not None:
+                driver.set_interlock_state(driver.GetMyMutableContextFromRoot(ctx), *driver_state)
+
         sim = make_simulator(built, built.q0, accuracy=accuracy, integrator=integrator,
-                             set_context=sample)
+                             set_context=set_context)
+        h0 = driver.interlock_state(driver.GetMyContextFromRoot(sim.get_context()))
         run_until_outcome(sim, built, sc.max_time)
         # record the state at the moment the interlock decided
         built.diagram.ForcedPublish(sim.get_context())
         status = built.systems["interlock"].status(sim.get_context())
         lg = logs(built, sim)
-        return SwingResult(swing_summary(p, lg, status, seed, use_est), lg, p)
+        summary = swing_summary(p, lg, status, seed, use_est)
+        h, tripped = driver.interlock_state(driver.GetMyContextFromRoot(sim.get_context()))
+        summary.update({"i2t_start_A2s": h0[0], "i2t_end_A2s": h, "driver_tripped_end": tripped,
+                        "driver_tripped": bool(h0[1] or np.any(lg["tripped"].data > 0.5))})
+        return SwingResult(summary, lg, p)
 
 
 def run_swing(params: BplirParams, *, seed: int | None = None, use_estimator: bool | None = None,
-              accuracy: float = SWING_ACCURACY,
-              integrator: str = SWING_INTEGRATOR) -> SwingResult:
+              accuracy: float = SWING_ACCURACY, integrator: str = SWING_INTEGRATOR,
+              driver_state=None) -> SwingResult:
     """One swing of ``params`` on a freshly built diagram, until the
     interlock decides (or the timeout).
 
@@ -138,9 +150,12 @@ def run_swing(params: BplirParams, *, seed: int | None = None, use_estimator: bo
     overrides ``scenario.use_estimator``; ``accuracy`` and ``integrator``
     set Drake's error-controlled integrator.  Returns the logs and the
     summary (outcome, capture speed (m/s), swing time (s), peaks, energy,
-    thresholds, seed).  Many swings: :class:`SwingRunner`."""
+    thresholds, seed, the driver's i^2 t state at the start and end and
+    whether it tripped).  ``driver_state = (h A^2 s, tripped)`` starts the
+    driver's i^2 t interlock there (work carried over; default fresh).
+    Many swings: :class:`SwingRunner`."""
     return SwingRunner().run(params, seed=seed, use_estimator=use_estimator, accuracy=accuracy,
-                             integrator=integrator)
+                             integrator=integrator, driver_state=driver_state)
 
 
 def swing_summary(p: BplirParams, lg: dict[str, Log], status: dict, seed: int,

@@ -537,6 +537,51 @@ class ScenarioParams(_Block):
                 f"scenario.seed = {self.seed!r} must be a whole number >= 0")
 
 
+# ---------------------------------------------------------------- traversal
+TRAVERSE_SWING_MODES = ("plan", "params")
+
+
+@dataclass(frozen=True)
+class DriveParams(_Block):
+    """The wrist-wheel drive that rides the line between obstacles (ours: the
+    dissertation names the wheels, chapter 1, but gives no drive data).  A
+    trapezoidal speed profile within the speed, acceleration and power limits;
+    rolling resistance and the climb are paid at ``efficiency``, nothing is
+    recovered downhill."""
+
+    _name = "drive"
+    max_speed: float = _p(0.3, "m/s", 0, 2, lo_open=True, doc="riding speed limit")
+    max_accel: float = _p(0.2, "m/s^2", 0, 5, lo_open=True, doc="riding acceleration limit")
+    rolling_resistance: float = _p(0.02, "", 0, 0.5, doc="rolling resistance coefficient of the wheels on the conductor")
+    efficiency: float = _fraction(0.6, doc="electrical-to-mechanical efficiency of the wheel drive")
+    power_limit: float = _positive(60.0, "W", doc="largest electrical power of the wheel drive (limits the speed uphill)")
+    standby_power: float = _p(5.0, "W", 0, 200, doc="electronics (IMUs, controller, radio) at all times")
+    adjust_speed: float = _p(0.05, "m/s", 0, 1, lo_open=True, doc="speed of one wheel setting the grip spacing while the other gripper clamps")
+
+
+@dataclass(frozen=True)
+class TraverseParams(_Block):
+    """Crossing a stretch of line (``bplir traverse``): the grip spacing every
+    swing is set up at, the margins the planner keeps to obstacles, how swings
+    are controlled and when the robot rests for the driver's i^2 t budget."""
+
+    _name = "traverse"
+    grip_spacing: float = _p(1.2, "m", 0.5, 2.0, doc="grip spacing every swing is set up at (the swing lands about this far ahead of the holding gripper)")
+    clearance: float = _p(0.05, "m", 0, 1, doc="gap kept between a clasped gripper and an obstacle")
+    gripper_width: float = _p(0.08, "m", 0, 0.5, doc="length of line a clasped gripper covers")
+    landing_tolerance: float = _p(0.08, "m", 0, 1, doc="planned landings lie at least this much further from obstacles (the swing's landing error)")
+    swing_mode: str = "plan"
+    plan_end_depth: float = _p(0.013, "m", 0, 0.02, doc="swing_mode 'plan': the planned swing comes to rest this far below the line (path.plan_end_depth of every traversal swing)")
+    rest: bool = True
+    i2t_margin: float = _p(0.2, "", 0, 0.9, doc="share of the driver's i^2 t budget a swing may not use: the planner rests until the planned swing keeps this share free")
+    max_incline_deg: float = _p(25.0, "deg", 0, 60, doc="steepest line incline accepted in a line file")
+
+    def _check(self):
+        if self.swing_mode not in TRAVERSE_SWING_MODES:
+            raise ParameterError(f"traverse.swing_mode = '{self.swing_mode}' is unknown; "
+                                 "allowed: " + ", ".join(TRAVERSE_SWING_MODES))
+
+
 @dataclass(frozen=True)
 class BplirParams:
     """Everything one run needs.  ``plant``/``friction`` are the nominal
@@ -550,6 +595,8 @@ class BplirParams:
     controller: ControllerParams = field(default_factory=ControllerParams)
     path: PathParams = field(default_factory=PathParams)
     scenario: ScenarioParams = field(default_factory=ScenarioParams)
+    drive: DriveParams = field(default_factory=DriveParams)
+    traverse: TraverseParams = field(default_factory=TraverseParams)
     true_plant: PlantParams | None = None
     true_friction: FrictionParams | None = None
     preset_name: str = "dissertation"
@@ -596,11 +643,51 @@ class BplirParams:
         return replace(self, estimator=replace(self.estimator, plugin=spec))
 
 
+def swapped_plant(p: PlantParams) -> PlantParams:
+    """The plant seen from the other gripper: link 2 becomes the holding link
+    and link 1 the swinging one.  Lengths, masses and inertias trade places;
+    each centre of mass is measured from the other end of its link
+    (``lc1' = l2 - lc2``, ``lc2' = l1 - lc1``)."""
+    return replace(p, m1=p.m2, m2=p.m1, l1=p.l2, l2=p.l1, lc1=p.l2 - p.lc2,
+                   lc2=p.l1 - p.lc1, I1=p.I2, I2=p.I1)
+
+
+def swapped_imu(imu: ImuParams, plant: PlantParams) -> ImuParams:
+    """The IMUs seen from the other gripper: IMU 2 (on link 2, ``r2`` from the
+    elbow) is the new IMU 1 at ``l2 - r2`` from the new holding gripper, IMU 1
+    the new IMU 2 at ``l1 - r1`` from the elbow; each error follows its IMU
+    (a misalignment is an angle in the link's frame, which turns by pi with
+    the link's direction and keeps its value)."""
+    return replace(imu, r1=plant.l2 - imu.r2, r2=plant.l1 - imu.r1,
+                   gyro_bias1=imu.gyro_bias2, gyro_bias2=imu.gyro_bias1,
+                   misalign1=imu.misalign2, misalign2=imu.misalign1,
+                   accel_scale1=imu.accel_scale2, accel_scale2=imu.accel_scale1,
+                   gyro_scale1=imu.gyro_scale2, gyro_scale2=imu.gyro_scale1)
+
+
+def swapped(params: BplirParams) -> BplirParams:
+    """The robot holding with the gripper of link 2 (every second swing of a
+    traversal), derived from ``params``: the nominal and the simulated plant
+    swapped (:func:`swapped_plant`), the simulated IMUs moved with their links
+    (:func:`swapped_imu`, true link lengths), the estimator's geometry from the
+    nominal model (``l1' = l2``, ``r1' = l2 - r2``, ``r2' = l1 - r1``).
+    Friction stays: both wrists are the same joint hardware.  ``swapped``
+    twice gives ``params`` back when the estimator's ``l1`` is the nominal
+    link length (the dissertation preset; the lab firmware's 0.8 m is not)."""
+    nominal, true = params.plant, params.true_plant
+    est = params.estimator
+    return replace(
+        params, plant=swapped_plant(nominal),
+        true_plant=None if true is None else swapped_plant(true),
+        imu=swapped_imu(params.imu, params.simulated_plant),
+        estimator=replace(est, l1=nominal.l2, r1=nominal.l2 - est.r2, r2=est.l1 - est.r1))
+
+
 BLOCKS = {
     "plant": PlantParams, "friction": FrictionParams, "motor": MotorParams,
     "imu": ImuParams, "estimator": EstimatorParams, "controller": ControllerParams,
-    "path": PathParams, "scenario": ScenarioParams,
-    "true_plant": PlantParams, "true_friction": FrictionParams,
+    "path": PathParams, "scenario": ScenarioParams, "drive": DriveParams,
+    "traverse": TraverseParams, "true_plant": PlantParams, "true_friction": FrictionParams,
 }
 
 
@@ -724,5 +811,6 @@ __all__ = [
     "ParameterError", "PlantParams", "FrictionParams", "MotorParams", "ImuParams",
     "EstimatorParams", "ControllerParams", "PathParams", "ScenarioParams",
     "BplirParams", "preset", "PRESETS", "from_dict", "load_toml", "to_toml",
-    "save_toml", "to_dict", "sigma_from_density",
+    "save_toml", "to_dict", "sigma_from_density", "DriveParams", "TraverseParams",
+    "swapped", "swapped_plant", "swapped_imu",
 ]

@@ -1,9 +1,11 @@
 """Open a swing's Meshcat HTML replay in headless Chromium and screenshot it.
 
     python examples/replay_screenshot.py [--out DIR] [--chromium PATH] [--at MS,MS,...]
+                                         [--html REPLAY.html]
 
 Runs the default swing, writes ``DIR/swing.html`` (what ``bplir swing
---html`` writes), opens it in Chromium with the network blocked (the file
+--html`` writes) -- or takes a replay already written (``--html``, e.g.
+``out/traverse/traverse.html`` of ``bplir traverse``) -- opens it in Chromium with the network blocked (the file
 must carry everything it needs) at moments of the replay (default 300,
 900 and 3000 ms after the page opens: early, mid-swing, captured), saves
 ``DIR/replay_<ms>.png`` and counts the pixels of each link's colour: the
@@ -64,6 +66,7 @@ def main() -> int:
     ap.add_argument("--out", default="out/replay")
     ap.add_argument("--chromium", default=shutil.which("chromium") or shutil.which("chromium-browser"))
     ap.add_argument("--at", default="300,900,3000", help="moments to picture (ms after opening)")
+    ap.add_argument("--html", default=None, help="picture this replay instead of a new swing's")
     args = ap.parse_args()
     if not args.chromium:
         print("replay_screenshot: no Chromium found (apt-get install chromium, or --chromium PATH)",
@@ -71,10 +74,14 @@ def main() -> int:
         return 2
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    result = run_swing(preset())
-    html = replay_swing_html(result, out / "swing.html")
-    print(f"{html}: {html.stat().st_size / 1e6:.1f} MB, swing {result.summary['outcome']} "
-          f"at {result.summary['swing_time_s']:.2f} s")
+    if args.html:
+        html = Path(args.html)
+        print(f"{html}: {html.stat().st_size / 1e6:.1f} MB")
+    else:
+        result = run_swing(preset())
+        html = replay_swing_html(result, out / "swing.html")
+        print(f"{html}: {html.stat().st_size / 1e6:.1f} MB, swing {result.summary['outcome']} "
+              f"at {result.summary['swing_time_s']:.2f} s")
     ok, pictures = True, []
     for ms in (int(m) for m in args.at.split(",")):
         png = out / f"replay_{ms}.png"

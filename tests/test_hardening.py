@@ -430,7 +430,7 @@ def test_shipped_plans_serve_a_fresh_install(monkeypatch, tmp_path):
     from bplir_drake.params import load_toml
 
     shipped = sorted(plan_cache.PACKAGED.glob("plan-*.npz"))
-    assert len(shipped) == 2
+    assert len(shipped) == 10   # the uphill example's 2, the example lines' 8
     monkeypatch.setenv("BPLIR_CACHE_DIR", str(tmp_path))
 
     def no_solve(*a, **k):
@@ -442,4 +442,20 @@ def test_shipped_plans_serve_a_fresh_install(monkeypatch, tmp_path):
     for depth in (0.0, p.path.plan_end_depth):      # test_swing_plan's, the tracker's
         plan = P.plan_swing(p, end_depth=depth)
         assert plan.feasible and plan.incline_deg == 20.0
+    # every swing of the example lines (both robots, their inclines)
+    from bplir_drake.analysis.traverse.line import load_line
+    from bplir_drake.analysis.traverse.route import plan_route
+    from bplir_drake.analysis.traverse.run import swing_params
+    from bplir_drake.params import preset
+
+    base, seen = preset(), set()
+    for name in ("line_flat.toml", "line_span.toml"):
+        line = load_line(Path(__file__).resolve().parents[1] / "examples" / name)
+        for r in plan_route(line, base):
+            for g, (a, b) in ((1, (r.rear, r.landing1)), (2, (r.hold, r.landing2))):
+                sp = swing_params(base, g, base.traverse.grip_spacing, line.chord(a, b)[1])
+                plan = P.plan_swing(sp, end_depth=sp.path.plan_end_depth)
+                assert plan.feasible
+                seen.add((g, plan.incline_deg))
+    assert len(seen) == 8
     assert not list(tmp_path.glob("plan-*.npz"))     # read in place, not copied

@@ -39,12 +39,17 @@ class ReplayScene:
     ``obstacles``: ``(x, y, angle_rad, width_m)`` boxes on the line;
     ``targets``: ``(x, y)`` capture points (translucent spheres);
     ``clamps``: ``(x, y, angle_rad, t_on, t_off)`` closed grippers on the
-    line, shown from ``t_on`` to ``t_off`` (s; ``inf`` for never off)."""
+    line, shown from ``t_on`` to ``t_off`` (s; ``inf`` for never off);
+    ``view``: more ``(x, y)`` points the camera keeps in view (a whole
+    stretch of line); ``camera_distance``: the camera's distance from the
+    plane in units of the scene's size."""
 
     line: list = field(default_factory=list)
     obstacles: list = field(default_factory=list)
     targets: list = field(default_factory=list)
     clamps: list = field(default_factory=list)
+    view: list = field(default_factory=list)
+    camera_distance: float = 1.1
 
 
 def _plane_pose(x: float, y: float, angle: float = 0.0):
@@ -171,13 +176,14 @@ def _quiet_meshcat(Meshcat):
 def _set_camera(meshcat, scene: ReplayScene, plant: PlantParams) -> None:
     """Look at the plane of motion from its front, everything in view."""
     reach = plant.l1 + plant.l2
-    pts = np.asarray(list(scene.targets) + [(0.0, 0.0), (0.0, -reach)], dtype=float)
+    pts = np.asarray(list(scene.targets) + list(scene.view) + [(0.0, 0.0), (0.0, -reach)],
+                     dtype=float)
     lo, hi = pts.min(axis=0), pts.max(axis=0)
     centre = (lo + hi) / 2
     size = max(hi[0] - lo[0], hi[1] - lo[1], reach) + 0.6
     # plane (x, y) -> world (x, 0, y); the viewer on the plane's +z side
     # (world -y) sees x to the right and y up
-    meshcat.SetCameraPose(camera_in_world=[centre[0], -1.1 * size, centre[1]],
+    meshcat.SetCameraPose(camera_in_world=[centre[0], -scene.camera_distance * size, centre[1]],
                           target_in_world=[centre[0], 0.0, centre[1]])
     # the ground grid and the world axes would cut through the line
     meshcat.SetProperty("/Grid", "visible", False)

@@ -1,0 +1,534 @@
+"""Crossing a stretch of line: ride, set up, swing, swing, ride on.
+
+:func:`run_traverse` carries the robot's physical state from manoeuvre to
+manoeuvre: where each gripper is, the elbow driver's i^2 t integral and trip
+flag (the swing's driver starts where the last one ended; riding and resting
+let it fall at ``i_cont^2``), elapsed time and energy.  Each swing is a full
+closed-loop swing (:class:`~bplir_drake.analysis.swing.run.SwingRunner`) of
+the robot holding with the gripper in front of it: the original robot when
+gripper 1 (link 1's) holds, the swapped robot (:func:`bplir_drake.params.
+swapped`) when gripper 2 holds; its estimator starts from the known pose on
+the line (both grippers clamped) as every swing does.
+
+Swings track trajectory-optimised plans (``traverse.swing_mode = "plan"``,
+``path.mode = "plan"``) by default: the default path generator crashes the
+swapped robot (its swinging link is the heavy one; 1.72 m/s at 1.2 m
+spacing) and times out on inclined lines; ``"params"`` uses the swing
+controller of the parameters as given.
+
+The interlock of chapter 4 in software: a swing opens its swinging gripper
+only while the other one is clamped, and the traversal goes on only after
+the interlock has confirmed the capture (outcome ``captured``, the arriving
+gripper closed); then the landing is checked against the obstacles.
+"""
+from __future__ import annotations
+
+import dataclasses as dc
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ...params import BplirParams, swapped
+from ...systems.motor import i2t_after_rest, interlock_budget, rest_for
+from ...systems.plant import initial_configuration, swapped_state, target_configuration
+from ..results import Result
+from .line import Line
+from .route import hold_position, plan_route
+
+#: traversal outcomes: passed, or the first thing that went wrong
+OUTCOMES = ("passed", "swing crash", "swing timeout", "swing fault", "landed on obstacle",
+            "driver trip", "error")
+
+ROW_FIELDS = ("index", "kind", "obstacle", "holding_gripper", "robot", "t_start_s", "duration_s",
+              "hold_m", "from_m", "to_m", "incline_deg", "outcome", "capture_speed_mps",
+              "capture_impulse_Ns", "effective_mass_kg", "peak_torque_Nm", "peak_power_W",
+              "energy_J", "i2t_start_A2s", "i2t_end_A2s", "seed")
+
+
+@dataclass
+class Segment:
+    """The motion of one manoeuvre for the figures and the animation: times
+    (s, traversal clock), joint angles of the original robot (n x 2, rad),
+    the pose of gripper 1 (n x 3: x, y, 0), elbow torque (N m), current (A),
+    i^2 t (A^2 s)."""
+
+    t: np.ndarray
+    q: np.ndarray
+    base: np.ndarray
+    torque: np.ndarray
+    current: np.ndarray
+    i2t: np.ndarray
+
+
+@dataclass
+class TraverseResult(Result):
+    """One traversal: ``rows`` (one dict per manoeuvre, :data:`ROW_FIELDS`),
+    ``totals``, the line, the parameters and seed, and the motion
+    ``segments`` (for figures and the replay)."""
+
+    line: Line
+    params: BplirParams
+    seed: int
+    rows: list
+    totals: dict
+    segments: list = field(default_factory=list)
+    clamps: list = field(default_factory=list)   # (gripper, s, t_on, t_off): clamped in place
+    holds: list = field(default_factory=list)    # (gripper, t_closed, t_opened): on the line
+
+    @property
+    def success(self) -> bool:
+        """Every obstacle passed, no driver trip, no fall."""
+        return self.totals["outcome"] == "passed"
+
+    def sample_fields(self) -> dict:
+        """The fields a traversal study keeps per sample: the totals, the
+        worst swing's figures under the swing fields' names (``capture_speed_mps``:
+        the fastest capture; ``swing_time_s``, ``energy_in_J``: all swings)."""
+        t = self.totals
+        return t | {"swing_time_s": t["swing_time_s"], "energy_in_J": t["energy_swing_J"]}
+
+    def summary(self) -> dict:
+        """Totals and the per-manoeuvre table (JSON-ready)."""
+        return {"totals": self.totals, "manoeuvres": self.rows,
+                "holds": [{"gripper": g, "closed_s": t_on, "opened_s": t_off}
+                          for g, t_on, t_off in self.holds],
+                "clamps": [{"gripper": g, "at_m": at, "from_s": t_on, "to_s": t_off}
+                           for g, at, t_on, t_off in self.clamps],
+                "line": self.line.data, "seed": self.seed}
+
+    def timeline(self) -> dict:
+        """The whole traversal's motion concatenated: ``t``, ``q``, ``base``,
+        ``torque``, ``current``, ``i2t`` arrays."""
+        keys = ("t", "q", "base", "torque", "current", "i2t")
+        out = {k: np.concatenate([getattr(s, k) for s in self.segments]) for k in keys}
+        # link 1 turns over while gripper 1 swings (it hangs below the elbow
+        # at the bottom of the swing): continuous angles, not wrapped ones
+        out["q"] = np.unwrap(out["q"], axis=0)
+        return out
+
+    def plot(self, axes=None):
+        """The line with its obstacles and every grip (one axis)."""
+        from .plots import plot_line_grips
+
+        return plot_line_grips(self, axes)
+
+
+def swing_params(params: BplirParams, holding: int, spacing: float,
+                 incline: float) -> BplirParams:
+    """The parameters of a traversal swing holding with gripper ``holding``
+    (1: the robot as given, 2: :func:`~bplir_drake.params.swapped`) on a line
+    inclined by ``incline`` (rad) with the grips ``spacing`` apart.  The
+    incline is rounded to 0.1 deg and the spacing to 1 mm (the planned swings
+    of a line are then a few, cached; 0.05 deg is 1 mm over a grip spacing)."""
+    p = params if holding == 1 else swapped(params)
+    sc = dc.replace(p.scenario, grip_spacing=round(float(spacing), 3),
+                    incline_deg=round(math.degrees(incline), 1))
+    p = p.with_(scenario=sc)
+    if params.traverse.swing_mode == "plan":
+        p = p.with_(path=dc.replace(p.path, mode="plan",
+                                    plan_end_depth=params.traverse.plan_end_depth))
+    return p
+
+
+def capture_impulse(q, v, p) -> tuple[float, float]:
+    """(impulse N s, effective mass kg) the arriving gripper and the line take
+    to stop the gripper moving at joint rates ``v`` in pose ``q``: with
+    both grippers pinned the robot stops, so the impulse is ``Lambda v_g``,
+    ``Lambda = J^-T M J^-1`` the robot's inertia seen at the gripper."""
+    from ...systems.plant import mass_matrix
+
+    l1, l2 = p.l1, p.l2
+    c1, s1 = math.cos(q[0]), math.sin(q[0])
+    c12, s12 = math.cos(q[0] + q[1]), math.sin(q[0] + q[1])
+    J = np.array([[l1 * c1 + l2 * c12, l2 * c12], [l1 * s1 + l2 * s12, l2 * s12]])
+    M = np.array(mass_matrix(q, p), dtype=float)
+    vg = J @ np.asarray(v, dtype=float)
+    Jinv = np.linalg.inv(J)
+    Lam = Jinv.T @ M @ Jinv
+    P = Lam @ vg
+    speed = float(np.linalg.norm(vg))
+    impulse = float(np.linalg.norm(P))
+    return impulse, (impulse / speed if speed > 0 else math.nan)
+
+
+def _ride(distance: float, rise: float, mass: float, params: BplirParams, speed: float | None = None):
+    """(time s, energy J, peak power W) of riding ``distance`` m along the
+    line and ``rise`` m up (:mod:`bplir_drake.systems.drive`)."""
+    from ...systems.drive import ride
+
+    return ride(distance, rise, mass, params.drive, speed=speed)
+
+
+class _Traversal:
+    """The state carried from manoeuvre to manoeuvre."""
+
+    def __init__(self, line: Line, params: BplirParams, seed: int, runners=None):
+        from ..swing.run import SwingRunner
+
+        self.line, self.params, self.seed = line, params, seed
+        self.runners = runners if runners is not None else {1: SwingRunner(), 2: SwingRunner()}
+        self.t = 0.0
+        self.h, self.tripped = 0.0, False
+        self.energy = {"ride": 0.0, "swing": 0.0, "standby": 0.0}
+        self.rows, self.segments, self.clamps, self.holds = [], [], [], []
+        self.outcome = "passed"
+        tp = params.traverse
+        self.front, self.rear = line.start, line.start - tp.grip_spacing
+        self.front_gripper = 1    # gripper 1 (link 1's) leads
+        # a gripper holds the line (closed around it) from ``closed[g]``; it is
+        # clamped in place at ``clamp[g] = (s, since)`` while it does not ride
+        self.closed = {1: 0.0, 2: 0.0}
+        self.pos = {1: self.front, 2: self.rear}
+        self.clamp = {g: (self.pos[g], 0.0) for g in (1, 2)}
+        self.swings = 0
+        self.est_err, self.fixed_open = math.nan, False
+        self.tp = params.simulated_plant
+        self.mass = self.tp.m1 + self.tp.m2
+
+    # -------------------------------------------------------------- rows
+    def _row(self, kind: str, duration: float, **kw) -> dict:
+        row = {k: math.nan for k in ROW_FIELDS} | {
+            "index": len(self.rows), "kind": kind, "t_start_s": self.t, "duration_s": duration,
+            "obstacle": "", "holding_gripper": "both", "robot": "", "outcome": "",
+            "i2t_start_A2s": self.h, "seed": ""}
+        row.update(kw)
+        self.rows.append(row)
+        return row
+
+    def _still(self, t0: float, t1: float, q, base0, base1, h0: float) -> None:
+        """A segment without elbow torque: ride (base moves) or rest."""
+        n = max(2, int(math.ceil((t1 - t0) / 0.05)) + 1)
+        t = np.linspace(t0, t1, n)
+        w = (t - t0) / max(t1 - t0, 1e-12)
+        base = np.outer(1 - w, base0) + np.outer(w, base1)
+        qq = np.repeat(np.atleast_2d(q), n, axis=0)
+        h = np.array([i2t_after_rest(h0, tk - t0, self.params.motor) for tk in t])
+        self.segments.append(_seg(t, qq, base, np.zeros(n), np.zeros(n), h))
+
+    def _pose_both(self, spacing: float, incline: float):
+        """Joint angles of the original robot with both grippers on the line."""
+        if self.pos[1] >= self.pos[2]:   # gripper 1 in front: gripper 2 behind it
+            return initial_configuration(spacing, self.tp, incline)
+        return target_configuration(spacing, self.tp, incline)
+
+    def _unclamp(self, g: int, t: float) -> None:
+        """Gripper ``g`` leaves its place at ``t`` (rides, swings or the end)."""
+        if self.clamp.get(g) is not None:
+            s, since = self.clamp[g]
+            if t > since:
+                self.clamps.append((g, s, since, t))
+            self.clamp[g] = None
+
+    def _base(self, s: float) -> np.ndarray:
+        x, y = self.line.point(s)
+        return np.array([x, y, 0.0])
+
+    # -------------------------------------------------------------- steps
+    def move(self, kind: str, new_front: float, new_rear: float, obstacle: str = "") -> None:
+        """Ride both grippers (``ride``) or one wheel (``adjust``) to new grips."""
+        d_front, d_rear = new_front - self.front, new_rear - self.rear
+        dist = max(abs(d_front), abs(d_rear))
+        if dist < 1e-9:
+            return
+        fg = self.front_gripper
+        rg = 3 - fg
+        y0 = self.line.point(self.front)[1]
+        y1 = self.line.point(new_front)[1]
+        speed = self.params.drive.adjust_speed if kind == "adjust" else None
+        time, energy, peak = _ride(dist, float(y1 - y0), self.mass, self.params, speed)
+        h0 = self.h
+        old_spacing, old_inc = self.line.chord(self.rear, self.front)
+        b0 = self._base(self.pos[1])
+        for g, d in ((fg, d_front), (rg, d_rear)):
+            if abs(d) > 1e-9:
+                self._unclamp(g, self.t)
+                self.clamp[g] = (new_front if g == fg else new_rear, self.t + time)
+        self.pos[fg], self.pos[rg] = new_front, new_rear
+        self.front, self.rear = new_front, new_rear
+        spacing, inc = self.line.chord(self.rear, self.front)
+        self._still(self.t, self.t + time, self._pose_both(spacing, inc), b0,
+                    self._base(self.pos[1]), h0)
+        self.h = i2t_after_rest(self.h, time, self.params.motor)
+        self.tripped = self.tripped and self.h > 0.0
+        standby = self.params.drive.standby_power * time
+        self.energy["ride"] += energy
+        self.energy["standby"] += standby
+        self._row(kind, time, obstacle=obstacle, from_m=self.rear, to_m=self.front,
+                  hold_m=math.nan, incline_deg=math.degrees(inc), peak_power_W=peak,
+                  energy_J=energy + standby, i2t_start_A2s=h0, i2t_end_A2s=self.h,
+                  outcome="done")
+        self.t += time
+
+    def rest(self, duration: float, obstacle: str, kind: str = "rest") -> None:
+        """Stay clamped with both grippers while the driver's i^2 t falls
+        (``kind``: ``rest``, or ``calibrate`` for the IMUs' standstill)."""
+        if duration <= 0.0:
+            return
+        spacing, inc = self.line.chord(self.rear, self.front)
+        b = self._base(self.pos[1])
+        h0 = self.h
+        self._still(self.t, self.t + duration, self._pose_both(spacing, inc), b, b, self.h)
+        self.h = i2t_after_rest(self.h, duration, self.params.motor)
+        self.tripped = self.tripped and self.h > 0.0
+        standby = self.params.drive.standby_power * duration
+        self.energy["standby"] += standby
+        self._row(kind, duration, obstacle=obstacle, energy_J=standby, i2t_start_A2s=h0,
+                  i2t_end_A2s=self.h, outcome="done")
+        self.t += duration
+
+    def swing(self, obstacle: str) -> bool:
+        """The rear gripper swings past the front one; True when it landed clear."""
+        from ..swing.plan import tracking_plan
+
+        tp = self.params.traverse
+        hold_g = self.front_gripper
+        swing_g = 3 - hold_g
+        hold, start = self.front, self.rear
+        spacing, _ = self.line.chord(start, hold)
+        target = hold + tp.grip_spacing
+        _, inc = self.line.chord(start, min(target, self.line.length))
+        p = swing_params(self.params, hold_g, spacing, inc)
+        # rest first when the planned swing would eat into the i^2 t margin
+        # the standstill calibration of the IMUs (estimator.standstill_samples)
+        # holds still on the line before the swing: it counts as rest too
+        motor = self.params.motor
+        calib = p.estimator.standstill_samples * p.imu.period
+        need = 0.0
+        if tp.rest and p.path.mode == "plan":
+            plan = tracking_plan(p)[0]   # nominal model only
+            n = int(plan.duration / motor.driver_period) + 1
+            tq = np.interp(np.arange(n) * motor.driver_period, plan.times, plan.torque)
+            need = rest_for(self.h, self.tripped, np.abs(tq) / motor.torque_per_amp, motor,
+                            tp.i2t_margin)
+        elif tp.rest and self.tripped:
+            need = self.h / motor.i_cont ** 2
+        self.rest(need - calib, obstacle)
+        self.rest(calib, obstacle, kind="calibrate")
+        seed = int(np.random.SeedSequence([self.seed, self.swings]).generate_state(
+            1, dtype=np.uint32)[0])
+        self.swings += 1
+        res = self.runners[hold_g].run(p, seed=seed, driver_state=(self.h, self.tripped))
+        s = res.summary
+        st = res.logs["state"]
+        sim_p = p.simulated_plant
+        x_end = st.data[-1]
+        impulse, m_eff = (capture_impulse(x_end[:2], x_end[2:], sim_p) if s["success"]
+                          else (math.nan, math.nan))
+        # motion for the figures: back to the original robot's angles, gripper 1's pose
+        hb = self._base(hold)
+        t = self.t + st.t
+        if hold_g == 1:
+            q = st.data[:, :2]
+            base = np.repeat(hb[None, :], len(t), axis=0)
+        else:
+            q = np.array([swapped_state(x[:2]) for x in st.data])
+            from ...systems.plant import gripper_position
+
+            gp = np.array([gripper_position(x[:2], sim_p.l1, sim_p.l2) for x in st.data])
+            base = hb[None, :] + np.column_stack([gp, np.zeros(len(t))])
+        cur = res.logs["current"].at(st.t)[:, 0]
+        h_log = _i2t_from_current(self.h, st.t, cur, motor)
+        self.segments.append(_seg(t, q, base, res.logs["torque"].at(st.t)[:, 0], cur, h_log))
+        power = res.logs["power"].data[:, 0]
+        work = float(np.trapezoid(np.maximum(power, 0.0), res.logs["power"].t))
+        elec = work / (motor.eta_g * motor.eta_m)
+        duration = float(st.t[-1])
+        standby = self.params.drive.standby_power * duration
+        self.energy["swing"] += elec
+        self.energy["standby"] += standby
+        h0 = self.h
+        self.h, self.tripped = s["i2t_end_A2s"], s["driver_tripped_end"]
+        self.est_err = float(np.nanmax([self.est_err, s["max_estimation_error_rad"]]))
+        self.fixed_open = self.fixed_open or (s["fixed_gripper_open"] and not s["success"])
+        landed = hold + s["travel_m"] - spacing if s["success"] else math.nan
+        row = self._row("swing", duration, obstacle=obstacle, holding_gripper=str(hold_g),
+                        robot="original" if hold_g == 1 else "swapped", hold_m=hold,
+                        from_m=start, to_m=landed, incline_deg=math.degrees(inc),
+                        outcome=s["outcome"], capture_speed_mps=s["capture_speed_mps"],
+                        capture_impulse_Ns=impulse, effective_mass_kg=m_eff,
+                        peak_torque_Nm=s["peak_torque_Nm"], peak_power_W=s["peak_motor_power_W"],
+                        energy_J=elec + standby, i2t_start_A2s=h0, i2t_end_A2s=self.h, seed=seed)
+        self.t += duration
+        # the swinging gripper opened at the start, closes at capture
+        self.holds.append((swing_g, self.closed[swing_g], t[0]))
+        self._unclamp(swing_g, t[0])
+        if s["driver_tripped"]:
+            self.outcome = "driver trip"
+            return False
+        if not s["success"]:
+            self.outcome = f"swing {s['outcome']}"
+            return False
+        hit = self.line.obstacle_at(landed, tp.gripper_width / 2)
+        if hit is not None or landed > self.line.length:
+            row["outcome"] = "landed on obstacle"
+            self.outcome = "landed on obstacle"
+            return False
+        self.closed[swing_g] = self.t
+        self.clamp[swing_g] = (landed, self.t)
+        self.pos[swing_g] = landed
+        self.front_gripper = swing_g
+        self.front, self.rear = landed, hold
+        return True
+
+    def finish(self) -> dict:
+        """Close the holds and clamps still on and total up."""
+        stopped = self.outcome != "passed"
+        for g in (1, 2):
+            if not (stopped and g != self.front_gripper):   # a failed swing's gripper stays open
+                self.holds.append((g, self.closed[g], math.inf))
+                self._unclamp(g, math.inf)
+        swings = [r for r in self.rows if r["kind"] == "swing"]
+        rides = [r for r in self.rows if r["kind"] in ("ride", "adjust")]
+        energy = sum(self.energy.values())
+        dist = max(self.rear - (self.line.start - self.params.traverse.grip_spacing), 0.0)
+        peak_i2t = max([r["i2t_end_A2s"] for r in self.rows] + [0.0])
+        failed = [i for i, r in enumerate(swings) if r["outcome"] != "captured"]
+        speeds = [r["capture_speed_mps"] for r in swings if r["outcome"] == "captured"]
+        return {
+            "failed_swing": failed[0] if failed else math.nan,
+            "capture_speed_mps": max(speeds) if speeds else math.nan,
+            "peak_torque_Nm": max([r["peak_torque_Nm"] for r in swings] + [0.0]),
+            "peak_motor_power_W": max([r["peak_power_W"] for r in swings] + [0.0]),
+            "max_estimation_error_rad": self.est_err,
+            "fixed_gripper_open": self.fixed_open,
+            "outcome": self.outcome, "success": self.outcome == "passed",
+            "obstacles": len(self.line.obstacles),
+            "obstacles_passed": sum(1 for r in swings if r["outcome"] == "captured") // 2,
+            "swings": len(swings), "distance_m": dist, "time_s": self.t,
+            "swing_time_s": sum(r["duration_s"] for r in swings),
+            "ride_time_s": sum(r["duration_s"] for r in rides),
+            "rest_time_s": sum(r["duration_s"] for r in self.rows if r["kind"] == "rest"),
+            "calibration_time_s": sum(r["duration_s"] for r in self.rows
+                                      if r["kind"] == "calibrate"),
+            "speed_m_per_min": 60.0 * dist / self.t if self.t > 0 else math.nan,
+            "energy_J": energy, "energy_ride_J": self.energy["ride"],
+            "energy_swing_J": self.energy["swing"], "energy_standby_J": self.energy["standby"],
+            "energy_per_m_J": energy / dist if dist > 0 else math.nan,
+            "peak_capture_impulse_Ns": max([r["capture_impulse_Ns"] for r in swings
+                                            if not math.isnan(r["capture_impulse_Ns"])] + [0.0]),
+            "peak_i2t_A2s": peak_i2t, "i2t_budget_A2s": interlock_budget(self.params.motor),
+            "seed": self.seed,
+        }
+
+
+def _seg(t, q, base, torque, current, i2t) -> Segment:
+    return Segment(np.asarray(t, float), np.asarray(q, float), np.asarray(base, float),
+                   np.asarray(torque, float), np.asarray(current, float), np.asarray(i2t, float))
+
+
+def _i2t_from_current(h0: float, t, current, motor) -> np.ndarray:
+    """The driver's i^2 t along a logged current (for the figures; the
+    driver's own state is what the traversal carries)."""
+    h, out = h0, [h0]
+    for k in range(1, len(t)):
+        h = max(0.0, h + (t[k] - t[k - 1]) * (current[k - 1] ** 2 - motor.i_cont ** 2))
+        out.append(h)
+    return np.array(out)
+
+
+def run_traverse(line: Line, params: BplirParams, *, seed: int = 0, progress: bool = False,
+                 runners=None) -> TraverseResult:
+    """Cross ``line`` with the robot of ``params``; stops at the first
+    failure.  ``seed``: the simulated robot's friction (drawn once, within
+    ``scenario.friction_uncertainty``, unless ``true_friction`` is set) and
+    every swing's sensor noise and disturbances (a seed per swing, recorded
+    in its row).  ``runners``: ``{1: SwingRunner, 2: SwingRunner}`` to reuse
+    built diagrams across traversals.  Raises :class:`~.line.LineError`
+    when the line cannot be crossed (checked before any simulation)."""
+    from ..swing.run import draw_true_friction
+
+    plan_route(line, params)   # the whole line is crossable on paper
+    params = draw_true_friction(params, seed)   # one robot for the whole traversal
+    tr = _Traversal(line, params, seed, runners)
+    tp = params.traverse
+    D = tp.grip_spacing
+    from ...progress import progress_bar
+
+    bar = progress_bar(progress, total=len(line.obstacles), desc="obstacles", unit="obstacle")
+    try:
+        for k, ob in enumerate(line.obstacles):
+            plan = hold_position(line, params, k, tr.front)
+            tr.move("ride", plan.hold, plan.rear, ob.name)
+            if not tr.swing(ob.name):
+                break
+            # the gripper that landed sets the spacing back to D on its wheel
+            tr.move("adjust", tr.rear + D, tr.rear, ob.name)
+            if not tr.swing(ob.name):
+                break
+            bar.update(1)
+        else:
+            end = line.length - tp.gripper_width / 2
+            tr.move("ride", end, end - D, "")
+    finally:
+        bar.close()
+    totals = tr.finish()
+    return TraverseResult(line, params, seed, tr.rows, totals, tr.segments, tr.clamps, tr.holds)
+
+
+__all__ = ["TraverseResult", "run_traverse", "swing_params", "capture_impulse", "OUTCOMES",
+           "ROW_FIELDS", "Segment"]
+
+
+# ----------------------------------------------------------- tables
+
+#: columns of the per-manoeuvre table: (row key, header, format)
+TABLE_COLUMNS = (
+    ("index", "#", "{}"), ("kind", "manoeuvre", "{}"), ("obstacle", "obstacle", "{}"),
+    ("holding_gripper", "holds", "{}"), ("from_m", "from [m]", "{:.3f}"),
+    ("to_m", "to [m]", "{:.3f}"), ("incline_deg", "incline [deg]", "{:.1f}"),
+    ("outcome", "outcome", "{}"), ("duration_s", "time [s]", "{:.2f}"),
+    ("capture_speed_mps", "capture [m/s]", "{:.3f}"),
+    ("capture_impulse_Ns", "impulse [N s]", "{:.2f}"),
+    ("peak_torque_Nm", "peak torque [N m]", "{:.1f}"), ("peak_power_W", "peak power [W]", "{:.0f}"),
+    ("energy_J", "energy [J]", "{:.1f}"), ("i2t_end_A2s", "i2t after [A2 s]", "{:.0f}"),
+)
+
+
+def _cell(value, fmt: str) -> str:
+    if isinstance(value, float) and not math.isfinite(value):
+        return "--"
+    if value == "":
+        return ""
+    return fmt.format(value)
+
+
+def manoeuvre_table(result: TraverseResult) -> str:
+    """The per-manoeuvre table as Markdown (``--`` where a figure does not apply)."""
+    head = "| " + " | ".join(h for _, h, _ in TABLE_COLUMNS) + " |"
+    rule = "|" + "---|" * len(TABLE_COLUMNS)
+    body = ["| " + " | ".join(_cell(r[k], f) for k, _, f in TABLE_COLUMNS) + " |"
+            for r in result.rows]
+    return "\n".join([head, rule] + body)
+
+
+def totals_lines(result: TraverseResult) -> list[str]:
+    """The totals as text lines."""
+    t = result.totals
+    return [
+        f"{t['outcome']}: {t['obstacles_passed']}/{t['obstacles']} obstacles passed in "
+        f"{t['swings']} swings, {t['distance_m']:.2f} m in {t['time_s']:.1f} s "
+        f"({t['speed_m_per_min']:.1f} m/min; riding {t['ride_time_s']:.1f} s, swinging "
+        f"{t['swing_time_s']:.1f} s, resting {t['rest_time_s']:.1f} s, IMU calibration "
+        f"{t['calibration_time_s']:.1f} s)",
+        f"energy {t['energy_J']:.0f} J ({t['energy_per_m_J']:.1f} J/m): riding "
+        f"{t['energy_ride_J']:.1f} J, swinging {t['energy_swing_J']:.1f} J, electronics "
+        f"{t['energy_standby_J']:.1f} J; peak capture impulse {t['peak_capture_impulse_Ns']:.2f} "
+        f"N s; peak i2t {t['peak_i2t_A2s']:.0f} of {t['i2t_budget_A2s']:.0f} A2 s; seed "
+        f"{t['seed']}",
+    ]
+
+
+def write_rows_csv(result: TraverseResult, path):
+    """The per-manoeuvre rows as CSV at ``path`` (atomic)."""
+    import csv
+    import io as _io
+
+    from ...io import write_text_atomic
+
+    buf = _io.StringIO()
+    w = csv.DictWriter(buf, fieldnames=list(ROW_FIELDS))
+    w.writeheader()
+    for r in result.rows:
+        w.writerow({k: r[k] for k in ROW_FIELDS})
+    return write_text_atomic(path, buf.getvalue())

@@ -364,9 +364,25 @@ def cmd_swing(args) -> int:
     return 0
 
 
+def _study_of(study_dir):
+    """The study saved in a study directory (``StudyError`` when there is none)."""
+    from .analysis.montecarlo import STUDY_FILE, StudyError, load_study
+
+    path = Path(study_dir) / STUDY_FILE
+    if not path.exists():
+        raise StudyError(f"{study_dir} is not a study directory (no {STUDY_FILE})")
+    return load_study(path)
+
+
+def _same(a, b) -> bool:
+    """Recorded and re-run values agree (NaN equals NaN)."""
+    if isinstance(a, float) and isinstance(b, float) and math.isnan(a) and math.isnan(b):
+        return True
+    return a == b
+
+
 def _replay(args):
     """Re-run one sample of a Monte Carlo study (``--replay DIR --sample K``)."""
-    import math as _m
 
     from .analysis.montecarlo import RESULT_FIELDS, replay
 
@@ -377,14 +393,13 @@ def _replay(args):
     clash += ["--true-state"] * args.true_state + ["--compare"] * args.compare
     if clash:
         raise InputError(f"--replay takes every parameter from the study; drop {clash[0]}")
+    if _study_of(args.replay).line is not None:
+        raise InputError(f"{args.replay} is a traversal study; replay it with bplir traverse "
+                         "--replay")
     res, row = replay(args.replay, args.sample)
     matches = None
     if row is not None:
-        def same(a, b):
-            if isinstance(a, float) and isinstance(b, float) and _m.isnan(a) and _m.isnan(b):
-                return True
-            return a == b
-        matches = row["error"] == "" and all(same(row[k], res.summary[k]) for k in RESULT_FIELDS)
+        matches = row["error"] == "" and all(_same(row[k], res.summary[k]) for k in RESULT_FIELDS)
     return res, {"study": str(args.replay), "sample": args.sample, "matches_recorded": matches}
 
 
@@ -425,6 +440,15 @@ def _study(args):
         study = study.with_(params=study.params.with_controller(args.controller))
     if args.estimator:
         study = study.with_(params=study.params.with_estimator(args.estimator))
+    if args.traverse:
+        from .analysis.traverse.line import load_line
+        from .analysis.traverse.route import plan_route
+
+        if args.incline is not None:
+            raise InputError("--traverse takes the incline from the line file; drop --incline")
+        line = load_line(args.traverse, max_incline_deg=study.params.traverse.max_incline_deg)
+        plan_route(line, study.params)   # crossable on paper
+        study = study.with_(line=line.data)
     from .diagrams import swing_geometry
 
     swing_geometry(study.params)  # the nominal scenario must be possible
@@ -451,9 +475,10 @@ def cmd_montecarlo(args) -> int:
     _write_json(out / "summary.json", summary)
     lo, hi = summary["success_rate_ci95"]
     pc = summary["percentiles"].get("capture_speed_mps", {})
+    what = "traversals passed" if summary.get("traverse") else "swings captured"
     _emit(summary, args.json, [
-        f"{summary['successes']}/{summary['samples'] - len(summary['failed_samples'])} swings "
-        f"captured: success rate {summary['success_rate']:.3f} (95 % Wilson interval "
+        f"{summary['successes']}/{summary['samples'] - len(summary['failed_samples'])} {what}"
+        f": success rate {summary['success_rate']:.3f} (95 % Wilson interval "
         f"{lo:.3f}..{hi:.3f}), root seed {summary['seed']}",
         "outcomes: " + ", ".join(f"{k} {v}" for k, v in sorted(summary["outcomes"].items())),
         (f"capture speed p50 {pc['p50']:.3f}, p95 {pc['p95']:.3f}, max {pc['max']:.3f} m/s"
@@ -601,6 +626,65 @@ def cmd_calibrate(args) -> int:
     return 0
 
 
+# ------------------------------------------------------------------ traverse
+def cmd_traverse(args) -> int:
+    """``bplir traverse``: cross a stretch of line with obstacles."""
+    from .analysis.traverse.line import load_line
+    from .analysis.traverse.plots import plot_timeline, traverse_replay_html
+    from .analysis.traverse.run import (manoeuvre_table, run_traverse, totals_lines,
+                                        write_rows_csv)
+
+    replay_info = None
+    if args.replay is not None or args.sample is not None:
+        if args.replay is None or args.sample is None:
+            raise InputError("--replay STUDY_DIR and --sample K go together")
+        clash = [f"--{n}" for n in ("preset", "config", "seed") if getattr(args, n) is not None]
+        clash += ["LINE"] if args.line is not None else []
+        if clash:
+            raise InputError(f"--replay takes the line and every parameter from the study; "
+                             f"drop {clash[0]}")
+    elif args.line is None:
+        raise InputError("give a line file (LINE.toml) or --replay STUDY_DIR --sample K")
+    else:
+        params = _load_params(args)
+        if args.seed is not None:
+            _in_range("--seed", args.seed, 0, 2 ** 32 - 1)
+        line = load_line(args.line, max_incline_deg=params.traverse.max_incline_deg)
+    out = _out_dir(args.out)
+    if args.replay is not None:
+        from .analysis.montecarlo import replay
+
+        study = _study_of(args.replay)
+        if study.line is None:
+            raise InputError(f"{args.replay} is a swing study; replay it with bplir swing --replay")
+        res, row = replay(args.replay, args.sample)
+        fields = res.sample_fields()
+        matches = None if row is None else row["error"] == "" and all(
+            _same(row[k], fields[k]) for k in study.result_fields)
+        replay_info = {"study": str(args.replay), "sample": args.sample,
+                       "matches_recorded": matches}
+    else:
+        res = run_traverse(line, params, seed=args.seed or 0, progress=_progress(args))
+    files = {"figure_line": str(save_figure(res.plot(), out / "line.png")),
+             "figure_timeline": str(save_figure(plot_timeline(res), out / "timeline.png")),
+             "manoeuvres_csv": str(write_rows_csv(res, out / "manoeuvres.csv"))}
+    table = manoeuvre_table(res)
+    write_text_atomic(out / "manoeuvres.md", table + "\n")
+    files["manoeuvres_md"] = str(out / "manoeuvres.md")
+    if not args.no_animation:
+        files["replay_html"] = str(traverse_replay_html(res, out / "traverse.html"))
+    data = res.to_dict() | {"files": files} | ({"replay": replay_info} if replay_info else {})
+    _write_json(out / "traverse.json", data)
+    replay_line = ([f"replay of sample {replay_info['sample']} of {replay_info['study']}: "
+                    + {True: "matches the recorded result exactly",
+                       False: "DIFFERS from the recorded result",
+                       None: "no recorded result to compare"}[replay_info["matches_recorded"]]]
+                   if replay_info else [])
+    _emit(data, args.json, replay_line + [table, ""] + totals_lines(res) + [
+        f"files in {out}: " + ", ".join(Path(f).name for f in files.values())])
+    return 0 if res.success else 1
+
+
 # ------------------------------------------------------------------ main
 def build_parser() -> argparse.ArgumentParser:
     """The ``bplir`` command line: one subcommand per job."""
@@ -688,6 +772,8 @@ def build_parser() -> argparse.ArgumentParser:
     option(p, "--seed", int, None, "root seed of the study")
     shared(p, "workers", "incline", "controller", "estimator")
     option(p, "--study", None, None, "study TOML file (distributions, scenario)")
+    option(p, "--traverse", None, None, "a traversal study: each sample crosses this line "
+           "(success: every obstacle passed, no driver trip, no fall)", metavar="LINE.toml")
     g = p.add_mutually_exclusive_group()
     g.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="run on an existing Dask cluster")
@@ -706,6 +792,17 @@ def build_parser() -> argparse.ArgumentParser:
            "leaderboard")
     option(p, "--realistic-samples", int, 100,
            "samples of that study per controller (root seed: --seed)")
+
+    p = command("traverse", cmd_traverse, "cross a stretch of line, brachiating past every "
+                "obstacle (exit 1 when the traversal fails)", "out/traverse")
+    p.add_argument("line", nargs="?", default=None,
+                   help="line file (TOML): length, incline or catenary, obstacles")
+    option(p, "--seed", int, None, "seed of the robot's friction draw and of every swing's "
+           "sensor noise and disturbances")
+    option(p, "--no-animation", bool, help="skip traverse.html (the Meshcat replay)")
+    option(p, "--replay", None, None, "re-run one sample of a traversal study (with --sample)",
+           metavar="STUDY_DIR")
+    option(p, "--sample", int, None, "sample index to replay", metavar="K")
 
     p = command("plan", cmd_plan,
                 "plan a swing by trajectory optimisation (torque and power limits)", "out/plan")

@@ -103,7 +103,8 @@ def run_study(study: Study, out, *, workers: int = 0, dask: bool = False,
 
 
 def replay(study_dir, index: int):
-    """Re-run sample ``index`` of a study directory: (SwingResult, recorded row or None)."""
+    """Re-run sample ``index`` of a study directory: (SwingResult, or
+    TraverseResult for a traversal study; recorded row or None)."""
     from ..swing.run import run_swing
 
     study_dir = Path(study_dir)
@@ -115,6 +116,10 @@ def replay(study_dir, index: int):
     p, seed, _ = sample_params(study, index)
     recorded = next((r for r in read_results(study_dir / RESULTS_FILE) if r["index"] == index),
                     None)
+    if study.line is not None:
+        from .sampling import run_traverse_sample
+
+        return run_traverse_sample(study, p, seed), recorded
     return run_swing(p, seed=seed), recorded
 
 

@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 
 from ...params import BplirParams
-from .study import RESULT_FIELDS, Study
+from .study import Study
 
 # ------------------------------------------------------------ one sample
 
@@ -66,6 +66,7 @@ def sample_params(study: Study, index: int) -> tuple[BplirParams, int, dict[str,
 
 
 _RUNNER = None  # this process's SwingRunner: one diagram serves every sample of a structure
+_TRAVERSE_RUNNERS: dict = {}  # ... and the two of traversals (gripper 1 / gripper 2 holding)
 
 
 def run_sample(study: Study, index: int) -> dict:
@@ -79,12 +80,28 @@ def run_sample(study: Study, index: int) -> dict:
     row.update(draw_values(study, index))
     try:
         p, seed, _ = sample_params(study, index)
-        summary = _RUNNER.run(p, seed=seed).summary
+        if study.line is not None:
+            summary = run_traverse_sample(study, p, seed).sample_fields()
+        else:
+            summary = _RUNNER.run(p, seed=seed).summary
     except Exception as exc:  # impossible draw, unreachable line, integrator failure ...
-        return row | _error_fields(exc)
-    row.update({k: summary[k] for k in RESULT_FIELDS})
+        return row | _error_fields(exc, study)
+    row.update({k: summary[k] for k in study.result_fields})
     row["error"] = ""
     return row
+
+
+def run_traverse_sample(study: Study, params: BplirParams, seed: int):
+    """The traversal of a traversal study's sample (this process's runners)."""
+    from ..swing.run import SwingRunner
+    from ..traverse.line import line_from_dict
+    from ..traverse.run import run_traverse
+
+    if not _TRAVERSE_RUNNERS:
+        _TRAVERSE_RUNNERS.update({1: SwingRunner(), 2: SwingRunner()})
+    line = line_from_dict(study.line, "study line",
+                          max_incline_deg=params.traverse.max_incline_deg)
+    return run_traverse(line, params, seed=seed, runners=_TRAVERSE_RUNNERS)
 
 
 def error_text(exc: BaseException) -> str:
@@ -92,8 +109,8 @@ def error_text(exc: BaseException) -> str:
     return " ".join(f"{type(exc).__name__}: {exc}".split())[:300]
 
 
-def _error_fields(exc: BaseException) -> dict:
-    return {k: math.nan for k in RESULT_FIELDS} | {
+def _error_fields(exc: BaseException, study: Study) -> dict:
+    return {k: math.nan for k in study.result_fields} | {
         "outcome": "error", "success": False, "fixed_gripper_open": False,
         "error": error_text(exc)}
 

@@ -61,7 +61,27 @@ def summarize(study: Study, rows: list[dict]) -> dict:
         "uncertain": {d.name: d.as_dict() for d in study.distributions},
         "incline_deg": study.params.scenario.incline_deg,
         "controller": study.params.controller.preset,
-    }
+    } | (_traverse_summary(study, ran) if study.line is not None else {})
+
+
+def _traverse_summary(study: Study, ran: list[dict]) -> dict:
+    """A traversal study's extras: the line, the miss classes (outcome by
+    swing that failed) and percentiles of the traversal figures."""
+    misses: dict[str, int] = {}
+    for r in ran:
+        if not r["success"]:
+            swing = r["failed_swing"]
+            where = f" (swing {int(swing) + 1})" if np.isfinite(swing) else ""
+            key = f"{r['outcome']}{where}"
+            misses[key] = misses.get(key, 0) + 1
+    pct = {}
+    for f in ("time_s", "energy_per_m_J", "speed_m_per_min", "peak_capture_impulse_Ns",
+              "peak_i2t_A2s", "obstacles_passed"):
+        v = np.array([r[f] for r in ran if r[f] is not None and np.isfinite(r[f])], dtype=float)
+        pct[f] = ({q: float(np.percentile(v, int(q[1:]))) for q in ("p5", "p50", "p95")}
+                  | {"max": float(v.max())}) if v.size else {}
+    return {"traverse": {"line": study.line.get("name", "line"), "miss_classes": misses,
+                         "percentiles": pct}}
 
 
 def influence(study: Study, rows: list[dict]) -> dict[str, float]:

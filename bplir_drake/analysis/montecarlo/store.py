@@ -9,13 +9,13 @@ from pathlib import Path
 
 import numpy as np
 
-from .study import RESULT_FIELDS, Study, StudyError
+from .study import Study, StudyError
 
 # ------------------------------------------------------------ result table
 
 def columns(study: Study) -> list[str]:
     """The columns of a study's results CSV."""
-    return ["index", "seed", *study.names, *RESULT_FIELDS, "error"]
+    return ["index", "seed", *study.names, *study.result_fields, "error"]
 
 
 def _fmt(v) -> str:

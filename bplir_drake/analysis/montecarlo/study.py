@@ -20,6 +20,15 @@ RESULT_FIELDS = ("outcome", "success", "swing_time_s", "capture_distance_m", "ca
                  "closest_distance_m", "travel_m", "fixed_gripper_open", "peak_torque_Nm",
                  "peak_motor_power_W", "energy_in_J", "max_estimation_error_rad",
                  "mirror_error_rad")
+#: traversal summary fields kept per sample of a traversal study (the worst
+#: swing's figures under the swing fields' names)
+TRAVERSE_FIELDS = ("outcome", "success", "obstacles_passed", "swings", "failed_swing",
+                   "time_s", "distance_m", "speed_m_per_min", "energy_J", "energy_per_m_J",
+                   "rest_time_s", "capture_speed_mps", "peak_capture_impulse_Ns",
+                   "swing_time_s", "peak_torque_Nm", "peak_motor_power_W", "energy_in_J",
+                   "peak_i2t_A2s", "max_estimation_error_rad", "fixed_gripper_open")
+#: what a traversal sets itself from the line (a study may not draw it)
+TRAVERSE_FIXED = ("scenario.grip_spacing", "scenario.incline_deg")
 STUDY_FILE, RESULTS_FILE, SUMMARY_FILE = "study.toml", "results.csv", "summary.json"
 
 
@@ -128,6 +137,7 @@ class Study:
     distributions: tuple[Distribution, ...] = field(default_factory=dissertation_distributions)
     samples: int = 100
     seed: int = 0
+    line: dict | None = None   # a traversal study: the line file's tables (``bplir traverse``)
 
     def __post_init__(self):
         if isinstance(self.samples, bool) or not isinstance(self.samples, int) or self.samples < 1:
@@ -137,7 +147,18 @@ class Study:
         names = [d.name for d in self.distributions]
         if len(set(names)) != len(names):
             raise StudyError("an uncertain parameter is listed twice")
+        if self.line is not None:
+            fixed = [n for n in names if n in TRAVERSE_FIXED]
+            if fixed:
+                raise StudyError(
+                    f"uncertain '{fixed[0]}' cannot be drawn in a traversal study: the traversal "
+                    "sets every swing's grip spacing and incline from the line and its plan; "
+                    "allowed: any other uncertain parameter")
 
+    @property
+    def result_fields(self) -> tuple[str, ...]:
+        """The summary fields each sample's row keeps."""
+        return TRAVERSE_FIELDS if self.line is not None else RESULT_FIELDS
     @property
     def names(self) -> list[str]:
         """The uncertain quantities' names, in order."""
@@ -149,9 +170,12 @@ class Study:
 
     def as_dict(self) -> dict:
         """The study as its TOML document."""
-        return {"samples": self.samples, "seed": self.seed,
-                "parameters": to_dict(self.params),
-                "uncertain": {d.name: d.as_dict() for d in self.distributions}}
+        d = {"samples": self.samples, "seed": self.seed,
+             "parameters": to_dict(self.params),
+             "uncertain": {d.name: d.as_dict() for d in self.distributions}}
+        if self.line is not None:
+            d["line"] = self.line
+        return d
 
     def identity(self) -> dict:
         """What fixes every sample's result (everything but the sample count)."""
@@ -164,7 +188,7 @@ def study_from_dict(data: dict, source: str = "study") -> Study:
     """A :class:`Study` from a parsed study document; errors name ``source``."""
     if not isinstance(data, dict):
         raise StudyError(f"{source}: a study must be a table")
-    allowed = {"samples", "seed", "parameters", "uncertain"}
+    allowed = {"samples", "seed", "parameters", "uncertain", "line"}
     unknown = set(data) - allowed
     if unknown:
         raise StudyError(f"{source}: unknown key '{sorted(unknown)[0]}'; allowed: "
@@ -190,7 +214,13 @@ def study_from_dict(data: dict, source: str = "study") -> Study:
                                  f"'{sorted(extra)[0]}'; allowed: dist, rel, abs, center, clip")
             dists.append(Distribution(name, **spec))
         dists = tuple(dists)
-    return Study(params, dists, data.get("samples", 100), data.get("seed", 0))
+    line = data.get("line")
+    if line is not None:
+        from ..traverse.line import line_from_dict
+
+        line_from_dict(line, f"{source} [line]",
+                       max_incline_deg=params.traverse.max_incline_deg)  # validates
+    return Study(params, dists, data.get("samples", 100), data.get("seed", 0), line)
 
 
 def load_study(path) -> Study:

@@ -1,0 +1,355 @@
+"""Line traversal (issue 18): the swapped robot's dynamics, the route's
+grips, the driver's i^2 t carried over (trip without rest, rest inserted by
+the planner), the interlock's holding gripper, bad line files."""
+import base64
+import dataclasses as dc
+import json
+import math
+import re
+from pathlib import Path
+from types import SimpleNamespace
+
+import msgpack
+
+import numpy as np
+import pytest
+
+from bplir_drake.analysis.traverse.line import LineError, line_from_dict, load_line
+from bplir_drake.analysis.traverse.route import max_width, plan_route
+from bplir_drake.analysis.traverse.run import capture_impulse, run_traverse
+from bplir_drake.cli import main
+from bplir_drake.params import preset, swapped, swapped_plant
+from bplir_drake.systems.motor import i2t_after_rest, i2t_trace, interlock_budget, rest_for
+from bplir_drake.systems.plant import (gripper_position, make_plant, mass_matrix,
+                                       potential_energy, swapped_state)
+
+ROOT = Path(__file__).resolve().parents[1]
+RNG = np.random.default_rng(18)
+
+
+# ------------------------------------------------------------- the swapped robot
+
+def _physical_points(qs, p):
+    """Centres of mass of the physical links (original parameters ``p``)
+    with gripper 2 at the origin, for the swapped robot's angles ``qs``."""
+    d1 = np.array([math.sin(qs[0]), -math.cos(qs[0])])
+    d2 = np.array([math.sin(qs[0] + qs[1]), -math.cos(qs[0] + qs[1])])
+    elbow = p.l2 * d1
+    c_link2 = (p.l2 - p.lc2) * d1          # link 2's CoM is lc2 from the elbow
+    c_link1 = elbow + (p.l1 - p.lc1) * d2  # link 1's CoM is lc1 from gripper 1
+    return c_link1, c_link2
+
+
+def _physical_mass_matrix(qs, p, h=1e-6):
+    """The mass matrix from the physical links' masses, CoMs and inertias,
+    differentiating the CoM positions numerically (independent of the swap)."""
+    J = [np.zeros((2, 2)), np.zeros((2, 2))]
+    for j in range(2):
+        dq = np.zeros(2)
+        dq[j] = h
+        plus, minus = _physical_points(qs + dq, p), _physical_points(qs - dq, p)
+        for i in range(2):
+            J[i][:, j] = (plus[i] - minus[i]) / (2 * h)
+    M = p.m1 * J[0].T @ J[0] + p.m2 * J[1].T @ J[1]
+    M += p.I2 * np.array([[1.0, 0.0], [0.0, 0.0]])   # link 2 turns at q1'
+    M += p.I1 * np.ones((2, 2))                      # link 1 at q1' + q2'
+    return M
+
+
+def test_swapped_plant_mass_matrix_and_energy_match_the_physical_robot():
+    p = preset().plant
+    sp = swapped_plant(p)
+    drake = make_plant(sp)
+    ctx = drake.CreateDefaultContext()
+    for _ in range(20):
+        q = RNG.uniform([-1.5, -2.8], [1.5, 2.8])
+        qs = swapped_state(q)
+        drake.SetPositions(ctx, qs)
+        # the Drake plant built from the swapped parameters ...
+        np.testing.assert_allclose(drake.CalcMassMatrix(ctx), _physical_mass_matrix(qs, p),
+                                   rtol=1e-6, atol=1e-8)
+        np.testing.assert_allclose(mass_matrix(qs, sp), drake.CalcMassMatrix(ctx), rtol=1e-12)
+        # ... and its potential energy, measured from gripper 2, is the original
+        # robot's at the mirrored state less the whole mass lifted to gripper 2
+        y_b = gripper_position(q, p.l1, p.l2)[1]
+        v_orig = potential_energy(q, p)
+        assert drake.CalcPotentialEnergy(ctx) == pytest.approx(
+            v_orig - (p.m1 + p.m2) * p.g * y_b, abs=1e-9)
+        # kinetic energy at mirrored rates (gripper 2 fixed): physical links
+        v = RNG.normal(size=2)
+        drake.SetVelocities(ctx, v)
+        assert drake.CalcKineticEnergy(ctx) == pytest.approx(
+            0.5 * v @ _physical_mass_matrix(qs, p) @ v, rel=1e-6)
+
+
+def test_swapped_state_and_params_are_their_own_inverse():
+    for _ in range(10):
+        x = RNG.uniform(-3, 3, 4)
+        y = swapped_state(swapped_state(x))
+        np.testing.assert_allclose(np.r_[math.remainder(y[0] - x[0], 2 * math.pi), y[1:]],
+                                   np.r_[0.0, x[1:]], atol=1e-12)
+    p = preset()
+    assert swapped(swapped(p)) == p
+    s = swapped(p)
+    # gripper 2's IMU sits l2 - r2 from gripper 2; the estimator's geometry follows
+    assert s.imu.r1 == pytest.approx(p.plant.l2 - p.imu.r2)
+    assert s.imu.r2 == pytest.approx(p.plant.l1 - p.imu.r1)
+    assert (s.estimator.l1, s.estimator.r1) == pytest.approx((p.plant.l2, p.plant.l2 - p.imu.r2))
+
+
+def test_capture_impulse_stops_every_joint():
+    """``J^T P = M v``: the impulse at the gripper takes all the robot's
+    generalised momentum (both grippers pinned after capture)."""
+    p = preset().plant
+    for _ in range(10):
+        q, v = RNG.uniform([0.2, 1.0], [1.2, 2.5]), RNG.normal(size=2)
+        impulse, m_eff = capture_impulse(q, v, p)
+        c1, s1 = math.cos(q[0]), math.sin(q[0])
+        c12, s12 = math.cos(q[0] + q[1]), math.sin(q[0] + q[1])
+        J = np.array([[p.l1 * c1 + p.l2 * c12, p.l2 * c12], [p.l1 * s1 + p.l2 * s12, p.l2 * s12]])
+        M = mass_matrix(q, p)
+        P = np.linalg.solve(J.T, M @ v)
+        assert impulse == pytest.approx(np.linalg.norm(P), rel=1e-9)
+        assert m_eff == pytest.approx(np.linalg.norm(P) / np.linalg.norm(J @ v), rel=1e-9)
+
+
+# ------------------------------------------------------------- i^2 t bookkeeping
+
+def test_i2t_trace_rest_and_rest_for_closed_form():
+    m = preset().motor
+    budget = interlock_budget(m)
+    # 15 A from zero trips after t_peak = 2.675 s (the driver's rule)
+    h, tripped = i2t_trace(0.0, np.full(300, 15.0), m)
+    k = int(np.argmax(tripped))
+    assert (k + 1) * m.driver_period == pytest.approx(m.t_peak, abs=m.driver_period)
+    assert h[k] >= budget > h[k - 1]
+    assert i2t_after_rest(100.0, 2.0, m) == pytest.approx(100.0 - 25.0 * 2.0)
+    # a swing of 1 s at 10 A adds 75 A^2 s: from h = 500 it needs h <= 428 - 75
+    swing = np.full(100, 10.0)
+    r = rest_for(500.0, False, swing, m, 0.2)
+    assert i2t_after_rest(500.0, r, m) + 75.0 == pytest.approx(0.8 * budget, abs=0.01)
+    assert rest_for(0.0, False, swing, m, 0.2) == 0.0
+    assert rest_for(300.0, True, swing, m, 0.2) == pytest.approx(300.0 / 25.0)
+
+
+# ------------------------------------------------------------- lines and routes
+
+def _grips(plan):
+    return [plan.rear, plan.hold, plan.landing1, plan.landing2]
+
+
+@pytest.mark.parametrize("name", ["line_flat.toml", "line_span.toml"])
+def test_route_grips_lie_off_obstacles_and_within_reach(name):
+    p = preset()
+    line = load_line(ROOT / "examples" / name)
+    tp = p.traverse
+    plans = plan_route(line, p)
+    assert len(plans) == len(line.obstacles) == 3
+    lo, hi = abs(p.plant.l1 - p.plant.l2), p.plant.l1 + p.plant.l2
+    for plan in plans:
+        for s in _grips(plan):
+            assert 0.0 <= s <= line.length
+            assert line.obstacle_at(s, tp.gripper_width / 2 + tp.clearance) is None
+        for a, b in ((plan.rear, plan.hold), (plan.hold, plan.landing1),
+                     (plan.landing1, plan.landing2)):
+            assert lo < line.chord(a, b)[0] < hi
+        ob = plan.obstacle
+        assert plan.hold < ob.start < ob.end < plan.landing1   # swing 1 straddles it
+    # the catenary: incline 0 at the low point, about 15 deg at the tower
+    span = load_line(ROOT / "examples" / "line_span.toml")
+    assert math.degrees(span.incline_at(0.0)) == pytest.approx(0.0, abs=1e-9)
+    assert 14.0 < math.degrees(span.incline_at(span.length)) < 16.0
+
+
+BAD_LINES = [
+    ({"length": 6.0, "start": 1.2, "obstacles": [{"position": 2.0, "width": 1.5}]},
+     "is 1.5 m wide; a swing with grip spacing 1.2 m straddles at most"),
+    ({"length": 6.0, "start": 1.2, "obstacles": [{"position": 2.0, "width": 0.3},
+                                                 {"position": 2.2, "width": 0.3}]},
+     "overlap"),
+    ({"length": 6.0, "start": 1.2, "incline": [[0.0, 0.0], [6.0, 40.0]]},
+     "incline reaches 40.0 deg; allowed [-25, 25] deg"),
+    ({"length": 6.0, "start": 2.1, "obstacles": [{"position": 2.0, "width": 0.3}]},
+     "lies on 'obstacle 1'"),
+    ({"length": 6.0, "start": 1.2, "obstacles": [{"position": 2.0, "width": 0.3},
+                                                 {"position": 3.0, "width": 0.3}]},
+     "no grip from"),
+    ({"length": 6.0, "start": 1.2, "tower": 3}, "unknown key 'tower'"),
+]
+
+
+@pytest.mark.parametrize("data,message", BAD_LINES)
+def test_bad_line_files_exit_2_with_one_line(data, message, tmp_path, capsys):
+    import tomli_w
+
+    path = tmp_path / "line.toml"
+    path.write_text(tomli_w.dumps(data))
+    assert main(["traverse", str(path), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("bplir: error: ") and err.count("\n") == 1
+    assert message in err
+    assert not (tmp_path / "out" / "traverse.json").exists()
+
+
+def test_binary_line_file_exits_2(tmp_path, capsys):
+    path = tmp_path / "line.toml"
+    path.write_bytes(b"\x00\x01\x02\xff" * 20)
+    assert main(["traverse", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("bplir: error: ") and err.count("\n") == 1
+
+
+def test_widest_obstacle_is_the_documented_one():
+    p = preset()
+    w = max_width(p)
+    assert w == pytest.approx(1.2 - 2 * (0.05 + 0.04) - 0.08)
+    line = {"length": 6.0, "start": 1.2, "obstacles": [{"position": 1.8, "width": w}]}
+    plan_route(line_from_dict(line), p)                    # just fits
+    line["obstacles"][0]["width"] = w + 0.01
+    with pytest.raises(LineError):
+        plan_route(line_from_dict(line), p)
+
+
+# ------------------------------------------------------------- traversals
+
+#: a driver with a small i^2 t budget (i_cont 2.5 A, t_peak 0.32 s: 70 A^2 s)
+#: on a two-obstacle line: one swing of gripper 2 adds about 50 A^2 s, so
+#: the second obstacle's swing trips the driver unless the robot rests
+TRIP_LINE = {"name": "two obstacles", "length": 6.0, "start": 1.2,
+             "obstacles": [{"position": 1.7, "width": 0.25}, {"position": 3.8, "width": 0.25}]}
+
+
+def _trip_params(rest: bool):
+    p = preset()
+    return p.with_(motor=dc.replace(p.motor, i_cont=2.5, t_peak=0.32),
+                   traverse=dc.replace(p.traverse, rest=rest))
+
+
+def _assert_always_held(res):
+    """At every moment at least one gripper is clamped; a swinging gripper
+    opens only at its swing's start, while the other one holds."""
+    t_end = res.totals["time_s"]
+    for t in np.linspace(0.0, t_end, 2001):
+        assert any(t_on <= t <= t_off for _, t_on, t_off in res.holds), t
+    for r in (r for r in res.rows if r["kind"] == "swing"):
+        g = int(r["holding_gripper"])
+        t0, t1 = r["t_start_s"], r["t_start_s"] + r["duration_s"]
+        assert any(h[0] == g and h[1] <= t0 and h[2] >= t1 for h in res.holds)
+        assert any(h[0] == 3 - g and h[2] == pytest.approx(t0) for h in res.holds)
+        if r["outcome"] == "captured":   # the swinging gripper closes at the capture
+            assert any(h[0] == 3 - g and h[1] == pytest.approx(t1) for h in res.holds)
+    # in place (drawn in the replay) only where the gripper held: at its grip
+    for g, s, t_on, t_off in res.clamps:
+        assert any(h[0] == g and h[1] <= t_on + 1e-9 and t_off <= h[2] + 1e-9
+                   for h in res.holds)
+
+
+def test_back_to_back_swings_trip_the_driver_without_rest():
+    line = line_from_dict(TRIP_LINE)
+    res = run_traverse(line, _trip_params(rest=False), seed=1)
+    swings = [r for r in res.rows if r["kind"] == "swing"]
+    assert res.totals["outcome"] == "driver trip"
+    assert not any(r["kind"] == "rest" for r in res.rows)
+    # no single swing trips a fresh driver (the first swing of gripper 2 peaks
+    # near 50 A^2 s of 70); the carried-over integral does
+    assert [r["outcome"] for r in swings] == ["captured", "captured", "captured", "fault"]
+    assert swings[3]["i2t_start_A2s"] > 30.0
+    assert swings[3]["i2t_end_A2s"] >= res.totals["i2t_budget_A2s"] == pytest.approx(70.0)
+    _assert_always_held(res)
+
+
+def test_traverse_cli_rests_before_a_swing_that_would_trip(tmp_path, capsys):
+    """The same line and driver through ``bplir traverse``: the planner
+    rests before the fourth swing and every obstacle is passed."""
+    import tomli_w
+
+    line = tmp_path / "line.toml"
+    line.write_text(tomli_w.dumps(TRIP_LINE))
+    config = tmp_path / "robot.toml"
+    config.write_text('[motor]\ni_cont = 2.5\nt_peak = 0.32\n')
+    out = tmp_path / "out"
+    assert main(["traverse", str(line), "--config", str(config), "--seed", "1",
+                 "--out", str(out), "--json"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    rows, totals = data["manoeuvres"], data["totals"]
+    assert totals["outcome"] == "passed" and totals["obstacles_passed"] == 2
+    kinds = [r["kind"] for r in rows]
+    assert kinds == ["ride", "swing", "adjust", "swing", "ride", "swing", "adjust", "rest",
+                     "swing", "ride"]
+    rest = rows[7]
+    # it rests just long enough for the planned swing to keep 20 % of the budget
+    assert rest["duration_s"] > 1.0
+    assert rest["i2t_end_A2s"] == pytest.approx(rest["i2t_start_A2s"] - 2.5 ** 2
+                                                * rest["duration_s"])
+    assert max(r["i2t_end_A2s"] for r in rows) < totals["i2t_budget_A2s"]
+    # grips: every landing off the obstacles, spacing set back between swings
+    tp = preset().traverse
+    obstacles = [(o["position"], o["position"] + o["width"]) for o in TRIP_LINE["obstacles"]]
+    for r in rows:
+        if r["kind"] == "swing":
+            assert r["outcome"] == "captured"
+            assert 0.02 < r["capture_speed_mps"] < 0.5
+            assert r["capture_impulse_Ns"] > 0.0
+            for s in (r["hold_m"], r["to_m"]):
+                assert all(s + tp.gripper_width / 2 <= a or s - tp.gripper_width / 2 >= b
+                           for a, b in obstacles)
+            assert r["to_m"] - r["hold_m"] == pytest.approx(1.2, abs=0.06)
+    # grippers alternate: swing 1 of each obstacle holds with gripper 1
+    assert [r["holding_gripper"] for r in rows if r["kind"] == "swing"] == ["1", "2", "1", "2"]
+    for name in ("line.png", "timeline.png", "manoeuvres.csv", "manoeuvres.md", "traverse.html",
+                 "traverse.json"):
+        assert (out / name).stat().st_size > 0
+    # the interlock: some gripper holds at every moment (JSON null: never opened)
+    inf = (lambda v: math.inf if v is None else v)
+    holds = [(h["gripper"], h["closed_s"], inf(h["opened_s"])) for h in data["holds"]]
+    clamps = [(c["gripper"], c["at_m"], c["from_s"], inf(c["to_s"])) for c in data["clamps"]]
+    _assert_always_held(SimpleNamespace(holds=holds, clamps=clamps, rows=rows, totals=totals))
+    # the replay animates the robot's base along the line, over the whole traversal
+    html = (out / "traverse.html").read_text()
+    blobs = re.findall(r'fetch\("data:application/octet-binary;base64,([A-Za-z0-9+/=]+)"\)', html)
+    commands = [msgpack.unpackb(base64.b64decode(b), raw=False, strict_map_key=False)
+                for b in blobs]
+    anim = next(c for c in commands if c["type"] == "set_animation")
+    tracks = {a["path"]: {t["name"]: t["keys"] for t in a["clip"]["tracks"]}
+              for a in anim["animations"]}
+    x = [k["value"][0] for k in tracks["/drake/robot"][".position"]]
+    fps = 20.0
+    assert len(x) == math.floor(totals["time_s"] * fps + 0.5) + 1
+    assert x[0] == pytest.approx(1.2, abs=1e-6)   # gripper 1 starts at the start
+    assert max(x) > 4.0
+
+
+def test_traversal_study_resumes_and_replays(tmp_path, capsys):
+    """``bplir montecarlo --traverse``: rows of traversals (friction drawn
+    per sample), resumed without recomputing, a sample replayed exactly."""
+    import tomli_w
+
+    line = tmp_path / "line.toml"
+    line.write_text(tomli_w.dumps({"name": "one obstacle", "length": 4.5, "start": 1.2,
+                                   "obstacles": [{"position": 1.7, "width": 0.25}]}))
+    out = tmp_path / "study"
+    base = ["montecarlo", "--traverse", str(line), "--seed", "3", "--workers", "1",
+            "--no-plots", "--out", str(out), "--json"]
+    assert main(base + ["-n", "1"]) == 0
+    capsys.readouterr()
+    assert main(base + ["-n", "2"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["run"] == {**summary["run"], "computed_now": 1, "resumed_from": 1}
+    assert summary["samples"] == 2 and set(summary["traverse"]) == {"line", "miss_classes",
+                                                                      "percentiles"}
+    rows = (out / "results.csv").read_text().splitlines()
+    assert rows[0].startswith("index,seed,true_friction.fv1") and "obstacles_passed" in rows[0]
+    assert sum(summary["outcomes"].values()) == 2
+    assert summary["successes"] + sum(summary["traverse"]["miss_classes"].values()) == 2
+    assert main(["traverse", "--replay", str(out), "--sample", "1", "--no-animation",
+                 "--out", str(tmp_path / "replay")]) in (0, 1)
+    assert "matches the recorded result exactly" in capsys.readouterr().out
+    # a swing study's tools refuse a traversal study, and the other way round
+    assert main(["swing", "--replay", str(out), "--sample", "0"]) == 2
+    assert "is a traversal study" in capsys.readouterr().err
+    # the traversal sets spacing and incline itself: a study may not draw them
+    study = tmp_path / "bad.toml"
+    study.write_text('[uncertain."scenario.grip_spacing"]\ndist = "uniform"\nabs = 0.1\n')
+    assert main(["montecarlo", "--traverse", str(line), "--study", str(study), "-n", "1",
+                 "--out", str(tmp_path / "bad")]) == 2
+    assert "cannot be drawn in a traversal study" in capsys.readouterr().err

@@ -291,13 +291,15 @@ def test_killed_study_resumes_to_the_identical_table(tmp_path):
 def test_ctrl_c_on_a_two_worker_study_keeps_finished_rows(tmp_path):
     """Item 10: SIGINT to the parent of a 2-worker study ends it (exit 130,
     one line), keeps every finished row, and leaves no worker behind; the
-    same study then resumes.  (400 samples are asked for so the study cannot
-    finish before the interrupt on a loaded machine; the resume asks for the
-    first 40.)"""
+    same command then resumes."""
     out = tmp_path / "mc"
-    args = ["montecarlo", "-n", "400", "--workers", "2", "--no-plots", "--out", str(out)]
+    args = ["montecarlo", "-n", "40", "--workers", "2", "--no-plots", "--out", str(out)]
+    # a suite started in the background by a shell inherits SIGINT ignored
+    # (Python then installs no KeyboardInterrupt handler): Ctrl-C as a user
+    # at a terminal sends it, with the default disposition
     proc = subprocess.Popen([sys.executable, "-m", "bplir_drake.cli", *args],
-                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     results = out / "results.csv"
     deadline = time.monotonic() + 240
     while time.monotonic() < deadline and proc.poll() is None:
@@ -312,9 +314,7 @@ def test_ctrl_c_on_a_two_worker_study_keeps_finished_rows(tmp_path):
         "resumes the study)"]
     kept = mc.read_results(results)
     assert len(kept) >= 5
-    assert max(r["index"] for r in kept) < 40
-    rc, _, _ = bplir("montecarlo", "-n", "40", "--workers", "2", "--no-plots", "--out", out,
-                     "--json", timeout=300)
+    rc, _, _ = bplir(*args[:-2], "--out", out, "--json", timeout=300)
     assert rc == 0 and len(mc.read_results(results)) == 40
     assert {r["index"]: r for r in mc.read_results(results)}[kept[0]["index"]] == kept[0]
 

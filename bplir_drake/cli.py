@@ -84,9 +84,13 @@ def _in_range(name: str, value, lo: float, hi: float, *, lo_open: bool = False,
     if not ok:
         left, right = "(" if lo_open else "[", ")" if hi_open else "]"
         u = f" {unit}" if unit else ""
-        shown = f"{value:g}" if isinstance(value, (int, float)) else repr(value)
+
+        def fmt(v):   # whole numbers in full (a seed's 4294967295, not 4.29497e+09)
+            return str(v) if isinstance(v, int) and not isinstance(v, bool) else f"{v:g}"
+
+        shown = fmt(value) if isinstance(value, (int, float)) else repr(value)
         raise InputError(f"{name} = {shown}{u} is out of range; allowed "
-                         f"{left}{lo:g}, {hi:g}{right}{u}")
+                         f"{left}{fmt(lo)}, {fmt(hi)}{right}{u}")
 
 
 # ------------------------------------------------------------------ model

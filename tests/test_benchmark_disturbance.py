@@ -86,7 +86,7 @@ def test_benchmark_rejects_unknown_controller(tmp_path, capsys):
 @pytest.mark.parametrize("extra, message", [
     (["--realistic", "no_such_study.toml"], "cannot read study file no_such_study.toml"),
     (["--realistic", "examples/study_realistic.toml", "--realistic-samples", "0"],
-     "--realistic-samples = 0 is out of range; allowed [1, 1e+06]"),
+     "--realistic-samples = 0 is out of range; allowed [1, 1000000]"),
 ])
 def test_benchmark_checks_its_realistic_study_before_any_work(tmp_path, capsys, monkeypatch,
                                                               extra, message):

@@ -231,8 +231,11 @@ def test_broad_example_study_covers_every_kind_of_uncertainty():
     assert p.true_plant.l2 == drawn["true_plant.l2"]
 
 
-def test_unreachable_dask_scheduler_is_one_line_exit_2(tmp_path, capsys):
+def test_unreachable_dask_scheduler_is_one_line_exit_2(tmp_path, capsys, monkeypatch):
     pytest.importorskip("dask.distributed")
+    from bplir_drake.analysis.montecarlo import executors
+
+    monkeypatch.setattr(executors, "SCHEDULER_TIMEOUT", 1.0)   # nothing listens on port 9
     assert main(["montecarlo", "-n", "2", "--scheduler", "tcp://127.0.0.1:9",
                  "--out", str(tmp_path)]) == 2
     err = capsys.readouterr().err

@@ -7,6 +7,9 @@ from typing import Callable, Iterable
 
 from .study import StudyError
 
+#: how long to try to reach a Dask scheduler before giving up (s)
+SCHEDULER_TIMEOUT = 10.0
+
 # ------------------------------------------------------------ execution
 
 def _pool_map(fn: Callable, args: list[tuple], workers: int) -> Iterable:
@@ -52,7 +55,7 @@ def _dask_map(fn: Callable, args: list[tuple], scheduler: str | None, workers: i
     try:
         if scheduler:
             try:
-                client = Client(scheduler, timeout="10s")
+                client = Client(scheduler, timeout=f"{SCHEDULER_TIMEOUT:g}s")
             except Exception as exc:  # noqa: BLE001 - Dask raises many kinds here
                 msg = " ".join(str(exc).split())[:200]
                 raise StudyError(f"cannot reach the Dask scheduler at {scheduler}: {msg}; "

@@ -244,7 +244,7 @@ def _assert_always_held(res):
                    for h in res.holds)
 
 
-def test_back_to_back_swings_trip_the_driver_without_rest():
+def _back_to_back_swings_trip_the_driver_without_rest():
     line = line_from_dict(TRIP_LINE)
     res = run_traverse(line, _trip_params(rest=False), seed=1)
     swings = [r for r in res.rows if r["kind"] == "swing"]
@@ -258,7 +258,7 @@ def test_back_to_back_swings_trip_the_driver_without_rest():
     _assert_always_held(res)
 
 
-def test_traverse_cli_rests_before_a_swing_that_would_trip(tmp_path, capsys):
+def _traverse_cli_rests_before_a_swing_that_would_trip(tmp_path, capsys):
     """The same line and driver through ``bplir traverse``: the planner
     rests before the fourth swing and every obstacle is passed."""
     import tomli_w
@@ -319,7 +319,7 @@ def test_traverse_cli_rests_before_a_swing_that_would_trip(tmp_path, capsys):
     assert max(x) > 4.0
 
 
-def test_traversal_study_resumes_and_replays(tmp_path, capsys):
+def _traversal_study_resumes_and_replays(tmp_path, capsys):
     """``bplir montecarlo --traverse``: rows of traversals (friction drawn
     per sample), resumed without recomputing, a sample replayed exactly."""
     import tomli_w
@@ -353,3 +353,15 @@ def test_traversal_study_resumes_and_replays(tmp_path, capsys):
     assert main(["montecarlo", "--traverse", str(line), "--study", str(study), "-n", "1",
                  "--out", str(tmp_path / "bad")]) == 2
     assert "cannot be drawn in a traversal study" in capsys.readouterr().err
+
+
+def test_traversals_trip_rest_study_and_replay(tmp_path, capsys):
+    """The traversals, in one test so that one process computes the two
+    plans' tracking gains (about 25 s) once: back-to-back swings trip the
+    driver without rest; ``bplir traverse`` rests before the swing that
+    would trip it and passes; a traversal study resumes and replays."""
+    _back_to_back_swings_trip_the_driver_without_rest()
+    for part in ("cli", "study"):
+        (tmp_path / part).mkdir()
+    _traverse_cli_rests_before_a_swing_that_would_trip(tmp_path / "cli", capsys)
+    _traversal_study_resumes_and_replays(tmp_path / "study", capsys)

@@ -30,7 +30,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ...params import BplirParams, swapped
-from ...systems.motor import i2t_after_rest, interlock_budget, rest_for
+from ...systems.drive import ride
+from ...systems.motor import i2t_after_rest, i2t_trace, interlock_budget, rest_for
 from ...systems.plant import initial_configuration, swapped_state, target_configuration
 from ..results import Result
 from .line import Line
@@ -136,12 +137,10 @@ def capture_impulse(q, v, p) -> tuple[float, float]:
     to stop the gripper moving at joint rates ``v`` in pose ``q``: with
     both grippers pinned the robot stops, so the impulse is ``Lambda v_g``,
     ``Lambda = J^-T M J^-1`` the robot's inertia seen at the gripper."""
-    from ...systems.plant import mass_matrix
+    from ...systems.plant import gripper_velocity, mass_matrix
 
-    l1, l2 = p.l1, p.l2
-    c1, s1 = math.cos(q[0]), math.sin(q[0])
-    c12, s12 = math.cos(q[0] + q[1]), math.sin(q[0] + q[1])
-    J = np.array([[l1 * c1 + l2 * c12, l2 * c12], [l1 * s1 + l2 * s12, l2 * s12]])
+    # the gripper's Jacobian, column by column from its velocity
+    J = np.column_stack([gripper_velocity(q, e, p.l1, p.l2) for e in ((1.0, 0.0), (0.0, 1.0))])
     M = np.array(mass_matrix(q, p), dtype=float)
     vg = J @ np.asarray(v, dtype=float)
     Jinv = np.linalg.inv(J)
@@ -150,14 +149,6 @@ def capture_impulse(q, v, p) -> tuple[float, float]:
     speed = float(np.linalg.norm(vg))
     impulse = float(np.linalg.norm(P))
     return impulse, (impulse / speed if speed > 0 else math.nan)
-
-
-def _ride(distance: float, rise: float, mass: float, params: BplirParams, speed: float | None = None):
-    """(time s, energy J, peak power W) of riding ``distance`` m along the
-    line and ``rise`` m up (:mod:`bplir_drake.systems.drive`)."""
-    from ...systems.drive import ride
-
-    return ride(distance, rise, mass, params.drive, speed=speed)
 
 
 class _Traversal:
@@ -183,8 +174,8 @@ class _Traversal:
         self.clamp = {g: (self.pos[g], 0.0) for g in (1, 2)}
         self.swings = 0
         self.est_err, self.fixed_open = math.nan, False
-        self.tp = params.simulated_plant
-        self.mass = self.tp.m1 + self.tp.m2
+        self.robot = params.simulated_plant
+        self.mass = self.robot.m1 + self.robot.m2
 
     # -------------------------------------------------------------- rows
     def _row(self, kind: str, duration: float, **kw) -> dict:
@@ -209,8 +200,8 @@ class _Traversal:
     def _pose_both(self, spacing: float, incline: float):
         """Joint angles of the original robot with both grippers on the line."""
         if self.pos[1] >= self.pos[2]:   # gripper 1 in front: gripper 2 behind it
-            return initial_configuration(spacing, self.tp, incline)
-        return target_configuration(spacing, self.tp, incline)
+            return initial_configuration(spacing, self.robot, incline)
+        return target_configuration(spacing, self.robot, incline)
 
     def _unclamp(self, g: int, t: float) -> None:
         """Gripper ``g`` leaves its place at ``t`` (rides, swings or the end)."""
@@ -236,7 +227,7 @@ class _Traversal:
         y0 = self.line.point(self.front)[1]
         y1 = self.line.point(new_front)[1]
         speed = self.params.drive.adjust_speed if kind == "adjust" else None
-        time, energy, peak = _ride(dist, float(y1 - y0), self.mass, self.params, speed)
+        time, energy, peak = ride(dist, float(y1 - y0), self.mass, self.params.drive, speed)
         h0 = self.h
         old_spacing, old_inc = self.line.chord(self.rear, self.front)
         b0 = self._base(self.pos[1])
@@ -328,7 +319,11 @@ class _Traversal:
             gp = np.array([gripper_position(x[:2], sim_p.l1, sim_p.l2) for x in st.data])
             base = hb[None, :] + np.column_stack([gp, np.zeros(len(t))])
         cur = res.logs["current"].at(st.t)[:, 0]
-        h_log = _i2t_from_current(self.h, st.t, cur, motor)
+        # the driver's rule on its own ticks, for the figures (the driver's
+        # state is what the traversal carries)
+        ticks = np.arange(0.0, st.t[-1] + 1e-12, motor.driver_period)
+        h_ticks = i2t_trace(self.h, np.interp(ticks, st.t, cur), motor, self.tripped)[0]
+        h_log = np.interp(st.t, np.r_[0.0, ticks + motor.driver_period], np.r_[self.h, h_ticks])
         self.segments.append(_seg(t, q, base, res.logs["torque"].at(st.t)[:, 0], cur, h_log))
         power = res.logs["power"].data[:, 0]
         work = float(np.trapezoid(np.maximum(power, 0.0), res.logs["power"].t))
@@ -415,16 +410,6 @@ class _Traversal:
 def _seg(t, q, base, torque, current, i2t) -> Segment:
     return Segment(np.asarray(t, float), np.asarray(q, float), np.asarray(base, float),
                    np.asarray(torque, float), np.asarray(current, float), np.asarray(i2t, float))
-
-
-def _i2t_from_current(h0: float, t, current, motor) -> np.ndarray:
-    """The driver's i^2 t along a logged current (for the figures; the
-    driver's own state is what the traversal carries)."""
-    h, out = h0, [h0]
-    for k in range(1, len(t)):
-        h = max(0.0, h + (t[k] - t[k - 1]) * (current[k - 1] ** 2 - motor.i_cont ** 2))
-        out.append(h)
-    return np.array(out)
 
 
 def run_traverse(line: Line, params: BplirParams, *, seed: int = 0, progress: bool = False,

@@ -24,6 +24,17 @@ PERCENTILE_FIELDS = ("capture_speed_mps", "swing_time_s", "peak_torque_Nm", "pea
                      "energy_in_J", "max_estimation_error_rad")
 
 
+def percentiles(rows: list[dict], fields) -> dict:
+    """p5, p50, p95 and max of each field over the rows where it is finite
+    (an empty table for a field with no finite value)."""
+    pct = {}
+    for f in fields:
+        v = np.array([r[f] for r in rows if r[f] is not None and np.isfinite(r[f])], dtype=float)
+        pct[f] = ({q: float(np.percentile(v, int(q[1:]))) for q in ("p5", "p50", "p95")}
+                  | {"max": float(v.max())}) if v.size else {}
+    return pct
+
+
 def summarize(study: Study, rows: list[dict]) -> dict:
     """The statistics of a study's rows: success rate over the samples that ran with its 95 %
     Wilson interval, outcome counts, failed and unsuccessful samples, percentiles of the
@@ -36,11 +47,7 @@ def summarize(study: Study, rows: list[dict]) -> dict:
     outcomes: dict[str, int] = {}
     for r in rows:
         outcomes[r["outcome"]] = outcomes.get(r["outcome"], 0) + 1
-    pct = {}
-    for f in PERCENTILE_FIELDS:
-        v = np.array([r[f] for r in ran if r[f] is not None and np.isfinite(r[f])], dtype=float)
-        pct[f] = ({q: float(np.percentile(v, int(q[1:]))) for q in ("p5", "p50", "p95")}
-                  | {"max": float(v.max())}) if v.size else {}
+    pct = percentiles(ran, PERCENTILE_FIELDS)
     return {
         "samples": len(rows),
         "samples_requested": study.samples,
@@ -74,12 +81,8 @@ def _traverse_summary(study: Study, ran: list[dict]) -> dict:
             where = f" (swing {int(swing) + 1})" if np.isfinite(swing) else ""
             key = f"{r['outcome']}{where}"
             misses[key] = misses.get(key, 0) + 1
-    pct = {}
-    for f in ("time_s", "energy_per_m_J", "speed_m_per_min", "peak_capture_impulse_Ns",
-              "peak_i2t_A2s", "obstacles_passed"):
-        v = np.array([r[f] for r in ran if r[f] is not None and np.isfinite(r[f])], dtype=float)
-        pct[f] = ({q: float(np.percentile(v, int(q[1:]))) for q in ("p5", "p50", "p95")}
-                  | {"max": float(v.max())}) if v.size else {}
+    pct = percentiles(ran, ("time_s", "energy_per_m_J", "speed_m_per_min",
+                            "peak_capture_impulse_Ns", "peak_i2t_A2s", "obstacles_passed"))
     return {"traverse": {"line": study.line.get("name", "line"), "miss_classes": misses,
                          "percentiles": pct}}
 

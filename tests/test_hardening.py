@@ -389,6 +389,43 @@ def test_plan_depends_only_on_the_nominal_model_and_a_hit_is_bit_identical(tmp_p
     assert len(set(seen)) == 3
 
 
+
+def test_tracking_gains_cache_hit_is_bit_identical_and_keyed_by_every_input(tmp_path,
+                                                                           monkeypatch):
+    """The plan's LQR gains are cached on disk under the nominal model, the
+    weights and the plan's samples; a hit (another process: the in-memory
+    copy cleared) evaluates exactly like a fresh LQR solve, and a change in
+    any input is a new key."""
+    import dataclasses as dc
+
+    from bplir_drake.analysis.swing import plan as P
+    from bplir_drake.analysis.swing import plan_cache
+    from bplir_drake.params import preset
+    from bplir_drake.systems import plan_tracker
+
+    monkeypatch.setenv("BPLIR_CACHE_DIR", str(tmp_path))
+    monkeypatch.setattr(P, "_GAINS", {})
+    p = preset()
+    plan = P.plan_swing(p, knots=7, iterations=40)
+    fresh = P.tracking_gains(p.plant, p.friction, plan)   # solved and stored
+    P._GAINS.clear()
+    solves = []
+    monkeypatch.setattr(plan_tracker, "plan_gains", lambda *a, **k: solves.append(a))
+    hit = P.tracking_gains(p.plant, p.friction, plan)     # read back, not solved
+    assert not solves and len(list(tmp_path.glob("gains-*.npz"))) == 1
+    for name in plan_cache.GAIN_FIELDS:
+        a, b = getattr(fresh, name), getattr(hit, name)
+        assert a.get_number_of_segments() == b.get_number_of_segments() > 1
+        for t in np.linspace(a.start_time(), a.end_time(), 997):
+            assert np.array_equal(a.value(t), b.value(t)), name
+    key = lambda *a: plan_cache.plan_key(P.gains_inputs(*a))   # noqa: E731
+    base = key(p.plant, p.friction, plan)
+    moved = dc.replace(plan, states=plan.states + np.r_[0.0, 0.0, 0.0, 1e-12])
+    assert len({base, key(dc.replace(p.plant, m2=1.6), p.friction, plan),
+                key(p.plant, dc.replace(p.friction, fc2=0.5), plan),
+                key(p.plant, p.friction, moved)}) == 4
+
+
 # ------------------------------------------------------------------ fuzz
 
 _TOML_PIECES = ["[friction]\n", "fc2 = 0.9\n", "[plant]\n", "m1 = -3\n", "preset = 'lab'\n",

@@ -40,7 +40,20 @@ class TrackerWeights:
     final_factor: float = 10.0
 
 
-def plan_gains(model, times, states, torque, weights: TrackerWeights = TrackerWeights()):
+@dataclass(frozen=True)
+class TrackingGains:
+    """What the tracker evaluates of Drake's finite-horizon LQR result: the
+    gain ``K(t)``, the nominal state ``x0(t)`` and torque ``u0(t)`` and the
+    affine term ``k0(t)`` (Drake ``PiecewisePolynomial`` s)."""
+
+    K: object
+    x0: object
+    u0: object
+    k0: object
+
+
+def plan_gains(model, times, states, torque,
+               weights: TrackerWeights = TrackerWeights()) -> TrackingGains:
     """Drake's finite-horizon LQR of ``model`` (a diagram with one input, the
     elbow torque, and the state output) along the sampled plan."""
     from pydrake.systems.controllers import (FiniteHorizonLinearQuadraticRegulator,
@@ -54,8 +67,10 @@ def plan_gains(model, times, states, torque, weights: TrackerWeights = TrackerWe
     opts.u0 = PiecewisePolynomial.FirstOrderHold(times, np.asarray(torque).reshape(1, -1))
     opts.Qf = Q * weights.final_factor
     opts.input_port_index = model.get_input_port(0).get_index()
-    return FiniteHorizonLinearQuadraticRegulator(model, model.CreateDefaultContext(),
-                                                 float(times[0]), float(times[-1]), Q, R, opts)
+    result = FiniteHorizonLinearQuadraticRegulator(model, model.CreateDefaultContext(),
+                                                   float(times[0]), float(times[-1]), Q, R,
+                                                   opts)
+    return TrackingGains(result.K, result.x0, result.u0, result.k0)
 
 
 class PlanTracker(LeafSystem):

@@ -24,6 +24,9 @@ below the line and computes Drake's finite-horizon LQR gains for
 """
 from __future__ import annotations
 
+import dataclasses
+import hashlib
+import json
 import math
 from dataclasses import dataclass, replace
 
@@ -214,29 +217,52 @@ def _solve_plan(params, q0, qT, tau_max, power, tmax, knots, time_weight, guess_
 def tracking_plan(params: BplirParams):
     """(plan, tracking gains) for the scenario of ``params`` with
     ``path.plan_end_depth``: the plan from :func:`plan_swing` (disk cache),
-    the gains from Drake's finite-horizon LQR on the nominal model, kept in
-    this process per plan (:func:`_gains_for`)."""
+    the gains from Drake's finite-horizon LQR on the nominal model
+    (:func:`tracking_gains`: disk cache too)."""
     sc, depth = params.scenario, params.path.plan_end_depth
     plan = plan_swing(params, end_depth=depth)
     if not plan.feasible:
         raise ParameterError(f"no feasible plan for a {sc.incline_deg:g} deg line within "
                              f"{plan.torque_limit:g} N m and {plan.power_limit:g} W")
-    return plan, _gains_for(params.plant, params.friction, plan)
+    return plan, tracking_gains(params.plant, params.friction, plan)
 
 
 _GAINS: dict = {}
 
 
-def _gains_for(plant, friction, plan: SwingPlan):
+def gains_inputs(plant, friction, plan: SwingPlan, weights=None) -> dict:
+    """Every input of the tracking gains of ``plan``: the nominal model
+    (plant, friction), the LQR weights and the plan's samples (by digest)."""
+    from ...systems.plan_tracker import TrackerWeights
+
+    digest = hashlib.sha256(b"".join(np.ascontiguousarray(a, dtype=float).tobytes()
+                                     for a in (plan.times, plan.states, plan.torque)))
+    return dict(plant=plant.as_dict(), friction=friction.as_dict(),
+                smoothing=PLAN_FRICTION_SMOOTHING,
+                weights=dataclasses.asdict(weights or TrackerWeights()),
+                plan=digest.hexdigest())
+
+
+def tracking_gains(plant, friction, plan: SwingPlan, cache: bool = True):
     """Finite-horizon LQR gains along ``plan`` on the nominal model (plant,
-    friction), memoised per (model, plan contents) in this process."""
+    friction): kept in this process per input, and with ``cache`` on disk
+    (:mod:`.plan_cache`, keyed by :func:`gains_inputs`)."""
     from ...params import BplirParams as _P
     from ...systems.plan_tracker import plan_gains
 
-    key = (plant, friction, plan.times.tobytes(), plan.states.tobytes(), plan.torque.tobytes())
-    if key not in _GAINS:
+    inputs = gains_inputs(plant, friction, plan)
+
+    def solve():
         model, _ = plan_model(_P(plant=plant, friction=friction))
-        _GAINS[key] = plan_gains(model, plan.times, plan.states, plan.torque)
+        return plan_gains(model, plan.times, plan.states, plan.torque)
+
+    if not cache:
+        return solve()
+    key = json.dumps(inputs, sort_keys=True)
+    if key not in _GAINS:
+        from .plan_cache import cached
+
+        _GAINS[key] = cached(inputs, solve, kind="gains")
     return _GAINS[key]
 
 

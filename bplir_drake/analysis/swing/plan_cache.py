@@ -1,4 +1,5 @@
-"""Disk cache of planned swings, keyed by every input the planner reads.
+"""Disk cache of planned swings and their tracking gains, keyed by every
+input the planner (or the LQR) reads.
 
 A DirectCollocation solve of a swing takes about a minute; a Monte Carlo
 study, the tests and ``bplir swing`` with ``path.mode = "plan"`` need the same
@@ -15,6 +16,13 @@ bypassed: the plan is then solved in the process.  The package ships the
 plans its examples and tests use (``bplir_drake/data/plans``, under the
 same keys): they are read when the cache has no copy, so a fresh install
 with the Drake version they were solved with does not solve them again.
+
+The tracking gains of a plan (Drake's finite-horizon LQR, 10-15 s per plan)
+are cached the same way as ``gains-<key>.npz``: every piecewise polynomial
+is stored as its breaks and per-segment coefficients
+(:func:`polynomial_arrays`), so a cache hit evaluates bit for bit like the
+LQR's own result (a cubic Hermite rebuild from samples would not: the
+Riccati solution's dense output is not C1 at its breaks).
 """
 from __future__ import annotations
 
@@ -47,9 +55,10 @@ def plan_key(inputs: dict) -> str:
     return hashlib.sha256(text.encode()).hexdigest()[:32]
 
 
-def plan_cache_path(inputs: dict) -> Path:
-    """Where the plan of ``inputs`` is cached."""
-    return cache_dir() / f"plan-{plan_key(inputs)}.npz"
+def plan_cache_path(inputs: dict, kind: str = "plan") -> Path:
+    """Where the plan (or, with ``kind="gains"``, the gains) of ``inputs``
+    is cached."""
+    return cache_dir() / f"{kind}-{plan_key(inputs)}.npz"
 
 
 #: plans shipped with the package (read-only; same file names and keys as
@@ -57,24 +66,84 @@ def plan_cache_path(inputs: dict) -> Path:
 PACKAGED = Path(__file__).resolve().parents[2] / "data" / "plans"
 
 
-def packaged_plan_path(inputs: dict) -> Path:
-    """Where a shipped plan of ``inputs`` would be."""
-    return PACKAGED / f"plan-{plan_key(inputs)}.npz"
+def packaged_plan_path(inputs: dict, kind: str = "plan") -> Path:
+    """Where a shipped plan (or gains) of ``inputs`` would be."""
+    return PACKAGED / f"{kind}-{plan_key(inputs)}.npz"
+
+
+def polynomial_arrays(pp) -> dict:
+    """A Drake ``PiecewisePolynomial`` as arrays: ``breaks`` (n + 1) and
+    ``coefficients`` (n, rows, cols, degree + 1), lowest power first, in
+    each segment's local time."""
+    n, r, c = pp.get_number_of_segments(), pp.rows(), pp.cols()
+    degree = max(pp.getSegmentPolynomialDegree(i, a, b)
+                 for i in range(n) for a in range(r) for b in range(c))
+    coefficients = np.zeros((n, r, c, degree + 1))
+    for i in range(n):
+        for a in range(r):
+            for b in range(c):
+                co = pp.getPolynomial(i, a, b).GetCoefficients()
+                coefficients[i, a, b, :len(co)] = co
+    return {"breaks": np.asarray(pp.get_segment_times(), dtype=float),
+            "coefficients": coefficients}
+
+
+def polynomial_from_arrays(breaks, coefficients):
+    """The ``PiecewisePolynomial`` of :func:`polynomial_arrays` (exact)."""
+    from pydrake.polynomial import Polynomial
+    from pydrake.trajectories import PiecewisePolynomial
+
+    n, r, c, _ = coefficients.shape
+    mats = []
+    for i in range(n):
+        m = np.empty((r, c), dtype=object)
+        for a in range(r):
+            for b in range(c):
+                m[a, b] = Polynomial(coefficients[i, a, b])
+        mats.append(m)
+    return PiecewisePolynomial(mats, [float(t) for t in breaks])
+
+
+def _write_npz(path: Path, arrays: dict) -> None:
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}-", suffix=".npz")
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            np.savez(fh, **arrays)
+        os.replace(tmp, path)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise
 
 
 def _save(plan, path: Path) -> None:
     fields = dc.asdict(plan)
     arrays = {k: v for k, v in fields.items() if isinstance(v, np.ndarray)}
     meta = {k: v for k, v in fields.items() if not isinstance(v, np.ndarray)}
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".plan-", suffix=".npz")
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            np.savez(fh, meta=json.dumps(meta), **arrays)
-        os.replace(tmp, path)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        raise
+    _write_npz(path, {"meta": json.dumps(meta), **arrays})
+
+
+def save_gains(gains, path: Path) -> None:
+    """Store tracking gains (``K, x0, u0, k0``) as polynomial arrays."""
+    arrays = {}
+    for name in GAIN_FIELDS:
+        for part, value in polynomial_arrays(getattr(gains, name)).items():
+            arrays[f"{name}_{part}"] = value
+    _write_npz(path, arrays)
+
+
+def load_gains(path: Path):
+    """The :class:`~bplir_drake.systems.plan_tracker.TrackingGains` of :func:`save_gains`."""
+    from ...systems.plan_tracker import TrackingGains
+
+    with np.load(path, allow_pickle=False) as data:
+        return TrackingGains(**{name: polynomial_from_arrays(data[f"{name}_breaks"],
+                                                             data[f"{name}_coefficients"])
+                                for name in GAIN_FIELDS})
+
+
+#: the trajectories of Drake's LQR result that the plan tracker evaluates
+GAIN_FIELDS = ("K", "x0", "u0", "k0")
 
 
 def _load(path: Path):
@@ -98,9 +167,11 @@ def _locked(path: Path):
             fcntl.flock(fh, fcntl.LOCK_UN)
 
 
-def cached(inputs: dict, solve):
-    """The plan for ``inputs``: from the cache, or ``solve()`` once (stored)."""
-    path = plan_cache_path(inputs)
+def cached(inputs: dict, solve, kind: str = "plan"):
+    """The plan (``kind="gains"``: the tracking gains) for ``inputs``: from
+    the cache, or ``solve()`` once (stored)."""
+    load, save = (_load, _save) if kind == "plan" else (load_gains, save_gains)
+    path = plan_cache_path(inputs, kind)
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         lock = _locked(path)
@@ -108,15 +179,15 @@ def cached(inputs: dict, solve):
     except OSError:  # no usable cache directory
         return solve()
     try:
-        for candidate in (path, packaged_plan_path(inputs)):
+        for candidate in (path, packaged_plan_path(inputs, kind)):
             if candidate.exists():
                 try:
-                    return _load(candidate)
+                    return load(candidate)
                 except (OSError, ValueError, KeyError, TypeError):
                     pass  # a damaged file: solve again and replace it
-        plan = solve()
+        result = solve()
         with contextlib.suppress(OSError):
-            _save(plan, path)
-        return plan
+            save(result, path)
+        return result
     finally:
         lock.__exit__(None, None, None)

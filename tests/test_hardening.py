@@ -500,3 +500,36 @@ def test_shipped_plans_serve_a_fresh_install(monkeypatch, tmp_path):
                 seen.add((g, plan.incline_deg))
     assert len(seen) == 8
     assert not list(tmp_path.glob("plan-*.npz"))     # read in place, not copied
+
+
+def test_shipped_gains_serve_the_tests_plans(monkeypatch, tmp_path):
+    """The LQR gains of the plans the tests track (the 20 deg uphill swing
+    and both robots on the flat example line) ship too: with an empty cache
+    they are read, never solved, and every shipped gains file belongs to a
+    shipped plan."""
+    import dataclasses as dc
+
+    from bplir_drake.analysis.swing import plan as P
+    from bplir_drake.analysis.swing import plan_cache
+    from bplir_drake.analysis.traverse.run import swing_params
+    from bplir_drake.params import load_toml, preset
+    from bplir_drake.systems import plan_tracker
+
+    monkeypatch.setenv("BPLIR_CACHE_DIR", str(tmp_path))
+    monkeypatch.setattr(P, "_GAINS", {})
+
+    def no_solve(*a, **k):
+        raise AssertionError("solved gains the package ships")
+
+    monkeypatch.setattr(plan_tracker, "plan_gains", no_solve)
+    up = load_toml(Path(__file__).resolve().parents[1] / "examples" / "uphill_plan.toml")
+    up = up.with_(scenario=dc.replace(up.scenario, incline_deg=20.0))
+    base = preset()
+    cases = [up] + [swing_params(base, g, base.traverse.grip_spacing, 0.0) for g in (1, 2)]
+    keys = set()
+    for p in cases:
+        plan, gains = P.tracking_plan(p)
+        assert gains.K.get_number_of_segments() > 100
+        keys.add(plan_cache.plan_key(P.gains_inputs(p.plant, p.friction, plan)))
+    shipped = {f.stem.split("-", 1)[1] for f in plan_cache.PACKAGED.glob("gains-*.npz")}
+    assert shipped == keys and not list(tmp_path.glob("gains-*.npz"))

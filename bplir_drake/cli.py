@@ -12,7 +12,7 @@ import sys
 from pathlib import Path
 
 from .analysis.identification.calibration import CalibrationError
-from .analysis.control.qft import QftError
+from .analysis.control.errors import QftError
 from .analysis.plotting import save_figure
 from .estimation import LogError
 from .io import (atomic_path, check_output_dir, check_output_file, dumps_strict,

@@ -29,10 +29,7 @@ from dataclasses import dataclass, field
 import control
 import numpy as np
 from ..results import Result
-
-
-class QftError(ValueError):
-    """Bad family, specification or design (one-line message)."""
+from .errors import QftError   # defined apart so the command line need not import control
 
 
 # ----------------------------------------------------------- plants

@@ -177,8 +177,13 @@ def cmd_estimate(args) -> int:
         est = replace(est, **geo)
     if args.period is not None:
         est = replace(est, period=args.period)
+    if args.no_bias and args.self_calibrate:
+        raise InputError("--no-bias and --self-calibrate exclude each other (the "
+                         "self-calibrating filter estimates the gyro biases)")
     if args.no_bias:
         est = replace(est, estimate_bias=False)
+    if args.self_calibrate:
+        est = est.self_calibrating()
     _in_range("--calibrate", args.calibrate, 0.0, 3600.0, unit="s")
     x0 = _floats(args.x0, 4, "--x0") if args.x0 else [0.0, 0.0, 0.0, 0.0]
     for opt in ("out", "plot", "report"):
@@ -195,6 +200,12 @@ def cmd_estimate(args) -> int:
                "geometry": {"r1": est.r1, "r2": est.r2, "l1": est.l1}}
     if args.smooth:
         summary["smoothed_start"] = res.smoothed[0].tolist()
+    calibration = []
+    if args.self_calibrate:
+        from .analysis.estimation.observability import calibration_identifiability
+
+        calibration = calibration_identifiability(res, est)
+        summary["self_calibration"] = calibration
     if args.out:
         summary["estimate_csv"] = str(write_estimate_csv(res, args.out))
     truth = _logged_truth(log)
@@ -213,6 +224,10 @@ def cmd_estimate(args) -> int:
            f"updates, 95 % band [{summary['nis']['band'][0]:.2f}, "
            f"{summary['nis']['band'][1]:.2f}] "
            + ("(consistent)" if summary["nis"]["consistent"] else "(inconsistent)")]
+        + [f"{c['state']}: {c['estimate']:.5g} +/- {c['sigma']:.2g} {c['unit']} "
+           f"({c['ratio']:.2f} of the prior's sigma: "
+           + ("identified)" if c["identified"] else "not identified by this log)")
+           for c in calibration]
         + [f"{k}: {summary[k]}" for k in ("estimate_csv", "plot", "report") if k in summary])
     return 0
 
@@ -743,6 +758,9 @@ def build_parser() -> argparse.ArgumentParser:
         option(p, name, float, None, what)
     option(p, "--x0", None, None, "initial T1,T2,W1,W2 (absolute)")
     option(p, "--no-bias", bool, help="no gyro-bias states")
+    option(p, "--self-calibrate", bool, help="also estimate each accelerometer's misalignment, "
+           "each gyro's scale error and each IMU's distance along its link (states held for "
+           "the first 2 s, second-order angle step); reports which of them the log identifies")
     option(p, "--calibrate", float, 0.0,
            "seconds of stationary data at the start to calibrate gyro bias")
     option(p, "--out", None, None, "estimate CSV to write")
@@ -750,7 +768,8 @@ def build_parser() -> argparse.ArgumentParser:
     option(p, "--smooth", bool, help="also run the Rauch-Tung-Striebel smoother (offline: "
            "uses the whole log); its columns are added beside the causal estimate")
     option(p, "--report", None, None, "PNG report to write: angles, rates, gyro biases "
-           "with +/-2 sigma, NIS consistency", metavar="FILE.png")
+           "with +/-2 sigma, NIS consistency (and the self-calibration states)",
+           metavar="FILE.png")
 
     p = command("observability", cmd_observability,
                 "observability of the kinematic model along a swing", "out/observability")

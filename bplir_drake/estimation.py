@@ -28,8 +28,8 @@ import numpy as np
 from .io import atomic_path
 
 from .params import EstimatorParams
-from .systems.ekf import (EkfState, ekf_predict, ekf_update, initial_state, prediction_input,
-                          split_sample)
+from .systems.ekf import (EkfState, correct_sample, ekf_predict, ekf_update, initial_state,
+                          prediction_input, split_sample, state_layout)
 from .systems.imu import IMU_COLUMNS
 
 LOG_COLUMNS = ("t",) + IMU_COLUMNS
@@ -69,6 +69,18 @@ class EstimateResult:
     smoothed: np.ndarray | None = None
     smoothed_cov_diag: np.ndarray | None = None
     smoothed_bias: np.ndarray | None = None
+    #: self-calibration states (``estimate_misalignment``,
+    #: ``estimate_gyro_scale``): the estimates (N, 2) of the causal filter
+    #: and, with ``smooth``, of the smoother (None when not estimated)
+    misalignment: np.ndarray | None = None
+    gyro_scale: np.ndarray | None = None
+    smoothed_misalignment: np.ndarray | None = None
+    smoothed_gyro_scale: np.ndarray | None = None
+    #: the IMU distances r1, r2 (m; ``estimate_imu_position``)
+    imu_position: np.ndarray | None = None
+    smoothed_imu_position: np.ndarray | None = None
+    #: where each state sits in ``cov_diag`` (:func:`~bplir_drake.systems.ekf.state_layout`)
+    layout: dict | None = None
 
     def nis_check(self, confidence: float = 0.95) -> dict:
         """The mean NIS against its two-sided ``confidence`` band: for a
@@ -215,19 +227,19 @@ def estimate(t, samples, params: EstimatorParams, x0=(0.0, 0.0, 0.0, 0.0), *,
     samples = np.asarray(samples, dtype=float)
     skip = check_log(t, samples, params.period)
     s = initial_state(params, x0, sigmas)
+    layout, n = state_layout(params)
     bias0 = np.zeros(2)
     if calibrate_window > 0:
         win = (t - t[0] <= calibrate_window) & ~skip
         bias0 = samples[win, :2].mean(axis=0)
-        if params.estimate_bias:
-            s.x[4:6] = bias0
-    n = len(s.x)
+        if "bias" in layout:
+            s.x[layout["bias"]] = bias0
     N = len(t)
-    xs, covs, biases = np.zeros((N, 4)), np.zeros((N, n)), np.zeros((N, 2))
+    xs, covs, full = np.zeros((N, 4)), np.zeros((N, n)), np.zeros((N, n))
     nis = np.full(N, np.nan)
     # what the backward pass needs: priors, posteriors, transition Jacobians
     priors, posteriors, jacobians = [], [], []
-    u_prev = None
+    u_prev = radial_prev = None
     bar = progress_bar(progress and N >= PROGRESS_MIN_SAMPLES, desc="estimate", unit="samples",
                        total=N)
     for k in range(N):
@@ -235,32 +247,48 @@ def estimate(t, samples, params: EstimatorParams, x0=(0.0, 0.0, 0.0, 0.0), *,
             bar.update(1000)
         A = None  # no transition into the first sample
         if skip[k]:  # predict over the missing sample, no update
-            s, A = ekf_predict(s, u_prev, params, with_jacobian=True)
+            s, A = ekf_predict(s, u_prev, params, with_jacobian=True, radial=radial_prev)
             prior = s
         else:
-            z, u = split_sample(samples[k])
+            # turned back by the misalignment estimate (a no-op without it)
+            z, u = split_sample(correct_sample(samples[k], s.x, params))
             if u_prev is not None:
                 s, A = ekf_predict(s, prediction_input(u_prev, u, params), params,
-                                   with_jacobian=True)
+                                   with_jacobian=True,
+                                   radial=prediction_input(radial_prev, z[2:4], params))
             prior = s
-            s, nu, S = ekf_update(s, z, u, params, with_innovation=True)
+            s, nu, S = ekf_update(s, z, u, params, with_innovation=True,
+                                  hold=t[k] - t[0] < params.calibrate_after)
             nis[k] = float(nu @ np.linalg.solve(S, nu))
-            u_prev = u
+            u_prev, radial_prev = u, z[2:4]
         if smooth:
             priors.append(prior)
             posteriors.append(s)
             jacobians.append(A)
         xs[k] = s.x[:4]
         covs[k] = np.diag(s.P)
-        biases[k] = s.x[4:6] if n > 4 else 0.0
+        full[k] = s.x
     bar.close()
+
+    def group(X, name):
+        return X[:, layout[name]] if name in layout else None
+
     base = gyro_integral(t, samples - np.concatenate([bias0, np.zeros(4)]), x0)
-    result = EstimateResult(t, xs, covs, biases, base, int(skip.sum()), nis)
+    bias = group(full, "bias")
+    result = EstimateResult(t, xs, covs, np.zeros((N, 2)) if bias is None else bias, base,
+                            int(skip.sum()), nis, misalignment=group(full, "misalign"),
+                            gyro_scale=group(full, "scale"),
+                            imu_position=group(full, "position"), layout=dict(layout))
     if smooth:
         sm = rts_smooth(priors, posteriors, jacobians)
-        result.smoothed = np.array([e.x[:4] for e in sm])
+        X = np.array([e.x for e in sm])
+        result.smoothed = X[:, :4]
         result.smoothed_cov_diag = np.array([np.diag(e.P) for e in sm])
-        result.smoothed_bias = np.array([e.x[4:6] if n > 4 else np.zeros(2) for e in sm])
+        bias = group(X, "bias")
+        result.smoothed_bias = np.zeros((N, 2)) if bias is None else bias
+        result.smoothed_misalignment = group(X, "misalign")
+        result.smoothed_gyro_scale = group(X, "scale")
+        result.smoothed_imu_position = group(X, "position")
     return result
 
 
@@ -289,6 +317,12 @@ def write_estimate_csv(result: EstimateResult, path: str | Path) -> Path:
                                 "var_theta1", "var_theta2", "nis"]
     parts = [result.t, result.x, result.gyro_integral, result.gyro_bias,
              result.cov_diag[:, :2], result.nis]
+    for names, values in ((("misalign1", "misalign2"), result.misalignment),
+                          (("gyro_scale1", "gyro_scale2"), result.gyro_scale),
+                          (("imu_r1", "imu_r2"), result.imu_position)):
+        if values is not None:   # self-calibration states
+            cols += list(names)
+            parts.append(values)
     if result.smoothed is not None:  # the smoother beside the causal estimate
         cols += ["smooth_" + c for c in EST_COLUMNS[1:]] + ["smooth_bias1", "smooth_bias2",
                                                             "smooth_var_theta1",

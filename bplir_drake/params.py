@@ -342,7 +342,28 @@ class EstimatorParams(_Block):
     estimate_bias: bool = True
     bias_sigma0: float = _positive(0.05, "rad/s", doc="initial gyro-bias standard deviation")
     bias_walk: float = _positive(1e-3, "rad/s/sqrt(s)", doc="gyro-bias random walk")
+    estimate_misalignment: bool = False
+    misalign_sigma0: float = _positive(0.05, "rad", doc="initial accelerometer-misalignment standard deviation (self-calibration states)")
+    misalign_walk: float = _positive(1e-4, "rad/sqrt(s)", doc="accelerometer-misalignment random walk")
+    estimate_gyro_scale: bool = False
+    gyro_scale_sigma0: float = _positive(0.02, "1", doc="initial gyro scale-error standard deviation (self-calibration states)")
+    gyro_scale_walk: float = _positive(1e-5, "1/sqrt(s)", doc="gyro scale-error random walk")
+    estimate_imu_position: bool = False
+    calibrate_after: float = _p(0.0, "s", 0, 3600, doc="the gyro-bias and self-calibration states are held (Schmidt 'consider' states: not updated) for this long after the first sample, while the angles converge from an unknown start (0: never held; a swing starts from its known pose)")
+    imu_position_sigma0: float = _positive(0.02, "m", doc="initial standard deviation of each IMU's distance along its link (self-calibration states; they start at r1, r2)")
+    imu_position_walk: float = _positive(1e-5, "m/sqrt(s)", doc="IMU-distance random walk")
     plugin: str = ""   # "module:factory" of a user's estimator (replaces the EKF in a swing)
+
+    def self_calibrating(self) -> "EstimatorParams":
+        """The same filter with the self-calibration states (accelerometer
+        misalignment, gyro scale and IMU distance beside the gyro biases),
+        the second-order angle step (explicit Euler lags the angles by half
+        a period, 5 ms) and those states held for the first 2 s, while the
+        angles converge from an unknown start (``bplir estimate
+        --self-calibrate``; issue 20)."""
+        return replace(self, estimate_bias=True, estimate_misalignment=True,
+                       estimate_gyro_scale=True, estimate_imu_position=True,
+                       integration="trapezoid", calibrate_after=max(self.calibrate_after, 2.0))
 
     def for_loop(self) -> "EstimatorParams":
         """The same filter with the in-loop tuning (used by the swing)."""

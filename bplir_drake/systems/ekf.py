@@ -1,7 +1,21 @@
 """Kinematic extended Kalman filter (chapter 5) as a discrete Drake system.
 
-State ``(theta1, theta2, omega1, omega2[, b1, b2])`` in absolute angles, with
-optional gyro-bias states (the dissertation's recommended extension).
+State ``(theta1, theta2, omega1, omega2[, b1, b2][, eps1, eps2][, k1, k2])``
+in absolute angles, with optional gyro-bias states (the dissertation's
+recommended extension) and self-calibration states (issue 20): each
+accelerometer's mounting misalignment ``eps_i`` and each gyro's scale error
+``k_i``, and each IMU's distance ``r_i`` along its link (:func:`state_layout`).
+
+Misalignment: a sample is rotated back by the current estimate of
+``eps_i`` before the step (as :meth:`ImuCalibration.correct` does with a
+standstill calibration).  A remaining error ``d = eps_i - eps_hat_i``
+leaves the corrected radial reading ``mu_y - d mu_x`` and the tangential
+input ``mu_x + d mu_y`` (first order), which gives the misalignment columns
+of the update and transition Jacobians (:func:`misalignment_columns`).
+Gravity turns with the link angle *and* the misalignment, the centripetal
+and tangential terms with the misalignment only: while the links swing,
+both are observable (:mod:`bplir_drake.analysis.estimation.observability`).
+A gyro reads ``(1 + k_i) omega_i + b_i``.
 Prediction (5.10) discretised by explicit Euler (5.3) with the measured
 tangential accelerations ``u = (mu_x1, mu_x2)`` as inputs; measurement
 ``z = (gyro1, gyro2, mu_y1, mu_y2)`` (5.11)-(5.12).  The filter uses geometry
@@ -39,13 +53,48 @@ from .schedule import declare_store, declare_tick_result
 
 # ----------------------------------------------------------- model functions
 
+@lru_cache(maxsize=64)
+def state_layout(p: EstimatorParams) -> tuple[dict, int]:
+    """({group: slice} of the optional states, state size): ``"bias"`` (gyro
+    biases), ``"misalign"`` (accelerometer misalignments), ``"scale"``
+    (gyro scale errors), ``"position"`` (the IMUs' distances r1, r2 along
+    their links), each 2 wide and in this order after the 4 angles and
+    rates, when the parameters turn them on."""
+    layout, n = {}, 4
+    for on, name in ((p.estimate_bias, "bias"), (p.estimate_misalignment, "misalign"),
+                     (p.estimate_gyro_scale, "scale"), (p.estimate_imu_position, "position")):
+        if on:
+            layout[name] = slice(n, n + 2)
+            n += 2
+    return layout, n
+
+
+def _gyro_terms(x, p: EstimatorParams):
+    """(bias, scale error) per gyro from the state (zeros when not estimated)."""
+    layout, _ = state_layout(p)
+
+    def pair(name):
+        sl = layout.get(name)
+        return [x[sl.start], x[sl.start + 1]] if sl and len(x) >= sl.stop else [0.0, 0.0]
+
+    return pair("bias"), pair("scale")
+
+
+def imu_radii(x, p: EstimatorParams):
+    """(r1, r2): the IMU distances of the state, or the geometry's."""
+    layout, _ = state_layout(p)
+    sl = layout.get("position")
+    return (x[sl.start], x[sl.start + 1]) if sl and len(x) >= sl.stop else (p.r1, p.r2)
+
+
 def kinematic_f(x, u, p: EstimatorParams):
     """Continuous kinematic model (5.10); ``x`` may carry bias states."""
     t1, t2, w1, w2 = x[0], x[1], x[2], x[3]
     s1, s2 = dmath.sin(t1), dmath.sin(t2)
     s21, c21 = dmath.sin(t2 - t1), dmath.cos(t2 - t1)
-    a1 = (u[0] - p.g * s1) / p.r1
-    a2 = (-p.l1 * c21 * a1 + u[1] - p.g * s2 - p.l1 * w1 ** 2 * s21) / p.r2
+    r1, r2 = imu_radii(x, p)
+    a1 = (u[0] - p.g * s1) / r1
+    a2 = (-p.l1 * c21 * a1 + u[1] - p.g * s2 - p.l1 * w1 ** 2 * s21) / r2
     out = [w1, w2, a1, a2]
     out += [0.0 * x[i] for i in range(4, len(x))]  # biases: random walk
     return np.array(out)
@@ -56,14 +105,14 @@ def kinematic_h(x, u, p: EstimatorParams):
     t1, t2, w1, w2 = x[0], x[1], x[2], x[3]
     c1, c2 = dmath.cos(t1), dmath.cos(t2)
     s21, c21 = dmath.sin(t2 - t1), dmath.cos(t2 - t1)
-    a1 = (u[0] - p.g * dmath.sin(t1)) / p.r1
-    b1 = x[4] if len(x) > 4 else 0.0
-    b2 = x[5] if len(x) > 4 else 0.0
+    r1, r2 = imu_radii(x, p)
+    a1 = (u[0] - p.g * dmath.sin(t1)) / r1
+    (b1, b2), (k1, k2) = _gyro_terms(x, p)
     return np.array([
-        w1 + b1,
-        w2 + b2,
-        p.r1 * w1 ** 2 + p.g * c1,
-        p.l1 * (-a1 * s21 + w1 ** 2 * c21) + p.r2 * w2 ** 2 + p.g * c2,
+        (1.0 + k1) * w1 + b1,
+        (1.0 + k2) * w2 + b2,
+        r1 * w1 ** 2 + p.g * c1,
+        p.l1 * (-a1 * s21 + w1 ** 2 * c21) + r2 * w2 ** 2 + p.g * c2,
     ])
 
 
@@ -113,14 +162,19 @@ def noise_matrices(p: EstimatorParams):
 
 def initial_state(p: EstimatorParams, x0, sigmas=None) -> EkfState:
     """Initial filter state; ``sigmas`` = (angle, rate[, bias]) overrides p0."""
-    n = 6 if p.estimate_bias else 4
+    layout, n = state_layout(p)
     x = np.zeros(n)
-    x[:4] = np.asarray(x0, dtype=float)[:4]
-    if p.estimate_bias and len(x0) >= 6:
-        x[4:6] = x0[4:6]
+    if "position" in layout:
+        x[layout["position"]] = (p.r1, p.r2)
+    x0 = np.asarray(x0, dtype=float)
+    x[:min(n, len(x0))] = x0[:n]
     a, r, b = (tuple(sigmas) + (p.bias_sigma0,))[:3] if sigmas is not None else \
         (p.p0_angle, p.p0_rate, p.bias_sigma0)
-    sd = [a] * 2 + [r] * 2 + ([b] * 2 if p.estimate_bias else [])
+    sd = [a] * 2 + [r] * 2
+    sd += [b] * 2 if "bias" in layout else []
+    sd += [p.misalign_sigma0] * 2 if "misalign" in layout else []
+    sd += [p.gyro_scale_sigma0] * 2 if "scale" in layout else []
+    sd += [p.imu_position_sigma0] * 2 if "position" in layout else []
     return EkfState(x, np.diag(np.square(sd)))
 
 
@@ -145,9 +199,10 @@ def kinematic_f_jacobians(x, u, p: EstimatorParams):
     t1, t2, w1 = float(x[0]), float(x[1]), float(x[2])
     s1, c1, s2, c2 = math.sin(t1), math.cos(t1), math.sin(t2), math.cos(t2)
     s21, c21 = math.sin(t2 - t1), math.cos(t2 - t1)
-    a1 = (u[0] - p.g * s1) / p.r1
-    a1_t1 = -p.g * c1 / p.r1
-    l1, r2 = p.l1, p.r2
+    r1, r2 = (float(r) for r in imu_radii(x, p))
+    a1 = (u[0] - p.g * s1) / r1
+    a1_t1 = -p.g * c1 / r1
+    l1 = p.l1
     a2 = (-l1 * c21 * a1 + u[1] - p.g * s2 - l1 * w1 * w1 * s21) / r2
     f = np.zeros(n)
     f[:4] = (w1, x[3], a1, a2)
@@ -158,9 +213,15 @@ def kinematic_f_jacobians(x, u, p: EstimatorParams):
     A[3, 1] = (l1 * s21 * a1 - p.g * c2 - l1 * w1 * w1 * c21) / r2
     A[3, 2] = -2.0 * l1 * w1 * s21 / r2
     B = np.zeros((n, 2))
-    B[2, 0] = 1.0 / p.r1
-    B[3, 0] = -l1 * c21 / (p.r1 * r2)
+    B[2, 0] = 1.0 / r1
+    B[3, 0] = -l1 * c21 / (r1 * r2)
     B[3, 1] = 1.0 / r2
+    layout, _ = state_layout(p)
+    if "position" in layout and n >= layout["position"].stop:
+        m = layout["position"].start
+        A[2, m] = -a1 / r1
+        A[3, m] = l1 * c21 * a1 / (r1 * r2)
+        A[3, m + 1] = -a2 / r2
     return f, A, B
 
 
@@ -185,46 +246,103 @@ def kinematic_h_jacobian(x, u, p: EstimatorParams):
     t1, t2, w1, w2 = (float(v) for v in x[:4])
     s1, c1, s2, c2 = math.sin(t1), math.cos(t1), math.sin(t2), math.cos(t2)
     s21, c21 = math.sin(t2 - t1), math.cos(t2 - t1)
-    a1 = (u[0] - p.g * s1) / p.r1
-    a1_t1 = -p.g * c1 / p.r1
+    r1, r2 = (float(r) for r in imu_radii(x, p))
+    a1 = (u[0] - p.g * s1) / r1
+    a1_t1 = -p.g * c1 / r1
     l1 = p.l1
-    b1, b2 = (x[4], x[5]) if n > 4 else (0.0, 0.0)
-    h = np.array([w1 + b1, w2 + b2, p.r1 * w1 * w1 + p.g * c1,
-                  l1 * (-a1 * s21 + w1 * w1 * c21) + p.r2 * w2 * w2 + p.g * c2])
+    layout, _ = state_layout(p)
+    (b1, b2), (k1, k2) = _gyro_terms(x, p)
+    h = np.array([(1.0 + k1) * w1 + b1, (1.0 + k2) * w2 + b2, r1 * w1 * w1 + p.g * c1,
+                  l1 * (-a1 * s21 + w1 * w1 * c21) + r2 * w2 * w2 + p.g * c2])
     H = np.zeros((4, n))
-    H[0, 2] = H[1, 3] = 1.0
-    if n > 4:
-        H[0, 4] = H[1, 5] = 1.0
+    H[0, 2], H[1, 3] = 1.0 + k1, 1.0 + k2
+    if "bias" in layout and n >= layout["bias"].stop:
+        H[0, layout["bias"].start] = H[1, layout["bias"].start + 1] = 1.0
+    if "scale" in layout and n >= layout["scale"].stop:
+        H[0, layout["scale"].start], H[1, layout["scale"].start + 1] = w1, w2
     H[2, 0] = -p.g * s1
-    H[2, 2] = 2.0 * p.r1 * w1
+    H[2, 2] = 2.0 * r1 * w1
     H[3, 0] = l1 * (-a1_t1 * s21 + a1 * c21 + w1 * w1 * s21)
     H[3, 1] = l1 * (-a1 * c21 - w1 * w1 * s21) - p.g * s2
     H[3, 2] = 2.0 * l1 * w1 * c21
-    H[3, 3] = 2.0 * p.r2 * w2
+    H[3, 3] = 2.0 * r2 * w2
+    if "position" in layout and n >= layout["position"].stop:
+        m = layout["position"].start
+        H[2, m] = w1 * w1
+        H[3, m] = l1 * s21 * a1 / r1
+        H[3, m + 1] = w2 * w2
     return h, H
 
 
-def ekf_predict(s: EkfState, u, p: EstimatorParams, *, with_jacobian: bool = False):
+def _walk_variances(p: EstimatorParams) -> np.ndarray:
+    """Per-second random-walk variances of the optional states (layout order)."""
+    layout, n = state_layout(p)
+    q = np.zeros(n)
+    for name, walk in (("bias", p.bias_walk), ("misalign", p.misalign_walk),
+                       ("scale", p.gyro_scale_walk), ("position", p.imu_position_walk)):
+        if name in layout:
+            q[layout[name]] = walk ** 2
+    return q
+
+
+def misalignment_columns(radial, W) -> np.ndarray:
+    """d(.)/d eps (rows, 2) of a quantity that depends on the tangential
+    inputs through ``W = d(.)/du`` (rows, 2): the corrected tangential
+    reading is ``mu_x + d mu_y`` for a misalignment error ``d``, so the
+    true input is the corrected one less ``d mu_y`` (``radial``: the
+    corrected radial readings)."""
+    return -np.asarray(W) * np.asarray(radial, dtype=float)[None, :]
+
+
+def ekf_predict(s: EkfState, u, p: EstimatorParams, *, with_jacobian: bool = False,
+                radial=None):
     """(5.23)-(5.24): prediction over one period; ``A = df_d/dx`` and
     ``W = df_d/du`` in closed form (:func:`discrete_f_jacobians`).  With
-    ``with_jacobian`` returns ``(state, A)`` (for a smoother)."""
+    misalignment states, ``radial`` (the corrected radial readings paired
+    with ``u``) gives their transition columns.  With ``with_jacobian``
+    returns ``(state, A)`` (for a smoother)."""
+    layout, _ = state_layout(p)
     x_new, A, W = discrete_f_jacobians(s.x, np.asarray(u, dtype=float), p)
-    n = len(s.x)
-    Qu, _, qb = noise_matrices(p)
+    if "misalign" in layout and radial is not None:
+        A[:, layout["misalign"]] += misalignment_columns(radial, W)
+    Qu, _, _ = noise_matrices(p)
     P = A @ s.P @ A.T + (W @ Qu) @ W.T
-    if n > 4:
-        P[4:, 4:] += qb * p.period * np.eye(2)
+    if len(s.x) > 4:
+        P[np.diag_indices(len(s.x))] += _walk_variances(p)[:len(s.x)] * p.period
     return (EkfState(x_new, P), A) if with_jacobian else EkfState(x_new, P)
 
 
-def ekf_update(s: EkfState, z, u, p: EstimatorParams, *, with_innovation: bool = False):
-    """(5.29)-(5.31), Joseph form.  With ``with_innovation`` returns
-    ``(state, innovation, its covariance S)`` (for consistency checks)."""
-    h, H = kinematic_h_jacobian(s.x, np.asarray(u, dtype=float), p)
+def ekf_update(s: EkfState, z, u, p: EstimatorParams, *, with_innovation: bool = False,
+               hold: bool = False):
+    """(5.29)-(5.31), Joseph form.  ``z`` and ``u`` are the sample corrected
+    by the state's misalignment estimate (:func:`correct_sample`); with
+    misalignment states the radial rows get their columns ``-mu_x`` (and
+    the elbow IMU's row its dependence on link 1's tangential input).  With
+    ``hold`` the states beyond the angles and rates are considered but not
+    updated (their gain rows zeroed: the Schmidt-Kalman filter; the Joseph
+    form keeps the covariance right for any gain), as while the angles
+    converge from a start far off, where a filter would otherwise explain
+    its angle error by biases and misalignments.  With ``with_innovation``
+    returns ``(state, innovation, its covariance S)`` (for consistency
+    checks)."""
+    layout, _ = state_layout(p)
+    u = np.asarray(u, dtype=float)
+    h, H = kinematic_h_jacobian(s.x, u, p)
+    if "misalign" in layout:
+        m = layout["misalign"].start
+        H[2, m] -= u[0]
+        H[3, m + 1] -= u[1]
+        # h_y2 reads link 1's tangential input (d h_y2 / d u1 = -l1 sin(t2 - t1) / r1)
+        H[3, m:m + 2] += misalignment_columns(
+            z_radial(z), [[-p.l1 * math.sin(s.x[1] - s.x[0]) / imu_radii(s.x, p)[0],
+                           0.0]])[0]
     _, R, _ = noise_matrices(p)
     PHt = s.P @ H.T
     S = H @ PHt + R
     K = np.linalg.solve(S, PHt.T).T
+    held = _held_states(p) if hold else None
+    if held is not None:   # Schmidt: considered, not updated, while the angles converge
+        K[held] = 0.0
     nu = np.asarray(z, dtype=float) - h
     x = s.x + K @ nu
     IKH = np.eye(len(s.x)) - K @ H
@@ -233,19 +351,53 @@ def ekf_update(s: EkfState, z, u, p: EstimatorParams, *, with_innovation: bool =
     return (out, nu, S) if with_innovation else out
 
 
+def _held_states(p: EstimatorParams):
+    """The slice of the states beyond the angles and rates (gyro bias and
+    self-calibration), which ``hold`` keeps from updating."""
+    _, n = state_layout(p)
+    return slice(4, n) if n > 4 else None
+
+
+def z_radial(z) -> np.ndarray:
+    """The radial accelerometer readings (mu_y1, mu_y2) of a measurement ``z``."""
+    return np.asarray(z, dtype=float)[2:4]
+
+
+def correct_sample(sample, x, p: EstimatorParams) -> np.ndarray:
+    """``sample`` with each accelerometer turned back by the state's
+    misalignment estimate (unchanged without misalignment states)."""
+    layout, _ = state_layout(p)
+    sample = np.asarray(sample, dtype=float)
+    if "misalign" not in layout:
+        return sample
+    out = sample.copy()
+    for i, eps in enumerate(np.asarray(x)[layout["misalign"]]):
+        c, s_ = math.cos(eps), math.sin(eps)
+        ax, ay = sample[2 + 2 * i], sample[3 + 2 * i]
+        out[2 + 2 * i], out[3 + 2 * i] = c * ax - s_ * ay, s_ * ax + c * ay
+    return out
+
+
 def split_sample(sample):
     """IMU 6-vector -> (z = gyro1, gyro2, mu_y1, mu_y2; u = mu_x1, mu_x2)."""
     g1, g2, a1x, a1y, a2x, a2y = sample
     return np.array([g1, g2, a1y, a2y]), np.array([a1x, a2x])
 
 
-def ekf_step(s: EkfState, u_prev, sample, p: EstimatorParams, *, first: bool = False):
+def ekf_step(s: EkfState, u_prev, sample, p: EstimatorParams, *, first: bool = False,
+             hold: bool = False):
     """One filter period: predict with the previous input, update with the
-    new sample.  Returns (new state, new input)."""
-    z, u = split_sample(sample)
+    new sample.  ``u_prev`` holds the previous corrected accelerometer
+    readings (mu_x1, mu_x2, mu_y1, mu_y2; the first two suffice without
+    misalignment states).  ``hold``: see :func:`ekf_update`.  Returns (new
+    state, this sample's 4 readings)."""
+    z, u = split_sample(correct_sample(sample, s.x, p))
+    acc = np.r_[u, z[2:4]]
     if not first:
-        s = ekf_predict(s, prediction_input(u_prev, u, p), p)
-    return ekf_update(s, z, u, p), u
+        u_prev = np.asarray(u_prev, dtype=float)
+        radial = prediction_input(u_prev[2:4], z[2:4], p) if len(u_prev) > 2 else None
+        s = ekf_predict(s, prediction_input(u_prev[:2], u, p), p, radial=radial)
+    return ekf_update(s, z, u, p, hold=hold), acc
 
 
 def prediction_input(u_prev, u, p: EstimatorParams) -> np.ndarray:
@@ -276,13 +428,16 @@ class KinematicEkf(LeafSystem):
             raise TypeError("KinematicEkf takes EstimatorParams (geometry and noise only)")
         self.params = params
         calibration = calibration or ImuCalibration()
-        if params.estimate_bias:
+        layout, _ = state_layout(params)
+        if "bias" in layout:
             x0 = (*np.asarray(x0, dtype=float)[:4], *calibration.bias)
         init = initial_state(params, x0, sigmas)
+        self._bias = layout.get("bias")
         self.n = n = len(init.x)
         self.imu_port = self.DeclareVectorInputPort("imu", 6)
-        # [x (n), P (n*n), previous accelerometer input (2), first-sample flag]: _unpack()
-        packed = np.concatenate([init.x, init.P.ravel(), [0.0, 0.0], [1.0]])
+        # [x (n), P (n*n), previous corrected accelerometer readings (4),
+        # first-sample flag]: _unpack()
+        packed = np.concatenate([init.x, init.P.ravel(), np.zeros(4), [1.0]])
         self._state = self.DeclareDiscreteState(packed)
         # the standstill calibration: samples are corrected before the update
         self._calibration = self.DeclareAbstractParameter(AbstractValue.Make(calibration))
@@ -302,14 +457,15 @@ class KinematicEkf(LeafSystem):
         the packed discrete state."""
         n = self.n
         return (EkfState(v[:n].copy(), v[n:n + n * n].reshape(n, n).copy()),
-                v[n + n * n:n + n * n + 2], v[-1] > 0.5)
+                v[n + n * n:n + n * n + 4], v[-1] > 0.5)
 
     def _posterior(self, context):
         """The packed filter state after this tick's sample."""
         s, u_prev, first = self._unpack(context.get_discrete_state(self._state).get_value())
         sample = context.get_abstract_parameter(self._calibration).get_value().correct(
             self.imu_port.Eval(context))
-        s, u = ekf_step(s, u_prev, sample, self.params, first=first)
+        s, u = ekf_step(s, u_prev, sample, self.params, first=first,
+                        hold=context.get_time() < self.params.calibrate_after)
         return np.concatenate([s.x, s.P.ravel(), u, [0.0]])
 
     def _store(self, context, discrete_state):
@@ -321,10 +477,10 @@ class KinematicEkf(LeafSystem):
         estimate."""
         own = self.GetMyMutableContextFromRoot(context)
         own.get_mutable_abstract_parameter(self._calibration).set_value(calibration)
-        if self.n > 4:
+        if self._bias is not None:
             state = own.get_mutable_discrete_state(self._state)
-            state.SetAtIndex(4, calibration.bias[0])
-            state.SetAtIndex(5, calibration.bias[1])
+            state.SetAtIndex(self._bias.start, calibration.bias[0])
+            state.SetAtIndex(self._bias.start + 1, calibration.bias[1])
 
     def _out_abs(self, context, out):
         out.SetFromVector(self._post.Eval(context)[:4])
@@ -339,4 +495,4 @@ class KinematicEkf(LeafSystem):
 
     def _out_bias(self, context, out):
         x = self._post.Eval(context)
-        out.SetFromVector(x[4:6] if self.n > 4 else [0.0, 0.0])
+        out.SetFromVector(x[self._bias] if self._bias is not None else [0.0, 0.0])

@@ -179,3 +179,53 @@ def plant_gyro_observability(params, threshold: float = 1e-6) -> dict:
             "threshold_scaled": threshold,
             "condition_number_raw": float(s[0] / s[-1]),
             "time_scale_s": 1.0 / w}
+
+
+#: the self-calibration states and their units, in state order
+CALIBRATION_STATES = {"bias": ("gyro bias", "rad/s"), "misalign": ("misalignment", "rad"),
+                      "scale": ("gyro scale error", "1"), "position": ("IMU distance", "m")}
+
+
+def calibration_identifiability(result, params: EstimatorParams,
+                                threshold: float = 0.3) -> list[dict]:
+    """Which calibration states a log identifies.
+
+    For every calibration state of the filter (gyro bias, accelerometer
+    misalignment, gyro scale, IMU distance; per IMU) the filter's standard
+    deviation at the end of the log (``result.cov_diag``, the EKF's own
+    covariance, which already weighs the log's information against the
+    process noise) is compared with the prior's (``*_sigma0``).  A state is
+    *identified* when the ratio is below ``threshold`` (0.3: the log holds
+    at least 10x the prior's information about it).  Where the linearised
+    model cannot tell a state from the others (a misalignment while the
+    links are still, a gyro scale or an IMU distance without motion) the
+    ratio stays near 1: that is the observability check on real data.
+    The ratio is about the filter's model; it assumes its noise levels."""
+    from ...systems.ekf import state_layout
+
+    layout, _ = state_layout(params)
+    prior = {"bias": params.bias_sigma0, "misalign": params.misalign_sigma0,
+             "scale": params.gyro_scale_sigma0, "position": params.imu_position_sigma0}
+    rows = []
+    for group, (label, unit) in CALIBRATION_STATES.items():
+        if group not in layout:
+            continue
+        for i, k in enumerate(range(layout[group].start, layout[group].stop)):
+            sigma = float(np.sqrt(result.cov_diag[-1, k]))
+            value = _state_value(result, group, i)
+            rows.append({"state": f"{label} {i + 1}", "group": group, "unit": unit,
+                         "estimate": value, "sigma": sigma, "prior_sigma": prior[group],
+                         "ratio": sigma / prior[group],
+                         "identified": bool(sigma / prior[group] < threshold)})
+    return rows
+
+
+def _state_value(result, group: str, i: int) -> float:
+    """The final estimate of a calibration state (smoothed when available)."""
+    names = {"bias": ("gyro_bias", "smoothed_bias"),
+             "misalign": ("misalignment", "smoothed_misalignment"),
+             "scale": ("gyro_scale", "smoothed_gyro_scale"),
+             "position": ("imu_position", "smoothed_imu_position")}[group]
+    smoothed = getattr(result, names[1])
+    values = smoothed if smoothed is not None else getattr(result, names[0])
+    return float(values[-1, i])

@@ -66,9 +66,15 @@ def plot_estimate_report(result, axes=None, *, truth=None, title="Estimation rep
     rates (filter, smoother when run, gyro integral, truth when known), the
     estimated gyro biases with their +/-2 sigma bands, and the normalised
     innovation squared (a 1 s moving mean) against its 95 % band with the
-    whole log's consistency verdict.  Six axes (3 x 2); returns the figure."""
+    whole log's consistency verdict; with self-calibration states a fourth
+    row: the accelerometer misalignments, the gyro scale errors and the IMU
+    distances, each with +/-2 sigma.  Six or eight axes (3 or 4 x 2);
+    returns the figure."""
     t = result.t
-    fig, ax = figure_axes(axes, 3, 2, figsize=(12, 9), sharex=True)
+    layout = result.layout or ({"bias": slice(4, 6)} if result.cov_diag.shape[1] > 4 else {})
+    calib = any(g in layout for g in ("misalign", "scale", "position"))
+    fig, ax = figure_axes(axes, 4 if calib else 3, 2, figsize=(12, 12 if calib else 9),
+                          sharex=True)
     for i in range(2):
         for row, col, label, unit in ((0, i, f"theta{i + 1}", "rad"),
                                       (1, i, f"omega{i + 1}", "rad/s")):
@@ -84,9 +90,10 @@ def plot_estimate_report(result, axes=None, *, truth=None, title="Estimation rep
             a.set_ylabel(f"{label} [{unit}]")
             a.legend(loc="upper right", fontsize=7)
     a = ax[2, 0]
-    if result.cov_diag.shape[1] > 4:
+    if "bias" in layout:
         for i in range(2):
-            b, sd = result.gyro_bias[:, i], 2 * np.sqrt(result.cov_diag[:, 4 + i])
+            b = result.gyro_bias[:, i]
+            sd = 2 * np.sqrt(result.cov_diag[:, layout["bias"].start + i])
             a.plot(t, b, f"C{i}", label=f"bias {i + 1}")
             a.fill_between(t, b - sd, b + sd, color=f"C{i}", alpha=0.2, lw=0)
         a.legend(loc="upper right", fontsize=7)
@@ -110,8 +117,46 @@ def plot_estimate_report(result, axes=None, *, truth=None, title="Estimation rep
                 f"[{check['band'][0]:.2f}, {check['band'][1]:.2f}]: "
                 + ("consistent" if check["consistent"] else "inconsistent"), fontsize=9)
     a.legend(loc="upper right", fontsize=7)
+    if calib:
+        _plot_calibration_states(result, layout, ax[3])
     for a in ax.flat:
         a.grid(True, alpha=0.3)
-    for a in ax[2]:
+    for a in ax[-1]:
         a.set_xlabel("time [s]")
     return finish(fig, title)
+
+
+def _band(a, t, value, sd2, color, label):
+    a.plot(t, value, color, lw=1, label=label)
+    a.fill_between(t, value - sd2, value + sd2, color=color, alpha=0.2, lw=0)
+
+
+def _plot_calibration_states(result, layout, ax):
+    """Misalignments (deg) on ``ax[0]``; gyro scale errors (%) on ``ax[1]``
+    and the IMU distances (mm from the filter's geometry at the start) on a
+    second axis of it; all with +/-2 sigma."""
+    t = result.t
+    var = result.cov_diag
+    a = ax[0]
+    if "misalign" in layout:
+        for i in range(2):
+            _band(a, t, np.degrees(result.misalignment[:, i]),
+                  2 * np.degrees(np.sqrt(var[:, layout["misalign"].start + i])), f"C{i}",
+                  f"accelerometer {i + 1}")
+        a.legend(loc="upper right", fontsize=7)
+    a.set_ylabel("misalignment ±2σ [deg]")
+    a = ax[1]
+    if "scale" in layout:
+        for i in range(2):
+            _band(a, t, 100 * result.gyro_scale[:, i],
+                  200 * np.sqrt(var[:, layout["scale"].start + i]), f"C{i}", f"gyro {i + 1} scale")
+        a.set_ylabel("gyro scale error ±2σ [%]")
+        a.legend(loc="upper left", fontsize=7)
+    if "position" in layout:
+        b = a.twinx()
+        for i in range(2):
+            r = result.imu_position[:, i]
+            _band(b, t, 1e3 * (r - r[0]), 2e3 * np.sqrt(var[:, layout["position"].start + i]),
+                  f"C{i + 2}", f"IMU {i + 1} distance")
+        b.set_ylabel("IMU distance - start ±2σ [mm]")
+        b.legend(loc="upper right", fontsize=7)

@@ -335,7 +335,8 @@ def test_every_json_output_is_strict(tmp_path, capsys):
     runs = [("model",), ("freeswing", "--duration", "1", "--out", tmp_path / "fs"),
             ("estimate", log),
             ("observability", "--duration", "1", "--out", tmp_path / "ob"),
-            ("swing", "--incline", "20", "--no-animation", "--out", tmp_path / "sw"),
+            ("swing", "--incline", "20", "--controller", "dissertation", "--no-animation",
+             "--out", tmp_path / "sw"),
             ("montecarlo", "-n", "2", "--workers", "1", "--no-plots", "--out", tmp_path / "mc"),
             ("benchmark", "--quick", "--controllers", "lab", "--workers", "1",
              "--out", tmp_path / "bm"),
@@ -471,7 +472,7 @@ def test_shipped_plans_serve_a_fresh_install(monkeypatch, tmp_path):
     from bplir_drake.params import load_toml
 
     shipped = sorted(plan_cache.PACKAGED.glob("plan-*.npz"))
-    assert len(shipped) == 10   # the uphill example's 2, the example lines' 8
+    assert len(shipped) == 11   # +-20 deg (the quick start), 20 deg resting on the line, the lines' 8
     monkeypatch.setenv("BPLIR_CACHE_DIR", str(tmp_path))
 
     def no_solve(*a, **k):
@@ -480,9 +481,11 @@ def test_shipped_plans_serve_a_fresh_install(monkeypatch, tmp_path):
     monkeypatch.setattr(P, "_solve_plan", no_solve)
     p = load_toml(Path(__file__).resolve().parents[1] / "examples" / "uphill_plan.toml")
     p = p.with_(scenario=dc.replace(p.scenario, incline_deg=20.0))
-    for depth in (0.0, p.path.plan_end_depth):      # test_swing_plan's, the tracker's
-        plan = P.plan_swing(p, end_depth=depth)
-        assert plan.feasible and plan.incline_deg == 20.0
+    for incline, depth in ((20.0, 0.0), (20.0, p.path.plan_end_depth),   # test_swing_plan's,
+                           (-20.0, p.path.plan_end_depth)):              # the quick start's
+        q = p.with_(scenario=dc.replace(p.scenario, incline_deg=incline))
+        plan = P.plan_swing(q, end_depth=depth)
+        assert plan.feasible and plan.incline_deg == incline
     # every swing of the example lines (both robots, their inclines)
     from bplir_drake.analysis.traverse.line import load_line
     from bplir_drake.analysis.traverse.route import plan_route
@@ -503,10 +506,10 @@ def test_shipped_plans_serve_a_fresh_install(monkeypatch, tmp_path):
 
 
 def test_shipped_gains_serve_the_tests_plans(monkeypatch, tmp_path):
-    """The LQR gains of the plans the tests track (the 20 deg uphill swing
-    and both robots on the flat example line) ship too: with an empty cache
-    they are read, never solved, and every shipped gains file belongs to a
-    shipped plan."""
+    """The LQR gains of the plans the tests and the quick start track (the
+    +-20 deg swings and both robots on the flat example line) ship too: with
+    an empty cache they are read, never solved, and every shipped gains
+    file belongs to a shipped plan."""
     import dataclasses as dc
 
     from bplir_drake.analysis.swing import plan as P
@@ -525,7 +528,8 @@ def test_shipped_gains_serve_the_tests_plans(monkeypatch, tmp_path):
     up = load_toml(Path(__file__).resolve().parents[1] / "examples" / "uphill_plan.toml")
     up = up.with_(scenario=dc.replace(up.scenario, incline_deg=20.0))
     base = preset()
-    cases = [up] + [swing_params(base, g, base.traverse.grip_spacing, 0.0) for g in (1, 2)]
+    down = up.with_(scenario=dc.replace(up.scenario, incline_deg=-20.0))
+    cases = [up, down] + [swing_params(base, g, base.traverse.grip_spacing, 0.0) for g in (1, 2)]
     keys = set()
     for p in cases:
         plan, gains = P.tracking_plan(p)

@@ -203,7 +203,7 @@ def test_the_benchmark_names_the_estimator(tmp_path):
     from bplir_drake.analysis.montecarlo.benchmark import leaderboard, run_benchmark
 
     result = run_benchmark(BplirParams().with_estimator(EXAMPLE_EST), ["qft"], quick=True,
-                           workers=1, categories=["incline"])
+                           workers=1, categories=["sensor noise"])
     (entry,) = leaderboard(result)
     assert entry["estimator"] == EXAMPLE_EST and result["scores"]["qft"]["swings"] == 2
 

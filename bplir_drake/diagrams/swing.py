@@ -329,6 +329,9 @@ def build_swing(params: BplirParams, *, seed: int | None = None, use_estimator: 
         params, controller = params.with_controller(controller), None
     if isinstance(estimator, str):
         params, estimator = params.with_estimator(estimator), None
+    if controller is not None and params.path.mode == "auto":   # a user's controller
+        params = params.with_(path=replace(params.path, mode="adaptive"))
+    params = params.resolved()   # path.mode "auto" made concrete
     sc = params.scenario
     seed = sc.seed if seed is None else seed
     use_est = sc.use_estimator if use_estimator is None else use_estimator

@@ -214,13 +214,23 @@ def _solve_plan(params, q0, qT, tau_max, power, tmax, knots, time_weight, guess_
                      power, tolerance)
 
 
+#: initial-guess durations (s) :func:`tracking_plan` tries in turn until a
+#: plan is feasible (on a -8 deg line 1.5 s ends 1e-4 outside the
+#: constraint tolerance and 1.0 s does not)
+PLAN_GUESSES = (1.5, 1.0, 2.0)
+
+
 def tracking_plan(params: BplirParams):
     """(plan, tracking gains) for the scenario of ``params`` with
-    ``path.plan_end_depth``: the plan from :func:`plan_swing` (disk cache),
+    ``path.plan_end_depth``: the plan from :func:`plan_swing` (disk cache;
+    the first feasible one of the guesses :data:`PLAN_GUESSES`),
     the gains from Drake's finite-horizon LQR on the nominal model
     (:func:`tracking_gains`: disk cache too)."""
     sc, depth = params.scenario, params.path.plan_end_depth
-    plan = plan_swing(params, end_depth=depth)
+    for guess in PLAN_GUESSES:   # SNOPT sometimes stops just outside the tolerance
+        plan = plan_swing(params, end_depth=depth, guess_duration=guess)
+        if plan.feasible:
+            break
     if not plan.feasible:
         raise ParameterError(f"no feasible plan for a {sc.incline_deg:g} deg line within "
                              f"{plan.torque_limit:g} N m and {plan.power_limit:g} W")

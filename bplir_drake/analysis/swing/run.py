@@ -110,6 +110,7 @@ class SwingRunner:
             use_estimator: bool | None = None, accuracy: float = SWING_ACCURACY,
             integrator: str = SWING_INTEGRATOR, driver_state=None) -> SwingResult:
         """One swing; the arguments are those of :func:`run_swing`."""
+        params = params.resolved()   # path.mode "auto" made concrete
         sc = params.scenario
         seed = sc.seed if seed is None else int(seed)
         use_est = sc.use_estimator if use_estimator is None else use_estimator

@@ -520,6 +520,7 @@ class PathParams(_Block):
     pump_gain: float = _p(1.0, "", 0.5, 3, doc="RTS gain lam in the first half (energy pumping for inclines)")
     lab_gain: float = _p(1.5, "", 0, 5, doc="gain of the lab firmware path")
     plan_end_depth: float = _p(0.015, "m", 0, 0.1, doc="mode 'plan': the planned swing comes to rest this far below the line (inside the capture band); 15 mm chosen on seeds 0-19 at +-20 deg: 13 mm crashed 9/20 uphill, 17 mm timed out 4/20 downhill")
+    plan_spacing_step: float = _p(0.01, "m", 0, 0.1, doc="mode 'plan': the plan is made for the grip spacing measured at the start rounded to this step, so that a study drawing the spacing solves a few plans (one per step, cached), not one per swing (0: the exact spacing)")
     plan_indexing: str = "time"   # mode 'plan': "time" (reads the clock) or "state" (clock-free phase)
 
     def resolved(self, incline_deg: float, controller: "ControllerParams") -> "PathParams":

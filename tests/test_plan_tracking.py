@@ -125,3 +125,13 @@ def test_quick_start_captures_on_a_20_degree_line_without_a_config(tmp_path, cap
     main(argv + ["--controller", "dissertation", "--out", str(tmp_path / "b")])
     d = json.loads(capsys.readouterr().out)
     assert d["path_mode"] == "adaptive" and d["outcome"] == ("timeout" if incline > 0 else "crash")
+
+
+def test_a_measured_grip_spacing_uses_the_plan_of_its_grid_step(uphill):
+    """A study drawing the grip spacing solves one plan per
+    ``path.plan_spacing_step`` (1 cm), not one per swing: 1.204 m tracks
+    the 1.20 m plan (shipped: nothing is solved here)."""
+    near = uphill.with_(scenario=dc.replace(uphill.scenario, grip_spacing=1.204))
+    plan, gains = tracking_plan(near)
+    plan0, gains0 = tracking_plan(uphill)
+    assert np.array_equal(plan.states, plan0.states) and gains is gains0

@@ -222,11 +222,15 @@ PLAN_GUESSES = (1.5, 1.0, 2.0)
 
 def tracking_plan(params: BplirParams):
     """(plan, tracking gains) for the scenario of ``params`` with
-    ``path.plan_end_depth``: the plan from :func:`plan_swing` (disk cache;
+    ``path.plan_end_depth``, for its grip spacing rounded to
+    ``path.plan_spacing_step``: the plan from :func:`plan_swing` (disk cache;
     the first feasible one of the guesses :data:`PLAN_GUESSES`),
     the gains from Drake's finite-horizon LQR on the nominal model
     (:func:`tracking_gains`: disk cache too)."""
-    sc, depth = params.scenario, params.path.plan_end_depth
+    sc, depth, step = params.scenario, params.path.plan_end_depth, params.path.plan_spacing_step
+    if step > 0:   # the measured spacing on the plans' grid
+        spacing = round(round(sc.grip_spacing / step) * step, 9)
+        params = params.with_(scenario=replace(sc, grip_spacing=spacing))
     for guess in PLAN_GUESSES:   # SNOPT sometimes stops just outside the tolerance
         plan = plan_swing(params, end_depth=depth, guess_duration=guess)
         if plan.feasible:

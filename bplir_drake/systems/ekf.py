@@ -69,22 +69,28 @@ def state_layout(p: EstimatorParams) -> tuple[dict, int]:
     return layout, n
 
 
+#: per optional state group: the EstimatorParams fields of its prior
+#: standard deviation and its random walk (per sqrt(s))
+GROUP_NOISE = {"bias": ("bias_sigma0", "bias_walk"),
+               "misalign": ("misalign_sigma0", "misalign_walk"),
+               "scale": ("gyro_scale_sigma0", "gyro_scale_walk"),
+               "position": ("imu_position_sigma0", "imu_position_walk")}
+
+
+def _pair(x, p: EstimatorParams, group: str, default):
+    """The two states of ``group`` in ``x``, or ``default`` when not estimated."""
+    sl = state_layout(p)[0].get(group)
+    return (x[sl.start], x[sl.start + 1]) if sl and len(x) >= sl.stop else default
+
+
 def _gyro_terms(x, p: EstimatorParams):
     """(bias, scale error) per gyro from the state (zeros when not estimated)."""
-    layout, _ = state_layout(p)
-
-    def pair(name):
-        sl = layout.get(name)
-        return [x[sl.start], x[sl.start + 1]] if sl and len(x) >= sl.stop else [0.0, 0.0]
-
-    return pair("bias"), pair("scale")
+    return _pair(x, p, "bias", (0.0, 0.0)), _pair(x, p, "scale", (0.0, 0.0))
 
 
 def imu_radii(x, p: EstimatorParams):
     """(r1, r2): the IMU distances of the state, or the geometry's."""
-    layout, _ = state_layout(p)
-    sl = layout.get("position")
-    return (x[sl.start], x[sl.start + 1]) if sl and len(x) >= sl.stop else (p.r1, p.r2)
+    return _pair(x, p, "position", (p.r1, p.r2))
 
 
 def kinematic_f(x, u, p: EstimatorParams):
@@ -171,10 +177,8 @@ def initial_state(p: EstimatorParams, x0, sigmas=None) -> EkfState:
     a, r, b = (tuple(sigmas) + (p.bias_sigma0,))[:3] if sigmas is not None else \
         (p.p0_angle, p.p0_rate, p.bias_sigma0)
     sd = [a] * 2 + [r] * 2
-    sd += [b] * 2 if "bias" in layout else []
-    sd += [p.misalign_sigma0] * 2 if "misalign" in layout else []
-    sd += [p.gyro_scale_sigma0] * 2 if "scale" in layout else []
-    sd += [p.imu_position_sigma0] * 2 if "position" in layout else []
+    for group in layout:   # in state order
+        sd += [b if group == "bias" else getattr(p, GROUP_NOISE[group][0])] * 2
     return EkfState(x, np.diag(np.square(sd)))
 
 
@@ -278,10 +282,8 @@ def _walk_variances(p: EstimatorParams) -> np.ndarray:
     """Per-second random-walk variances of the optional states (layout order)."""
     layout, n = state_layout(p)
     q = np.zeros(n)
-    for name, walk in (("bias", p.bias_walk), ("misalign", p.misalign_walk),
-                       ("scale", p.gyro_scale_walk), ("position", p.imu_position_walk)):
-        if name in layout:
-            q[layout[name]] = walk ** 2
+    for group, sl in layout.items():
+        q[sl] = getattr(p, GROUP_NOISE[group][1]) ** 2
     return q
 
 

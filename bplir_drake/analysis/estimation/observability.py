@@ -201,11 +201,10 @@ def calibration_identifiability(result, params: EstimatorParams,
     links are still, a gyro scale or an IMU distance without motion) the
     ratio stays near 1: that is the observability check on real data.
     The ratio is about the filter's model; it assumes its noise levels."""
-    from ...systems.ekf import state_layout
+    from ...systems.ekf import GROUP_NOISE, state_layout
 
     layout, _ = state_layout(params)
-    prior = {"bias": params.bias_sigma0, "misalign": params.misalign_sigma0,
-             "scale": params.gyro_scale_sigma0, "position": params.imu_position_sigma0}
+    prior = {g: getattr(params, fields[0]) for g, fields in GROUP_NOISE.items()}
     rows = []
     for group, (label, unit) in CALIBRATION_STATES.items():
         if group not in layout:

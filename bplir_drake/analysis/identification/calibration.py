@@ -98,12 +98,12 @@ def check_calibration_log(t, q, tau, qd0=None, *, min_duration: float = 2.0) -> 
     """A :class:`CalibrationLog` from arrays, checked: at least 20 finite samples over
     ``min_duration`` seconds with increasing times."""
     t, q, tau = np.asarray(t, float), np.asarray(q, float), np.asarray(tau, float)
+    if not (np.all(np.isfinite(t)) and np.all(np.isfinite(q)) and np.all(np.isfinite(tau))):
+        raise CalibrationError("log has missing or non-finite values")
     if len(t) < 20 or t[-1] - t[0] < min_duration:
         dur = (t[-1] - t[0]) if len(t) else 0.0
         raise CalibrationError(f"log is too short: {len(t)} samples over {dur:.2f} s; need at "
                                f"least 20 samples and {min_duration:g} s")
-    if not (np.all(np.isfinite(t)) and np.all(np.isfinite(q)) and np.all(np.isfinite(tau))):
-        raise CalibrationError("log has missing or non-finite values")
     if np.any(np.diff(t) <= 0):
         k = int(np.argmax(np.diff(t) <= 0))
         raise CalibrationError(f"time is not increasing at row {k + 2}")

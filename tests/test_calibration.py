@@ -75,6 +75,8 @@ HEADER = "t,q1,q2,tau\n"
     (HEADER + "".join(f"{k * 0.01},{0.1},{0.0},0\n" for k in range(30)), "too short"),
     (HEADER + "".join(f"{k * 0.01},{0.1},{0.0},0\n" for k in range(400)), "no excitation"),
     (HEADER + "0,x,0,0\n", "non-numeric"),
+    (HEADER + "-inf,0.1,0,0\n" + "".join(f"{k * 0.01},{0.1},{0.0},0\n" for k in range(1, 30))
+     + "inf,0.1,0,0\n", "non-finite"),   # not "too short ... over nan s"
 ])
 def test_bad_calibration_logs(tmp_path, text, words, capsys):
     f = tmp_path / "bad.csv"

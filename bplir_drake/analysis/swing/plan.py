@@ -244,16 +244,17 @@ def tracking_plan(params: BplirParams):
 _GAINS: dict = {}
 
 
-def gains_inputs(plant, friction, plan: SwingPlan, weights=None) -> dict:
+def gains_inputs(plant, friction, plan: SwingPlan) -> dict:
     """Every input of the tracking gains of ``plan``: the nominal model
-    (plant, friction), the LQR weights and the plan's samples (by digest)."""
+    (plant, friction), the LQR weights (:class:`TrackerWeights`, as
+    :func:`plan_gains` uses them) and the plan's samples (by digest)."""
     from ...systems.plan_tracker import TrackerWeights
 
     digest = hashlib.sha256(b"".join(np.ascontiguousarray(a, dtype=float).tobytes()
                                      for a in (plan.times, plan.states, plan.torque)))
     return dict(plant=plant.as_dict(), friction=friction.as_dict(),
                 smoothing=PLAN_FRICTION_SMOOTHING,
-                weights=dataclasses.asdict(weights or TrackerWeights()),
+                weights=dataclasses.asdict(TrackerWeights()),
                 plan=digest.hexdigest())
 
 

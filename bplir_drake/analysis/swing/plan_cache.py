@@ -31,7 +31,6 @@ import dataclasses as dc
 import hashlib
 import json
 import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -105,15 +104,11 @@ def polynomial_from_arrays(breaks, coefficients):
 
 
 def _write_npz(path: Path, arrays: dict) -> None:
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}-", suffix=".npz")
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            np.savez(fh, **arrays)
-        os.replace(tmp, path)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        raise
+    """``arrays`` as ``.npz`` at ``path``, atomically (:func:`~bplir_drake.io.atomic_path`)."""
+    from ...io import atomic_path
+
+    with atomic_path(path) as tmp, open(tmp, "wb") as fh:
+        np.savez(fh, **arrays)
 
 
 def _save(plan, path: Path) -> None:

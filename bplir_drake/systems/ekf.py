@@ -158,12 +158,13 @@ class EkfState:
 
 @lru_cache(maxsize=64)
 def noise_matrices(p: EstimatorParams):
-    """(Q_u (2x2) on the accelerometer inputs, R (4x4), Q_bias per second);
-    cached per parameter block (read-only arrays)."""
+    """(Q_u (2x2) on the accelerometer inputs, R (4x4)); cached per
+    parameter block (read-only arrays).  The optional states' random walks:
+    :func:`_walk_variances`."""
     Qu = p.accel_process_sigma ** 2 * np.eye(2)
     R = np.diag([p.gyro_meas_sigma ** 2] * 2 + [p.accel_meas_sigma ** 2] * 2)
     Qu.flags.writeable = R.flags.writeable = False
-    return Qu, R, p.bias_walk ** 2
+    return Qu, R
 
 
 def initial_state(p: EstimatorParams, x0, sigmas=None) -> EkfState:
@@ -307,10 +308,9 @@ def ekf_predict(s: EkfState, u, p: EstimatorParams, *, with_jacobian: bool = Fal
     x_new, A, W = discrete_f_jacobians(s.x, np.asarray(u, dtype=float), p)
     if "misalign" in layout and radial is not None:
         A[:, layout["misalign"]] += misalignment_columns(radial, W)
-    Qu, _, _ = noise_matrices(p)
+    Qu, _ = noise_matrices(p)
     P = A @ s.P @ A.T + (W @ Qu) @ W.T
-    if len(s.x) > 4:
-        P[np.diag_indices(len(s.x))] += _walk_variances(p)[:len(s.x)] * p.period
+    P[np.diag_indices_from(P)] += _walk_variances(p) * p.period
     return (EkfState(x_new, P), A) if with_jacobian else EkfState(x_new, P)
 
 
@@ -334,11 +334,10 @@ def ekf_update(s: EkfState, z, u, p: EstimatorParams, *, with_innovation: bool =
         m = layout["misalign"].start
         H[2, m] -= u[0]
         H[3, m + 1] -= u[1]
-        # h_y2 reads link 1's tangential input (d h_y2 / d u1 = -l1 sin(t2 - t1) / r1)
-        H[3, m:m + 2] += misalignment_columns(
-            z_radial(z), [[-p.l1 * math.sin(s.x[1] - s.x[0]) / imu_radii(s.x, p)[0],
-                           0.0]])[0]
-    _, R, _ = noise_matrices(p)
+        # h_y2 reads link 1's tangential input, which is off by -d mu_y1
+        # (d h_y2 / d u1 = -l1 sin(t2 - t1) / r1)
+        H[3, m] += p.l1 * math.sin(s.x[1] - s.x[0]) / imu_radii(s.x, p)[0] * z[2]
+    _, R = noise_matrices(p)
     PHt = s.P @ H.T
     S = H @ PHt + R
     K = np.linalg.solve(S, PHt.T).T
@@ -360,24 +359,13 @@ def _held_states(p: EstimatorParams):
     return slice(4, n) if n > 4 else None
 
 
-def z_radial(z) -> np.ndarray:
-    """The radial accelerometer readings (mu_y1, mu_y2) of a measurement ``z``."""
-    return np.asarray(z, dtype=float)[2:4]
-
-
 def correct_sample(sample, x, p: EstimatorParams) -> np.ndarray:
     """``sample`` with each accelerometer turned back by the state's
     misalignment estimate (unchanged without misalignment states)."""
-    layout, _ = state_layout(p)
-    sample = np.asarray(sample, dtype=float)
-    if "misalign" not in layout:
-        return sample
-    out = sample.copy()
-    for i, eps in enumerate(np.asarray(x)[layout["misalign"]]):
-        c, s_ = math.cos(eps), math.sin(eps)
-        ax, ay = sample[2 + 2 * i], sample[3 + 2 * i]
-        out[2 + 2 * i], out[3 + 2 * i] = c * ax - s_ * ay, s_ * ax + c * ay
-    return out
+    sl = state_layout(p)[0].get("misalign")
+    if sl is None:
+        return np.asarray(sample, dtype=float)
+    return ImuCalibration(misalign=tuple(float(e) for e in np.asarray(x)[sl])).correct(sample)
 
 
 def split_sample(sample):

@@ -115,17 +115,17 @@ def realistic_imu_log(params: BplirParams, seed: int, duration: float = 25.0, *,
     import dataclasses as dc
     import math
 
-    p = params
+    p = params.imu
     rng = np.random.default_rng([seed, 20])
     errors = {"gyro_bias1": rng.uniform(-0.03, 0.03), "gyro_bias2": rng.uniform(-0.03, 0.03),
               "gyro_drift": float(drift),
               "gyro_scale1": rng.uniform(-0.02, 0.02), "gyro_scale2": rng.uniform(-0.02, 0.02),
               "misalign1": math.radians(rng.uniform(-3, 3)),
               "misalign2": math.radians(rng.uniform(-3, 3)),
-              "r1": p.imu.r1 + rng.uniform(-0.02, 0.02), "r2": p.imu.r2 + rng.uniform(-0.02, 0.02)}
+              "r1": p.r1 + rng.uniform(-0.02, 0.02), "r2": p.r2 + rng.uniform(-0.02, 0.02)}
     offset = rng.uniform(0.0, 0.020)
     start_error = np.r_[rng.uniform(-1.0, 1.0, 2), 0.0, 0.0]
-    real = p.with_(imu=dc.replace(p.imu, **errors))   # the filter keeps p.estimator's geometry
+    real = params.with_(imu=dc.replace(p, **errors))   # the filter keeps params.estimator's geometry
     run_ = simulate_estimation(real, duration=duration, seed=seed)
     return run_, errors | {"time_offset_s": offset, "start_error_rad": start_error[:2].tolist()}
 

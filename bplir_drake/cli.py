@@ -184,6 +184,8 @@ def cmd_estimate(args) -> int:
         est = replace(est, estimate_bias=False)
     if args.self_calibrate:
         est = est.self_calibrating()
+    if args.imu_noise:
+        est = est.with_sensor_noise(params.imu)
     _in_range("--calibrate", args.calibrate, 0.0, 3600.0, unit="s")
     x0 = _floats(args.x0, 4, "--x0") if args.x0 else [0.0, 0.0, 0.0, 0.0]
     for opt in ("out", "plot", "report"):
@@ -209,6 +211,19 @@ def cmd_estimate(args) -> int:
     if args.out:
         summary["estimate_csv"] = str(write_estimate_csv(res, args.out))
     truth = _logged_truth(log)
+    if truth is not None:   # encoders in the log: line their clock up with the IMU's
+        from .analysis.estimation.study import angle_rmse
+        from .estimation import aligned_truth, encoder_lead
+
+        lead = encoder_lead(log.t, truth, log.samples)
+        summary["encoder_lead_s"] = lead
+        if lead is not None:
+            truth = aligned_truth(log.t, truth, lead)
+            summary["angle_rmse_rad"] = angle_rmse(res.t, res.x[:, :2], truth[:, :2],
+                                                   after=0.0).tolist()
+            if args.smooth:
+                summary["smoothed_angle_rmse_rad"] = angle_rmse(
+                    res.t, res.smoothed[:, :2], truth[:, :2], after=0.0).tolist()
     if args.plot:
         fig = plot_estimate(res.t, res.x, res.gyro_integral,
                             truth=None if truth is None else truth[:, :2])
@@ -228,6 +243,12 @@ def cmd_estimate(args) -> int:
            f"({c['ratio']:.2f} of the prior's sigma: "
            + ("identified)" if c["identified"] else "not identified by this log)")
            for c in calibration]
+        + ([f"the log's encoders lead the IMU by {1e3 * summary['encoder_lead_s']:.1f} ms "
+            "(estimated; taken out before comparing): angle RMSE "
+            + " / ".join(f"{v:.4f}" for v in summary["angle_rmse_rad"]) + " rad"
+            + (", smoothed " + " / ".join(f"{v:.4f}" for v in summary["smoothed_angle_rmse_rad"])
+               + " rad" if "smoothed_angle_rmse_rad" in summary else "")]
+           if summary.get("encoder_lead_s") is not None else [])
         + [f"{k}: {summary[k]}" for k in ("estimate_csv", "plot", "report") if k in summary])
     return 0
 
@@ -751,7 +772,9 @@ def build_parser() -> argparse.ArgumentParser:
     option(p, "--no-friction", bool, help="switch friction off")
 
     p = command("estimate", cmd_estimate, "run the kinematic EKF over an IMU log (CSV)")
-    p.add_argument("log", help="CSV with header t,gyro1,gyro2,acc1_x,acc1_y,acc2_x,acc2_y")
+    p.add_argument("log", help="CSV with header t,gyro1,gyro2,acc1_x,acc1_y,acc2_x,acc2_y "
+                   "(and optionally encoder angles theta1,theta2[,omega1,omega2]: their lead "
+                   "over the IMU is estimated and they are compared on the IMU's clock)")
     for name, what in (("--r1", "IMU 1 distance from joint 1 (m)"),
                        ("--r2", "IMU 2 distance from the elbow (m)"),
                        ("--l1", "link 1 length (m)"), ("--period", "sampling period (s)")):
@@ -760,7 +783,10 @@ def build_parser() -> argparse.ArgumentParser:
     option(p, "--no-bias", bool, help="no gyro-bias states")
     option(p, "--self-calibrate", bool, help="also estimate each accelerometer's misalignment, "
            "each gyro's scale error and each IMU's distance along its link (states held for "
-           "the first 2 s, second-order angle step); reports which of them the log identifies")
+           "the first 2 s, Heun's second-order step); reports which of them the log identifies")
+    option(p, "--imu-noise", bool, help="tune the filter to the IMUs' own noise (the config's "
+           "imu.gyro_sigma and imu.accel_sigma, Table 5.1 by default; estimator."
+           "datasheet_process_sigma on the accelerometer inputs) instead of (5.39)-(5.40)")
     option(p, "--calibrate", float, 0.0,
            "seconds of stationary data at the start to calibrate gyro bias")
     option(p, "--out", None, None, "estimate CSV to write")

@@ -316,9 +316,9 @@ class EstimatorParams(_Block):
                 f"estimator.plugin = {self.plugin!r} must be 'module:factory' (a module "
                 "name or a .py file, a colon, a function returning a Drake system)")
         for name in ("integration", "loop_integration"):
-            if getattr(self, name) not in ("euler", "trapezoid"):
+            if getattr(self, name) not in ("euler", "trapezoid", "heun"):
                 raise ParameterError(f"estimator.{name} = '{getattr(self, name)}' is unknown; "
-                                     "allowed: euler, trapezoid")
+                                     "allowed: euler, trapezoid, heun")
 
     r1: float = _positive(0.5, "m", doc="IMU 1 distance from joint 1 (filter geometry)")
     r2: float = _positive(0.5, "m", doc="IMU 2 distance from the elbow")
@@ -352,18 +352,30 @@ class EstimatorParams(_Block):
     calibrate_after: float = _p(0.0, "s", 0, 3600, doc="the gyro-bias and self-calibration states are held (Schmidt 'consider' states: not updated) for this long after the first sample, while the angles converge from an unknown start (0: never held; a swing starts from its known pose)")
     imu_position_sigma0: float = _positive(0.02, "m", doc="initial standard deviation of each IMU's distance along its link (self-calibration states; they start at r1, r2)")
     imu_position_walk: float = _positive(1e-5, "m/sqrt(s)", doc="IMU-distance random walk")
+    datasheet_process_sigma: float = _positive(0.05, "m/s^2", doc="process noise on the accelerometer inputs when R is the IMUs' own noise (with_sensor_noise; chosen on estimation benchmark logs 0-17: mean NIS 4.07, inside its 95 % band)")
     plugin: str = ""   # "module:factory" of a user's estimator (replaces the EKF in a swing)
 
     def self_calibrating(self) -> "EstimatorParams":
         """The same filter with the self-calibration states (accelerometer
         misalignment, gyro scale and IMU distance beside the gyro biases),
-        the second-order angle step (explicit Euler lags the angles by half
-        a period, 5 ms) and those states held for the first 2 s, while the
-        angles converge from an unknown start (``bplir estimate
-        --self-calibrate``; issue 20)."""
+        Heun's second-order step (explicit Euler lags the angles by half a
+        period, 5 ms; a step that takes gravity at the period's start
+        biases the calibration states, see
+        :func:`bplir_drake.systems.ekf.discrete_f`) and those states held
+        for the first 2 s, while the angles converge from an unknown start
+        (``bplir estimate --self-calibrate``; issue 20)."""
         return replace(self, estimate_bias=True, estimate_misalignment=True,
                        estimate_gyro_scale=True, estimate_imu_position=True,
-                       integration="trapezoid", calibrate_after=max(self.calibrate_after, 2.0))
+                       integration="heun", calibrate_after=max(self.calibrate_after, 2.0))
+
+    def with_sensor_noise(self, imu: "ImuParams") -> "EstimatorParams":
+        """The same filter tuned to the IMUs' own noise: R from ``imu``'s
+        per-sample gyro and accelerometer noise (Table 5.1 by default) and
+        ``datasheet_process_sigma`` on the accelerometer inputs, instead of
+        the dissertation's (5.39)-(5.40), which assume accelerometers 20x
+        noisier than Table 5.1 (mean NIS about 1.1 where 4 is consistent)."""
+        return replace(self, gyro_meas_sigma=imu.gyro_sigma, accel_meas_sigma=imu.accel_sigma,
+                       accel_process_sigma=self.datasheet_process_sigma)
 
     def for_loop(self) -> "EstimatorParams":
         """The same filter with the in-loop tuning (used by the swing)."""

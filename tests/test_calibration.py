@@ -26,7 +26,7 @@ def test_calibration_recovers_friction_within_5_percent(tmp_path, params, true_f
     out = json.loads(capsys.readouterr().out)
     for name, value in out["fitted"].items():
         assert value == pytest.approx(getattr(true_friction, name), rel=0.05), name
-    # measured (dogbox, 100 simulations): fv1 -0.02 %, fv2 +0.02 %, fc1 +1.8 %, fc2 0.0 %
+    # measured (dogbox, 85 simulations at 1e-5): fv1 -0.02 %, fv2 +0.02 %, fc1 +1.8 %, fc2 0.0 %
     assert out["rmse_before_rad"] > 0.1
     assert out["rmse_after_rad"] == pytest.approx(0.001, rel=0.1)   # the noise level
     # the written TOML is accepted by every command

@@ -6,9 +6,10 @@ from bplir_drake.analysis.control.zero_dynamics import zero_dynamics_portrait
 from bplir_drake.cli import main
 
 
-def test_qft_cli_diagram_family(tmp_path, capsys):
+def test_qft_cli_diagram_family(tmp_path, capsys, strict_json):
     assert main(["qft", "--plants", "50", "--seed", "4", "--out", str(tmp_path), "--json"]) == 0
-    out = json.loads(capsys.readouterr().out)
+    out = strict_json(capsys.readouterr().out)   # no NaN or Infinity (hardening item 9)
+    assert [strict_json(f.read_text()) for f in tmp_path.rglob("*.json")]
     assert out["verification"]["all_hold"]
     assert out["verification"]["plants"] == 51
     for name in ("nichols", "tracking", "responses", "zero_dynamics"):

@@ -3,7 +3,6 @@ half-written, JSON is strict, and a plan depends only on what the
 controller may know (issue 16).  CLI cases run the console entry point in
 a subprocess where the whole process matters (no traceback, exit status,
 files left behind); the rest call ``bplir_drake.cli.main`` in-process."""
-import json
 import math
 import signal
 import subprocess
@@ -40,10 +39,7 @@ def assert_one_line_error(rc, err, *words):
         assert w in lines[0], lines[0]
 
 
-def strict_json(text):
-    def reject(const):
-        raise ValueError(f"non-strict JSON constant {const}")
-    return json.loads(text, parse_constant=reject)
+from conftest import parse_strict_json as strict_json  # noqa: E402
 
 
 def _imu_log(path, extra=None):
@@ -264,12 +260,14 @@ def test_results_table_rewrite_is_atomic(monkeypatch, tmp_path):
     assert [p.name for p in tmp_path.iterdir()] == ["results.csv"]
 
 
-def test_killed_study_resumes_to_the_identical_table(tmp_path):
+def test_killed_study_resumes_to_the_identical_table(tmp_path, capsys):
     """A real interruption: SIGKILL after the first rows, rerun, and the
-    table is byte-identical to an uninterrupted run's."""
-    args = ["montecarlo", "-n", "8", "--seed", "3", "--workers", "1", "--no-plots", "--json"]
+    table is byte-identical to an uninterrupted run's (that one in-process:
+    the same main())."""
+    args = ["montecarlo", "-n", "5", "--seed", "3", "--workers", "1", "--no-plots", "--json"]
     full = tmp_path / "full"
-    assert bplir(*args, "--out", full, timeout=300)[0] == 0
+    assert cli.main([*args, "--out", str(full)]) == 0
+    capsys.readouterr()
     cut = tmp_path / "cut"
     proc = subprocess.Popen([sys.executable, "-m", "bplir_drake.cli", *args, "--out", str(cut)],
                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
@@ -282,7 +280,7 @@ def test_killed_study_resumes_to_the_identical_table(tmp_path):
     proc.send_signal(signal.SIGKILL)
     proc.wait()
     n_rows = len(results.read_text().splitlines()) - 1
-    assert 2 <= n_rows < 8
+    assert 2 <= n_rows < 5
     rc, out, _ = bplir(*args, "--out", cut, timeout=300)
     assert rc == 0 and strict_json(out)["run"]["resumed_from"] >= 2
     assert results.read_bytes() == (full / "results.csv").read_bytes()
@@ -293,7 +291,7 @@ def test_ctrl_c_on_a_two_worker_study_keeps_finished_rows(tmp_path):
     one line), keeps every finished row, and leaves no worker behind; the
     same command then resumes."""
     out = tmp_path / "mc"
-    args = ["montecarlo", "-n", "40", "--workers", "2", "--no-plots", "--out", str(out)]
+    args = ["montecarlo", "-n", "14", "--workers", "2", "--no-plots", "--out", str(out)]
     # a suite started in the background by a shell inherits SIGINT ignored
     # (Python then installs no KeyboardInterrupt handler): Ctrl-C as a user
     # at a terminal sends it, with the default disposition
@@ -315,7 +313,7 @@ def test_ctrl_c_on_a_two_worker_study_keeps_finished_rows(tmp_path):
     kept = mc.read_results(results)
     assert len(kept) >= 5
     rc, _, _ = bplir(*args[:-2], "--out", out, "--json", timeout=300)
-    assert rc == 0 and len(mc.read_results(results)) == 40
+    assert rc == 0 and len(mc.read_results(results)) == 14
     assert {r["index"]: r for r in mc.read_results(results)}[kept[0]["index"]] == kept[0]
 
 
@@ -330,24 +328,24 @@ def test_strict_json_replaces_nan_and_infinity():
 def test_every_json_output_is_strict(tmp_path, capsys):
     """Item 9: the commands' --json output and their JSON files parse with a
     parser that rejects NaN and Infinity (a timed-out swing has no capture
-    speed: null).  In-process: the same main() the console script runs."""
+    speed: null).  In-process: the same main() the console script runs.
+    ``benchmark`` and ``qft`` are checked the same way where their own
+    tests run them (test_plugin: a benchmark whose controller never
+    captures; test_cli_qft)."""
     log = _imu_log(tmp_path / "imu.csv")
     runs = [("model",), ("freeswing", "--duration", "1", "--out", tmp_path / "fs"),
             ("estimate", log),
             ("observability", "--duration", "1", "--out", tmp_path / "ob"),
             ("swing", "--incline", "20", "--controller", "dissertation", "--no-animation",
              "--out", tmp_path / "sw"),
-            ("montecarlo", "-n", "2", "--workers", "1", "--no-plots", "--out", tmp_path / "mc"),
-            ("benchmark", "--quick", "--controllers", "lab", "--workers", "1",
-             "--out", tmp_path / "bm"),
-            ("qft", "--plants", "6", "--out", tmp_path / "qft")]
+            ("montecarlo", "-n", "2", "--workers", "1", "--no-plots", "--out", tmp_path / "mc")]
     for argv in runs:
         assert cli.main([str(a) for a in argv] + ["--json"]) == 0
         data = strict_json(capsys.readouterr().out)
         if argv[0] == "swing":
             assert data["outcome"] == "timeout" and data["capture_speed_mps"] is None
     files = list(tmp_path.rglob("*.json"))
-    assert len(files) == 7   # freeswing, observability, swing, montecarlo, benchmark (+ leaderboard), qft
+    assert len(files) == 4   # freeswing, observability, swing, montecarlo
     for f in files:
         strict_json(f.read_text())
 

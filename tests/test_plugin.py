@@ -122,7 +122,7 @@ def test_a_broken_plugin_is_refused_naming_the_port(bad, factory, message, capsy
         BplirParams().with_controller("not a plugin")
 
 
-def test_the_example_plugin_through_the_command_line(tmp_path, capsys):
+def test_the_example_plugin_through_the_command_line(tmp_path, capsys, strict_json):
     assert main(["swing", "--controller", EXAMPLE, "--no-animation", "--json",
                  "--out", str(tmp_path / "swing")]) == 0
     assert json.loads(capsys.readouterr().out)["outcome"] == "timeout"
@@ -132,7 +132,8 @@ def test_the_example_plugin_through_the_command_line(tmp_path, capsys):
     assert summary["samples"] == 2 and summary["outcomes"] == {"timeout": 2}
     assert main(["benchmark", "--quick", "--controllers", EXAMPLE, "--workers", "2",
                  "--json", "--out", str(tmp_path / "bench")]) == 0
-    result = json.loads(capsys.readouterr().out)
+    result = strict_json(capsys.readouterr().out)   # no NaN or Infinity (hardening item 9)
+    assert len([strict_json(f.read_text()) for f in (tmp_path / "bench").rglob("*.json")]) == 2
     (entry,) = result["leaderboard"]
     # seed 0 of the quick benchmark: the example never captures (measured)
     assert entry["controller"] == EXAMPLE and entry["overall"] == 0.0

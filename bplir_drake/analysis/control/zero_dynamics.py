@@ -58,7 +58,12 @@ def zero_dynamics_portrait(p: PlantParams, friction: FrictionParams | None, *, q
         return [x[1], (-g1 - f1) / M11]
 
     trajs = []
+    # sampled every 10 ms for the portrait; the eighth-order steps in between
+    # are as long as the tolerance allows (a max_step of 10 ms instead made
+    # the solver take about 6x the evaluations)
+    t_eval = np.linspace(0.0, duration, int(round(duration / 0.01)) + 1)
     for q10, w0 in initial:
-        sol = solve_ivp(rhs, (0.0, duration), [q10, w0], max_step=0.01, rtol=1e-9, atol=1e-11)
+        sol = solve_ivp(rhs, (0.0, duration), [q10, w0], method="DOP853", t_eval=t_eval,
+                        rtol=1e-10, atol=1e-12)
         trajs.append((sol.t, sol.y[0], sol.y[1]))
     return PhasePortrait(q2_star, friction is not None, trajs)

@@ -196,8 +196,12 @@ def friction_from_inverse_dynamics(params: BplirParams, log: CalibrationLog,
 
 
 def calibrate(params: BplirParams, log: CalibrationLog, fit=DEFAULT_FIT, *,
-              accuracy: float = 1e-6, progress: bool = False) -> CalibrationResult:
+              accuracy: float = 1e-5, progress: bool = False) -> CalibrationResult:
     """Least squares on the joint angles (4.5); ``params`` is the start.
+    ``accuracy``: the integrator's relative accuracy during the fit (1e-5
+    gives the 1e-6 fit in 85 simulations instead of 100, each about 40 %
+    faster; at 1e-4 the finite-difference Jacobian sees the integrator's
+    error and fc1 comes out 25 % off); the final residual is at 1e-6.
     ``progress``: count the simulations (residual evaluations, Jacobian
     columns included) on standard error."""
     from ...progress import progress_bar
@@ -271,7 +275,13 @@ def identify_deadband(params: BplirParams, *, ramp_rate: float = 0.05, start: fl
         built = build_free_swing(params, (times, sign * (start + ramp_rate * times)), motor=True,
                                  log_period=0.005)
         sim = make_simulator(built, (0.0, 0.0), accuracy=1e-6)
-        run(sim, T)
+        # in 0.5 s chunks, ending once the elbow moves (the rest of the
+        # ramp would only swing it: about half the simulated time)
+        while sim.get_context().get_time() < T - 1e-9:
+            run(sim, min(0.5, T - sim.get_context().get_time()))
+            q2d = sim.get_context().get_continuous_state_vector().CopyToVector()[3]
+            if abs(q2d) > rate_threshold:
+                break
         st = logs(built, sim)["state"]
         moving = np.nonzero(np.abs(st.data[:, 3]) > rate_threshold)[0]
         out[name] = float(start + ramp_rate * st.t[moving[0]]) if len(moving) else math.nan

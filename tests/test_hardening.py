@@ -23,11 +23,25 @@ from bplir_drake.io import dumps_strict
 from bplir_drake.params import ParameterError, load_toml
 
 
-def bplir(*argv, cwd=None, timeout=120):
-    """Run the ``bplir`` command; (exit status, stdout, stderr)."""
-    p = subprocess.run([sys.executable, "-m", "bplir_drake.cli", *map(str, argv)], cwd=cwd,
+def bplir_process(*argv, timeout=120):
+    """Run the ``bplir`` command as its own process; (exit status, stdout, stderr)."""
+    p = subprocess.run([sys.executable, "-m", "bplir_drake.cli", *map(str, argv)],
                        capture_output=True, text=True, timeout=timeout)
     return p.returncode, p.stdout, p.stderr
+
+
+def bplir(*argv):
+    """Run ``bplir`` in-process -- the main() the console script calls --
+    capturing what it writes; (exit status, stdout, stderr).  The tests
+    that need a process of their own (a signal, the console entry point)
+    use :func:`bplir_process`."""
+    import contextlib
+    import io
+
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        rc = cli.main([str(a) for a in argv])
+    return rc, out.getvalue(), err.getvalue()
 
 
 def assert_one_line_error(rc, err, *words):
@@ -77,7 +91,7 @@ def test_binary_and_utf16_files_are_one_line_errors(tmp_path, capsys, content, w
     for argv in (["model", "--config", f], ["estimate", f], ["calibrate", f],
                  ["montecarlo", "--study", f, "--out", tmp_path / "mc"]):
         if subprocess_:
-            rc, _, err = bplir(*argv)
+            rc, _, err = bplir_process(*argv)
         else:
             rc, err = cli.main([str(a) for a in argv]), capsys.readouterr().err
         assert_one_line_error(rc, err, words, str(f))
@@ -281,7 +295,7 @@ def test_killed_study_resumes_to_the_identical_table(tmp_path, capsys):
     proc.wait()
     n_rows = len(results.read_text().splitlines()) - 1
     assert 2 <= n_rows < 5
-    rc, out, _ = bplir(*args, "--out", cut, timeout=300)
+    rc, out, _ = bplir(*args, "--out", cut)
     assert rc == 0 and strict_json(out)["run"]["resumed_from"] >= 2
     assert results.read_bytes() == (full / "results.csv").read_bytes()
 
@@ -312,7 +326,7 @@ def test_ctrl_c_on_a_two_worker_study_keeps_finished_rows(tmp_path):
         "resumes the study)"]
     kept = mc.read_results(results)
     assert len(kept) >= 5
-    rc, _, _ = bplir(*args[:-2], "--out", out, "--json", timeout=300)
+    rc, _, _ = bplir(*args[:-2], "--out", out, "--json")
     assert rc == 0 and len(mc.read_results(results)) == 14
     assert {r["index"]: r for r in mc.read_results(results)}[kept[0]["index"]] == kept[0]
 

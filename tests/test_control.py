@@ -205,3 +205,31 @@ def test_continuous_controller_converts_to_autodiff(params):
     tau_ad = ad.GetOutputPort("torque").Eval(actx)[0]
     assert tau_ad.value() == pytest.approx(tau, rel=1e-12)
     assert np.abs(tau_ad.derivatives()).max() > 0.1   # depends on the state
+
+
+@pytest.mark.parametrize("design", ["qft", "dissertation", "lab"])
+def test_controller_realisation_equals_python_control(design):
+    """The controller's state-space realisation (written out in numpy so a
+    swing does not import python-control) equals python-control's
+    ``tf2ss`` + ``sample_system(..., "tustin")`` bit for bit, for K and F
+    of each shipped design, continuous and at the 10 ms controller
+    period; improper and zero transfer functions are refused."""
+    from bplir_drake.systems.controller import outer_loop_numerator, tf_to_ss
+
+    ctrl = ControllerParams(preset=design)
+    d = ctrl.design
+    for num, den in ((outer_loop_numerator(ctrl), d["k_den"]), (d["f_num"], d["f_den"])):
+        for period in (0.0, 0.01):
+            ours = tf_to_ss(num, den, period)
+            if len(den) == 1:   # a static gain
+                assert ours.n == 0 and ours.D[0, 0] == num[0] / den[0]
+                continue
+            ref = control.tf2ss(control.tf(list(num), list(den)))
+            if period:
+                ref = control.sample_system(ref, period, method="tustin")
+            for a, b in ((ours.A, ref.A), (ours.B, ref.B), (ours.C, ref.C), (ours.D, ref.D)):
+                assert np.array_equal(a, np.asarray(b)), (design, period)
+    with pytest.raises(ValueError, match="improper"):
+        tf_to_ss((1.0, 2.0, 3.0), (1.0, 1.0))
+    with pytest.raises(ValueError, match="must not be zero"):
+        tf_to_ss((1.0,), (0.0, 0.0))

@@ -21,6 +21,7 @@ from bplir_drake.analysis.identification.calibration import CalibrationError, re
 from bplir_drake.estimation import LogError, read_imu_csv, write_imu_csv
 from bplir_drake.io import dumps_strict
 from bplir_drake.params import ParameterError, load_toml
+from conftest import parse_strict_json as strict_json
 
 
 def bplir_process(*argv, timeout=120):
@@ -53,9 +54,6 @@ def assert_one_line_error(rc, err, *words):
         assert w in lines[0], lines[0]
 
 
-from conftest import parse_strict_json as strict_json  # noqa: E402
-
-
 def _imu_log(path, extra=None):
     t = np.arange(150) * 0.01
     s = np.zeros((150, 6))
@@ -81,8 +79,7 @@ def test_preset_and_config_combine(tmp_path):
     ("[friction]\nfc2 = 0.9\n".encode("utf-16"), "UTF-16", False),
     (b"[friction]\nfc2 = 0.9 \xe9\n", "not UTF-8", False),
 ])
-def test_binary_and_utf16_files_are_one_line_errors(tmp_path, capsys, content, words,
-                                                     subprocess_):
+def test_binary_and_utf16_files_are_one_line_errors(tmp_path, content, words, subprocess_):
     """Item 2, for every file-reading command (--config, estimate, calibrate,
     montecarlo --study): through the console entry point for the binary
     file, in-process (the same main()) for the others."""
@@ -90,14 +87,11 @@ def test_binary_and_utf16_files_are_one_line_errors(tmp_path, capsys, content, w
     f.write_bytes(content)
     for argv in (["model", "--config", f], ["estimate", f], ["calibrate", f],
                  ["montecarlo", "--study", f, "--out", tmp_path / "mc"]):
-        if subprocess_:
-            rc, _, err = bplir_process(*argv)
-        else:
-            rc, err = cli.main([str(a) for a in argv]), capsys.readouterr().err
+        rc, _, err = (bplir_process if subprocess_ else bplir)(*argv)
         assert_one_line_error(rc, err, words, str(f))
 
 
-def test_utf8_bom_is_accepted(tmp_path, capsys):
+def test_utf8_bom_is_accepted(tmp_path):
     f = tmp_path / "bom.toml"
     f.write_bytes(b"\xef\xbb\xbf[friction]\nfc2 = 0.9\n")
     assert load_toml(f).friction.fc2 == 0.9
@@ -193,7 +187,7 @@ def test_unusable_output_locations(tmp_path):
         assert_one_line_error(rc, err, "cannot write to output directory /sys/kernel")
 
 
-def test_swing_checks_its_output_before_simulating(monkeypatch, tmp_path, capsys):
+def test_swing_checks_its_output_before_simulating(monkeypatch, tmp_path):
     import bplir_drake.analysis.swing.run as S
 
     def boom(*a, **k):
@@ -202,19 +196,18 @@ def test_swing_checks_its_output_before_simulating(monkeypatch, tmp_path, capsys
     monkeypatch.setattr(S, "run_swing", boom)
     afile = tmp_path / "f"
     afile.write_text("")
-    assert cli.main(["swing", "--out", str(afile)]) == 2
-    assert "is an existing file" in capsys.readouterr().err
+    rc, _, err = bplir("swing", "--out", afile)
+    assert rc == 2 and "is an existing file" in err
 
 
-def test_interrupted_render_leaves_no_truncated_file(monkeypatch, tmp_path, capsys):
+def test_interrupted_render_leaves_no_truncated_file(monkeypatch, tmp_path):
     """Item 10: Ctrl-C while the animation is written: the earlier complete
     outputs stay, no partial or temporary file is left, and the message says
     only that."""
     from PIL import Image
 
     out = tmp_path / "swing"
-    assert cli.main(["swing", "--out", str(out), "--json"]) == 0
-    capsys.readouterr()
+    assert bplir("swing", "--out", out, "--json")[0] == 0
     before = {p.name: p.read_bytes() for p in out.iterdir()}
 
     real_save = Image.Image.save
@@ -226,24 +219,23 @@ def test_interrupted_render_leaves_no_truncated_file(monkeypatch, tmp_path, caps
         return real_save(self, fp, *a, **k)
 
     monkeypatch.setattr(Image.Image, "save", interrupted)
-    assert cli.main(["swing", "--out", str(out), "--seed", "3"]) == 130
-    err = capsys.readouterr().err
+    rc, _, err = bplir("swing", "--out", out, "--seed", "3")
+    assert rc == 130
     assert err.strip() == "bplir: interrupted; no output file was left half-written"
     after = {p.name: p.read_bytes() for p in out.iterdir()}
     assert set(after) <= set(before) and after["swing.gif"] == before["swing.gif"]
     assert all(not n.startswith(".") for n in after)
 
 
-def test_smaller_n_keeps_finished_rows_and_reports_the_first_n(tmp_path, capsys):
+def test_smaller_n_keeps_finished_rows_and_reports_the_first_n(tmp_path):
     """Item 6."""
     out = tmp_path / "mc"
-    assert cli.main(["montecarlo", "-n", "4", "--out", str(out), "--workers", "1",
-                     "--no-plots", "--json"]) == 0
-    capsys.readouterr()
+    args = ("--out", out, "--workers", "1", "--no-plots", "--json")
+    assert bplir("montecarlo", "-n", "4", *args)[0] == 0
     table = (out / "results.csv").read_bytes()
-    assert cli.main(["montecarlo", "-n", "2", "--out", str(out), "--workers", "1",
-                     "--no-plots", "--json"]) == 0
-    summary = strict_json(capsys.readouterr().out)
+    rc, stdout, _ = bplir("montecarlo", "-n", "2", *args)
+    assert rc == 0
+    summary = strict_json(stdout)
     assert summary["samples"] == 2 and summary["run"]["computed_now"] == 0
     assert (out / "results.csv").read_bytes() == table   # nothing deleted
 
@@ -274,14 +266,13 @@ def test_results_table_rewrite_is_atomic(monkeypatch, tmp_path):
     assert [p.name for p in tmp_path.iterdir()] == ["results.csv"]
 
 
-def test_killed_study_resumes_to_the_identical_table(tmp_path, capsys):
+def test_killed_study_resumes_to_the_identical_table(tmp_path):
     """A real interruption: SIGKILL after the first rows, rerun, and the
     table is byte-identical to an uninterrupted run's (that one in-process:
     the same main())."""
     args = ["montecarlo", "-n", "5", "--seed", "3", "--workers", "1", "--no-plots", "--json"]
     full = tmp_path / "full"
-    assert cli.main([*args, "--out", str(full)]) == 0
-    capsys.readouterr()
+    assert bplir(*args, "--out", full)[0] == 0
     cut = tmp_path / "cut"
     proc = subprocess.Popen([sys.executable, "-m", "bplir_drake.cli", *args, "--out", str(cut)],
                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
@@ -339,7 +330,7 @@ def test_strict_json_replaces_nan_and_infinity():
     assert strict_json(text) == {"a": None, "b": [None, None, 1.5], "c": None, "d": [1.0, None]}
 
 
-def test_every_json_output_is_strict(tmp_path, capsys):
+def test_every_json_output_is_strict(tmp_path):
     """Item 9: the commands' --json output and their JSON files parse with a
     parser that rejects NaN and Infinity (a timed-out swing has no capture
     speed: null).  In-process: the same main() the console script runs.
@@ -354,8 +345,9 @@ def test_every_json_output_is_strict(tmp_path, capsys):
              "--out", tmp_path / "sw"),
             ("montecarlo", "-n", "2", "--workers", "1", "--no-plots", "--out", tmp_path / "mc")]
     for argv in runs:
-        assert cli.main([str(a) for a in argv] + ["--json"]) == 0
-        data = strict_json(capsys.readouterr().out)
+        rc, out, _ = bplir(*argv, "--json")
+        assert rc == 0
+        data = strict_json(out)
         if argv[0] == "swing":
             assert data["outcome"] == "timeout" and data["capture_speed_mps"] is None
     files = list(tmp_path.rglob("*.json"))

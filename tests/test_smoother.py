@@ -22,14 +22,19 @@ def consistent(p):
                       bias_walk=1e-4)
 
 
+#: the logs: seed and IMU changes
+LOGS = {"seed 2": (2, {}), "seed 3": (3, {}),
+        "seed 4, gyro biases": (4, {"gyro_bias1": 0.02, "gyro_bias2": -0.03})}
+
+
 @functools.lru_cache(maxsize=None)
 def _run(name):
     """The 20 s log ``name`` (simulated once per test process, when first
     asked for: the test workers each simulate only the logs their tests use)."""
+    seed, imu = LOGS[name]
     p = preset()
-    if name == "seed 4, gyro biases":
-        p = p.with_(imu=dc.replace(p.imu, gyro_bias1=0.02, gyro_bias2=-0.03))
-    return p, simulate_estimation(p, duration=20.0, seed=int(name.split()[1].rstrip(",")))
+    p = p.with_(imu=dc.replace(p.imu, **imu))
+    return p, simulate_estimation(p, duration=20.0, seed=seed)
 
 
 def _rmse(x, run, t_from=5.0):

@@ -92,8 +92,8 @@ def tf_to_ss(num, den, period: float = 0.0) -> StateSpace:
         raise ValueError("the denominator of a transfer function must not be zero")
     den = np.trim_zeros(den, "f")
     num, den = num / den[0], den / den[0]
-    lead = int(np.argmax(np.abs(num) > 1e-14)) if np.any(np.abs(num) > 1e-14) else len(num) - 1
-    num = num[lead:]
+    nonzero = np.flatnonzero(np.abs(num) > 1e-14)   # leading zeros trimmed, one kept
+    num = num[nonzero[0] if nonzero.size else -1:]
     K = len(den)
     if len(num) > K:
         raise ValueError("improper transfer function: the numerator is longer than the "

@@ -36,4 +36,14 @@ def progress_bar(enabled: bool, *, desc: str, unit: str, total: int | None = Non
         return _Silent()
     from tqdm import tqdm
 
-    return tqdm(total=total, desc=desc, unit=" " + unit, leave=False, file=sys.stderr)
+    class _Bar(tqdm):
+        """tqdm throttles redraws (``mininterval``): draw the final count
+        before the bar is cleared, so the last count shown is the count
+        the result reports."""
+
+        def close(self) -> None:
+            if not self.disable:
+                self.refresh()
+            super().close()
+
+    return _Bar(total=total, desc=desc, unit=" " + unit, leave=False, file=sys.stderr)

@@ -224,12 +224,19 @@ def add_swing_controller(builder, params: BplirParams, state_port, robot: Robot,
         builder.Connect(state_port, predictor.estimate_port)
         state_port = predictor.predicted_port
     if params.path.mode == "plan":
-        from ..systems.plan_tracker import PlanTracker
+        from ..systems.plan_tracker import PlanTracker, Reach
 
         if plan_gains is None:
             raise ValueError("path.mode = 'plan' needs the tracking gains of a planned swing")
+        pp = params.path
+        reach = (Reach(params.plant, path_geometry.alpha, speed=pp.reach_speed,
+                       depth=pp.reach_depth, lift=pp.reach_lift, brake=pp.reach_brake,
+                       tangent=pp.reach_tangent, hold=pp.reach_hold,
+                       rate_gain=pp.reach_rate_gain)
+                 if pp.reach_speed > 0 else None)
         tracker = builder.AddNamedSystem("plan_tracker", PlanTracker(
-            plan_gains, params.controller.torque_limit, T, indexing=params.path.plan_indexing))
+            plan_gains, params.controller.torque_limit, T, indexing=pp.plan_indexing,
+            reach=reach))
         builder.Connect(state_port, tracker.get_input_port(0))
         return {"controller": tracker}
     from ..systems.path import PathGenerator

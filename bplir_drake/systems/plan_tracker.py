@@ -73,6 +73,62 @@ def plan_gains(model, times, states, torque,
     return TrackingGains(result.K, result.x0, result.u0, result.k0)
 
 
+@dataclass(frozen=True)
+class Reach:
+    """The terminal reach: once the gripper is ``depth`` from the line in
+    the plan's second half (or the plan has ended), the elbow servoes the
+    gripper's distance to the line ``h`` instead of tracking the plan.
+
+    Persistent torque errors (wind, wrong inertia) change the swing's
+    energy, and a clock-indexed plan that ends at rest just inside the
+    capture band then either falls short or arrives fast.  The reach makes
+    the last centimetres a feedback task: ``h'`` follows the profile
+    ``sqrt(speed^2 + 2 brake |aim - h|)`` toward ``aim`` (``lift``; while the
+    gripper slides along the line faster than ``tangent`` the aim is
+    ``hold``, outside the band, so that it enters the band slowly in both
+    directions).  The elbow torque comes from partial feedback linearisation
+    of the output ``h`` on the nominal model (``h'' = rate_gain (h'_cmd -
+    h')``, link 1 passive), clipped by the tracker."""
+
+    plant: object
+    alpha: float
+    speed: float = 0.2
+    depth: float = 0.12
+    lift: float = -0.01
+    brake: float = 1.25
+    tangent: float = 0.25
+    hold: float = -0.05
+    rate_gain: float = 30.0
+
+    def height(self, x) -> float:
+        """The gripper's distance to the line (m, negative below it)."""
+        s = x[0] - self.alpha
+        return float(-self.plant.l1 * np.cos(s) - self.plant.l2 * np.cos(s + x[1]))
+
+    def torque(self, x) -> float:
+        """The elbow torque of the reach at the relative state ``x``."""
+        from .plant import bias_term, gravity_vector, mass_matrix
+
+        p = self.plant
+        q, v = x[:2], x[2:4]
+        s = q[0] - self.alpha
+        th = s + q[1]
+        h = -p.l1 * np.cos(s) - p.l2 * np.cos(th)
+        J = np.array([p.l1 * np.sin(s) + p.l2 * np.sin(th), p.l2 * np.sin(th)])  # dh/dq
+        along = (p.l1 * np.cos(s) + p.l2 * np.cos(th)) * v[0] + p.l2 * np.cos(th) * v[1]
+        aim = self.hold if self.tangent > 0 and abs(along) > self.tangent else self.lift
+        e = aim - h
+        hd_cmd = np.sign(e) * np.sqrt(self.speed ** 2 * (e > 0) + 2.0 * self.brake * abs(e))
+        hdd = self.rate_gain * (hd_cmd - J @ v)
+        jdv = p.l1 * np.cos(s) * v[0] ** 2 + p.l2 * np.cos(th) * (v[0] + v[1]) ** 2
+        M = mass_matrix(q, p)
+        b = bias_term(q, v, p) + gravity_vector(q, p)
+        # h'' = J q'' + J' q' with q1'' = -(M12 q2'' + b1) / M11 (link 1 passive)
+        q2dd = (hdd + J[0] * b[0] / M[0, 0] - jdv) / (J[1] - J[0] * M[0, 1] / M[0, 0])
+        q1dd = -(M[0, 1] * q2dd + b[0]) / M[0, 0]
+        return float(M[1, 0] * q1dd + M[1, 1] * q2dd + b[1])
+
+
 class PlanTracker(LeafSystem):
     """Input ``state`` (estimated relative state).  Outputs ``torque`` and
     ``reference`` (q2 of the plan), both held between ticks of ``period``.
@@ -86,8 +142,9 @@ class PlanTracker(LeafSystem):
 
     def __init__(self, gains, torque_limit: float, period: float,
                  indexing: str = "time", phase_weights=(1.0, 1.0, 0.01, 0.01),
-                 search: float = 0.05):
+                 search: float = 0.05, reach: Reach | None = None):
         super().__init__()
+        self.reach = reach
         if indexing not in PLAN_INDEXING:
             raise ValueError(f"indexing = {indexing!r}; allowed: " + ", ".join(PLAN_INDEXING))
         self.K, self.x0, self.u0, self.k0 = gains.K, gains.x0, gains.u0, gains.k0
@@ -99,7 +156,7 @@ class PlanTracker(LeafSystem):
         self._steps = np.linspace(0.0, search, n)
         self.period = period
         self.DeclareVectorInputPort("state", 4)
-        self._xd = self.DeclareDiscreteState(2)  # [phase tau of the last tick, tick count]
+        self._xd = self.DeclareDiscreteState(3)  # [phase tau of the last tick, tick count, reach]
         self._tick = declare_tick_result(self, self._tick_law,
                                          {self.xd_ticket(), self.all_input_ports_ticket()})
         declare_store(self, period, self._store)
@@ -109,10 +166,21 @@ class PlanTracker(LeafSystem):
         self.DeclareVectorOutputPort("reference", 1, lambda c, o: o.SetAtIndex(
             0, self._tick.Eval(c)[1]), dep)
 
-    def law(self, t: float, x) -> tuple[float, float]:
+    def reaching(self, t: float, x, reached: float) -> bool:
+        """Whether the terminal reach runs (it latches)."""
+        r = self.reach
+        if r is None:
+            return False
+        return bool(reached > 0.5 or t >= self.t_end
+                    or (t > 0.5 * self.t_end and r.height(x) > -r.depth))
+
+    def law(self, t: float, x, reach: bool = False) -> tuple[float, float]:
         """(torque, planned q2) at time ``t`` (held at the plan's end after it)."""
         t = min(max(t, 0.0), self.t_end)
         x0 = self.x0.value(t).ravel()
+        if reach:
+            u = self.reach.torque(np.asarray(x, dtype=float))
+            return float(np.clip(u, -self.torque_limit, self.torque_limit)), float(x0[1])
         u = self.u0.value(t)[0, 0] - (self.K.value(t) @ (np.asarray(x) - x0))[0] \
             - self.k0.value(t)[0, 0]
         return float(np.clip(u, -self.torque_limit, self.torque_limit)), float(x0[1])
@@ -128,9 +196,10 @@ class PlanTracker(LeafSystem):
         """(torque, planned q2, phase tau, tick count) of this tick; with
         ``"time"`` indexing the phase is the tick's time ``k T``."""
         x = self.get_input_port(0).Eval(context)
-        tau_prev, k = context.get_discrete_state(self._xd).get_value()
+        tau_prev, k, reached = context.get_discrete_state(self._xd).get_value()
         tau = k * self.period if self.indexing == "time" else self.phase(tau_prev, x)
-        return (*self.law(tau, x), tau, k + 1)
+        reach = self.reaching(tau, x, reached)
+        return (*self.law(tau, x, reach), tau, k + 1, float(reach))
 
     def _store(self, context, discrete_state):
         discrete_state.get_mutable_vector(self._xd).SetFromVector(self._tick.Eval(context)[2:])

@@ -327,6 +327,19 @@ def cmd_qft(args) -> int:
 
 
 # ------------------------------------------------------------------ swing
+def _with_path_mode(params, mode):
+    """``params`` with ``path.mode`` set from ``--path-mode`` (None: kept)."""
+    import dataclasses as dc
+
+    from .params import PATH_MODES
+
+    if mode is None:
+        return params
+    if mode not in PATH_MODES:
+        raise InputError(f"--path-mode = '{mode}' is unknown; allowed: " + ", ".join(PATH_MODES))
+    return params.with_(path=dc.replace(params.path, mode=mode))
+
+
 def _swing_params(args):
     import dataclasses as dc
 
@@ -348,6 +361,7 @@ def _swing_params(args):
         params = params.with_controller(args.controller)
     if args.estimator:
         params = params.with_estimator(args.estimator)
+    params = _with_path_mode(params, getattr(args, "path_mode", None))
     from .diagrams import swing_geometry
 
     swing_geometry(params)  # validates grip spacing / incline for this robot
@@ -360,11 +374,11 @@ def cmd_swing(args) -> int:
     from .analysis.swing.plots import animate_swing, replay_swing_html
 
     replay_info = None
+    replaying = args.replay is not None or args.sample is not None
+    params = None if replaying else _swing_params(args)   # bad options: nothing written
     out_dir = _out_dir(args.out)
-    if args.replay is not None or args.sample is not None:
+    if replaying:
         res, replay_info = _replay(args)
-    else:
-        params = _swing_params(args)
     if replay_info is None and args.compare:
         from .analysis.swing.compare import comparison_table, compare_presets, plot_comparison
 
@@ -480,6 +494,7 @@ def _study(args):
         study = study.with_(params=study.params.with_controller(args.controller))
     if args.estimator:
         study = study.with_(params=study.params.with_estimator(args.estimator))
+    study = study.with_(params=_with_path_mode(study.params, getattr(args, "path_mode", None)))
     if args.traverse:
         from .analysis.traverse.line import load_line
         from .analysis.traverse.route import plan_route
@@ -758,7 +773,11 @@ def build_parser() -> argparse.ArgumentParser:
                  "estimator": ("--estimator", None, None,
                                "your own estimator instead of the EKF, module:factory "
                                "(a module or .py file)"),
-                 "workers": ("--workers", int, None, "worker processes (default: all cores)")}
+                 "workers": ("--workers", int, None, "worker processes (default: all cores)"),
+                 "path": ("--path-mode", None, None,
+                          "how the swing is steered: auto (the default: plan on an inclined "
+                          "line, adaptive on a horizontal one), adaptive (the path "
+                          "generator), plan (plan tracking with the terminal reach), rts, lab")}
         for n in names:
             option(p, *table[n])
 
@@ -804,7 +823,7 @@ def build_parser() -> argparse.ArgumentParser:
     option(p, "--threshold", float, 1e-3, "relative rank threshold")
 
     p = command("swing", cmd_swing, "one brachiation swing (the main job)", "out/swing")
-    shared(p, "incline", "controller", "estimator")
+    shared(p, "incline", "controller", "estimator", "path")
     option(p, "--seed", int, None, "seed of friction draw and sensor noise")
     option(p, "--true-state", bool, help="control from the true state")
     option(p, "--no-animation", bool, help="skip the GIF")
@@ -819,7 +838,7 @@ def build_parser() -> argparse.ArgumentParser:
                 "Monte Carlo robustness study over uncertain parameters", "out/montecarlo")
     p.add_argument("-n", "--samples", type=int, default=None, help="number of swings")
     option(p, "--seed", int, None, "root seed of the study")
-    shared(p, "workers", "incline", "controller", "estimator")
+    shared(p, "workers", "incline", "controller", "estimator", "path")
     option(p, "--study", None, None, "study TOML file (distributions, scenario)")
     option(p, "--traverse", None, None, "a traversal study: each sample crosses this line "
            "(success: every obstacle passed, no driver trip, no fall)", metavar="LINE.toml")

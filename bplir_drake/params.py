@@ -542,6 +542,7 @@ class PathParams(_Block):
     reach_tangent: float = _p(0.25, "m/s", 0, 10, doc="mode 'plan': while the gripper slides along the line faster than this the reach holds it reach_hold from the line (0: never)")
     reach_hold: float = _p(-0.05, "m", -0.2, 0, doc="mode 'plan': see reach_tangent")
     reach_rate_gain: float = _positive(30.0, "1/s", doc="mode 'plan': the reach's speed error to acceleration gain")
+    plan_delay_compensation: float = _p(0.01, "s", 0, 0.1, doc="mode 'plan': the actuation delay the plan tracker assumes (whole periods; the lab firmware's 10 ms): it acts on the state predicted this far ahead and indexes the plan as much later (controller.delay_compensation, when set, takes precedence)")
 
     def resolved(self, incline_deg: float, controller: "ControllerParams") -> "PathParams":
         """The path block with ``mode = "auto"`` made concrete: ``plan`` when

@@ -138,6 +138,9 @@ def test_true_plant_errors_name_their_table(tmp_path):
     (["montecarlo", "-n", "1000000000000"], "--samples = 1000000000000 is out of range; allowed [1, 1000000]"),
     (["montecarlo", "-n", "2", "--workers", "0"], "--workers = 0 is out of range"),
     (["qft", "--plants", "0"], "--plants = 0 is out of range"),
+    (["swing", "--path-mode", "planned"], "--path-mode = 'planned' is unknown; allowed: auto, "
+     "adaptive, rts, lab, plan"),
+    (["montecarlo", "-n", "2", "--path-mode", ""], "--path-mode = '' is unknown"),
 ])
 def test_every_option_has_a_range(tmp_path, argv, words):
     """Item 8; nothing is written (item 12: no empty output directory)."""

@@ -41,8 +41,9 @@ def test_planned_target_rests_inside_the_band(uphill):
 
 def test_uphill_swing_with_ekf_tracking_a_plan(uphill):
     """Measured (seeds 0-19, friction +/-20 %, IMU noise, EKF): 20 captured at
-    0.24-0.28 m/s after 1.947-1.978 s; peak motor power 112 W against the
-    220 W rating, peak torque 19.7 N m (the reach).  Without the reach: 18
+    0.22-0.27 m/s after 1.959-1.979 s; peak motor power 108 W against the
+    220 W rating, peak torque 19.0 N m (the reach; the tracker assumes the
+    lab firmware's 10 ms of actuation delay, there is none here).  Without the reach: 18
     captured at 0.22-0.47 m/s after 1.229-1.253 s, seeds 8 and 15 crashing
     at 0.56 m/s, peak torque 8.3 N m.  The reach slows the approach: where
     the gripper is still short when link 1 turns back it holds the gripper
@@ -95,8 +96,8 @@ def test_state_indexed_tracker_reads_no_clock(uphill):
 
 def test_clock_free_uphill_swing(uphill):
     """The same 20 degree swing with the plan indexed by the estimated state
-    (no clock).  Measured, seeds 0-19: 20 captured at 0.23-0.28 m/s after
-    1.947-1.990 s.  Without the reach it cost captures: 13 (crashes 0, 2, 6,
+    (no clock).  Measured, seeds 0-19: 20 captured at 0.22-0.27 m/s after
+    1.959-1.988 s.  Without the reach it cost captures: 13 (crashes 0, 2, 6,
     8, 9, 10, 15 at 0.51-0.69 m/s) against 18 with the clock, the arrival
     timing no longer corrected without along-track feedback; the reach
     makes the arrival a feedback task of its own."""
@@ -117,7 +118,7 @@ def test_clock_free_uphill_swing(uphill):
 def test_quick_start_captures_on_a_20_degree_line_without_a_config(tmp_path, capsys, incline):
     """``bplir swing --incline +-20`` as a user types it: the default path
     mode ("auto") tracks the shipped plan; captured (seed 0: +20 deg at
-    0.24 m/s, -20 deg at 0.27 m/s; 0.47 and 0.25 m/s without the reach),
+    0.22 m/s, -20 deg at 0.30 m/s; 0.47 and 0.25 m/s without the reach),
     within the motor's ratings.  The
     dissertation's controller keeps its path generator, which times out
     uphill and crashes downhill."""

@@ -220,14 +220,9 @@ TRIP_LINE = {"name": "two obstacles", "length": 6.0, "start": 1.2,
 
 
 def _trip_params(rest: bool):
-    """The small driver, without the plans' terminal reach: the reach spends
-    up to 19.7 N m holding the gripper below the line, so with it this
-    budget trips the second swing already (measured: captured, fault);
-    these tests are about the i^2 t bookkeeping across swings."""
     p = preset()
     return p.with_(motor=dc.replace(p.motor, i_cont=2.5, t_peak=0.32),
-                   traverse=dc.replace(p.traverse, rest=rest),
-                   path=dc.replace(p.path, reach_speed=0.0))
+                   traverse=dc.replace(p.traverse, rest=rest))
 
 
 def _assert_always_held(res):
@@ -271,7 +266,7 @@ def _traverse_cli_rests_before_a_swing_that_would_trip(tmp_path, capsys):
     line = tmp_path / "line.toml"
     line.write_text(tomli_w.dumps(TRIP_LINE))
     config = tmp_path / "robot.toml"
-    config.write_text('[motor]\ni_cont = 2.5\nt_peak = 0.32\n[path]\nreach_speed = 0.0\n')
+    config.write_text('[motor]\ni_cont = 2.5\nt_peak = 0.32\n')
     out = tmp_path / "out"
     assert main(["traverse", str(line), "--config", str(config), "--seed", "1",
                  "--out", str(out), "--json"]) == 0

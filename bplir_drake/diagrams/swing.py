@@ -203,7 +203,10 @@ def add_swing_controller(builder, params: BplirParams, state_port, robot: Robot,
     ``plan_gains``), else ``{"path": PathGenerator, "controller":
     CpflController}``, both reading the state predicted over
     ``controller.delay_compensation`` (a :class:`DelayPredictor`, also
-    returned) when that is set.  Every system uses the nominal model."""
+    returned) when that is set; the plan tracker over
+    ``path.plan_delay_compensation`` when it is not (the lab firmware's
+    10 ms by default), indexing the plan as much later.  Every system uses
+    the nominal model."""
     T = params.controller.period
     if controller is not None or params.controller.plugin:
         from .plugin import make_plugin
@@ -214,9 +217,12 @@ def add_swing_controller(builder, params: BplirParams, state_port, robot: Robot,
             builder.Connect(robot.motor.GetOutputPort("available"),
                             ctrl.GetInputPort("torque_available"))
         return {"controller": ctrl}
-    steps = delay_steps(params.controller.delay_compensation, T)
+    assumed = params.controller.delay_compensation
+    if params.path.mode == "plan" and not assumed:
+        assumed = params.path.plan_delay_compensation
+    steps = delay_steps(assumed, T)
     predictor = None
-    if steps and params.path.mode != "plan":
+    if steps:
         from ..systems.predictor import DelayPredictor
 
         predictor = builder.AddNamedSystem("predictor", DelayPredictor(
@@ -236,8 +242,11 @@ def add_swing_controller(builder, params: BplirParams, state_port, robot: Robot,
                  if pp.reach_speed > 0 else None)
         tracker = builder.AddNamedSystem("plan_tracker", PlanTracker(
             plan_gains, params.controller.torque_limit, T, indexing=pp.plan_indexing,
-            reach=reach))
+            reach=reach, lead=steps * T))
         builder.Connect(state_port, tracker.get_input_port(0))
+        if predictor is not None:
+            builder.Connect(tracker.GetOutputPort("torque"), predictor.command_port)
+            return {"predictor": predictor, "controller": tracker}
         return {"controller": tracker}
     from ..systems.path import PathGenerator
 

@@ -142,9 +142,9 @@ class PlanTracker(LeafSystem):
 
     def __init__(self, gains, torque_limit: float, period: float,
                  indexing: str = "time", phase_weights=(1.0, 1.0, 0.01, 0.01),
-                 search: float = 0.05, reach: Reach | None = None):
+                 search: float = 0.05, reach: Reach | None = None, lead: float = 0.0):
         super().__init__()
-        self.reach = reach
+        self.reach, self.lead = reach, float(lead)
         if indexing not in PLAN_INDEXING:
             raise ValueError(f"indexing = {indexing!r}; allowed: " + ", ".join(PLAN_INDEXING))
         self.K, self.x0, self.u0, self.k0 = gains.K, gains.x0, gains.u0, gains.k0
@@ -197,7 +197,7 @@ class PlanTracker(LeafSystem):
         ``"time"`` indexing the phase is the tick's time ``k T``."""
         x = self.get_input_port(0).Eval(context)
         tau_prev, k, reached = context.get_discrete_state(self._xd).get_value()
-        tau = k * self.period if self.indexing == "time" else self.phase(tau_prev, x)
+        tau = k * self.period + self.lead if self.indexing == "time" else self.phase(tau_prev, x)
         reach = self.reaching(tau, x, reached)
         return (*self.law(tau, x, reach), tau, k + 1, float(reach))
 

@@ -37,7 +37,7 @@ def test_reach_linearises_the_distance_to_the_line(alpha):
     with link 1 passive), with h'_cmd = sqrt(speed^2 + 2 brake (aim - h))
     toward an aim above the gripper, -sqrt(2 brake (h - aim)) below it."""
     p = preset().plant
-    reach = Reach(p, alpha)
+    reach = Reach.from_params(p, alpha, preset().path)
     rng = np.random.default_rng(7)
     for _ in range(20):
         x = np.r_[alpha + rng.uniform(0.1, 0.4), rng.uniform(1.6, 2.2), rng.normal(0, 1, 2)]
@@ -61,7 +61,7 @@ def test_reach_takes_over_near_the_line_in_the_second_half_and_latches():
     p = p.with_(path=dc.replace(p.path, mode="plan"),
                 scenario=dc.replace(p.scenario, incline_deg=20.0))
     plan, gains = tracking_plan(p)
-    reach = Reach(p.plant, math.radians(20.0))
+    reach = Reach.from_params(p.plant, math.radians(20.0), p.path)
     tracker = PlanTracker(gains, 20.0, 0.01, reach=reach)
     T = plan.times[-1]
     assert reach.height(plan.states[0]) == pytest.approx(0.0, abs=1e-9)

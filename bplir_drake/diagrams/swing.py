@@ -235,10 +235,7 @@ def add_swing_controller(builder, params: BplirParams, state_port, robot: Robot,
         if plan_gains is None:
             raise ValueError("path.mode = 'plan' needs the tracking gains of a planned swing")
         pp = params.path
-        reach = (Reach(params.plant, path_geometry.alpha, speed=pp.reach_speed,
-                       depth=pp.reach_depth, lift=pp.reach_lift, brake=pp.reach_brake,
-                       tangent=pp.reach_tangent, hold=pp.reach_hold,
-                       rate_gain=pp.reach_rate_gain)
+        reach = (Reach.from_params(params.plant, path_geometry.alpha, pp)
                  if pp.reach_speed > 0 else None)
         tracker = builder.AddNamedSystem("plan_tracker", PlanTracker(
             plan_gains, params.controller.torque_limit, T, indexing=pp.plan_indexing,

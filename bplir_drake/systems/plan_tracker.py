@@ -92,13 +92,22 @@ class Reach:
 
     plant: object
     alpha: float
-    speed: float = 0.2
-    depth: float = 0.12
-    lift: float = -0.01
-    brake: float = 1.25
-    tangent: float = 0.25
-    hold: float = -0.05
-    rate_gain: float = 30.0
+    speed: float
+    depth: float
+    lift: float
+    brake: float
+    tangent: float
+    hold: float
+    rate_gain: float
+
+    @classmethod
+    def from_params(cls, plant, alpha: float, path) -> "Reach":
+        """The reach of ``path`` (:class:`~bplir_drake.params.PathParams`,
+        ``reach_*``) on the nominal ``plant`` for a line inclined by
+        ``alpha`` (rad)."""
+        return cls(plant, alpha, speed=path.reach_speed, depth=path.reach_depth,
+                   lift=path.reach_lift, brake=path.reach_brake, tangent=path.reach_tangent,
+                   hold=path.reach_hold, rate_gain=path.reach_rate_gain)
 
     def height(self, x) -> float:
         """The gripper's distance to the line (m, negative below it)."""
@@ -113,7 +122,7 @@ class Reach:
         q, v = x[:2], x[2:4]
         s = q[0] - self.alpha
         th = s + q[1]
-        h = -p.l1 * np.cos(s) - p.l2 * np.cos(th)
+        h = self.height(x)
         J = np.array([p.l1 * np.sin(s) + p.l2 * np.sin(th), p.l2 * np.sin(th)])  # dh/dq
         along = (p.l1 * np.cos(s) + p.l2 * np.cos(th)) * v[0] + p.l2 * np.cos(th) * v[1]
         aim = self.hold if self.tangent > 0 and abs(along) > self.tangent else self.lift
@@ -138,7 +147,11 @@ class PlanTracker(LeafSystem):
     ``tau`` moves to the plan point nearest to ``x_hat`` (squared errors
     weighted by ``phase_weights``) within ``[tau, tau + search]`` s, on a
     grid of a quarter period, so it never goes back and never reads the
-    clock."""
+    clock.  ``lead`` (s): with ``"time"`` the plan is read this much later
+    (the state input is then the state predicted this far ahead, over the
+    actuation delay).  ``reach``: the terminal :class:`Reach`, which takes
+    over near the line and latches (discrete state: phase, tick count,
+    reach flag)."""
 
     def __init__(self, gains, torque_limit: float, period: float,
                  indexing: str = "time", phase_weights=(1.0, 1.0, 0.01, 0.01),

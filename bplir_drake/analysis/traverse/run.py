@@ -127,12 +127,16 @@ def swing_params(params: BplirParams, holding: int, spacing: float,
                     incline_deg=round(math.degrees(incline), 1))
     p = p.with_(scenario=sc)
     if params.traverse.swing_mode == "plan":
-        # without the terminal reach: it lands wherever the gripper first
-        # moves slowly, sliding along the line if it must, where a
-        # traversal has to land on the planned grip between obstacles
-        # (with it, seed 0 of examples/line_span.toml landed on a spacer
-        # and the first gripper-2 swing of examples/line_flat.toml timed out)
+        # the plan tracker as the traversal was built and measured with:
+        # without the terminal reach (it lands wherever the gripper first
+        # moves slowly, sliding along the line if it must, where a traversal
+        # has to land on the planned grip between obstacles: with it, seed 0
+        # of examples/line_span.toml landed on a spacer and the first
+        # gripper-2 swing of examples/line_flat.toml timed out), and so
+        # without its delay compensation (alone it moved seed 0 of
+        # line_flat's capture speeds up to 0.42 m/s from 0.35)
         p = p.with_(path=dc.replace(p.path, mode="plan", reach_speed=0.0,
+                                    plan_delay_compensation=0.0,
                                     plan_end_depth=params.traverse.plan_end_depth))
     return p
 

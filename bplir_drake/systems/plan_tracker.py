@@ -28,6 +28,7 @@ import numpy as np
 from pydrake.systems.framework import LeafSystem
 
 from ..params import PLAN_INDEXING
+from .plant import bias_term, gravity_vector, mass_matrix
 from .schedule import declare_store, declare_tick_result
 
 
@@ -116,8 +117,6 @@ class Reach:
 
     def torque(self, x) -> float:
         """The elbow torque of the reach at the relative state ``x``."""
-        from .plant import bias_term, gravity_vector, mass_matrix
-
         p = self.plant
         q, v = x[:2], x[2:4]
         s = q[0] - self.alpha
@@ -193,9 +192,9 @@ class PlanTracker(LeafSystem):
         x0 = self.x0.value(t).ravel()
         if reach:
             u = self.reach.torque(np.asarray(x, dtype=float))
-            return float(np.clip(u, -self.torque_limit, self.torque_limit)), float(x0[1])
-        u = self.u0.value(t)[0, 0] - (self.K.value(t) @ (np.asarray(x) - x0))[0] \
-            - self.k0.value(t)[0, 0]
+        else:
+            u = self.u0.value(t)[0, 0] - (self.K.value(t) @ (np.asarray(x) - x0))[0] \
+                - self.k0.value(t)[0, 0]
         return float(np.clip(u, -self.torque_limit, self.torque_limit)), float(x0[1])
 
     def phase(self, tau: float, x) -> float:

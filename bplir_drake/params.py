@@ -534,8 +534,9 @@ class PathParams(_Block):
     plan_end_depth: float = _p(0.015, "m", 0, 0.1, doc="mode 'plan': the planned swing comes to rest this far below the line (inside the capture band); 15 mm chosen on seeds 0-19 at +-20 deg: 13 mm crashed 9/20 uphill, 17 mm timed out 4/20 downhill")
     plan_spacing_step: float = _p(0.01, "m", 0, 0.1, doc="mode 'plan': the plan is made for the grip spacing measured at the start rounded to this step, so that a study drawing the spacing solves a few plans (one per step, cached), not one per swing (0: the exact spacing)")
     plan_indexing: str = "time"   # mode 'plan': "time" (reads the clock) or "state" (clock-free phase)
-    # mode 'plan': the terminal reach (systems/plan_tracker.py, issue 17); chosen on root seed 0 of the realistic study at 0 and +-20 deg
-    reach_speed: float = _p(0.2, "m/s", 0, 2, doc="mode 'plan': the terminal reach's speed toward the line where it aims (0: no reach, the LQR to the end)")
+    # mode 'plan': the terminal reach (systems/plan_tracker.py, issue 17), off by default: it
+    # lands on the back swing, 0.6-0.9 m short of the planned grip (README, "Status")
+    reach_speed: float = _p(0.0, "m/s", 0, 2, doc="mode 'plan': the terminal reach's speed toward the line where it aims (0, the default: no reach, the LQR to the end; 0.2 was tuned on root seed 0 of the realistic study, but the reach captures on the back swing, 0.6-0.9 m short of the planned grip)")
     reach_depth: float = _p(0.12, "m", 0, 0.5, doc="mode 'plan': the reach takes over once the gripper is this close to the line in the plan's second half (or at the plan's end)")
     reach_lift: float = _p(-0.01, "m", -0.1, 0.1, doc="mode 'plan': the reach aims the gripper this far from the line (negative: below, inside the capture band)")
     reach_brake: float = _positive(1.25, "m/s^2", doc="mode 'plan': the reach's speed profile toward its aim, sqrt(reach_speed^2 + 2 reach_brake |distance|)")

@@ -1,7 +1,7 @@
 """The terminal reach of plan tracking (issue 17, ``systems/plan_tracker.py``):
 the last centimetres of a planned swing as a feedback task on the gripper's
-distance to the line, so that persistent torque errors (wind, inertia) that
-change the swing's energy no longer decide the landing."""
+distance to the line.  It is off by default: it lands on the back swing,
+short of the planned grip (the last test)."""
 import dataclasses as dc
 import math
 from pathlib import Path
@@ -37,7 +37,7 @@ def test_reach_linearises_the_distance_to_the_line(alpha):
     with link 1 passive), with h'_cmd = sqrt(speed^2 + 2 brake (aim - h))
     toward an aim above the gripper, -sqrt(2 brake (h - aim)) below it."""
     p = preset().plant
-    reach = Reach.from_params(p, alpha, preset().path)
+    reach = Reach.from_params(p, alpha, dc.replace(preset().path, reach_speed=0.2))
     rng = np.random.default_rng(7)
     for _ in range(20):
         x = np.r_[alpha + rng.uniform(0.1, 0.4), rng.uniform(1.6, 2.2), rng.normal(0, 1, 2)]
@@ -58,7 +58,7 @@ def test_reach_takes_over_near_the_line_in_the_second_half_and_latches():
     runs; in the plan's second half the reach takes over once the gripper is
     within ``depth`` of the line, or when the plan has ended, and keeps it."""
     p = preset()
-    p = p.with_(path=dc.replace(p.path, mode="plan"),
+    p = p.with_(path=dc.replace(p.path, mode="plan", reach_speed=0.2),
                 scenario=dc.replace(p.scenario, incline_deg=20.0))
     plan, gains = tracking_plan(p)
     reach = Reach.from_params(p.plant, math.radians(20.0), p.path)
@@ -82,61 +82,59 @@ def test_reach_takes_over_near_the_line_in_the_second_half_and_latches():
 STUDY = Path(__file__).resolve().parents[1] / "examples" / "study_realistic.toml"
 
 
-@pytest.mark.parametrize("incline", [20.0, -20.0])
-def test_reach_holds_the_realistic_study_on_20_degree_lines(incline):
-    """The realistic study (friction, inertial parameters, link lengths, IMU
-    noise, bias and misalignment, 0-20 ms actuation delay, wind, gusts) on
-    the +-20 deg lines as ``bplir montecarlo --incline`` runs it by default
-    (plan tracking with the reach), grip spacing held at 1.2 m (the shipped
-    plans; every other spacing needs its own plan).  The reach's parameters
-    were chosen on root seed 0; this is root seed 2, samples 0-9, held out.
-    Measured: 10 of 10 captured at +20 and at -20 deg; 9 of 10 with the
-    reach but without the delay compensation (+20: sample 5 crashes; -20:
-    sample 3); 2 of 10 with neither (3 crashes and 5 timeouts each)."""
+def test_the_reach_captures_on_the_back_swing_short_of_the_grip():
+    """Why the reach is off by default (``path.reach_speed = 0``).  With it
+    (0.2 m/s, tuned on root seed 0 of the realistic study) the held-out
+    samples of root seed 2 all counted as captured by the SPEC's criterion
+    (first arrival at least 0.8 D along the line) -- but the gripper had
+    fallen back: the reach held it under the line while link 1 swung back
+    and grabbed the line at the next slow moment, 0.6-0.9 m short of the
+    planned grip (the mirror point, 2 D from the start).  Measured on root
+    seed 0, 100 swings per line: landing error p50 -0.84 m (horizontal),
+    -0.88 m (+20 deg), -0.60 m (-20 deg); with the study's criterion
+    (``min_travel_fraction = 1.9``: at most 0.1 D short) 0, 0 and 18 of
+    100 captured (reach off: 32, 15, 14).  Sample 0 of root seed 2 at +20
+    deg, grip spacing 1.2 m (the shipped plans), on both criteria."""
     from bplir_drake.analysis.montecarlo import load_study, sample_params
     from bplir_drake.analysis.swing.run import SwingRunner
 
     study = load_study(STUDY)
+    assert study.params.scenario.min_travel_fraction == 1.9
     study = study.with_(
-        seed=2, params=study.params.with_(scenario=dc.replace(study.params.scenario,
-                                                              incline_deg=incline)),
+        seed=2, params=study.params.with_(
+            path=dc.replace(study.params.path, reach_speed=0.2),
+            scenario=dc.replace(study.params.scenario, incline_deg=20.0)),
         distributions=tuple(d for d in study.distributions
                             if d.name != "scenario.grip_spacing"))
+    params, seed, _ = sample_params(study, 0)
     runner = SwingRunner()
-    rows = []
-    for k in range(10):
-        params, seed, _ = sample_params(study, k)
-        rows.append(runner.run(params, seed=seed).summary)
-    assert all(r["path_mode"] == "plan" for r in rows)
-    captured = [r for r in rows if r["outcome"] == "captured"]
-    assert len(captured) == 10
-    for r in rows:
-        assert r["peak_motor_power_W"] < 220.0 and r["peak_torque_Nm"] <= 20.0 + 1e-9
-    assert max(r["capture_speed_mps"] for r in captured) <= 0.5
+    strict = runner.run(params, seed=seed).summary
+    spec = runner.run(params.with_(scenario=dc.replace(params.scenario, min_travel_fraction=0.8)),
+                      seed=seed).summary
+    assert spec["path_mode"] == "plan" and spec["outcome"] == "captured"
+    assert spec["landing_error_m"] < -0.5          # the back swing, far short of the grip
+    assert spec["swing_time_s"] > 1.6               # the plan ends at ~1.2 s
+    assert strict["outcome"] != "captured"
 
 
 @pytest.mark.parametrize("incline", [20.0, -20.0])
-def test_delay_and_link2_errors_are_captured_on_20_degree_lines(incline):
-    """The default controller on the +-20 deg lines (plan tracking with the
-    reach, assuming the lab firmware's 10 ms of actuation delay:
-    ``path.plan_delay_compensation``), EKF in the loop.  Measured: every
-    case captured; at +20 deg 10 ms 0.24 / 0.26 m/s and 20 ms 0.26 / 0.29
-    m/s (seeds 0 / 1), m2, I2, lc2 of the real robot at -10 % / +10 %:
-    0.22 / 0.22, 0.25 / 0.20, 0.25 / 0.19 m/s; at -20 deg 0.29-0.32 m/s."""
+def test_10_and_20_ms_of_delay_are_captured_on_the_grip_on_20_degree_lines(incline):
+    """The default controller on the +-20 deg lines (plan tracking assuming
+    the lab firmware's 10 ms of actuation delay,
+    ``path.plan_delay_compensation``; no reach), EKF in the loop, with 10
+    and 20 ms of actuation delay, seeds 0 and 1.  Measured: every case
+    captured within 1 cm of the planned grip; +20 deg 0.33-0.44 m/s in
+    1.23-1.24 s, -20 deg 0.09-0.20 m/s in 1.29-1.30 s.  Not yet held (the
+    README's Status): m2, I2 or lc2 of the real robot off by 10 % -- at
+    +20 deg 1 of 6 captured (2 crashes, 3 timeouts), at -20 deg 2 of 6."""
     from bplir_drake.analysis.swing.run import SwingRunner
 
     runner = SwingRunner()
     p = preset()
     p = p.with_(scenario=dc.replace(p.scenario, incline_deg=incline))
-    cases = [p.with_(scenario=dc.replace(p.scenario, actuation_delay=d))
-             for d in (0.01, 0.02)]
-    runs = [runner.run(q, seed=k).summary for q in cases for k in (0, 1)]
-    tp = p.simulated_plant
-    for name in ("m2", "I2", "lc2"):
-        for r in (0.9, 1.1):
-            q = p.with_(true_plant=dc.replace(tp, **{name: getattr(tp, name) * r}))
-            runs.append(runner.run(q, seed=0).summary)
-    assert [r["outcome"] for r in runs] == ["captured"] * 10
-    assert max(r["capture_speed_mps"] for r in runs) < 0.33
+    runs = [runner.run(p.with_(scenario=dc.replace(p.scenario, actuation_delay=d)),
+                       seed=k).summary for d in (0.01, 0.02) for k in (0, 1)]
+    assert [r["outcome"] for r in runs] == ["captured"] * 4
+    assert all(abs(r["landing_error_m"]) < 0.01 and r["swing_time_s"] < 1.35 for r in runs)
     assert all(r["peak_motor_power_W"] < 220.0 and r["peak_torque_Nm"] <= 20.0 + 1e-9
                for r in runs)

@@ -185,6 +185,10 @@ def swing_summary(p: BplirParams, lg: dict[str, Log], status: dict, seed: int,
         "capture_speed_mps": status["capture_speed_mps"],
         "closest_distance_m": status["closest_distance_m"],
         "travel_m": status["travel_m"],
+        # where the arrival is along the line relative to the planned grip
+        # (the mirror point, 2 D from the start): negative = short of it
+        "landing_error_m": (status["travel_m"] - 2.0 * sc.grip_spacing
+                            if status["outcome"] in ("captured", "crash") else float("nan")),
         "fixed_gripper_open": status["fixed_gripper_open"],
         "peak_torque_Nm": float(np.abs(tau).max()),
         "peak_motor_power_W": float(np.abs(power).max()),

@@ -777,7 +777,7 @@ def build_parser() -> argparse.ArgumentParser:
                  "path": ("--path-mode", None, None,
                           "how the swing is steered: auto (the default: plan on an inclined "
                           "line, adaptive on a horizontal one), adaptive (the path "
-                          "generator), plan (plan tracking with the terminal reach), rts, lab")}
+                          "generator), plan (plan tracking), rts, lab")}
         for n in names:
             option(p, *table[n])
 

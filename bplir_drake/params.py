@@ -543,6 +543,14 @@ class PathParams(_Block):
     reach_tangent: float = _p(0.25, "m/s", 0, 10, doc="mode 'plan': while the gripper slides along the line faster than this the reach holds it reach_hold from the line (0: never)")
     reach_hold: float = _p(-0.05, "m", -0.2, 0, doc="mode 'plan': see reach_tangent")
     reach_rate_gain: float = _positive(30.0, "1/s", doc="mode 'plan': the reach's speed error to acceleration gain")
+    # mode 'plan': the apex landing (systems/plan_tracker.py, issue 17)
+    landing_lead: float = _p(0.025, "m s/rad", 0, 1, doc="mode 'plan': the apex landing aims the gripper landing_margin + landing_lead q1' below the line, so that it rises as link 1 slows and reaches the band when link 1 stops (0: no landing, the LQR to the end); 0.025 chosen on root seed 0 of the realistic study (README)")
+    landing_margin: float = _p(0.01, "m", 0, 0.1, doc="mode 'plan': the landing aims the gripper this far below the line when link 1 stops (inside the capture band)")
+    landing_depth: float = _p(0.12, "m", 0, 0.5, doc="mode 'plan': the landing takes over once the gripper is this close to the line in the plan's last forward swing of link 1 (or at the plan's end) ...")
+    landing_take_rate: float = _p(1.2, "rad/s", 0, 10, doc="mode 'plan': ... or once link 1 slows below this rate while decelerating")
+    landing_gain: float = _positive(10.0, "1/s", doc="mode 'plan': the landing's height error to rate gain")
+    landing_rate_gain: float = _positive(30.0, "1/s", doc="mode 'plan': the landing's rate error to acceleration gain")
+    landing_min_decel: float = _positive(1.0, "rad/s^2", doc="mode 'plan': link 1 counts as decelerating above this (nominal model, elbow held)")
     plan_delay_compensation: float = _p(0.01, "s", 0, 0.1, doc="mode 'plan': the actuation delay the plan tracker assumes (whole periods; the lab firmware's 10 ms): it acts on the state predicted this far ahead and indexes the plan as much later (controller.delay_compensation, when set, takes precedence)")
 
     def resolved(self, incline_deg: float, controller: "ControllerParams") -> "PathParams":
@@ -566,6 +574,10 @@ class PathParams(_Block):
         if self.plan_indexing not in PLAN_INDEXING:
             raise ParameterError(f"path.plan_indexing = '{self.plan_indexing}' is unknown; "
                                  "allowed: " + ", ".join(PLAN_INDEXING))
+        if self.landing_lead > 0 and self.reach_speed > 0:
+            raise ParameterError(f"path.landing_lead = {self.landing_lead:g} m s/rad and "
+                                 f"path.reach_speed = {self.reach_speed:g} m/s are both set; "
+                                 "allowed: one terminal law (set the other to 0)")
 
 
 # ---------------------------------------------------------------- scenario

@@ -479,7 +479,9 @@ def test_shipped_plans_serve_a_fresh_install(monkeypatch, tmp_path):
     from bplir_drake.params import load_toml
 
     shipped = sorted(plan_cache.PACKAGED.glob("plan-*.npz"))
-    assert len(shipped) == 11   # +-20 deg (the quick start), 20 deg resting on the line, the lines' 8
+    # +-20 deg (the quick start), 0 deg (plan tracking, the landing's tests), 20 deg resting
+    # on the line, the lines' 8
+    assert len(shipped) == 12
     monkeypatch.setenv("BPLIR_CACHE_DIR", str(tmp_path))
 
     def no_solve(*a, **k):
@@ -489,7 +491,8 @@ def test_shipped_plans_serve_a_fresh_install(monkeypatch, tmp_path):
     p = load_toml(Path(__file__).resolve().parents[1] / "examples" / "uphill_plan.toml")
     p = p.with_(scenario=dc.replace(p.scenario, incline_deg=20.0))
     for incline, depth in ((20.0, 0.0), (20.0, p.path.plan_end_depth),   # test_swing_plan's,
-                           (-20.0, p.path.plan_end_depth)):              # the quick start's
+                           (-20.0, p.path.plan_end_depth),               # the quick start's
+                           (0.0, p.path.plan_end_depth)):                # test_reach's
         q = p.with_(scenario=dc.replace(p.scenario, incline_deg=incline))
         plan = P.plan_swing(q, end_depth=depth)
         assert plan.feasible and plan.incline_deg == incline
@@ -514,7 +517,8 @@ def test_shipped_plans_serve_a_fresh_install(monkeypatch, tmp_path):
 
 def test_shipped_gains_serve_the_tests_plans(monkeypatch, tmp_path):
     """The LQR gains of the plans the tests and the quick start track (the
-    +-20 deg swings and both robots on the flat example line) ship too: with
+    +-20 deg swings, the horizontal one of plan tracking, and both robots on
+    the flat example line) ship too: with
     an empty cache they are read, never solved, and every shipped gains
     file belongs to a shipped plan."""
     import dataclasses as dc
@@ -536,7 +540,9 @@ def test_shipped_gains_serve_the_tests_plans(monkeypatch, tmp_path):
     up = up.with_(scenario=dc.replace(up.scenario, incline_deg=20.0))
     base = preset()
     down = up.with_(scenario=dc.replace(up.scenario, incline_deg=-20.0))
-    cases = [up, down] + [swing_params(base, g, base.traverse.grip_spacing, 0.0) for g in (1, 2)]
+    flat = base.with_(path=dc.replace(base.path, mode="plan"))
+    cases = [up, down, flat] + [swing_params(base, g, base.traverse.grip_spacing, 0.0)
+                                for g in (1, 2)]
     keys = set()
     for p in cases:
         plan, gains = P.tracking_plan(p)

@@ -40,10 +40,12 @@ def test_planned_target_rests_inside_the_band(uphill):
 
 
 def test_uphill_swing_with_ekf_tracking_a_plan(uphill):
-    """Measured (seeds 0-19, friction +/-20 %, IMU noise, EKF): 18 captured at
-    0.26-0.49 m/s after 1.228-1.249 s, within 1 cm of the planned grip;
-    seeds 8 and 15 crash at 0.57-0.58 m/s.  Peak motor power 101-108 W
-    against the 220 W rating, peak torque 7.8 N m."""
+    """Measured (seeds 0-19, friction +/-20 %, IMU noise, EKF; the default
+    apex landing, ``path.landing_lead``): all 20 captured at 0.34-0.43 m/s
+    after 1.232-1.256 s, within 1 cm of the planned grip; peak motor power
+    101-108 W against the 220 W rating, peak torque 8.0-10.5 N m.  Without
+    the landing (plan tracking to the end, ``landing_lead = 0``) seeds 8 and
+    15 crashed at 0.57-0.58 m/s."""
     plan, gains = tracking_plan(uphill)
     tracker = PlanTracker(gains, 20.0, 0.002)
     for i in np.searchsorted(plan.times, [0.1, 0.5, 1.0]):
@@ -53,15 +55,12 @@ def test_uphill_swing_with_ekf_tracking_a_plan(uphill):
     assert abs(tracker.law(0.5, plan.states[i] + [1.0, 0, 0, 0])[0]) == 20.0
     rows = [run_swing(uphill, seed=k).summary for k in range(20)]
     assert rows[0]["outcome"] == "captured" and rows[0]["estimator_in_loop"]
-    assert [k for k, s in enumerate(rows) if s["outcome"] != "captured"] == [8, 15]
+    assert [k for k, s in enumerate(rows) if s["outcome"] != "captured"] == []
     for s in rows:
-        assert s["fixed_gripper_open"] == (s["outcome"] == "captured")
+        assert s["fixed_gripper_open"]
         assert s["peak_motor_power_W"] < 220.0 and s["peak_torque_Nm"] <= 20.0 + 1e-9
-        assert abs(s["landing_error_m"]) < 0.02 and 1.2 < s["swing_time_s"] < 1.26
-        if s["outcome"] == "captured":
-            assert s["capture_speed_mps"] <= 0.5
-        else:
-            assert s["outcome"] == "crash" and s["capture_speed_mps"] < 0.6
+        assert abs(s["landing_error_m"]) < 0.01 and 1.2 < s["swing_time_s"] < 1.26
+        assert 0.3 < s["capture_speed_mps"] < 0.45
 
 
 def test_state_indexed_tracker_reads_no_clock(uphill):
@@ -91,21 +90,18 @@ def test_state_indexed_tracker_reads_no_clock(uphill):
 
 def test_clock_free_uphill_swing(uphill):
     """The same 20 degree swing with the plan indexed by the estimated state
-    (no clock).  Measured, seeds 0-19: 15 captured at 0.19-0.49 m/s after
-    1.229-1.257 s; seeds 2, 6, 8, 10 and 15 crash at 0.50-0.72 m/s (two
-    more than with the clock: the arrival timing is not corrected without
-    along-track feedback)."""
+    (no clock), with the default apex landing.  Measured, seeds 0-19: all 20
+    captured at 0.33-0.47 m/s after 1.233-1.258 s, within 1.1 cm of the
+    grip.  Without the landing seeds 2, 6, 8, 10 and 15 crashed at 0.50-0.72
+    m/s (the arrival timing is not corrected without along-track feedback;
+    the landing reads the arrival from link 1's rate instead)."""
     p = uphill.with_(path=dc.replace(uphill.path, plan_indexing="state"))
     rows = [run_swing(p, seed=k).summary for k in range(20)]
-    assert [k for k, s in enumerate(rows) if s["outcome"] != "captured"] == [2, 6, 8, 10, 15]
+    assert [k for k, s in enumerate(rows) if s["outcome"] != "captured"] == []
     for s in rows:
-        assert s["fixed_gripper_open"] == (s["outcome"] == "captured")
-        assert s["peak_motor_power_W"] < 220.0
-        assert abs(s["landing_error_m"]) < 0.03 and 1.2 < s["swing_time_s"] < 1.26
-        if s["outcome"] == "captured":
-            assert s["capture_speed_mps"] <= 0.5
-        else:
-            assert s["outcome"] == "crash" and s["capture_speed_mps"] < 0.75
+        assert s["fixed_gripper_open"] and s["peak_motor_power_W"] < 220.0
+        assert abs(s["landing_error_m"]) < 0.012 and 1.2 < s["swing_time_s"] < 1.26
+        assert 0.3 < s["capture_speed_mps"] < 0.48
 
 
 @pytest.mark.parametrize("incline", [20.0, -20.0])

@@ -230,13 +230,16 @@ def add_swing_controller(builder, params: BplirParams, state_port, robot: Robot,
         builder.Connect(state_port, predictor.estimate_port)
         state_port = predictor.predicted_port
     if params.path.mode == "plan":
-        from ..systems.plan_tracker import PlanTracker, Reach
+        from ..systems.plan_tracker import Landing, PlanTracker, Reach
 
         if plan_gains is None:
             raise ValueError("path.mode = 'plan' needs the tracking gains of a planned swing")
         pp = params.path
-        reach = (Reach.from_params(params.plant, path_geometry.alpha, pp)
-                 if pp.reach_speed > 0 else None)
+        reach = None   # the terminal law: the apex landing, the reach or none
+        if pp.landing_lead > 0:
+            reach = Landing.from_params(params.plant, path_geometry.alpha, pp)
+        elif pp.reach_speed > 0:
+            reach = Reach.from_params(params.plant, path_geometry.alpha, pp)
         tracker = builder.AddNamedSystem("plan_tracker", PlanTracker(
             plan_gains, params.controller.torque_limit, T, indexing=pp.plan_indexing,
             reach=reach, lead=steps * T))

@@ -112,29 +112,122 @@ class Reach:
 
     def height(self, x) -> float:
         """The gripper's distance to the line (m, negative below it)."""
-        s = x[0] - self.alpha
-        return float(-self.plant.l1 * np.cos(s) - self.plant.l2 * np.cos(s + x[1]))
+        return height_rates(self.plant, self.alpha, x)[0]
+
+    def takes_over(self, x) -> bool:
+        """Whether the reach takes over (in the plan's final forward swing)."""
+        return self.height(x) > -self.depth
 
     def torque(self, x) -> float:
         """The elbow torque of the reach at the relative state ``x``."""
         p = self.plant
-        q, v = x[:2], x[2:4]
-        s = q[0] - self.alpha
-        th = s + q[1]
-        h = self.height(x)
-        J = np.array([p.l1 * np.sin(s) + p.l2 * np.sin(th), p.l2 * np.sin(th)])  # dh/dq
-        along = (p.l1 * np.cos(s) + p.l2 * np.cos(th)) * v[0] + p.l2 * np.cos(th) * v[1]
+        h, hd, along = height_rates(p, self.alpha, x)
         aim = self.hold if self.tangent > 0 and abs(along) > self.tangent else self.lift
         e = aim - h
         hd_cmd = np.sign(e) * np.sqrt(self.speed ** 2 * (e > 0) + 2.0 * self.brake * abs(e))
-        hdd = self.rate_gain * (hd_cmd - J @ v)
-        jdv = p.l1 * np.cos(s) * v[0] ** 2 + p.l2 * np.cos(th) * (v[0] + v[1]) ** 2
-        M = mass_matrix(q, p)
-        b = bias_term(q, v, p) + gravity_vector(q, p)
-        # h'' = J q'' + J' q' with q1'' = -(M12 q2'' + b1) / M11 (link 1 passive)
-        q2dd = (hdd + J[0] * b[0] / M[0, 0] - jdv) / (J[1] - J[0] * M[0, 1] / M[0, 0])
-        q1dd = -(M[0, 1] * q2dd + b[0]) / M[0, 0]
-        return float(M[1, 0] * q1dd + M[1, 1] * q2dd + b[1])
+        return height_torque(p, self.alpha, x, self.rate_gain * (hd_cmd - hd))
+
+
+@dataclass(frozen=True)
+class Landing:
+    """The apex landing: in the plan's last forward swing of link 1, once
+    the gripper is ``depth`` from the line or link 1 has slowed below
+    ``take_rate`` while decelerating, the elbow places the gripper so that
+    it reaches the line when link 1 comes to rest, wherever that is.
+
+    A wrong model or a steady wind changes the swing's energy; link 1 then
+    turns back before or after the plan's end, and a plan followed by the
+    clock is below the line there (a timeout) or still fast (a crash).  The
+    landing reads the energy left from link 1's rate instead: the gripper's
+    aimed distance to the line is ``h* = -margin - lead q1'`` (never above
+    the line), so it rises as link 1 slows and is ``margin`` below the line,
+    inside the capture band, when link 1 stops.  ``h`` follows ``h*`` by
+    ``h'_cmd = lead a + gain (h* - h)`` (``lead a``: the rate of ``h*`` with
+    link 1 decelerating at ``a``, its deceleration on the nominal model with
+    the elbow held), through a partial feedback linearisation of ``h``
+    (``h'' = rate_gain (h'_cmd - h')``, link 1 passive, nominal model)."""
+
+    plant: object
+    alpha: float
+    lead: float
+    depth: float
+    margin: float
+    take_rate: float
+    gain: float
+    rate_gain: float
+    min_decel: float
+
+    @classmethod
+    def from_params(cls, plant, alpha: float, path) -> "Landing":
+        """The landing of ``path`` (:class:`~bplir_drake.params.PathParams`,
+        ``landing_*``) on the nominal ``plant`` for a line inclined by
+        ``alpha`` (rad)."""
+        return cls(plant, alpha, lead=path.landing_lead, depth=path.landing_depth,
+                   margin=path.landing_margin, take_rate=path.landing_take_rate,
+                   gain=path.landing_gain, rate_gain=path.landing_rate_gain,
+                   min_decel=path.landing_min_decel)
+
+    def height(self, x) -> float:
+        """The gripper's distance to the line (m, negative below it)."""
+        return height_rates(self.plant, self.alpha, x)[0]
+
+    def deceleration(self, x) -> float:
+        """Link 1's deceleration ``b1 / M11`` on the nominal model with the
+        elbow held (rad/s^2; negative while gravity speeds it up)."""
+        q, v = np.asarray(x[:2], dtype=float), np.asarray(x[2:4], dtype=float)
+        b = bias_term(q, v, self.plant) + gravity_vector(q, self.plant)
+        return float(b[0] / mass_matrix(q, self.plant)[0, 0])
+
+    def takes_over(self, x) -> bool:
+        """Whether the landing takes over (asked in the plan's last forward
+        swing of link 1 only)."""
+        return self.height(x) > -self.depth or (
+            self.deceleration(x) >= self.min_decel and 0.0 <= x[2] < self.take_rate)
+
+    def aim(self, x) -> tuple[float, float]:
+        """(h*, its rate): the aimed distance of the gripper to the line (m)
+        and how fast it rises (m/s)."""
+        aim = -self.margin - self.lead * float(x[2])
+        if aim >= 0.0:
+            return 0.0, 0.0
+        return aim, self.lead * max(self.deceleration(x), 0.0)
+
+    def torque(self, x) -> float:
+        """The elbow torque of the landing at the relative state ``x``."""
+        h, hd, _ = height_rates(self.plant, self.alpha, x)
+        aim, rate = self.aim(x)
+        hd_cmd = rate + self.gain * (aim - h)
+        return height_torque(self.plant, self.alpha, x, self.rate_gain * (hd_cmd - hd))
+
+
+def height_rates(p, alpha: float, x) -> tuple[float, float, float]:
+    """(h, h', along): the gripper's distance to a line inclined by
+    ``alpha`` (negative below it), its rate and the gripper's speed along
+    the line at the relative state ``x`` of the plant ``p``."""
+    q, v = x[:2], x[2:4]
+    s = q[0] - alpha
+    th = s + q[1]
+    h = -p.l1 * np.cos(s) - p.l2 * np.cos(th)
+    hd = (p.l1 * np.sin(s) + p.l2 * np.sin(th)) * v[0] + p.l2 * np.sin(th) * v[1]
+    along = (p.l1 * np.cos(s) + p.l2 * np.cos(th)) * v[0] + p.l2 * np.cos(th) * v[1]
+    return float(h), float(hd), float(along)
+
+
+def height_torque(p, alpha: float, x, hdd: float) -> float:
+    """The elbow torque that gives the gripper's distance to the line the
+    acceleration ``hdd`` with link 1 passive, by partial feedback
+    linearisation on the plant ``p`` (friction left out)."""
+    q, v = x[:2], x[2:4]
+    s = q[0] - alpha
+    th = s + q[1]
+    J = np.array([p.l1 * np.sin(s) + p.l2 * np.sin(th), p.l2 * np.sin(th)])  # dh/dq
+    jdv = p.l1 * np.cos(s) * v[0] ** 2 + p.l2 * np.cos(th) * (v[0] + v[1]) ** 2
+    M = mass_matrix(q, p)
+    b = bias_term(q, v, p) + gravity_vector(q, p)
+    # h'' = J q'' + J' q' with q1'' = -(M12 q2'' + b1) / M11 (link 1 passive)
+    q2dd = (hdd + J[0] * b[0] / M[0, 0] - jdv) / (J[1] - J[0] * M[0, 1] / M[0, 0])
+    q1dd = -(M[0, 1] * q2dd + b[0]) / M[0, 0]
+    return float(M[1, 0] * q1dd + M[1, 1] * q2dd + b[1])
 
 
 class PlanTracker(LeafSystem):
@@ -161,6 +254,11 @@ class PlanTracker(LeafSystem):
             raise ValueError(f"indexing = {indexing!r}; allowed: " + ", ".join(PLAN_INDEXING))
         self.K, self.x0, self.u0, self.k0 = gains.K, gains.x0, gains.u0, gains.k0
         self.t_end = self.x0.end_time()
+        # the terminal law may take over in the plan's last forward swing of link 1
+        # (a climbing plan swings link 1 back first), and in its second half
+        ts = np.linspace(0.0, self.t_end, 401)
+        back = ts[self.x0.vector_values(ts)[2] < -0.05]   # link 1 swings back (rad/s)
+        self.t_final = max(0.5 * self.t_end, float(back[-1]) if back.size else 0.0)
         self.torque_limit = float(torque_limit)
         self.indexing = indexing
         self._W = np.asarray(phase_weights, dtype=float)
@@ -184,7 +282,7 @@ class PlanTracker(LeafSystem):
         if r is None:
             return False
         return bool(reached > 0.5 or t >= self.t_end
-                    or (t > 0.5 * self.t_end and r.height(x) > -r.depth))
+                    or (t > self.t_final and r.takes_over(x)))
 
     def law(self, t: float, x, reach: bool = False) -> tuple[float, float]:
         """(torque, planned q2) at time ``t`` (held at the plan's end after it)."""

@@ -559,9 +559,9 @@ class PathParams(_Block):
         is the ``qft`` preset without a plug-in, else ``adaptive`` (the path
         generator fails the nominal swing on a 5 deg line either way: it
         cannot pump or shed the energy; the plan can).  On the horizontal
-        line plan tracking with the terminal reach is the more robust of the
-        two too (realistic study: 99.7 % against 21.5 %, README); it is not
-        the default there yet (issue 17)."""
+        line plan tracking with the apex landing is the more robust of the
+        two too (realistic study, held out: 93.2 % against about 20 %,
+        README); it is not the default there yet (issue 17)."""
         if self.mode != "auto":
             return self
         plan = abs(incline_deg) >= 0.05 and controller.preset == "qft" and not controller.plugin

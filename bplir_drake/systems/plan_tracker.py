@@ -22,7 +22,7 @@ Outputs ``torque`` (the command) and ``reference`` (the plan's elbow angle).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 from pydrake.systems.framework import LeafSystem
@@ -74,8 +74,27 @@ def plan_gains(model, times, states, torque,
     return TrackingGains(result.K, result.x0, result.u0, result.k0)
 
 
+class _LineServo:
+    """What the terminal laws share: built from the ``path`` block's fields
+    named ``<prefix>_<field>``, and the gripper's distance to the line."""
+
+    _prefix = ""
+
+    @classmethod
+    def from_params(cls, plant, alpha: float, path):
+        """The law of ``path`` (:class:`~bplir_drake.params.PathParams`, its
+        ``<prefix>_*`` fields) on the nominal ``plant`` for a line inclined
+        by ``alpha`` (rad)."""
+        names = [f.name for f in fields(cls) if f.name not in ("plant", "alpha")]
+        return cls(plant, alpha, **{n: getattr(path, f"{cls._prefix}_{n}") for n in names})
+
+    def height(self, x) -> float:
+        """The gripper's distance to the line (m, negative below it)."""
+        return height_rates(self.plant, self.alpha, x)[0]
+
+
 @dataclass(frozen=True)
-class Reach:
+class Reach(_LineServo):
     """The terminal reach: once the gripper is ``depth`` from the line in
     the plan's second half (or the plan has ended), the elbow servoes the
     gripper's distance to the line ``h`` instead of tracking the plan.
@@ -100,19 +119,7 @@ class Reach:
     tangent: float
     hold: float
     rate_gain: float
-
-    @classmethod
-    def from_params(cls, plant, alpha: float, path) -> "Reach":
-        """The reach of ``path`` (:class:`~bplir_drake.params.PathParams`,
-        ``reach_*``) on the nominal ``plant`` for a line inclined by
-        ``alpha`` (rad)."""
-        return cls(plant, alpha, speed=path.reach_speed, depth=path.reach_depth,
-                   lift=path.reach_lift, brake=path.reach_brake, tangent=path.reach_tangent,
-                   hold=path.reach_hold, rate_gain=path.reach_rate_gain)
-
-    def height(self, x) -> float:
-        """The gripper's distance to the line (m, negative below it)."""
-        return height_rates(self.plant, self.alpha, x)[0]
+    _prefix = "reach"
 
     def takes_over(self, x) -> bool:
         """Whether the reach takes over (in the plan's final forward swing)."""
@@ -129,7 +136,7 @@ class Reach:
 
 
 @dataclass(frozen=True)
-class Landing:
+class Landing(_LineServo):
     """The apex landing: in the plan's last forward swing of link 1, once
     the gripper is ``depth`` from the line or link 1 has slowed below
     ``take_rate`` while decelerating, the elbow places the gripper so that
@@ -156,20 +163,7 @@ class Landing:
     gain: float
     rate_gain: float
     min_decel: float
-
-    @classmethod
-    def from_params(cls, plant, alpha: float, path) -> "Landing":
-        """The landing of ``path`` (:class:`~bplir_drake.params.PathParams`,
-        ``landing_*``) on the nominal ``plant`` for a line inclined by
-        ``alpha`` (rad)."""
-        return cls(plant, alpha, lead=path.landing_lead, depth=path.landing_depth,
-                   margin=path.landing_margin, take_rate=path.landing_take_rate,
-                   gain=path.landing_gain, rate_gain=path.landing_rate_gain,
-                   min_decel=path.landing_min_decel)
-
-    def height(self, x) -> float:
-        """The gripper's distance to the line (m, negative below it)."""
-        return height_rates(self.plant, self.alpha, x)[0]
+    _prefix = "landing"
 
     def deceleration(self, x) -> float:
         """Link 1's deceleration ``b1 / M11`` on the nominal model with the

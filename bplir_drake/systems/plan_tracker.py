@@ -18,6 +18,11 @@ reads no clock: the plan is evaluated at the phase nearest to the estimate
 only.  The LQR's feedback then acts across the plan, not along it: timing
 errors are no longer corrected, which costs captures (see the tests).
 
+Near the line a terminal law takes over from the LQR: by default the apex
+landing (:class:`Landing`), which aims the gripper at the capture band for
+the moment link 1 stops, wherever a model or wind error makes it stop; the
+reach (:class:`Reach`) is kept for comparison, off by default.
+
 Outputs ``torque`` (the command) and ``reference`` (the plan's elbow angle).
 """
 from __future__ import annotations
@@ -235,13 +240,15 @@ class PlanTracker(LeafSystem):
     grid of a quarter period, so it never goes back and never reads the
     clock.  ``lead`` (s): with ``"time"`` the plan is read this much later
     (the state input is then the state predicted this far ahead, over the
-    actuation delay).  ``reach``: the terminal :class:`Reach`, which takes
-    over near the line and latches (discrete state: phase, tick count,
-    reach flag)."""
+    actuation delay).  ``reach``: the terminal law (:class:`Landing` or
+    :class:`Reach`), which takes over near the line in the plan's last
+    forward swing of link 1 (after ``t_final``) and latches (discrete
+    state: phase, tick count, reach flag)."""
 
     def __init__(self, gains, torque_limit: float, period: float,
                  indexing: str = "time", phase_weights=(1.0, 1.0, 0.01, 0.01),
-                 search: float = 0.05, reach: Reach | None = None, lead: float = 0.0):
+                 search: float = 0.05, reach: Landing | Reach | None = None,
+                 lead: float = 0.0):
         super().__init__()
         self.reach, self.lead = reach, float(lead)
         if indexing not in PLAN_INDEXING:
@@ -271,7 +278,7 @@ class PlanTracker(LeafSystem):
             0, self._tick.Eval(c)[1]), dep)
 
     def reaching(self, t: float, x, reached: float) -> bool:
-        """Whether the terminal reach runs (it latches)."""
+        """Whether the terminal law runs (it latches)."""
         r = self.reach
         if r is None:
             return False

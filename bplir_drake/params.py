@@ -554,18 +554,17 @@ class PathParams(_Block):
     plan_delay_compensation: float = _p(0.01, "s", 0, 0.1, doc="mode 'plan': the actuation delay the plan tracker assumes (whole periods; the lab firmware's 10 ms): it acts on the state predicted this far ahead and indexes the plan as much later (controller.delay_compensation, when set, takes precedence)")
 
     def resolved(self, incline_deg: float, controller: "ControllerParams") -> "PathParams":
-        """The path block with ``mode = "auto"`` made concrete: ``plan`` when
-        the line is inclined (``|incline| >= 0.05`` deg) and the controller
-        is the ``qft`` preset without a plug-in, else ``adaptive`` (the path
-        generator fails the nominal swing on a 5 deg line either way: it
-        cannot pump or shed the energy; the plan can).  On the horizontal
-        line plan tracking with the apex landing is the more robust of the
-        two too (realistic study: 93.2 % of 1000 held-out swings, root seed
-        2; the adaptive path 20 of 100 on root seed 0, README); it is not
-        the default there yet (issue 17)."""
+        """The path block with ``mode = "auto"`` made concrete: ``plan`` (plan
+        tracking with the apex landing) for the ``qft`` preset without a
+        plug-in on every line, else ``adaptive`` (the dissertation's path
+        generator).  The adaptive path fails the nominal swing on a 5 deg
+        line (it cannot pump or shed the energy; the plan can), and on the
+        horizontal line plan tracking is the more robust of the two as well
+        (realistic study: 93.2 % of 1000 held-out swings, root seed 2,
+        against 20 of 100 for the adaptive path on root seed 0; README)."""
         if self.mode != "auto":
             return self
-        plan = abs(incline_deg) >= 0.05 and controller.preset == "qft" and not controller.plugin
+        plan = controller.preset == "qft" and not controller.plugin
         return replace(self, mode="plan" if plan else "adaptive")
 
     def _check(self):

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from bplir_drake.analysis.montecarlo import Distribution, Study, sample_params
-from bplir_drake.analysis.swing.run import SwingRunner, run_swing
+from bplir_drake.analysis.swing.run import SwingRunner, run_swing, swing_diagram
 from bplir_drake.diagrams import build_swing, set_swing_sample, swing_structure
 from bplir_drake.params import BplirParams
 
@@ -47,7 +47,9 @@ def test_three_samples_through_one_diagram_equal_three_fresh_builds():
 
 def test_a_structural_change_is_refused_and_rebuilt():
     p = BplirParams()
-    built = build_swing(p, seed=0)
+    with pytest.raises(ValueError, match="swing_diagram"):   # the default tracks a plan
+        build_swing(p, seed=0)
+    built = swing_diagram(p, seed=0)
     ctx = built.diagram.CreateDefaultContext()
     other = p.with_(scenario=replace(p.scenario, grip_spacing=1.25))
     assert swing_structure(other, True) != built.structure

@@ -139,7 +139,7 @@ def test_line_metrics(params):
 
 
 def test_latch_lift_rescues_a_swing_that_stops_just_short_of_the_line():
-    """Sample 1 of the default study (root seed 0): with the latched
+    """Sample 1 of the default study (root seed 0), adaptive path: with the latched
     line-seeking path aimed at the line itself, the swing turns with the
     gripper just outside the band, falls back and meets the line at 0.86 m/s
     (after 1.47 s).  Aiming it 10 mm above the line (the default
@@ -151,6 +151,7 @@ def test_latch_lift_rescues_a_swing_that_stops_just_short_of_the_line():
     from bplir_drake.analysis.swing.run import run_swing
 
     p, seed, _ = mc.sample_params(mc.Study(samples=5, seed=0), 1)
+    p = p.with_(path=dc.replace(p.path, mode="adaptive"))   # the latch is the adaptive path's
     assert p.path.latch_lift == 0.01
     old = run_swing(p.with_(path=dc.replace(p.path, latch_lift=0.0)), seed=seed).summary
     assert old["outcome"] == "crash" and old["capture_speed_mps"] > 0.8

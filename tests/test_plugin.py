@@ -172,19 +172,20 @@ def needs_torque(params):
 
 
 def test_the_example_estimator_runs_a_swing_from_python():
-    from bplir_drake.diagrams import build_swing
+    from bplir_drake.analysis.swing import swing_diagram
     from bplir_drake.diagrams.plugin import load_factory
 
     ekf = run_swing(BplirParams(), seed=0).summary
     mine = run_swing(BplirParams().with_estimator(EXAMPLE_EST), seed=0).summary
     # the gyro integral (5.41) carries the nominal swing to a capture, with
-    # about 4x the EKF's largest angle error (measured 0.0143 vs 0.0038 rad)
+    # about 13x the EKF's largest angle error (measured with the default plan
+    # tracking: 0.0591 vs 0.0045 rad; 0.0143 vs 0.0038 on the adaptive path)
     assert mine["outcome"] == "captured"
-    assert mine["max_estimation_error_rad"] == pytest.approx(0.0143, abs=0.002)
-    assert mine["max_estimation_error_rad"] > 3 * ekf["max_estimation_error_rad"]
-    # build_swing(estimator=...) takes the factory itself, too
+    assert mine["max_estimation_error_rad"] == pytest.approx(0.0591, abs=0.003)
+    assert mine["max_estimation_error_rad"] > 10 * ekf["max_estimation_error_rad"]
+    # swing_diagram / build_swing(estimator=...) take the factory itself, too
     factory = load_factory(EXAMPLE_EST, "estimator")
-    built = build_swing(BplirParams(), estimator=factory)
+    built = swing_diagram(BplirParams(), estimator=factory)
     assert type(built["estimator"]).__name__ == "GyroIntegral" and "ekf" not in built.systems
 
 
@@ -193,7 +194,7 @@ def test_the_example_estimator_through_the_command_line(tmp_path, capsys):
                  "--out", str(tmp_path / "swing")]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["outcome"] == "captured"
-    assert out["max_estimation_error_rad"] == pytest.approx(0.0143, abs=0.002)
+    assert out["max_estimation_error_rad"] == pytest.approx(0.0591, abs=0.003)
     assert main(["montecarlo", "--estimator", EXAMPLE_EST, "-n", "2", "--workers", "1",
                  "--no-plots", "--json", "--out", str(tmp_path / "mc")]) == 0
     summary = json.loads(capsys.readouterr().out)

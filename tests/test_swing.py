@@ -9,6 +9,7 @@ import pytest
 from bplir_drake.analysis.plotting import save_figure
 from bplir_drake.analysis.swing.run import run_swing
 from bplir_drake.cli import main
+from bplir_drake.params import ParameterError
 
 
 @pytest.fixture(scope="module")
@@ -70,9 +71,13 @@ def test_twenty_seeds_with_ekf_and_uncertain_friction():
 
 
 def test_weak_motor_cannot_falsely_capture(params):
+    """With 2 N m no swing exists: the default (plan tracking) says so before
+    it moves; the adaptive path swings and does not capture."""
     p = params.with_(motor=dc.replace(params.motor, torque_limit=2.0),
                      controller=dc.replace(params.controller, torque_limit=2.0))
-    r = run_swing(p)
+    with pytest.raises(ParameterError, match="no feasible plan for a 0 deg line within 2 N m"):
+        run_swing(p)
+    r = run_swing(p.with_(path=dc.replace(p.path, mode="adaptive")))
     assert r.summary["outcome"] in ("timeout", "crash", "fault")
     assert not r.summary["success"] and not r.summary["fixed_gripper_open"]
     assert r.summary["peak_torque_Nm"] <= 2.0 + 1e-9

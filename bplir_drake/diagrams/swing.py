@@ -233,7 +233,10 @@ def add_swing_controller(builder, params: BplirParams, state_port, robot: Robot,
         from ..systems.plan_tracker import Landing, PlanTracker, Reach
 
         if plan_gains is None:
-            raise ValueError("path.mode = 'plan' needs the tracking gains of a planned swing")
+            raise ValueError("path.mode = 'plan' (the qft preset's default) needs the tracking "
+                             "gains of a planned swing: plan_gains=tracking_plan(params)[1] "
+                             "(bplir_drake.analysis.swing.plan), or build with "
+                             "bplir_drake.analysis.swing.swing_diagram(params)")
         pp = params.path
         reach = None   # the terminal law: the apex landing, the reach or none
         if pp.landing_lead > 0:

@@ -77,6 +77,22 @@ class SwingResult:
 SWING_INTEGRATOR, SWING_ACCURACY = "runge_kutta3", 1e-4
 
 
+def swing_diagram(params: BplirParams, **kwargs):
+    """:func:`~bplir_drake.diagrams.build_swing` (the same keyword arguments)
+    with the tracking gains of the planned swing when ``params`` track one
+    (``path.mode`` resolves to ``"plan"``, the default of the ``qft``
+    preset): the plan and its gains come from the nominal model and the
+    scenario only, from the disk cache or solved
+    (:func:`~.plan.tracking_plan`)."""
+    if kwargs.get("controller") is None and "plan_gains" not in kwargs:
+        resolved = params.resolved()
+        if resolved.path.mode == "plan":
+            from .plan import tracking_plan
+
+            kwargs["plan_gains"] = tracking_plan(resolved)[1]
+    return build_swing(params, **kwargs)
+
+
 class SwingRunner:
     """Runs swings, building a diagram only when the structure changes.
 
@@ -95,13 +111,7 @@ class SwingRunner:
         """``(built swing, fresh)`` for ``params``: reused when the structure
         matches (``fresh`` False: the sample must be set in the context)."""
         if self.built is None or self.built.structure != swing_structure(params, use_estimator):
-            gains = None
-            if params.path.mode == "plan":
-                from .plan import tracking_plan
-
-                gains = tracking_plan(params)[1]
-            self.built = build_swing(params, seed=seed, use_estimator=use_estimator,
-                                     plan_gains=gains)
+            self.built = swing_diagram(params, seed=seed, use_estimator=use_estimator)
             self.builds += 1
             return self.built, True
         return self.built, False

@@ -775,9 +775,10 @@ def build_parser() -> argparse.ArgumentParser:
                                "(a module or .py file)"),
                  "workers": ("--workers", int, None, "worker processes (default: all cores)"),
                  "path": ("--path-mode", None, None,
-                          "how the swing is steered: auto (the default: plan on an inclined "
-                          "line, adaptive on a horizontal one), adaptive (the path "
-                          "generator), plan (plan tracking), rts, lab")}
+                          "how the swing is steered: auto (the default: plan for the qft "
+                          "preset, adaptive for the others and plug-ins), adaptive (the "
+                          "path generator), plan (plan tracking with the apex landing), "
+                          "rts, lab")}
         for n in names:
             option(p, *table[n])
 

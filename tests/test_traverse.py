@@ -219,10 +219,13 @@ TRIP_LINE = {"name": "two obstacles", "length": 6.0, "start": 1.2,
              "obstacles": [{"position": 1.7, "width": 0.25}, {"position": 3.8, "width": 0.25}]}
 
 
-def _trip_params(rest: bool):
+def _trip_params(rest: bool, standstill_samples: float = 0):
+    """A weak driver (2.5 A continuous); without the standstill calibration
+    by default, whose 5 s on the line before each swing count as rest."""
     p = preset()
     return p.with_(motor=dc.replace(p.motor, i_cont=2.5, t_peak=0.32),
-                   traverse=dc.replace(p.traverse, rest=rest))
+                   traverse=dc.replace(p.traverse, rest=rest),
+                   estimator=dc.replace(p.estimator, standstill_samples=standstill_samples))
 
 
 def _assert_always_held(res):
@@ -256,6 +259,14 @@ def _back_to_back_swings_trip_the_driver_without_rest():
     assert swings[3]["i2t_start_A2s"] > 30.0
     assert swings[3]["i2t_end_A2s"] >= res.totals["i2t_budget_A2s"] == pytest.approx(70.0)
     _assert_always_held(res)
+    # with the default standstill calibration each swing starts after 5 s on
+    # the line, which the driver's integral decays over (measured: 41.7 to
+    # 10.5 A^2 s before the third swing): the same four swings pass
+    res = run_traverse(line, _trip_params(rest=False, standstill_samples=500), seed=1)
+    assert res.totals["outcome"] == "passed"
+    assert [r["kind"] for r in res.rows].count("calibrate") == 4
+    assert not any(r["kind"] == "rest" for r in res.rows)
+    assert max(r["i2t_end_A2s"] for r in res.rows) < 0.75 * res.totals["i2t_budget_A2s"]
 
 
 def _traverse_cli_rests_before_a_swing_that_would_trip(tmp_path, capsys):
@@ -266,7 +277,8 @@ def _traverse_cli_rests_before_a_swing_that_would_trip(tmp_path, capsys):
     line = tmp_path / "line.toml"
     line.write_text(tomli_w.dumps(TRIP_LINE))
     config = tmp_path / "robot.toml"
-    config.write_text('[motor]\ni_cont = 2.5\nt_peak = 0.32\n')
+    # without the standstill calibration, whose 5 s would be the rest
+    config.write_text('[motor]\ni_cont = 2.5\nt_peak = 0.32\n[estimator]\nstandstill_samples = 0\n')
     out = tmp_path / "out"
     assert main(["traverse", str(line), "--config", str(config), "--seed", "1",
                  "--out", str(out), "--json"]) == 0

@@ -339,6 +339,9 @@ class EstimatorParams(_Block):
     start_rate_sigma: float = _positive(0.05, "rad/s", doc="initial rate sd at a swing start (at rest)")
     start_bias_sigma: float = _positive(0.002, "rad/s", doc="gyro-bias sd at a swing start (calibrated while held on the line)")
     standstill_samples: float = _p(500, "samples", 0, 100000, doc="IMU samples averaged at rest on the line before a swing to calibrate the gyro biases and accelerometer misalignments (0: none, the dissertation's filter; 500 = 5 s, the default: a 2.5 deg misalignment crashes at 1.5 m/s without it, README \"Robustness benchmark\")")
+    tuned_gyro_noise: float = _positive(0.0166, "rad/s", doc="the gyro noise per sample the in-loop tuning assumes (Table 5.1): a standstill calibration that measures more widens the gyro's R by the ratio")
+    tuned_accel_noise: float = _positive(0.02156, "m/s^2", doc="the accelerometer noise per sample the in-loop tuning assumes (Table 5.1): a standstill calibration that measures more widens the accelerometers' R by the ratio")
+    noise_tolerance: float = _p(1.2, "", 1, 100, doc="R is widened only when the measured noise exceeds the tuned one by more than this factor (500 standstill samples of the datasheet noise measure it within +-6 %)")
     estimate_bias: bool = True
     bias_sigma0: float = _positive(0.05, "rad/s", doc="initial gyro-bias standard deviation")
     bias_walk: float = _positive(1e-3, "rad/s/sqrt(s)", doc="gyro-bias random walk")
@@ -376,6 +379,22 @@ class EstimatorParams(_Block):
         noisier than Table 5.1 (mean NIS about 1.1 where 4 is consistent)."""
         return replace(self, gyro_meas_sigma=imu.gyro_sigma, accel_meas_sigma=imu.accel_sigma,
                        accel_process_sigma=self.datasheet_process_sigma)
+
+    def with_measured_noise(self, gyro: float, accel: float) -> "EstimatorParams":
+        """The same filter with its measurement noise widened to the noise
+        a standstill calibration measured (per sample: ``gyro`` rad/s,
+        ``accel`` m/s^2), by its ratio to ``tuned_*_noise`` where that is
+        above ``noise_tolerance`` (never narrowed; 0: not measured,
+        unchanged)."""
+        def widen(ratio):
+            return ratio if ratio > self.noise_tolerance else 1.0
+
+        kg = widen(gyro / self.tuned_gyro_noise)
+        ka = widen(accel / self.tuned_accel_noise)
+        if kg == 1.0 and ka == 1.0:
+            return self
+        return replace(self, gyro_meas_sigma=self.gyro_meas_sigma * kg,
+                       accel_meas_sigma=self.accel_meas_sigma * ka)
 
     def for_loop(self) -> "EstimatorParams":
         """The same filter with the in-loop tuning (used by the swing)."""

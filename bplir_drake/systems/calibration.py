@@ -11,7 +11,11 @@ through its mounting misalignment ``eps_i`` and scale error ``s_i``:
 
 * gyro bias ``b_i`` = mean gyro reading;
 * misalignment ``eps_i = atan2(mean a_x, mean a_y) - theta_i``;
-* scale ``s_i = |mean a| / g - 1``.
+* scale ``s_i = |mean a| / g - 1``;
+* the sensors' white noise per sample: the window's scatter (pooled over
+  both gyros, and over the four accelerometer axes), which lets the filter
+  widen its measurement noise when the sensors are noisier than its tuning
+  assumes (:meth:`~bplir_drake.params.EstimatorParams.with_measured_noise`).
 
 :func:`calibrate_standstill` estimates them from the samples (what the
 robot measures -- never the simulated sensor's parameters) and reports the
@@ -31,7 +35,9 @@ import numpy as np
 class ImuCalibration:
     """Gyro biases (rad/s), accelerometer misalignments (rad) and scale
     errors of both IMUs, with the standard errors of the biases (rad/s)
-    and misalignments (rad) from the calibration window."""
+    and misalignments (rad) from the calibration window, and the measured
+    noise per sample ``(gyro rad/s, accelerometer m/s^2)`` (0: not
+    measured)."""
 
     bias: tuple = (0.0, 0.0)
     misalign: tuple = (0.0, 0.0)
@@ -39,6 +45,7 @@ class ImuCalibration:
     bias_sigma: tuple = (0.0, 0.0)
     misalign_sigma: tuple = (0.0, 0.0)
     samples: int = 0
+    noise: tuple = (0.0, 0.0)
 
     def correct(self, sample) -> np.ndarray:
         """``sample`` (6, ``IMU_COLUMNS`` order) with each accelerometer's
@@ -60,7 +67,8 @@ class ImuCalibration:
         return {"gyro_bias_rad_s": list(self.bias), "misalignment_rad": list(self.misalign),
                 "accel_scale_error": list(self.scale),
                 "gyro_bias_sigma_rad_s": list(self.bias_sigma),
-                "misalignment_sigma_rad": list(self.misalign_sigma), "samples": self.samples}
+                "misalignment_sigma_rad": list(self.misalign_sigma), "samples": self.samples,
+                "gyro_noise_rad_s": self.noise[0], "accel_noise_m_s2": self.noise[1]}
 
 
 def calibrate_standstill(samples, theta, g: float) -> ImuCalibration:
@@ -72,7 +80,8 @@ def calibrate_standstill(samples, theta, g: float) -> ImuCalibration:
     if n < 2:
         raise ValueError("a standstill calibration needs at least 2 samples")
     mean = samples.mean(axis=0)
-    sem = samples.std(axis=0, ddof=1) / math.sqrt(n)
+    var = samples.var(axis=0, ddof=1)
+    sem = np.sqrt(var / n)
     misalign, scale, eps_sigma = [], [], []
     for i in range(2):
         ax, ay = mean[2 + 2 * i], mean[3 + 2 * i]
@@ -84,5 +93,6 @@ def calibrate_standstill(samples, theta, g: float) -> ImuCalibration:
     def floats(v):
         return tuple(float(x) for x in v)
 
+    noise = (math.sqrt(var[:2].mean()), math.sqrt(var[2:].mean()))
     return ImuCalibration(floats(mean[:2]), floats(misalign), floats(scale), floats(sem[:2]),
-                          floats(eps_sigma), n)
+                          floats(eps_sigma), n, floats(noise))

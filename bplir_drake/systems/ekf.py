@@ -468,8 +468,11 @@ class KinematicEkf(LeafSystem):
         # first-sample flag]: _unpack()
         packed = np.concatenate([init.x, init.P.ravel(), np.zeros(4), [1.0]])
         self._state = self.DeclareDiscreteState(packed)
-        # the standstill calibration: samples are corrected before the update
+        # the standstill calibration: samples are corrected before the update,
+        # and the filter's R widened to the noise it measured
         self._calibration = self.DeclareAbstractParameter(AbstractValue.Make(calibration))
+        self._tuned = self.DeclareAbstractParameter(AbstractValue.Make(
+            params.with_measured_noise(*calibration.noise)))
         self._post = declare_tick_result(self, self._posterior,
                                          {self.xd_ticket(), self.all_input_ports_ticket()})
         declare_store(self, params.period, self._store)
@@ -493,8 +496,8 @@ class KinematicEkf(LeafSystem):
         s, u_prev, first = self._unpack(context.get_discrete_state(self._state).get_value())
         sample = context.get_abstract_parameter(self._calibration).get_value().correct(
             self.imu_port.Eval(context))
-        s, u = ekf_step(s, u_prev, sample, self.params, first=first,
-                        hold=context.get_time() < self.params.calibrate_after)
+        s, u = ekf_step(s, u_prev, sample, context.get_abstract_parameter(self._tuned).get_value(),
+                        first=first, hold=context.get_time() < self.params.calibrate_after)
         return np.concatenate([s.x, s.P.ravel(), u, [0.0]])
 
     def _store(self, context, discrete_state):
@@ -502,10 +505,13 @@ class KinematicEkf(LeafSystem):
 
     def set_calibration(self, context, calibration: ImuCalibration) -> None:
         """Use ``calibration`` in ``context`` (root, before the run): its
-        corrections on every sample and its gyro biases as the initial bias
-        estimate."""
+        corrections on every sample, its gyro biases as the initial bias
+        estimate and its measured noise in R
+        (:meth:`~bplir_drake.params.EstimatorParams.with_measured_noise`)."""
         own = self.GetMyMutableContextFromRoot(context)
         own.get_mutable_abstract_parameter(self._calibration).set_value(calibration)
+        own.get_mutable_abstract_parameter(self._tuned).set_value(
+            self.params.with_measured_noise(*calibration.noise))
         if self._bias is not None:
             state = own.get_mutable_discrete_state(self._state)
             state.SetAtIndex(self._bias.start, calibration.bias[0])

@@ -128,3 +128,26 @@ def test_benchmark_refuses_a_realistic_directory_of_another_study_before_any_wor
                  "--out", str(tmp_path)]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "holds results of a different study" in err
+
+
+def test_the_default_on_the_quick_benchmark_held_out_seed_1(tmp_path):
+    """``bplir benchmark --quick --seed 1`` for the default controller (plan
+    tracking with the apex landing, standstill calibration and its noise
+    widening).  Seed 1 is held out: the calibration default and the noise
+    widening were chosen looking at seed 0 (quick: 0.99, lc2 x1.2 the only
+    miss; full, 3 seeds: 0.90).  Measured on seed 1: 0.92 overall; the
+    misses are crashes just over the limit (m2 x0.8 at 0.50 m/s, lc2 x1.2 at
+    0.54) and IMU noise x10 at 0.58 m/s, so sensor noise scores 0.50 and
+    issue 17's 0.75 per category is not met there."""
+    from bplir_drake.analysis.montecarlo.benchmark import run_benchmark
+    from bplir_drake.params import BplirParams
+
+    res = run_benchmark(BplirParams(), ["qft"], quick=True, seed=1, workers=2, out=tmp_path)
+    score = res["scores"]["qft"]
+    assert score["overall"] == pytest.approx(0.92, abs=0.005) and score["swings"] == 28
+    misses = sorted(r["label"] for r in res["rows"] if not r["success"])
+    assert misses == ["IMU noise x10", "true_plant.lc2 x1.2", "true_plant.m2 x0.8"]
+    assert all(r["outcome"] == "crash" and 0.5 < r["capture_speed_mps"] < 0.6
+               for r in res["rows"] if not r["success"])
+    assert {c for c, v in score["categories"].items() if v < 1} == {"model parameters",
+                                                                     "sensor noise"}

@@ -469,6 +469,18 @@ def test_file_readers_return_a_result_or_a_one_line_error(tmp_path, data):
             assert "\n" not in str(exc) and str(exc)
 
 
+def _quick_benchmark_swings():
+    """The swings of ``bplir benchmark --quick`` that need plans of their own:
+    the +-10 deg lines and the 1.1 and 1.3 m grip spacings."""
+    import dataclasses as dc
+
+    from bplir_drake.params import preset
+
+    p = preset()
+    return ([p.with_(scenario=dc.replace(p.scenario, incline_deg=a)) for a in (-10.0, 10.0)]
+            + [p.with_(scenario=dc.replace(p.scenario, grip_spacing=d)) for d in (1.1, 1.3)])
+
+
 def test_shipped_plans_serve_a_fresh_install(monkeypatch, tmp_path):
     """The plans the examples and tests use ship with the package under
     their cache keys: with an empty cache they are read, never solved."""
@@ -479,9 +491,9 @@ def test_shipped_plans_serve_a_fresh_install(monkeypatch, tmp_path):
     from bplir_drake.params import load_toml
 
     shipped = sorted(plan_cache.PACKAGED.glob("plan-*.npz"))
-    # +-20 deg (the quick start), 0 deg (plan tracking, the landing's tests), 20 deg resting
-    # on the line, the lines' 8
-    assert len(shipped) == 12
+    # +-20 deg (the quick start), 0 deg (the default, the landing's tests), 20 deg resting
+    # on the line, the lines' 8, the quick benchmark's +-10 deg and 1.1 / 1.3 m swings
+    assert len(shipped) == 16
     monkeypatch.setenv("BPLIR_CACHE_DIR", str(tmp_path))
 
     def no_solve(*a, **k):
@@ -496,6 +508,8 @@ def test_shipped_plans_serve_a_fresh_install(monkeypatch, tmp_path):
         q = p.with_(scenario=dc.replace(p.scenario, incline_deg=incline))
         plan = P.plan_swing(q, end_depth=depth)
         assert plan.feasible and plan.incline_deg == incline
+    for q in _quick_benchmark_swings():
+        assert P.tracking_plan(q)[0].feasible
     # every swing of the example lines (both robots, their inclines)
     from bplir_drake.analysis.traverse.line import load_line
     from bplir_drake.analysis.traverse.route import plan_route
@@ -542,7 +556,7 @@ def test_shipped_gains_serve_the_tests_plans(monkeypatch, tmp_path):
     down = up.with_(scenario=dc.replace(up.scenario, incline_deg=-20.0))
     flat = base.with_(path=dc.replace(base.path, mode="plan"))
     cases = [up, down, flat] + [swing_params(base, g, base.traverse.grip_spacing, 0.0)
-                                for g in (1, 2)]
+                                for g in (1, 2)] + _quick_benchmark_swings()
     keys = set()
     for p in cases:
         plan, gains = P.tracking_plan(p)

@@ -56,8 +56,11 @@ def _swing_outcome(seed):
 
 
 def test_twenty_seeds_with_ekf_and_uncertain_friction():
-    """Measured: all of seeds 0-19 captured.  Over seeds 0-319 the same
-    swing is captured 308 times (96 %); every miss is a crash."""
+    """The default (plan tracking with the apex landing, standstill
+    calibration).  Measured: all of seeds 0-19 captured at 0.333-0.408 m/s
+    after 1.342-1.363 s, within 6 mm of the planned grip (1000 of 1000 over
+    root seed 0 of the default study, README).  The path generator, the
+    default until 2026-11-23, captured 308 of seeds 0-319 (96 %)."""
     with ProcessPoolExecutor(2) as ex:
         rows = list(ex.map(_swing_outcome, range(20)))
     assert [r[0] for r in rows if r[1] != "captured"] == []
@@ -65,7 +68,7 @@ def test_twenty_seeds_with_ekf_and_uncertain_friction():
         assert torque <= 20.0 + 1e-9
         assert fixed_open == (outcome == "captured")   # the interlock never opens early
         if outcome == "captured":
-            assert speed <= 0.5 and 1.0 <= t <= 2.0
+            assert 0.32 <= speed <= 0.42 and 1.33 <= t <= 1.38
         else:
             assert outcome == "crash" and speed > 0.5   # a fast arrival is never a success
 
@@ -145,6 +148,11 @@ def test_compare_presets_and_examples(tmp_path, monkeypatch, params, capsys):
     by = {r["variant"]: r for r in rows}
     assert by["qft (EKF)"]["outcome"] == "captured"
     assert by["qft (true state)"]["outcome"] == "captured"
+    # measured (seed 0): the default tracks its plan with at most 8.7 N m (9.1 on
+    # the true state); the path generator brakes the elbow at the 19.9 N m limit
+    assert by["qft (EKF)"]["peak_torque_Nm"] < 10 and by["qft (true state)"]["peak_torque_Nm"] < 10
+    assert by["qft, path generator (EKF)"]["outcome"] == "captured"
+    assert by["qft, path generator (EKF)"]["peak_torque_Nm"] > 19
     assert by["lab firmware (EKF)"]["outcome"] == "crash"
     assert by["lab firmware (EKF)"]["peak_motor_power_W"] > 220   # beyond the rating
     assert comparison_table(rows).count("\n") == len(rows) + 1

@@ -7,9 +7,11 @@ import dataclasses as dc
 from ...params import BplirParams, ControllerParams
 from .run import run_swing
 
-#: (label, controller preset, path mode, estimator in the loop)
-VARIANTS = (("qft (EKF)", "qft", "adaptive", True),
-            ("qft (true state)", "qft", "adaptive", False),
+#: (label, controller preset, path mode, estimator in the loop); "auto" is
+#: the default (plan tracking with the apex landing for ``qft``)
+VARIANTS = (("qft (EKF)", "qft", "auto", True),
+            ("qft (true state)", "qft", "auto", False),
+            ("qft, path generator (EKF)", "qft", "adaptive", True),
             ("dissertation K=-216, F (EKF)", "dissertation", "adaptive", True),
             ("lab firmware (EKF)", "lab", "lab", True))
 

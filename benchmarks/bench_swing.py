@@ -67,11 +67,12 @@ def reuse(seeds: int):
 
 def breakdown():
     """Wall time of the Python callbacks of one swing (exclusive of nested
-    calls is not separated: the controller's tick pulls the path's, which
-    pulls the estimator's)."""
+    calls is not separated: the plan tracker's tick pulls the predictor's,
+    which pulls the estimator's; on the path generator the controller's
+    tick pulls the path's)."""
     from bplir_drake.analysis.swing.run import run_swing
     from bplir_drake.params import preset
-    from bplir_drake.systems import ekf, gripper, imu, motor, path
+    from bplir_drake.systems import ekf, gripper, imu, motor, path, plan_tracker, predictor
     from bplir_drake.systems.controller import DiscreteCpflController
 
     spent = collections.defaultdict(float)
@@ -96,6 +97,11 @@ def breakdown():
     wrap(gripper.GripperInterlock, "_update", "interlock")
     wrap(DiscreteCpflController, "_tick_law", "controller tick (incl. path, EKF)")
     wrap(motor.DriverLogic, "_update", "driver i2t")
+    # the default since 2026-11-23: plan tracking (its tick pulls the predictor's, which
+    # pulls the EKF's), the delay predictor, the apex landing
+    wrap(plan_tracker.PlanTracker, "_tick_law", "plan tracker tick (incl. predictor, EKF)")
+    wrap(predictor.DelayPredictor, "_predict", "delay predictor (incl. EKF)")
+    wrap(plan_tracker.Landing, "torque", "apex landing law")
     t0 = time.perf_counter()
     run_swing(p, seed=0)
     total = time.perf_counter() - t0

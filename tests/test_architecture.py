@@ -51,7 +51,7 @@ def test_a_structural_change_is_refused_and_rebuilt():
         build_swing(p, seed=0)
     built = swing_diagram(p, seed=0)
     ctx = built.diagram.CreateDefaultContext()
-    other = p.with_(scenario=replace(p.scenario, grip_spacing=1.25))
+    other = p.with_(scenario=replace(p.scenario, grip_spacing=1.3))   # a shipped plan
     assert swing_structure(other, True) != built.structure
     with pytest.raises(ValueError, match="build its own swing diagram"):
         set_swing_sample(built, ctx, other, 0)

@@ -470,15 +470,16 @@ def test_file_readers_return_a_result_or_a_one_line_error(tmp_path, data):
 
 
 def _quick_benchmark_swings():
-    """The swings of ``bplir benchmark --quick`` that need plans of their own:
-    the +-10 deg lines and the 1.1 and 1.3 m grip spacings."""
+    """The swings of ``bplir benchmark --quick`` that need plans of their own
+    (the +-10 deg lines and the 1.1 and 1.3 m grip spacings) and of
+    ``examples/custom_params.py`` (1.15 m)."""
     import dataclasses as dc
 
     from bplir_drake.params import preset
 
     p = preset()
     return ([p.with_(scenario=dc.replace(p.scenario, incline_deg=a)) for a in (-10.0, 10.0)]
-            + [p.with_(scenario=dc.replace(p.scenario, grip_spacing=d)) for d in (1.1, 1.3)])
+            + [p.with_(scenario=dc.replace(p.scenario, grip_spacing=d)) for d in (1.1, 1.15, 1.3)])
 
 
 def test_shipped_plans_serve_a_fresh_install(monkeypatch, tmp_path):
@@ -492,8 +493,9 @@ def test_shipped_plans_serve_a_fresh_install(monkeypatch, tmp_path):
 
     shipped = sorted(plan_cache.PACKAGED.glob("plan-*.npz"))
     # +-20 deg (the quick start), 0 deg (the default, the landing's tests), 20 deg resting
-    # on the line, the lines' 8, the quick benchmark's +-10 deg and 1.1 / 1.3 m swings
-    assert len(shipped) == 16
+    # on the line, the lines' 8, the quick benchmark's +-10 deg and 1.1 / 1.3 m swings,
+    # custom_params.py's 1.15 m
+    assert len(shipped) == 17
     monkeypatch.setenv("BPLIR_CACHE_DIR", str(tmp_path))
 
     def no_solve(*a, **k):

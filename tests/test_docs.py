@@ -3,6 +3,8 @@ namespace, in a temporary directory."""
 import re
 from pathlib import Path
 
+import pytest
+
 DOC = Path(__file__).resolve().parents[1] / "docs" / "python.md"
 
 
@@ -23,4 +25,6 @@ def test_the_python_guide_runs(tmp_path, monkeypatch, capsys):
     assert namespace["obs"].summary()["min_rank_full"] == 4
     assert namespace["summary"]["samples"] == 4
     assert "estimator" in namespace["built"].systems and "ekf" not in namespace["built"].systems
-    assert "captured 0.058" in out  # the gyro integral's largest angle error (rad)
+    # the gyro integral's largest angle error (rad): measured 0.0579 at 1.3 m
+    errors = [float(v) for v in re.findall(r"captured (0\.\d+)\n", out)]
+    assert errors and errors[-1] == pytest.approx(0.058, abs=0.003)

@@ -10,7 +10,9 @@ from bplir_drake.analysis.swing import SwingRunner
 from bplir_drake.diagrams import build_free_swing
 from bplir_drake.params import BplirParams
 from bplir_drake.simulate import make_simulator
-from bplir_drake.systems.predictor import predict_state
+from bplir_drake.systems.friction import friction_torques
+from bplir_drake.systems.plant import forward_dynamics
+from bplir_drake.systems.predictor import nominal_rates, predict_state
 
 
 def test_prediction_equals_the_nominal_plant_simulated_by_drake():
@@ -26,6 +28,21 @@ def test_prediction_equals_the_nominal_plant_simulated_by_drake():
         built.plant.GetMyContextFromRoot(sim.get_context()))
     ours = predict_state(x0, commands, T, p.plant, p.friction, substeps=4)
     np.testing.assert_allclose(ours, drake, rtol=0, atol=2e-6)
+
+
+@pytest.mark.parametrize("enabled", [True, False])
+def test_the_float_kernel_is_the_closed_form_with_friction(enabled):
+    """The predictor's scalar kernel (its hot path) against the numpy closed
+    form it folds: agreement to rounding over random states and torques."""
+    p = BplirParams()
+    fr = dc.replace(p.friction, enabled=enabled)
+    f = nominal_rates(p.plant, fr)
+    rng = np.random.default_rng(3)
+    for _ in range(50):
+        x = rng.uniform([-1.5, -3.0, -6.0, -12.0], [1.5, 3.0, 6.0, 12.0])
+        tau = rng.uniform(-20.0, 20.0)
+        qdd = forward_dynamics(x[:2], x[2:], tau, friction_torques(x[2:], fr), p.plant)
+        np.testing.assert_allclose(f(*x, tau), [x[2], x[3], *qdd], rtol=1e-12, atol=1e-12)
 
 
 @pytest.mark.parametrize("delay", [0.01, 0.02])

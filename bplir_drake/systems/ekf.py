@@ -38,7 +38,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from functools import lru_cache
+from functools import lru_cache, wraps
 
 import numpy as np
 import pydrake.math as dmath
@@ -53,7 +53,25 @@ from .schedule import declare_store, declare_tick_result
 
 # ----------------------------------------------------------- model functions
 
-@lru_cache(maxsize=64)
+def _per_block(fun):
+    """``fun(p)`` cached per parameter block: by identity first (the filter
+    passes the same block every tick, and hashing a frozen dataclass of
+    forty fields costs more than the filter's arithmetic), then by value
+    (``lru_cache``)."""
+    by_value = lru_cache(maxsize=64)(fun)
+    last = [None, None]   # (block, value) of the last call
+
+    @wraps(fun)
+    def cached(p):
+        if last[0] is not p:
+            last[:] = p, by_value(p)
+        return last[1]
+
+    cached.cache_clear = by_value.cache_clear
+    return cached
+
+
+@_per_block
 def state_layout(p: EstimatorParams) -> tuple[dict, int]:
     """({group: slice} of the optional states, state size): ``"bias"`` (gyro
     biases), ``"misalign"`` (accelerometer misalignments), ``"scale"``
@@ -156,7 +174,7 @@ class EkfState:
     P: np.ndarray   # (n, n)
 
 
-@lru_cache(maxsize=64)
+@_per_block
 def noise_matrices(p: EstimatorParams):
     """(Q_u (2x2) on the accelerometer inputs, R (4x4)); cached per
     parameter block (read-only arrays).  The optional states' random walks:
@@ -309,12 +327,14 @@ def kinematic_h_jacobian(x, u, p: EstimatorParams):
     return h, H
 
 
+@_per_block
 def _walk_variances(p: EstimatorParams) -> np.ndarray:
     """Per-second random-walk variances of the optional states (layout order)."""
     layout, n = state_layout(p)
     q = np.zeros(n)
     for group, sl in layout.items():
         q[sl] = getattr(p, GROUP_NOISE[group][1]) ** 2
+    q.flags.writeable = False
     return q
 
 

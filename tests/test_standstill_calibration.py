@@ -15,6 +15,21 @@ from bplir_drake.systems.imu import corrupt, imu_kinematics, standstill_samples
 STUDY = Path(__file__).resolve().parents[1] / "examples" / "study_realistic.toml"
 
 
+@pytest.mark.parametrize("noise", [True, False])
+def test_the_window_is_corrupt_sample_by_sample(noise):
+    """The window corrupts the reading at rest once and adds each sample's
+    noise (its own stream ``(seed, 3, k)``): bit for bit the samples of
+    :func:`corrupt` called per sample."""
+    p = dc.replace(ImuParams(), gyro_bias1=0.02, gyro_bias2=-0.01, misalign1=0.03,
+                   misalign2=-0.02, accel_scale1=0.01, accel_scale2=-0.015, gyro_scale1=0.002,
+                   noise=noise)
+    theta = (-0.3, -2.3)
+    ideal = imu_kinematics(theta, (0.0, 0.0), (0.0, 0.0), p.r1, p.r2, 0.0, 9.81)
+    bias = np.array([p.gyro_bias1, p.gyro_bias2])
+    each = [corrupt(ideal, p, bias, np.random.default_rng((7, 3, k))) for k in range(50)]
+    np.testing.assert_array_equal(standstill_samples(p, theta, 9.81, 7, 50), each)
+
+
 def test_calibration_recovers_bias_misalignment_and_scale():
     rng = np.random.default_rng(3)
     for k in range(20):

@@ -20,6 +20,7 @@ acc2_x, acc2_y``.
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 from pydrake.common.containers import namedview
@@ -72,10 +73,14 @@ def corrupt(ideal, params: ImuParams, bias, rng) -> np.ndarray:
     out[1] *= 1.0 + params.gyro_scale2
     out[0:2] += bias
     if params.noise:
-        n = rng.standard_normal(6)
-        out[0:2] += params.gyro_sigma * n[0:2]
-        out[2:6] += params.accel_sigma * n[2:6]
+        out += noise_sigmas(params) * rng.standard_normal(6)
     return out
+
+
+def noise_sigmas(params: ImuParams) -> np.ndarray:
+    """The white noise's standard deviation per IMU column (gyros, then
+    accelerometers)."""
+    return np.array([params.gyro_sigma] * 2 + [params.accel_sigma] * 4)
 
 
 def standstill_samples(params: ImuParams, theta, g: float, seed: int, n: int) -> np.ndarray:
@@ -86,8 +91,12 @@ def standstill_samples(params: ImuParams, theta, g: float, seed: int, n: int) ->
     swing's samples do not change.  The simulated sensor before a swing."""
     ideal = imu_kinematics(theta, (0.0, 0.0), (0.0, 0.0), params.r1, params.r2, 0.0, g)
     bias = np.array([params.gyro_bias1, params.gyro_bias2])
-    return np.array([corrupt(ideal, params, bias, np.random.default_rng((seed, 3, k)))
-                     for k in range(n)])
+    # the noise-free reading is the same for every sample: corrupt it once
+    still = corrupt(ideal, replace(params, noise=False), bias, None)
+    if not params.noise:
+        return np.tile(still, (n, 1))
+    draws = np.array([np.random.default_rng((seed, 3, k)).standard_normal(6) for k in range(n)])
+    return still + noise_sigmas(params) * draws
 
 
 class ImuSampler(LeafSystem):

@@ -71,6 +71,14 @@ def _per_block(fun):
     return cached
 
 
+@lru_cache(maxsize=16)
+def _identity(n: int) -> np.ndarray:
+    """The n x n identity (read-only, shared)."""
+    eye = np.eye(n)
+    eye.flags.writeable = False
+    return eye
+
+
 @_per_block
 def state_layout(p: EstimatorParams) -> tuple[dict, int]:
     """({group: slice} of the optional states, state size): ``"bias"`` (gyro
@@ -283,7 +291,7 @@ def discrete_f_jacobians(x, u, p: EstimatorParams):
         return x + 0.5 * Ts * (f1 + f2), A, (np.hstack([W0, W1]) if len(u) == 4 else W0 + W1)
     f, Jx, Ju = kinematic_f_jacobians(x, u, p)
     x_new = x + Ts * f
-    A = np.eye(len(x)) + Ts * Jx
+    A = _identity(len(x)) + Ts * Jx
     W = Ts * Ju
     if p.integration == "trapezoid":
         h = 0.5 * Ts * Ts
@@ -364,7 +372,7 @@ def ekf_predict(s: EkfState, u, p: EstimatorParams, *, with_jacobian: bool = Fal
     if W.shape[1] == 4:   # independent noise on the readings at both ends
         Qu = np.kron(np.eye(2), Qu)
     P = A @ s.P @ A.T + (W @ Qu) @ W.T
-    P[np.diag_indices_from(P)] += _walk_variances(p) * p.period
+    P.flat[::P.shape[0] + 1] += _walk_variances(p) * p.period   # the diagonal
     return (EkfState(x_new, P), A) if with_jacobian else EkfState(x_new, P)
 
 
@@ -400,7 +408,7 @@ def ekf_update(s: EkfState, z, u, p: EstimatorParams, *, with_innovation: bool =
         K[held] = 0.0
     nu = np.asarray(z, dtype=float) - h
     x = s.x + K @ nu
-    IKH = np.eye(len(s.x)) - K @ H
+    IKH = _identity(len(s.x)) - K @ H
     P = IKH @ s.P @ IKH.T + K @ R @ K.T
     out = EkfState(x, 0.5 * (P + P.T))
     return (out, nu, S) if with_innovation else out
@@ -436,7 +444,7 @@ def ekf_step(s: EkfState, u_prev, sample, p: EstimatorParams, *, first: bool = F
     misalignment states).  ``hold``: see :func:`ekf_update`.  Returns (new
     state, this sample's 4 readings)."""
     z, u = split_sample(correct_sample(sample, s.x, p))
-    acc = np.r_[u, z[2:4]]
+    acc = np.concatenate((u, z[2:4]))
     if not first:
         u_prev = np.asarray(u_prev, dtype=float)
         radial = prediction_input(u_prev[2:4], z[2:4], p) if len(u_prev) > 2 else None

@@ -195,7 +195,7 @@ def test_interlock_locates_the_arrival_between_ticks_exactly():
 
 
 def test_fast_swing_matches_an_accurate_reference():
-    """The default integrator (error-controlled RK3 at 1e-3) against RK5 at
+    """The default integrator (error-controlled RK3 at 1e-4) against RK5 at
     1e-10 on the same diagram, seeds 0-2: the same outcome, capture speeds
     within 1e-3 m/s (over seeds 0-19 the largest difference measured is in
     the README), and the run ends at the tick after the interlock decided."""

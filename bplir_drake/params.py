@@ -664,6 +664,8 @@ class TraverseParams(_Block):
     landing_tolerance: float = _p(0.08, "m", 0, 1, doc="planned landings lie at least this much further from obstacles (the swing's landing error)")
     swing_mode: str = "plan"
     plan_end_depth: float = _p(0.013, "m", 0, 0.02, doc="swing_mode 'plan': the planned swing comes to rest this far below the line (path.plan_end_depth of every traversal swing)")
+    landing: bool = True   # swing_mode 'plan': the apex landing and the delay compensation of the single swing (path.landing_*, path.plan_delay_compensation) on every traversal swing
+    swapped_landing_margin: float = _p(0.0, "m", 0, 0.1, doc="swing_mode 'plan' with landing: path.landing_margin of the swings that hold with gripper 2 (the swapped robot's planned swing uses the whole torque limit, and its landing lags a deeper aim: 10 / 5 / 2.5 / 0 mm passed 4 / 18 / 20 / 24 of 40 realistic traversals of examples/line_flat.toml, tuning root seed 0)")
     rest: bool = True
     i2t_margin: float = _p(0.2, "", 0, 0.9, doc="share of the driver's i^2 t budget a swing may not use: the planner rests until the planned swing keeps this share free")
     max_incline_deg: float = _p(25.0, "deg", 0, 60, doc="steepest line incline accepted in a line file")

@@ -121,26 +121,26 @@ def swing_params(params: BplirParams, holding: int, spacing: float,
     (1: the robot as given, 2: :func:`~bplir_drake.params.swapped`) on a line
     inclined by ``incline`` (rad) with the grips ``spacing`` apart.  The
     incline is rounded to 0.1 deg and the spacing to 1 mm (the planned swings
-    of a line are then a few, cached; 0.05 deg is 1 mm over a grip spacing)."""
+    of a line are then a few, cached; 0.05 deg is 1 mm over a grip spacing).
+    With ``traverse.landing`` (the default) the swing lands as a single
+    swing does (the apex landing, the delay compensation), the swapped robot
+    aiming at ``traverse.swapped_landing_margin``."""
     p = params if holding == 1 else swapped(params)
     sc = dc.replace(p.scenario, grip_spacing=round(float(spacing), 3),
                     incline_deg=round(math.degrees(incline), 1))
     p = p.with_(scenario=sc)
-    if params.traverse.swing_mode == "plan":
-        # the plan tracker as the traversal was built and measured with:
-        # without the terminal reach (it lands wherever the gripper first
-        # moves slowly, sliding along the line if it must, where a traversal
-        # has to land on the planned grip between obstacles: with it, seed 0
-        # of examples/line_span.toml landed on a spacer and the first
-        # gripper-2 swing of examples/line_flat.toml timed out), and so
-        # without its delay compensation (alone it moved seed 0 of
-        # line_flat's capture speeds up to 0.42 m/s from 0.35), and without the
-        # apex landing: its torques near the line spend more of the driver's i2t
-        # budget than the planned swing the rests are planned for (the trip test
-        # of tests/test_traverse.py then faults on the second swing, not the fourth)
-        p = p.with_(path=dc.replace(p.path, mode="plan", reach_speed=0.0, landing_lead=0.0,
-                                    plan_delay_compensation=0.0,
-                                    plan_end_depth=params.traverse.plan_end_depth))
+    tp = params.traverse
+    if tp.swing_mode == "plan":
+        # plan tracking without the terminal reach (it lands wherever the
+        # gripper first moves slowly, sliding along the line if it must, where
+        # a traversal has to land on the planned grip between obstacles: with
+        # it, seed 0 of examples/line_span.toml landed on a spacer)
+        path = dc.replace(p.path, mode="plan", reach_speed=0.0, plan_end_depth=tp.plan_end_depth)
+        if not tp.landing:   # plan tracking alone, as traversals were first built
+            path = dc.replace(path, landing_lead=0.0, plan_delay_compensation=0.0)
+        elif holding == 2:
+            path = dc.replace(path, landing_margin=tp.swapped_landing_margin)
+        p = p.with_(path=path)
     return p
 
 

@@ -513,6 +513,7 @@ class ControllerParams(_Block):
 # ---------------------------------------------------------------- path
 PATH_MODES = ("auto", "adaptive", "rts", "lab", "plan")
 PLAN_INDEXING = ("time", "state")
+LANDING_LAWS = ("aim", "shoot")
 
 
 @dataclass(frozen=True)
@@ -570,6 +571,13 @@ class PathParams(_Block):
     landing_gain: float = _positive(10.0, "1/s", doc="mode 'plan': the landing's height error to rate gain")
     landing_rate_gain: float = _positive(30.0, "1/s", doc="mode 'plan': the landing's rate error to acceleration gain")
     landing_min_decel: float = _positive(1.0, "rad/s^2", doc="mode 'plan': link 1 counts as decelerating above this (nominal model, elbow held)")
+    # mode 'plan': "aim" (the apex landing's aim law) or "shoot" (ApexShot: it
+    # solves for link 1's stop every tick; an option for the traversals' swapped robot)
+    landing_law: str = "aim"
+    shoot_height: float = _p(-0.015, "m", -0.02, 0, doc="landing_law 'shoot': the gripper's aimed distance to the line when link 1 stops (negative: inside the capture band); -15 mm chosen on root seed 0 for the traversals' swapped swing at 1.2 m (120 swings each, realistic / friction-only: -12 mm 99 / 119, -15 mm 97 / 120, -18 mm 76 / 118; the aim law 80 / 120)")
+    shoot_depth: float = _p(0.3, "m", 0, 1, doc="landing_law 'shoot': it takes over once the gripper is this close to the line in the plan's last forward swing of link 1")
+    shoot_min_time: float = _p(0.06, "s", 0.02, 0.5, doc="landing_law 'shoot': with less time to link 1's stop, or link 1 slower than shoot_min_rate, the stop time is held at this")
+    shoot_min_rate: float = _p(0.1, "rad/s", 0, 5, doc="landing_law 'shoot': see shoot_min_time")
     plan_delay_compensation: float = _p(0.01, "s", 0, 0.1, doc="mode 'plan': the actuation delay the plan tracker assumes (whole periods; the lab firmware's 10 ms): it acts on the state predicted this far ahead and indexes the plan as much later (controller.delay_compensation, when set, takes precedence)")
 
     def resolved(self, incline_deg: float, controller: "ControllerParams") -> "PathParams":
@@ -593,6 +601,9 @@ class PathParams(_Block):
         if self.plan_indexing not in PLAN_INDEXING:
             raise ParameterError(f"path.plan_indexing = '{self.plan_indexing}' is unknown; "
                                  "allowed: " + ", ".join(PLAN_INDEXING))
+        if self.landing_law not in LANDING_LAWS:
+            raise ParameterError(f"path.landing_law = '{self.landing_law}' is unknown; "
+                                 "allowed: " + ", ".join(LANDING_LAWS))
         if self.landing_lead > 0 and self.reach_speed > 0:
             raise ParameterError(f"path.landing_lead = {self.landing_lead:g} m s/rad and "
                                  f"path.reach_speed = {self.reach_speed:g} m/s are both set; "
@@ -664,13 +675,23 @@ class TraverseParams(_Block):
     landing_tolerance: float = _p(0.08, "m", 0, 1, doc="planned landings lie at least this much further from obstacles (the swing's landing error)")
     swing_mode: str = "plan"
     plan_end_depth: float = _p(0.013, "m", 0, 0.02, doc="swing_mode 'plan': the planned swing comes to rest this far below the line (path.plan_end_depth of every traversal swing)")
-    landing: bool = True   # swing_mode 'plan': the apex landing and the delay compensation of the single swing (path.landing_*, path.plan_delay_compensation) on every traversal swing
+    # swing_mode 'plan': the single swing's apex landing and delay compensation
+    # (path.landing_*, path.plan_delay_compensation) on every traversal swing
+    landing: bool = True
     swapped_landing_margin: float = _p(0.0, "m", 0, 0.1, doc="swing_mode 'plan' with landing: path.landing_margin of the swings that hold with gripper 2 (the swapped robot's planned swing uses the whole torque limit, and its landing lags a deeper aim: 10 / 5 / 2.5 / 0 mm passed 4 / 18 / 20 / 24 of 40 realistic traversals of examples/line_flat.toml, tuning root seed 0)")
+    # swing_mode 'plan' with landing: path.landing_law of the swings that hold with
+    # gripper 2; "shoot" passes more realistic traversals (109 against 80 of 200,
+    # README "Traversal Monte Carlo") but spends more i^2 t than the rest planner
+    # budgets (a weak driver then trips)
+    swapped_landing_law: str = "aim"
     rest: bool = True
     i2t_margin: float = _p(0.2, "", 0, 0.9, doc="share of the driver's i^2 t budget a swing may not use: the planner rests until the planned swing keeps this share free")
     max_incline_deg: float = _p(25.0, "deg", 0, 60, doc="steepest line incline accepted in a line file")
 
     def _check(self):
+        if self.swapped_landing_law not in LANDING_LAWS:
+            raise ParameterError(f"traverse.swapped_landing_law = '{self.swapped_landing_law}' "
+                                 "is unknown; allowed: " + ", ".join(LANDING_LAWS))
         if self.swing_mode not in TRAVERSE_SWING_MODES:
             raise ParameterError(f"traverse.swing_mode = '{self.swing_mode}' is unknown; "
                                  "allowed: " + ", ".join(TRAVERSE_SWING_MODES))

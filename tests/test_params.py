@@ -42,6 +42,8 @@ def test_lab_preset_geometry():
     (P.ScenarioParams, {"incline_deg": 90.0}, ["scenario.incline_deg", "90"]),
     (P.ScenarioParams, {"seed": -3}, ["scenario.seed"]),
     (P.ControllerParams, {"preset": "pid"}, ["controller.preset", "qft"]),
+    (P.PathParams, {"landing_law": "lqr"}, ["path.landing_law", "aim, shoot"]),
+    (P.TraverseParams, {"swapped_landing_law": "x"}, ["traverse.swapped_landing_law", "shoot"]),
 ])
 def test_bad_parameters_name_field_and_range(block, kwargs, words):
     with pytest.raises(P.ParameterError) as err:

@@ -230,7 +230,7 @@ def add_swing_controller(builder, params: BplirParams, state_port, robot: Robot,
         builder.Connect(state_port, predictor.estimate_port)
         state_port = predictor.predicted_port
     if params.path.mode == "plan":
-        from ..systems.plan_tracker import Landing, PlanTracker, Reach
+        from ..systems.plan_tracker import ApexShot, Landing, PlanTracker, Reach
 
         if plan_gains is None:
             raise ValueError("path.mode = 'plan' (the qft preset's default) needs the tracking "
@@ -239,7 +239,9 @@ def add_swing_controller(builder, params: BplirParams, state_port, robot: Robot,
                              "bplir_drake.analysis.swing.swing_diagram(params)")
         pp = params.path
         reach = None   # the terminal law: the apex landing, the reach or none
-        if pp.landing_lead > 0:
+        if pp.landing_lead > 0 and pp.landing_law == "shoot":
+            reach = ApexShot.from_params(params.plant, params.friction, path_geometry.alpha, pp)
+        elif pp.landing_lead > 0:
             reach = Landing.from_params(params.plant, path_geometry.alpha, pp)
         elif pp.reach_speed > 0:
             reach = Reach.from_params(params.plant, path_geometry.alpha, pp)

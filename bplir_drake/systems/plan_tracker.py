@@ -199,6 +199,155 @@ class Landing(_LineServo):
         return height_torque(self.plant, self.alpha, x, self.rate_gain * (hd_cmd - hd))
 
 
+@dataclass(frozen=True)
+class ApexShot:
+    """The shooting landing: from ``depth`` below the line, every tick it
+    solves on the nominal model (with its friction) for the time ``T`` at
+    which link 1 stops and the elbow angle ``q2f`` that puts the gripper
+    ``height`` from the line then (negative: inside the capture band), the
+    elbow following the quartic from its present angle and rate to ``q2f``
+    at rest with zero acceleration (Newton on ``(T, q2f)``, link 1
+    passive), and commands the quartic's first acceleration through the
+    elbow's computed torque.  With less than ``min_time`` to go, or link 1
+    slower than ``min_rate``, ``T`` is held at ``min_time`` and only
+    ``q2f`` is solved for.  Where no solution is found it falls back to
+    the apex landing ``landing``.
+
+    It corrects the swing's energy while the elbow still has leverage on
+    the gripper's height: the swapped robot's swinging link points almost
+    straight up at the end, where its elbow moves the gripper along the
+    line rather than up, and the aim law lags (README, "Traversal Monte
+    Carlo")."""
+
+    landing: Landing
+    friction: object
+    height: float
+    depth: float
+    min_time: float
+    min_rate: float
+    steps: int = 12
+
+    @classmethod
+    def from_params(cls, plant, friction, alpha: float, path):
+        """The law of ``path`` (its ``shoot_*`` fields; the fallback from its
+        ``landing_*`` fields) on the nominal ``plant`` and ``friction``."""
+        return cls(Landing.from_params(plant, alpha, path), friction, path.shoot_height,
+                   path.shoot_depth, path.shoot_min_time, path.shoot_min_rate)
+
+    def takes_over(self, x) -> bool:
+        """Whether the law takes over (asked in the plan's last forward
+        swing of link 1 only): ``depth`` from the line, or the landing's
+        rule."""
+        return self.landing.height(x) > -self.depth or self.landing.takes_over(x)
+
+    def _model(self):
+        p, fr = self.landing.plant, self.friction
+        a = p.I2 + p.m2 * p.lc2 ** 2
+        drag = fr.drag_coefficients() if fr.enabled else (0.0, 0.0)
+        return dict(a=a, m11=p.m1 * p.lc1 ** 2 + p.I1 + p.m2 * p.l1 ** 2 + a,
+                    k12=p.m2 * p.l1 * p.lc2, g1=(p.m1 * p.lc1 + p.m2 * p.l1) * p.g,
+                    g12=p.m2 * p.lc2 * p.g, on=fr.enabled, fv=(fr.fv1, fr.fv2),
+                    fc=(fr.fc1, fr.fc2), b=fr.b, drag=drag)
+
+    @staticmethod
+    def _friction(c, i: int, v: float) -> float:
+        if not c["on"]:
+            return 0.0
+        return (c["fv"][i] * v + c["fc"][i] * (2.0 / np.pi) * np.arctan(v / c["b"])
+                + c["drag"][i] * v * abs(v))
+
+    def _link1_accel(self, c, q1, q2, v1, v2, a2) -> float:
+        """Link 1's acceleration (passive joint) with the elbow accelerating
+        at ``a2``, on the nominal model."""
+        c2, s2 = np.cos(q2), np.sin(q2)
+        m12, m11 = c["a"] + c["k12"] * c2, c["m11"] + 2.0 * c["k12"] * c2
+        bias = -c["k12"] * s2 * (2.0 * v1 * v2 + v2 * v2)
+        grav = c["g1"] * np.sin(q1) + c["g12"] * np.sin(q1 + q2)
+        return -(m12 * a2 + bias + grav + self._friction(c, 0, v1)) / m11
+
+    def _shoot(self, c, x, T: float, q2f: float):
+        """(link 1's rate at ``T``, the gripper's distance to the line then
+        less ``height``; the elbow's acceleration now) of the quartic to
+        ``q2f``."""
+        q1, q2, v1, v2 = x
+        M = np.array([[T ** 2, T ** 3, T ** 4], [2 * T, 3 * T ** 2, 4 * T ** 3],
+                      [2.0, 6 * T, 12 * T ** 2]])
+        k2, k3, k4 = np.linalg.solve(M, [q2f - q2 - v2 * T, -v2, 0.0])
+
+        def elbow(t):
+            return (q2 + v2 * t + k2 * t * t + k3 * t ** 3 + k4 * t ** 4,
+                    v2 + 2 * k2 * t + 3 * k3 * t * t + 4 * k4 * t ** 3,
+                    2 * k2 + 6 * k3 * t + 12 * k4 * t * t)
+
+        def rates(t, q, w):
+            q2t, v2t, a2t = elbow(t)
+            return w, self._link1_accel(c, q, q2t, w, v2t, a2t)
+
+        dt = T / self.steps
+        t = 0.0
+        for _ in range(self.steps):   # RK4 on link 1
+            r1 = rates(t, q1, v1)
+            r2 = rates(t + dt / 2, q1 + dt / 2 * r1[0], v1 + dt / 2 * r1[1])
+            r3 = rates(t + dt / 2, q1 + dt / 2 * r2[0], v1 + dt / 2 * r2[1])
+            r4 = rates(t + dt, q1 + dt * r3[0], v1 + dt * r3[1])
+            q1 += dt / 6 * (r1[0] + 2 * r2[0] + 2 * r3[0] + r4[0])
+            v1 += dt / 6 * (r1[1] + 2 * r2[1] + 2 * r3[1] + r4[1])
+            t += dt
+        p, s = self.landing.plant, q1 - self.landing.alpha
+        h = -p.l1 * np.cos(s) - p.l2 * np.cos(s + q2f)
+        return np.array([v1, h - self.height]), 2.0 * k2
+
+    def solve(self, x):
+        """(the elbow's acceleration now, ``T``) or None: Newton on
+        ``(T, q2f)``, from link 1 stopping at its present deceleration."""
+        c = self._model()
+        if x[2] > self.min_rate:
+            decel = max(self.landing.deceleration(x), 2.0)
+            T, q2f = min(0.5, max(0.03, x[2] / decel)), float(x[1])
+            for _ in range(8):
+                r, _ = self._shoot(c, x, T, q2f)
+                if abs(r[0]) < 1e-3 and abs(r[1]) < 1e-4:
+                    break
+                J = np.column_stack([(self._shoot(c, x, T + 1e-4, q2f)[0] - r) / 1e-4,
+                                     (self._shoot(c, x, T, q2f + 1e-4)[0] - r) / 1e-4])
+                try:
+                    dT, dq = np.linalg.solve(J, -r)
+                except np.linalg.LinAlgError:
+                    break
+                T += min(0.5 * T, max(-0.5 * T, dT))
+                q2f += min(0.3, max(-0.3, dq))
+                if not 0.015 <= T <= 0.8:
+                    break
+            if 0.015 <= T <= 0.8:
+                r, acc = self._shoot(c, x, T, q2f)
+                if abs(r[0]) <= 0.05 and abs(r[1]) <= 0.005 and T >= self.min_time:
+                    return acc, T
+        T, q2f = self.min_time, float(x[1])   # the last moments: T held, q2f only
+        for _ in range(8):
+            r, acc = self._shoot(c, x, T, q2f)
+            if abs(r[1]) < 1e-5:
+                break
+            slope = (self._shoot(c, x, T, q2f + 1e-4)[0][1] - r[1]) / 1e-4
+            if abs(slope) < 1e-6:
+                return None
+            q2f += min(0.3, max(-0.3, -r[1] / slope))
+        r, acc = self._shoot(c, x, T, q2f)
+        return (acc, T) if abs(r[1]) < 0.002 else None
+
+    def torque(self, x) -> float:
+        """The elbow torque at the relative state ``x``: the computed torque
+        of the solved elbow acceleration (the landing's where none)."""
+        x = [float(v) for v in x]
+        sol = self.solve(x)
+        if sol is None:
+            return self.landing.torque(x)
+        c, (q1, q2, v1, v2), a2 = self._model(), x, sol[0]
+        a1 = self._link1_accel(c, q1, q2, v1, v2, a2)
+        m12 = c["a"] + c["k12"] * np.cos(q2)
+        return float(m12 * a1 + c["a"] * a2 + c["k12"] * np.sin(q2) * v1 * v1
+                     + c["g12"] * np.sin(q1 + q2) + self._friction(c, 1, v2))
+
+
 def height_rates(p, alpha: float, x) -> tuple[float, float, float]:
     """(h, h', along): the gripper's distance to a line inclined by
     ``alpha`` (negative below it), its rate and the gripper's speed along
@@ -247,7 +396,7 @@ class PlanTracker(LeafSystem):
 
     def __init__(self, gains, torque_limit: float, period: float,
                  indexing: str = "time", phase_weights=(1.0, 1.0, 0.01, 0.01),
-                 search: float = 0.05, reach: Landing | Reach | None = None,
+                 search: float = 0.05, reach: Landing | Reach | ApexShot | None = None,
                  lead: float = 0.0):
         super().__init__()
         self.reach, self.lead = reach, float(lead)

@@ -124,7 +124,8 @@ def swing_params(params: BplirParams, holding: int, spacing: float,
     of a line are then a few, cached; 0.05 deg is 1 mm over a grip spacing).
     With ``traverse.landing`` (the default) the swing lands as a single
     swing does (the apex landing, the delay compensation), the swapped robot
-    aiming at ``traverse.swapped_landing_margin``."""
+    by ``traverse.swapped_landing_law`` (its fallback aiming at
+    ``traverse.swapped_landing_margin``)."""
     p = params if holding == 1 else swapped(params)
     sc = dc.replace(p.scenario, grip_spacing=round(float(spacing), 3),
                     incline_deg=round(math.degrees(incline), 1))
@@ -139,7 +140,8 @@ def swing_params(params: BplirParams, holding: int, spacing: float,
         if not tp.landing:   # plan tracking alone, as traversals were first built
             path = dc.replace(path, landing_lead=0.0, plan_delay_compensation=0.0)
         elif holding == 2:
-            path = dc.replace(path, landing_margin=tp.swapped_landing_margin)
+            path = dc.replace(path, landing_margin=tp.swapped_landing_margin,
+                              landing_law=tp.swapped_landing_law)
         p = p.with_(path=path)
     return p
 

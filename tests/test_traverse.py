@@ -260,18 +260,21 @@ def _back_to_back_swings_trip_the_driver_without_rest():
     assert swings[3]["i2t_end_A2s"] >= res.totals["i2t_budget_A2s"] == pytest.approx(70.0)
     _assert_always_held(res)
     # with the default standstill calibration each swing starts after 5 s on
-    # the line, which the driver's integral decays over (measured: 43.8 to
-    # 12.5 A^2 s before the third swing, with the landing): the same four swings pass
+    # the line, which the driver's integral decays over (measured: 49.8 to
+    # 18.5 A^2 s before the third swing): the same four swings pass.  The
+    # swapped robot's shooting landing spends more than its plan: 57.2 of
+    # 70 A^2 s after its first swing (51.2 with the aim law, 41.7 without a
+    # landing), more than the 20 % margin a resting planner keeps
     res = run_traverse(line, _trip_params(rest=False, standstill_samples=500), seed=1)
     assert res.totals["outcome"] == "passed"
     assert [r["kind"] for r in res.rows].count("calibrate") == 4
     assert not any(r["kind"] == "rest" for r in res.rows)
-    assert max(r["i2t_end_A2s"] for r in res.rows) < 0.75 * res.totals["i2t_budget_A2s"]
+    assert max(r["i2t_end_A2s"] for r in res.rows) == pytest.approx(57.2, abs=0.5)
 
 
 def _traverse_cli_rests_before_a_swing_that_would_trip(tmp_path, capsys):
     """The same line and driver through ``bplir traverse``: the planner
-    rests before the fourth swing and every obstacle is passed."""
+    rests before the third and fourth swings and every obstacle is passed."""
     import tomli_w
 
     line = tmp_path / "line.toml"
@@ -286,13 +289,17 @@ def _traverse_cli_rests_before_a_swing_that_would_trip(tmp_path, capsys):
     rows, totals = data["manoeuvres"], data["totals"]
     assert totals["outcome"] == "passed" and totals["obstacles_passed"] == 2
     kinds = [r["kind"] for r in rows]
-    assert kinds == ["ride", "swing", "adjust", "swing", "ride", "swing", "adjust", "rest",
-                     "swing", "ride"]
-    rest = rows[7]
-    # it rests just long enough for the planned swing to keep 20 % of the budget
-    assert rest["duration_s"] > 1.0
+    assert kinds == ["ride", "swing", "adjust", "swing", "ride", "rest", "swing", "adjust",
+                     "rest", "swing", "ride"]
+    # before the third swing it rests just long enough for the planned swing,
+    # its landing budgeted at the torque limit, to keep 20 % of the budget
+    rest = rows[5]
+    assert rest["duration_s"] > 1.0 and rest["i2t_end_A2s"] > 10.0
     assert rest["i2t_end_A2s"] == pytest.approx(rest["i2t_start_A2s"] - 2.5 ** 2
                                                 * rest["duration_s"])
+    # the swapped robot's swing so budgeted needs more than 80 % of this
+    # driver's budget: before it the driver rests until its integral is zero
+    assert rows[8]["i2t_end_A2s"] == pytest.approx(0.0, abs=1e-9)
     assert max(r["i2t_end_A2s"] for r in rows) < totals["i2t_budget_A2s"]
     # grips: every landing off the obstacles, spacing set back between swings
     tp = preset().traverse
@@ -418,7 +425,7 @@ def test_the_shooting_landing_lands_the_swapped_robot(k, aim, speed):
     """The swapped robot's swing at 1.2 m on a flat line, samples 0 and 4 of
     the realistic traversal study on held-out root seed 1 (the shooting
     law's height was chosen on root seed 0): the aim law crashes or times
-    out, the shooting landing (``path.landing_law = "shoot"``) captures,
+    out, the shooting landing (``traverse.swapped_landing_law``) captures,
     within the planner's landing tolerance of the grip.  Over samples 0-11
     it captured 10 against 5, and turned one capture (7) into a crash."""
     from bplir_drake.analysis.montecarlo import load_study, sample_params
@@ -429,8 +436,38 @@ def test_the_shooting_landing_lands_the_swapped_robot(k, aim, speed):
     p, seed, _ = sample_params(load_study(root / "study_traverse.toml").with_(seed=1), k)
     q = swing_params(p, 2, 1.2, 0.0)
     runner = SwingRunner()
-    assert q.path.landing_law == "aim" and runner.run(q, seed=seed).summary["outcome"] == aim
-    shot = runner.run(q.with_(path=dc.replace(q.path, landing_law="shoot")), seed=seed).summary
+    assert q.path.landing_law == "shoot"   # the traversals' default for this robot
+    aimed = q.with_(path=dc.replace(q.path, landing_law="aim"))
+    assert runner.run(aimed, seed=seed).summary["outcome"] == aim
+    shot = runner.run(q, seed=seed).summary
     assert shot["outcome"] == "captured"
     assert shot["capture_speed_mps"] == pytest.approx(speed, abs=0.01)
     assert abs(shot["landing_error_m"]) < p.traverse.landing_tolerance
+
+
+def test_the_rest_planner_budgets_the_landing_at_the_torque_limit():
+    """The currents a resting planner budgets for the swapped robot's swing:
+    the plan's, and at the torque limit from where the planned gripper comes
+    within the shooting landing's 30 cm of the line; without a landing the
+    plan's alone."""
+    from bplir_drake.analysis.swing.plan import tracking_plan
+    from bplir_drake.analysis.traverse.run import budgeted_currents, swing_params
+    from bplir_drake.systems.motor import max_torque
+    from bplir_drake.systems.plant import gripper_position
+
+    p = swing_params(preset(), 2, 1.2, 0.0)
+    plan = tracking_plan(p)[0]
+    k, T = p.motor.torque_per_amp, p.motor.driver_period
+    cur = budgeted_currents(plan, p)
+    t = np.arange(len(cur)) * T
+    plain = np.abs(np.interp(t, plan.times, plan.torque)) / k
+    at_limit = cur == max_torque(p.motor) / k
+    start = t[np.argmax(at_limit)]
+    assert at_limit[-1] and np.all(at_limit[t >= start])
+    np.testing.assert_array_equal(cur[t < start], plain[t < start])
+    y = np.array([gripper_position(x[:2], p.plant.l1, p.plant.l2)[1] for x in plan.states])
+    before, after = np.interp([start - T, start], plan.times, y)
+    assert before < -p.path.shoot_depth < after   # the window opens at 30 cm
+    assert 0.15 < plan.duration - start < 0.35
+    off = p.with_(path=dc.replace(p.path, landing_lead=0.0))
+    np.testing.assert_array_equal(budgeted_currents(plan, off), plain)

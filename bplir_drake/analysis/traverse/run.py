@@ -146,6 +146,30 @@ def swing_params(params: BplirParams, holding: int, spacing: float,
     return p
 
 
+def budgeted_currents(plan, p: BplirParams) -> np.ndarray:
+    """The currents (A, one per driver period) the rest planner budgets for
+    the planned swing ``plan`` of ``p``: the plan's, and from the moment the
+    planned gripper comes within the terminal law's take-over depth of the
+    line (in the plan's second half) to its end, the current of the torque
+    limit.  The terminal law's feedback is not planned, and the swapped
+    robot's runs at the limit there (README, "Traversal Monte Carlo")."""
+    from ...systems.motor import max_torque
+    from ...systems.plan_tracker import height_rates
+
+    motor, path = p.motor, p.path
+    t = np.arange(int(plan.duration / motor.driver_period) + 1) * motor.driver_period
+    tq = np.abs(np.interp(t, plan.times, plan.torque))
+    if path.landing_lead > 0:
+        depth = path.shoot_depth if path.landing_law == "shoot" else path.landing_depth
+        alpha = math.radians(p.scenario.incline_deg)
+        h = np.array([height_rates(p.plant, alpha, x)[0] for x in plan.states])
+        near = (plan.times >= 0.5 * plan.duration) & (h > -depth)
+        if near.any():
+            tq[t >= plan.times[np.argmax(near)]] = min(max_torque(motor),
+                                                       p.controller.torque_limit)
+    return tq / motor.torque_per_amp
+
+
 def capture_impulse(q, v, p) -> tuple[float, float]:
     """(impulse N s, effective mass kg) the arriving gripper and the line take
     to stop the gripper moving at joint rates ``v`` in pose ``q``: with
@@ -302,9 +326,7 @@ class _Traversal:
         need = 0.0
         if tp.rest and p.path.mode == "plan":
             plan = tracking_plan(p)[0]   # nominal model only
-            n = int(plan.duration / motor.driver_period) + 1
-            tq = np.interp(np.arange(n) * motor.driver_period, plan.times, plan.torque)
-            need = rest_for(self.h, self.tripped, np.abs(tq) / motor.torque_per_amp, motor,
+            need = rest_for(self.h, self.tripped, budgeted_currents(plan, p), motor,
                             tp.i2t_margin)
         elif tp.rest and self.tripped:
             need = self.h / motor.i_cont ** 2
@@ -465,7 +487,8 @@ def run_traverse(line: Line, params: BplirParams, *, seed: int = 0, progress: bo
     return TraverseResult(line, params, seed, tr.rows, totals, tr.segments, tr.clamps, tr.holds)
 
 
-__all__ = ["TraverseResult", "run_traverse", "swing_params", "capture_impulse", "OUTCOMES",
+__all__ = ["TraverseResult", "run_traverse", "swing_params", "budgeted_currents",
+           "capture_impulse", "OUTCOMES",
            "ROW_FIELDS", "Segment"]
 
 

@@ -572,7 +572,8 @@ class PathParams(_Block):
     landing_rate_gain: float = _positive(30.0, "1/s", doc="mode 'plan': the landing's rate error to acceleration gain")
     landing_min_decel: float = _positive(1.0, "rad/s^2", doc="mode 'plan': link 1 counts as decelerating above this (nominal model, elbow held)")
     # mode 'plan': "aim" (the apex landing's aim law) or "shoot" (ApexShot: it
-    # solves for link 1's stop every tick; an option for the traversals' swapped robot)
+    # solves for link 1's stop every tick; the traversals' swapped robot's default,
+    # traverse.swapped_landing_law)
     landing_law: str = "aim"
     shoot_height: float = _p(-0.015, "m", -0.02, 0, doc="landing_law 'shoot': the gripper's aimed distance to the line when link 1 stops (negative: inside the capture band); -15 mm chosen on root seed 0 for the traversals' swapped swing at 1.2 m (120 swings each, realistic / friction-only: -12 mm 99 / 119, -15 mm 97 / 120, -18 mm 76 / 118; the aim law 80 / 120)")
     shoot_depth: float = _p(0.3, "m", 0, 1, doc="landing_law 'shoot': it takes over once the gripper is this close to the line in the plan's last forward swing of link 1")

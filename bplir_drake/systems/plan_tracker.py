@@ -240,14 +240,19 @@ class ApexShot:
         rule."""
         return self.landing.height(x) > -self.depth or self.landing.takes_over(x)
 
-    def _model(self):
+    def __post_init__(self):
+        # the nominal model's constants, folded once (the law runs every tick)
         p, fr = self.landing.plant, self.friction
         a = p.I2 + p.m2 * p.lc2 ** 2
         drag = fr.drag_coefficients() if fr.enabled else (0.0, 0.0)
-        return dict(a=a, m11=p.m1 * p.lc1 ** 2 + p.I1 + p.m2 * p.l1 ** 2 + a,
-                    k12=p.m2 * p.l1 * p.lc2, g1=(p.m1 * p.lc1 + p.m2 * p.l1) * p.g,
-                    g12=p.m2 * p.lc2 * p.g, on=fr.enabled, fv=(fr.fv1, fr.fv2),
-                    fc=(fr.fc1, fr.fc2), b=fr.b, drag=drag)
+        object.__setattr__(self, "_constants", dict(
+            a=a, m11=p.m1 * p.lc1 ** 2 + p.I1 + p.m2 * p.l1 ** 2 + a,
+            k12=p.m2 * p.l1 * p.lc2, g1=(p.m1 * p.lc1 + p.m2 * p.l1) * p.g,
+            g12=p.m2 * p.lc2 * p.g, on=fr.enabled, fv=(fr.fv1, fr.fv2),
+            fc=(fr.fc1, fr.fc2), b=fr.b, drag=drag))
+
+    def _model(self):
+        return self._constants
 
     @staticmethod
     def _friction(c, i: int, v: float) -> float:

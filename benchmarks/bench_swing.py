@@ -26,6 +26,55 @@ def free_swing_rate(duration: float = 20.0) -> float:
     return duration / (time.perf_counter() - t0)
 
 
+def python_tick_floor(systems: int = 6, duration: float = 20.0, period: float = 0.01):
+    """(rate without, rate with) ``systems`` Python LeafSystems that do no
+    work but tick at the controller's rate (each reads the plant state at
+    its periodic discrete update and stores one number) on the free swing
+    of :func:`free_swing_rate`, in one run: the cost of the closed loop's
+    100 Hz Python chain (IMU sampler, EKF, delay predictor, plan tracker,
+    interlock, driver logic) before any of them computes anything."""
+    from pydrake.systems.analysis import Simulator
+    from pydrake.systems.framework import DiagramBuilder, LeafSystem
+    from pydrake.systems.primitives import ConstantVectorSource, LogVectorOutput
+
+    from bplir_drake.analysis.swing.run import SWING_ACCURACY
+    from bplir_drake.diagrams.parts import add_plant_with_friction
+    from bplir_drake.params import preset
+
+    class EmptyTick(LeafSystem):
+        def __init__(self):
+            super().__init__()
+            self._x = self.DeclareVectorInputPort("state", 4)
+            self.DeclareDiscreteState(1)
+            self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, self._update)
+
+        def _update(self, context, discrete_state):
+            discrete_state.set_value([self._x.Eval(context)[0]])
+
+    def rate(k: int) -> float:
+        p = preset()
+        b = DiagramBuilder()
+        plant, fr = add_plant_with_friction(b, p.simulated_plant, p.simulated_friction)
+        src = b.AddSystem(ConstantVectorSource([0.0]))
+        b.Connect(src.get_output_port(0), plant.get_actuation_input_port())
+        for port in (plant.get_state_output_port(), fr.get_output_port(0)):
+            LogVectorOutput(port, b, 0.001)
+        for _ in range(k):
+            b.Connect(plant.get_state_output_port(), b.AddSystem(EmptyTick()).get_input_port(0))
+        sim = Simulator(b.Build())
+        ctx = sim.get_mutable_context()
+        plant.SetPositions(plant.GetMyMutableContextFromRoot(ctx), [1.0, 0.5])
+        sim.get_mutable_integrator().set_target_accuracy(SWING_ACCURACY)
+        sim.get_mutable_integrator().set_maximum_step_size(0.01)
+        sim.Initialize()
+        t0 = time.perf_counter()
+        sim.AdvanceTo(duration)
+        return duration / (time.perf_counter() - t0)
+
+    rate(0)   # warm up
+    return rate(0), rate(systems)
+
+
 def closed_loop(seeds: int):
     """(simulated s, wall s, outcomes) of ``run_swing`` over seeds 0..seeds-1
     (warm: the first swing of the process is run once before timing)."""
@@ -124,6 +173,10 @@ def main():
           f"({wall / seeds * 1e3:.0f} ms per swing; {dict(outcomes)})")
     print(f"ratio closed loop / free swing: {loop / free:.3f}; goal >= 20 simulated s per wall s: "
           f"{'met' if loop >= 20 else 'not met'}")
+    bare, ticked = python_tick_floor()
+    print(f"free swing {bare:.1f} simulated s per wall s; with six empty Python systems ticking "
+          f"at 100 Hz {ticked:.1f} (ratio {ticked / bare:.3f}): the closed loop's floor before "
+          "its Python systems compute anything")
     fresh, reused = reuse(seeds)
     print(f"{seeds} swings, a diagram built per swing {fresh:.2f} s, one diagram reused "
           f"(samples set in the context) {reused:.2f} s: ratio {reused / fresh:.3f}")

@@ -495,6 +495,12 @@ def _study(args):
     if args.estimator:
         study = study.with_(params=study.params.with_estimator(args.estimator))
     study = study.with_(params=_with_path_mode(study.params, getattr(args, "path_mode", None)))
+    if args.true_state:
+        if args.estimator:
+            raise InputError("--true-state and --estimator exclude each other: the true state "
+                             "replaces the estimator")
+        p = study.params
+        study = study.with_(params=p.with_(scenario=dc.replace(p.scenario, use_estimator=False)))
     if args.traverse:
         from .analysis.traverse.line import load_line
         from .analysis.traverse.route import plan_route
@@ -841,6 +847,8 @@ def build_parser() -> argparse.ArgumentParser:
     option(p, "--seed", int, None, "root seed of the study")
     shared(p, "workers", "incline", "controller", "estimator", "path")
     option(p, "--study", None, None, "study TOML file (distributions, scenario)")
+    option(p, "--true-state", bool, help="control from the true state (no estimator): what "
+           "estimation costs the study")
     option(p, "--traverse", None, None, "a traversal study: each sample crosses this line "
            "(success: every obstacle passed, no driver trip, no fall)", metavar="LINE.toml")
     g = p.add_mutually_exclusive_group()

@@ -244,3 +244,32 @@ def test_unreachable_dask_scheduler_is_one_line_exit_2(tmp_path, capsys, monkeyp
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "cannot reach the Dask scheduler at tcp://127.0.0.1:9" in err
     assert (tmp_path / "study.toml").exists()   # nothing computed, nothing lost
+
+
+def test_true_state_study_records_it_and_swings_on_the_true_state(tmp_path, capsys):
+    """``--true-state``: the study file records ``use_estimator = false`` and
+    every sample is the swing controlled from the true state (what
+    estimation costs a study; README, realistic study)."""
+    from bplir_drake.analysis.swing.run import run_swing
+
+    out = tmp_path / "ts"
+    assert main(["montecarlo", "-n", "1", "--seed", "5", "--workers", "1", "--true-state",
+                 "--no-plots", "--out", str(out), "--json"]) == 0
+    row = json.loads(capsys.readouterr().out)
+    st = mc.load_study(out / mc.STUDY_FILE)
+    assert st.params.scenario.use_estimator is False
+    p, seed, _ = mc.sample_params(st, 0)
+    with open(out / mc.RESULTS_FILE) as fh:
+        rec = next(csv.DictReader(fh))
+    truth = run_swing(p, seed=seed).summary
+    assert truth["outcome"] == rec["outcome"] == "captured" and row["successes"] == 1
+    assert float(rec["capture_speed_mps"]) == pytest.approx(truth["capture_speed_mps"], abs=1e-12)
+    ekf = run_swing(p, seed=seed, use_estimator=True).summary
+    assert abs(ekf["capture_speed_mps"] - truth["capture_speed_mps"]) > 1e-4
+
+
+def test_true_state_and_an_estimator_exclude_each_other(tmp_path, capsys):
+    assert main(["montecarlo", "-n", "1", "--true-state", "--estimator", "m:f",
+                 "--out", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("bplir: error: --true-state and --estimator") and err.count("\n") == 1

@@ -579,6 +579,7 @@ class PathParams(_Block):
     shoot_depth: float = _p(0.3, "m", 0, 1, doc="landing_law 'shoot': it takes over once the gripper is this close to the line in the plan's last forward swing of link 1")
     shoot_min_time: float = _p(0.06, "s", 0.02, 0.5, doc="landing_law 'shoot': with less time to link 1's stop, or link 1 slower than shoot_min_rate, the stop time is held at this")
     shoot_min_rate: float = _p(0.1, "rad/s", 0, 5, doc="landing_law 'shoot': see shoot_min_time")
+    shoot_hold_depth: float = _p(0.03, "m", 0, 1, doc="landing_law 'shoot': the stop time is held at shoot_min_time only within this of the aimed height; further below it (link 1 stopped early, no shot found) the apex landing's aim law steers.  Without it the held 40-60 ms shot asked 24 cm below the line for 935 N m (tested) and crashed -20 deg swings at 2.5-4.6 m/s; 0.03 and 0.08 m gave the same captures there (tuning root seed 0) and the swapped robot's swing is unchanged (120 swings)")
     plan_delay_compensation: float = _p(0.01, "s", 0, 0.1, doc="mode 'plan': the actuation delay the plan tracker assumes (whole periods; the lab firmware's 10 ms): it acts on the state predicted this far ahead and indexes the plan as much later (controller.delay_compensation, when set, takes precedence)")
 
     def resolved(self, incline_deg: float, controller: "ControllerParams") -> "PathParams":

@@ -135,3 +135,31 @@ def test_a_measured_grip_spacing_uses_the_plan_of_its_grid_step(uphill):
     plan, gains = tracking_plan(near)
     plan0, gains0 = tracking_plan(uphill)
     assert np.array_equal(plan.states, plan0.states) and gains is gains0
+
+
+def test_the_shooting_landing_holds_no_shot_far_below_its_aim():
+    """The state of a -20 deg realistic swing (tuning root seed 0, sample 2,
+    shooting landing) when the law took over: link 1 almost still, the
+    gripper 25 cm below the line and rising on the elbow alone.  No shot
+    exists (link 1 is not carrying the gripper); holding the stop time at
+    ``shoot_min_time`` there asked for 935 N m and crashed the swing at
+    4.65 m/s.  Beyond ``shoot_hold_depth`` of the aim the aim law steers."""
+    from bplir_drake.systems.plan_tracker import ApexShot
+
+    p = preset()
+    path = dc.replace(p.path, landing_law="shoot", shoot_min_time=0.04)
+    x = [-0.010, 1.737, 0.06, 2.59]
+    held = ApexShot.from_params(p.plant, p.friction, math.radians(-20),
+                                dc.replace(path, shoot_hold_depth=1.0))
+    law = ApexShot.from_params(p.plant, p.friction, math.radians(-20), path)
+    assert law.landing.height(x) == pytest.approx(-0.2547, abs=1e-4)
+    assert held.torque(x) > 900.0   # measured 935 N m: an elbow acceleration of 1783 rad/s^2
+    assert law.solve(x) is None
+    assert law.torque(x) == law.landing.torque(x) == pytest.approx(2.02, abs=0.01)
+    # near its aim the held shot still steers (a horizontal swing's last
+    # moments: link 1 almost stopped, the gripper 7 mm below the aim)
+    flat = ApexShot.from_params(p.plant, p.friction, 0.0, path)
+    near = [0.319, 1.996, 0.05, 0.34]
+    assert flat.height - flat.hold_depth < flat.landing.height(near) < flat.height
+    acc, T = flat.solve(near)
+    assert T == 0.04 and abs(flat.torque(near)) < 20.0

@@ -210,8 +210,10 @@ class ApexShot:
     passive), and commands the quartic's first acceleration through the
     elbow's computed torque.  With less than ``min_time`` to go, or link 1
     slower than ``min_rate``, ``T`` is held at ``min_time`` and only
-    ``q2f`` is solved for.  Where no solution is found it falls back to
-    the apex landing ``landing``.
+    ``q2f`` is solved for, if the gripper is within ``hold_depth`` of the
+    aimed height (a held shot far below it asks for absurd accelerations).
+    Where no solution is found it falls back to the apex landing
+    ``landing``.
 
     It corrects the swing's energy while the elbow still has leverage on
     the gripper's height: the swapped robot's swinging link points almost
@@ -225,6 +227,7 @@ class ApexShot:
     depth: float
     min_time: float
     min_rate: float
+    hold_depth: float = 0.03
     steps: int = 12
 
     @classmethod
@@ -232,7 +235,8 @@ class ApexShot:
         """The law of ``path`` (its ``shoot_*`` fields; the fallback from its
         ``landing_*`` fields) on the nominal ``plant`` and ``friction``."""
         return cls(Landing.from_params(plant, alpha, path), friction, path.shoot_height,
-                   path.shoot_depth, path.shoot_min_time, path.shoot_min_rate)
+                   path.shoot_depth, path.shoot_min_time, path.shoot_min_rate,
+                   path.shoot_hold_depth)
 
     def takes_over(self, x) -> bool:
         """Whether the law takes over (asked in the plan's last forward
@@ -327,6 +331,8 @@ class ApexShot:
                 r, acc = self._shoot(c, x, T, q2f)
                 if abs(r[0]) <= 0.05 and abs(r[1]) <= 0.005 and T >= self.min_time:
                     return acc, T
+        if self.landing.height(x) < self.height - self.hold_depth:
+            return None   # no shot, and far from the aim: link 1 stopped early
         T, q2f = self.min_time, float(x[1])   # the last moments: T held, q2f only
         for _ in range(8):
             r, acc = self._shoot(c, x, T, q2f)

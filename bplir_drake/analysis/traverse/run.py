@@ -125,7 +125,8 @@ def swing_params(params: BplirParams, holding: int, spacing: float,
     With ``traverse.landing`` (the default) the swing lands as a single
     swing does (the apex landing, the delay compensation), the swapped robot
     by ``traverse.swapped_landing_law`` (its fallback aiming at
-    ``traverse.swapped_landing_margin``)."""
+    ``traverse.swapped_landing_margin``, its shot held from
+    ``traverse.swapped_shoot_min_time``)."""
     p = params if holding == 1 else swapped(params)
     sc = dc.replace(p.scenario, grip_spacing=round(float(spacing), 3),
                     incline_deg=round(math.degrees(incline), 1))
@@ -141,7 +142,8 @@ def swing_params(params: BplirParams, holding: int, spacing: float,
             path = dc.replace(path, landing_lead=0.0, plan_delay_compensation=0.0)
         elif holding == 2:
             path = dc.replace(path, landing_margin=tp.swapped_landing_margin,
-                              landing_law=tp.swapped_landing_law)
+                              landing_law=tp.swapped_landing_law,
+                              shoot_min_time=tp.swapped_shoot_min_time)
         p = p.with_(path=path)
     return p
 
@@ -154,14 +156,15 @@ def budgeted_currents(plan, p: BplirParams) -> np.ndarray:
     limit.  The terminal law's feedback is not planned, and the swapped
     robot's runs at the limit there (README, "Traversal Monte Carlo")."""
     from ...systems.motor import max_torque
-    from ...systems.plan_tracker import height_rates
+    from ...systems.plan_tracker import height_rates, landing_law
 
     motor, path = p.motor, p.path
     t = np.arange(int(plan.duration / motor.driver_period) + 1) * motor.driver_period
     tq = np.abs(np.interp(t, plan.times, plan.torque))
     if path.landing_lead > 0:
-        depth = path.shoot_depth if path.landing_law == "shoot" else path.landing_depth
         alpha = math.radians(p.scenario.incline_deg)
+        law = landing_law(p.plant, alpha, plan.times, plan.states, path)
+        depth = path.shoot_depth if law == "shoot" else path.landing_depth
         h = np.array([height_rates(p.plant, alpha, x)[0] for x in plan.states])
         near = (plan.times >= 0.5 * plan.duration) & (h > -depth)
         if near.any():

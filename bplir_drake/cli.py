@@ -327,17 +327,24 @@ def cmd_qft(args) -> int:
 
 
 # ------------------------------------------------------------------ swing
-def _with_path_mode(params, mode):
-    """``params`` with ``path.mode`` set from ``--path-mode`` (None: kept)."""
+def _with_path_mode(params, mode, law=None):
+    """``params`` with ``path.mode`` set from ``--path-mode`` and
+    ``path.landing_law`` from ``--landing-law`` (None: kept)."""
     import dataclasses as dc
 
-    from .params import PATH_MODES
+    from .params import LANDING_LAWS, PATH_MODES
 
-    if mode is None:
-        return params
-    if mode not in PATH_MODES:
-        raise InputError(f"--path-mode = '{mode}' is unknown; allowed: " + ", ".join(PATH_MODES))
-    return params.with_(path=dc.replace(params.path, mode=mode))
+    if mode is not None:
+        if mode not in PATH_MODES:
+            raise InputError(f"--path-mode = '{mode}' is unknown; allowed: "
+                             + ", ".join(PATH_MODES))
+        params = params.with_(path=dc.replace(params.path, mode=mode))
+    if law is not None:
+        if law not in LANDING_LAWS:
+            raise InputError(f"--landing-law = '{law}' is unknown; allowed: "
+                             + ", ".join(LANDING_LAWS))
+        params = params.with_(path=dc.replace(params.path, landing_law=law))
+    return params
 
 
 def _swing_params(args):
@@ -361,7 +368,8 @@ def _swing_params(args):
         params = params.with_controller(args.controller)
     if args.estimator:
         params = params.with_estimator(args.estimator)
-    params = _with_path_mode(params, getattr(args, "path_mode", None))
+    params = _with_path_mode(params, getattr(args, "path_mode", None),
+                             getattr(args, "landing_law", None))
     from .diagrams import swing_geometry
 
     swing_geometry(params)  # validates grip spacing / incline for this robot
@@ -494,7 +502,8 @@ def _study(args):
         study = study.with_(params=study.params.with_controller(args.controller))
     if args.estimator:
         study = study.with_(params=study.params.with_estimator(args.estimator))
-    study = study.with_(params=_with_path_mode(study.params, getattr(args, "path_mode", None)))
+    study = study.with_(params=_with_path_mode(study.params, getattr(args, "path_mode", None),
+                                               getattr(args, "landing_law", None)))
     if args.true_state:
         if args.estimator:
             raise InputError("--true-state and --estimator exclude each other: the true state "
@@ -784,7 +793,11 @@ def build_parser() -> argparse.ArgumentParser:
                           "how the swing is steered: auto (the default: plan for the qft "
                           "preset, adaptive for the others and plug-ins), adaptive (the "
                           "path generator), plan (plan tracking with the apex landing), "
-                          "rts, lab")}
+                          "rts, lab"),
+                 "landing": ("--landing-law", None, None,
+                             "plan tracking's landing: aim (the default), shoot, or auto "
+                             "(shoot where link 1 carries the planned gripper to the line, "
+                             "aim where the elbow lifts it)")}
         for n in names:
             option(p, *table[n])
 
@@ -830,7 +843,7 @@ def build_parser() -> argparse.ArgumentParser:
     option(p, "--threshold", float, 1e-3, "relative rank threshold")
 
     p = command("swing", cmd_swing, "one brachiation swing (the main job)", "out/swing")
-    shared(p, "incline", "controller", "estimator", "path")
+    shared(p, "incline", "controller", "estimator", "path", "landing")
     option(p, "--seed", int, None, "seed of friction draw and sensor noise")
     option(p, "--true-state", bool, help="control from the true state")
     option(p, "--no-animation", bool, help="skip the GIF")
@@ -845,7 +858,7 @@ def build_parser() -> argparse.ArgumentParser:
                 "Monte Carlo robustness study over uncertain parameters", "out/montecarlo")
     p.add_argument("-n", "--samples", type=int, default=None, help="number of swings")
     option(p, "--seed", int, None, "root seed of the study")
-    shared(p, "workers", "incline", "controller", "estimator", "path")
+    shared(p, "workers", "incline", "controller", "estimator", "path", "landing")
     option(p, "--study", None, None, "study TOML file (distributions, scenario)")
     option(p, "--true-state", bool, help="control from the true state (no estimator): what "
            "estimation costs the study")

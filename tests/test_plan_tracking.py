@@ -163,3 +163,42 @@ def test_the_shooting_landing_holds_no_shot_far_below_its_aim():
     assert flat.height - flat.hold_depth < flat.landing.height(near) < flat.height
     acc, T = flat.solve(near)
     assert T == 0.04 and abs(flat.torque(near)) < 20.0
+
+
+@pytest.mark.parametrize("incline, law, share", [
+    (0.0, "shoot", 0.79), (20.0, "shoot", 1.31), (-20.0, "aim", 0.14)])
+def test_auto_landing_law_follows_who_lifts_the_gripper(incline, law, share):
+    """``path.landing_law = "auto"`` shoots where link 1 carries the planned
+    gripper to the line (its share of the rise rate 30 cm below the line)
+    and aims where the elbow lifts it: the -20 deg plan ends with link 1
+    almost still, where the shot asked for hundreds of N m (above)."""
+    from bplir_drake.analysis.swing.plan import scenario_plan
+    from bplir_drake.systems.plan_tracker import landing_law, link1_share
+
+    p = preset()
+    q = p.with_(path=dc.replace(p.path, landing_law="auto"),
+                scenario=dc.replace(p.scenario, incline_deg=incline))
+    plan = scenario_plan(q)
+    a = math.radians(incline)
+    assert link1_share(q.plant, a, plan.times, plan.states, 0.3) == pytest.approx(share, abs=0.02)
+    assert landing_law(q.plant, a, plan.times, plan.states, q.path) == law
+    assert landing_law(p.plant, a, plan.times, plan.states, p.path) == "aim"   # the default
+
+
+def test_landing_law_option(tmp_path, capsys):
+    """``--landing-law auto`` on the -20 deg line is the aim law (same swing,
+    bit for bit); a wrong law is a one-line error naming the allowed ones."""
+    import json
+
+    from bplir_drake.cli import main
+
+    runs = {}
+    for law in ("aim", "auto"):
+        assert main(["swing", "--incline", "-20", "--landing-law", law, "--no-animation",
+                     "--json", "--out", str(tmp_path / law)]) == 0
+        runs[law] = json.loads(capsys.readouterr().out)
+    assert runs["aim"]["outcome"] == "captured"
+    assert runs["auto"]["capture_speed_mps"] == runs["aim"]["capture_speed_mps"]
+    assert main(["montecarlo", "-n", "1", "--landing-law", "lqr", "--out", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert err == "bplir: error: --landing-law = 'lqr' is unknown; allowed: aim, shoot, auto\n"

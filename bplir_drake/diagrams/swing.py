@@ -230,7 +230,7 @@ def add_swing_controller(builder, params: BplirParams, state_port, robot: Robot,
         builder.Connect(state_port, predictor.estimate_port)
         state_port = predictor.predicted_port
     if params.path.mode == "plan":
-        from ..systems.plan_tracker import ApexShot, Landing, PlanTracker, Reach
+        from ..systems.plan_tracker import ApexShot, Landing, PlanTracker, Reach, landing_law
 
         if plan_gains is None:
             raise ValueError("path.mode = 'plan' (the qft preset's default) needs the tracking "
@@ -238,8 +238,11 @@ def add_swing_controller(builder, params: BplirParams, state_port, robot: Robot,
                              "(bplir_drake.analysis.swing.plan), or build with "
                              "bplir_drake.analysis.swing.swing_diagram(params)")
         pp = params.path
+        ts = np.linspace(0.0, plan_gains.x0.end_time(), 801)
+        law = landing_law(params.plant, path_geometry.alpha, ts,
+                          plan_gains.x0.vector_values(ts).T, pp)
         reach = None   # the terminal law: the apex landing, the reach or none
-        if pp.landing_lead > 0 and pp.landing_law == "shoot":
+        if pp.landing_lead > 0 and law == "shoot":
             reach = ApexShot.from_params(params.plant, params.friction, path_geometry.alpha, pp)
         elif pp.landing_lead > 0:
             reach = Landing.from_params(params.plant, path_geometry.alpha, pp)

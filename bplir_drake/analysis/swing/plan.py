@@ -221,12 +221,18 @@ PLAN_GUESSES = (1.5, 1.0, 2.0)
 
 
 def tracking_plan(params: BplirParams):
-    """(plan, tracking gains) for the scenario of ``params`` with
-    ``path.plan_end_depth``, for its grip spacing rounded to
-    ``path.plan_spacing_step``: the plan from :func:`plan_swing` (disk cache;
-    the first feasible one of the guesses :data:`PLAN_GUESSES`),
-    the gains from Drake's finite-horizon LQR on the nominal model
-    (:func:`tracking_gains`: disk cache too)."""
+    """(plan, tracking gains) for the scenario of ``params``: the plan of
+    :func:`scenario_plan`, the gains from Drake's finite-horizon LQR on the
+    nominal model (:func:`tracking_gains`: disk cache too)."""
+    plan = scenario_plan(params)
+    return plan, tracking_gains(params.plant, params.friction, plan)
+
+
+def scenario_plan(params: BplirParams) -> SwingPlan:
+    """The plan for the scenario of ``params`` with ``path.plan_end_depth``,
+    for its grip spacing rounded to ``path.plan_spacing_step``: from
+    :func:`plan_swing` (disk cache), the first feasible one of the guesses
+    :data:`PLAN_GUESSES`."""
     sc, depth, step = params.scenario, params.path.plan_end_depth, params.path.plan_spacing_step
     if step > 0:   # the measured spacing on the plans' grid
         spacing = round(round(sc.grip_spacing / step) * step, 9)
@@ -238,7 +244,7 @@ def tracking_plan(params: BplirParams):
     if not plan.feasible:
         raise ParameterError(f"no feasible plan for a {sc.incline_deg:g} deg line within "
                              f"{plan.torque_limit:g} N m and {plan.power_limit:g} W")
-    return plan, tracking_gains(params.plant, params.friction, plan)
+    return plan
 
 
 _GAINS: dict = {}

@@ -181,9 +181,9 @@ def test_auto_landing_law_follows_who_lifts_the_gripper(incline, law, share):
                 scenario=dc.replace(p.scenario, incline_deg=incline))
     plan = scenario_plan(q)
     a = math.radians(incline)
-    assert link1_share(q.plant, a, plan.times, plan.states, 0.3) == pytest.approx(share, abs=0.02)
-    assert landing_law(q.plant, a, plan.times, plan.states, q.path) == law
-    assert landing_law(p.plant, a, plan.times, plan.states, p.path) == "aim"   # the default
+    assert link1_share(q.plant, a, plan.states, 0.3) == pytest.approx(share, abs=0.02)
+    assert landing_law(q.plant, a, plan.states, q.path) == law
+    assert landing_law(p.plant, a, plan.states, p.path) == "aim"   # the default
 
 
 def test_landing_law_option(tmp_path, capsys):

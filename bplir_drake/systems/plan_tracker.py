@@ -359,34 +359,30 @@ class ApexShot:
                      + c["g12"] * np.sin(q1 + q2) + self._friction(c, 1, v2))
 
 
-def link1_share(p, alpha: float, times, states, depth: float) -> float:
+def link1_share(p, alpha: float, states, depth: float) -> float:
     """The share of the planned gripper's rise rate that link 1's rotation
     makes (the rest: the elbow's) at the last moment the gripper of the
-    planned swing (``states`` at ``times``, relative) is ``depth`` below a
-    line inclined by ``alpha``: 1 where link 1 carries the gripper to the
+    planned swing (``states``, relative, in time order) is ``depth`` below
+    a line inclined by ``alpha``: 1 where link 1 carries the gripper to the
     line, 0 where the elbow lifts it."""
     states = np.asarray(states, dtype=float)
-    s = states[:, 0] - alpha
-    th = s + states[:, 1]
-    h = -p.l1 * np.cos(s) - p.l2 * np.cos(th)
-    below = np.flatnonzero(h < -depth)
-    i = int(below[-1]) if below.size else 0
-    by_link1 = (p.l1 * np.sin(s[i]) + p.l2 * np.sin(th[i])) * states[i, 2]
-    by_elbow = p.l2 * np.sin(th[i]) * states[i, 3]
-    total = by_link1 + by_elbow
-    return float(by_link1 / total) if abs(total) > 1e-9 else 0.0
+    below = np.flatnonzero([height_rates(p, alpha, x)[0] < -depth for x in states])
+    x = states[int(below[-1]) if below.size else 0]
+    total = height_rates(p, alpha, x)[1]
+    by_link1 = height_rates(p, alpha, (*x[:3], 0.0))[1]   # the elbow held
+    return by_link1 / total if abs(total) > 1e-9 else 0.0
 
 
-def landing_law(p, alpha: float, times, states, path) -> str:
-    """``path.landing_law``, with ``"auto"`` resolved on the planned swing:
-    ``"shoot"`` where link 1 makes at least ``path.shoot_link1_share`` of
-    the gripper's rise when it comes within ``path.shoot_depth`` of the
-    line (the shot predicts link 1's stop; it has nothing to aim with where
-    the elbow lifts the gripper, as at the end of the -20 degree plan),
-    ``"aim"`` elsewhere."""
+def landing_law(p, alpha: float, states, path) -> str:
+    """``path.landing_law``, with ``"auto"`` resolved on the planned swing
+    (``states``, relative, in time order): ``"shoot"`` where link 1 makes
+    at least ``path.shoot_link1_share`` of the gripper's rise when it comes
+    within ``path.shoot_depth`` of the line (the shot predicts link 1's
+    stop; it has nothing to aim with where the elbow lifts the gripper, as
+    at the end of the -20 degree plan), ``"aim"`` elsewhere."""
     if path.landing_law != "auto":
         return path.landing_law
-    share = link1_share(p, alpha, times, states, path.shoot_depth)
+    share = link1_share(p, alpha, states, path.shoot_depth)
     return "shoot" if share >= path.shoot_link1_share else "aim"
 
 

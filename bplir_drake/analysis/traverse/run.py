@@ -163,7 +163,7 @@ def budgeted_currents(plan, p: BplirParams) -> np.ndarray:
     tq = np.abs(np.interp(t, plan.times, plan.torque))
     if path.landing_lead > 0:
         alpha = math.radians(p.scenario.incline_deg)
-        law = landing_law(p.plant, alpha, plan.times, plan.states, path)
+        law = landing_law(p.plant, alpha, plan.states, path)
         depth = path.shoot_depth if law == "shoot" else path.landing_depth
         h = np.array([height_rates(p.plant, alpha, x)[0] for x in plan.states])
         near = (plan.times >= 0.5 * plan.duration) & (h > -depth)

@@ -205,14 +205,16 @@ def test_landing_law_option(tmp_path, capsys):
     assert err == "bplir: error: --landing-law = 'lqr' is unknown; allowed: aim, shoot, auto\n"
 
 
-@pytest.mark.parametrize("k, aim_speed, auto_speed", [(41, 0.53, 0.333), (75, 0.73, 0.338)])
+# sample 107's grip spacing (1.196 m) uses the shipped 1.2 m plan; the other rescued
+# samples (41, 59, 74, 75, 116) need plans solved on an empty cache (a minute each)
+@pytest.mark.parametrize("k, aim_speed, auto_speed", [(107, 0.53, 0.332)])
 def test_auto_landing_lands_realistic_swings_the_aim_law_crashes(k, aim_speed, auto_speed):
-    """Samples 41 and 75 of the realistic study on held-out root seed 2 at
-    0 deg (the shot's hold time was chosen on root seed 0; the auto rule's
-    threshold, half, was not tuned): the default aim law crashes, the auto
-    law (the shooting landing on this line) captures.  Over samples 0-119
-    auto turned 6 crashes into captures and lost none (README, realistic
-    study: 956 against 931 of 1000)."""
+    """Sample 107 of the realistic study on held-out root seed 2 at 0 deg
+    (the shot's hold time was chosen on root seed 0; the auto rule's
+    threshold, half, was not tuned; 20 ms of delay): the default aim law
+    crashes, the auto law (the shooting landing on this line) captures.
+    Over samples 0-119 auto turned 6 crashes into captures and lost none
+    (README, realistic study: 956 against 931 of 1000)."""
     from bplir_drake.analysis.montecarlo import load_study, sample_params
     from bplir_drake.analysis.swing.run import SwingRunner
 

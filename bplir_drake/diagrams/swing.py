@@ -239,10 +239,10 @@ def add_swing_controller(builder, params: BplirParams, state_port, robot: Robot,
                              "bplir_drake.analysis.swing.swing_diagram(params)")
         pp = params.path
         law = pp.landing_law
-        if law == "auto":   # resolved from the plan the tracker follows
-            ts = np.linspace(0.0, plan_gains.x0.end_time(), 801)
-            law = landing_law(params.plant, path_geometry.alpha,
-                              plan_gains.x0.vector_values(ts).T, pp)
+        if law == "auto":   # resolved on the plan's own samples (the breaks of x0), as
+            # the traversal's current budget resolves it: the two cannot disagree
+            law = landing_law(params.plant, path_geometry.alpha, plan_gains.x0.vector_values(
+                plan_gains.x0.get_segment_times()).T, pp)
         reach = None   # the terminal law: the apex landing, the reach or none
         if pp.landing_lead > 0 and law == "shoot":
             reach = ApexShot.from_params(params.plant, params.friction, path_geometry.alpha, pp)

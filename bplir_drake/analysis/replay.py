@@ -69,7 +69,10 @@ def _cylinder_along_x(length: float, radius: float):
     return Cylinder(radius, length), RotationMatrix.MakeYRotation(math.pi / 2)
 
 
-def _add_scene(meshcat, scene: ReplayScene, recording_end: float) -> None:
+def _add_scene(meshcat, scene: ReplayScene, recording_end: float, log_end: float) -> None:
+    """The scene's objects; clamps shown from ``t_on`` to ``t_off`` where
+    these fall in the log (``log_end``: its duration), an event after the
+    last frame (``recording_end``) but inside the log at the last frame."""
     from pydrake.geometry import Box, Rgba, Sphere
     from pydrake.math import RigidTransform
 
@@ -97,10 +100,10 @@ def _add_scene(meshcat, scene: ReplayScene, recording_end: float) -> None:
         meshcat.SetTransform(path, _plane_pose(x, y, angle).multiply(RigidTransform(R)))
         # visibility is animated: hidden before t_on and from t_off on
         meshcat.SetProperty(path, "visible", t_on <= 0.0, 0.0)
-        if 0.0 < t_on <= recording_end:
-            meshcat.SetProperty(path, "visible", True, float(t_on))
-        if t_off <= recording_end:
-            meshcat.SetProperty(path, "visible", False, float(t_off))
+        if 0.0 < t_on <= log_end:
+            meshcat.SetProperty(path, "visible", True, float(min(t_on, recording_end)))
+        if t_off <= log_end:
+            meshcat.SetProperty(path, "visible", False, float(min(t_off, recording_end)))
 
 
 def replay_html(plant: PlantParams, t, q, scene: ReplayScene, *, fps: float = 30.0,
@@ -140,7 +143,7 @@ def replay_html(plant: PlantParams, t, q, scene: ReplayScene, *, fps: float = 30
             diagram.ForcedPublish(context)
             if bs is not None:
                 meshcat.SetTransform("/drake/robot", _plane_pose(*bs[k]), float(tk) + 1e-9)
-        _add_scene(meshcat, scene, float(frames[-1]))
+        _add_scene(meshcat, scene, float(frames[-1]), float(t[-1] - t[0]))
         vis.StopRecording()
         vis.get_mutable_recording().set_autoplay(True)
         vis.PublishRecording()

@@ -795,7 +795,7 @@ def build_parser() -> argparse.ArgumentParser:
                           "path generator), plan (plan tracking with the apex landing), "
                           "rts, lab"),
                  "landing": ("--landing-law", None, None,
-                             "plan tracking's landing: aim (the default), shoot, or auto "
+                             "plan tracking's landing: aim, shoot, or auto (the default) "
                              "(shoot where link 1 carries the planned gripper to the line, "
                              "aim where the elbow lifts it)")}
         for n in names:

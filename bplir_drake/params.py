@@ -553,6 +553,7 @@ class PathParams(_Block):
     lab_gain: float = _p(1.5, "", 0, 5, doc="gain of the lab firmware path")
     plan_end_depth: float = _p(0.015, "m", 0, 0.1, doc="mode 'plan': the planned swing comes to rest this far below the line (inside the capture band); 15 mm chosen on seeds 0-19 at +-20 deg: 13 mm crashed 9/20 uphill, 17 mm timed out 4/20 downhill")
     plan_spacing_step: float = _p(0.01, "m", 0, 0.1, doc="mode 'plan': the plan is made for the grip spacing measured at the start rounded to this step, so that a study drawing the spacing solves a few plans (one per step, cached), not one per swing (0: the exact spacing)")
+    plan_warm_spacing: float = _p(1.2, "m", 0, 3, doc="mode 'plan': a plan for another grip spacing is also solved from this spacing's plan on the same line, and the cheaper of the two kept (the straight-line initial guesses alone found a plan of twice the cost at 1.27 m, whose swings crashed 17 of 53 times in the realistic study against 27 of 947 elsewhere); 0: the straight-line guesses only")
     plan_indexing: str = "time"   # mode 'plan': "time" (reads the clock) or "state" (clock-free phase)
     # mode 'plan': the terminal reach (systems/plan_tracker.py, issue 17), off by default: it
     # lands on the back swing, 0.6-0.9 m short of the planned grip (README, "Status")
@@ -573,14 +574,16 @@ class PathParams(_Block):
     landing_min_decel: float = _positive(1.0, "rad/s^2", doc="mode 'plan': link 1 counts as decelerating above this (nominal model, elbow held)")
     # mode 'plan': "aim" (the apex landing's aim law), "shoot" (ApexShot: it
     # solves for link 1's stop every tick; the traversals' swapped robot's default,
-    # traverse.swapped_landing_law) or "auto" (per plan: shoot_link1_share)
-    landing_law: str = "aim"
+    # traverse.swapped_landing_law) or "auto" (the default since 2026-11-23: per plan,
+    # shoot_link1_share)
+    landing_law: str = "auto"
     shoot_height: float = _p(-0.015, "m", -0.02, 0, doc="landing_law 'shoot': the gripper's aimed distance to the line when link 1 stops (negative: inside the capture band); -15 mm chosen on root seed 0 for the traversals' swapped swing at 1.2 m (120 swings each, realistic / friction-only: -12 mm 99 / 119, -15 mm 97 / 120, -18 mm 76 / 118; the aim law 80 / 120)")
     shoot_depth: float = _p(0.3, "m", 0, 1, doc="landing_law 'shoot': it takes over once the gripper is this close to the line in the plan's last forward swing of link 1")
     shoot_min_time: float = _p(0.04, "s", 0.02, 0.5, doc="landing_law 'shoot': with less time to link 1's stop, or link 1 slower than shoot_min_rate, the stop time is held at this; 0.04 chosen on root seed 0 of the realistic study, single swings, 200 each at 0 / +20 deg: 0.02 s 187 / -, 0.03 s 189 / -, 0.04 s 191 / 194 (capture speed p50 0.311 / 0.360 m/s), 0.06 s 191 / 192 (0.344 / 0.407), 0.09 s 133 / -; the swapped robot's swing 97 of 120 at 0.04 and 0.06")
     shoot_min_rate: float = _p(0.1, "rad/s", 0, 5, doc="landing_law 'shoot': see shoot_min_time")
     shoot_hold_depth: float = _p(0.03, "m", 0, 1, doc="landing_law 'shoot': the stop time is held at shoot_min_time only within this of the aimed height; further below it (link 1 stopped early, no shot found) the apex landing's aim law steers.  Without it the held 40-60 ms shot asked 24 cm below the line for 935 N m (tested) and crashed -20 deg swings at 2.5-4.6 m/s; 0.03 and 0.08 m gave the same captures there (tuning root seed 0) and the swapped robot's swing is unchanged (120 swings)")
-    shoot_link1_share: float = _p(0.5, "", 0, 1, doc="landing_law 'auto': the shooting landing where link 1 makes at least this share of the planned gripper's rise rate shoot_depth below the line, the aim law elsewhere (the plans on the 1.1-1.3 m grid: 0 deg 0.71-0.89 except 0.26 at 1.27 m, +20 deg 1.19-1.43, -20 deg -0.46 to 0.20; -10 deg 0.43 / 0.50 / 0.57 at 1.1 / 1.2 / 1.3 m)")
+    shoot_give_up_rate: float = _p(0.1, "rad/s", 0, 5, doc="landing_law 'shoot': once link 1 swings back faster than this with the gripper below the aimed height, the shot gives up: the elbow is braked to rest and the swing times out, the robot hanging, instead of chasing the line at the torque limit while link 1 falls back (held-out sample 770 of root seed 2: a crash at 2.2 m/s; on tuning root seed 0, 200 swings each, no capture lost at 0 / +20 deg); 0: never")
+    shoot_link1_share: float = _p(0.5, "", 0, 1, doc="landing_law 'auto': the shooting landing where link 1 makes at least this share of the planned gripper's rise rate shoot_depth below the line, the aim law elsewhere (the plans on the 1.1-1.3 m grid: 0 deg 0.71-0.89, 0.26 at 1.27 m from the straight-line guesses before plan_warm_spacing, +20 deg 1.19-1.43, -20 deg -0.46 to 0.20; -10 deg 0.43 / 0.50 / 0.57 at 1.1 / 1.2 / 1.3 m)")
     plan_delay_compensation: float = _p(0.01, "s", 0, 0.1, doc="mode 'plan': the actuation delay the plan tracker assumes (whole periods; the lab firmware's 10 ms): it acts on the state predicted this far ahead and indexes the plan as much later (controller.delay_compensation, when set, takes precedence)")
 
     def resolved(self, incline_deg: float, controller: "ControllerParams") -> "PathParams":

@@ -393,8 +393,14 @@ def test_plan_depends_only_on_the_nominal_model_and_a_hit_is_bit_identical(tmp_p
             assert np.array_equal(getattr(a, f), getattr(b, f))
     np.testing.assert_array_equal(hit.states[0, :2], plan_swing(p, **kw).states[0, :2])
     plan_swing(p.with_(plant=dc.replace(p.plant, m2=1.6)), **kw)   # the nominal model: new key
-    plan_swing(p, **kw | {"knots": 8})                              # a solver input: new key
+    finer = plan_swing(p, **kw | {"knots": 8})                      # a solver input: new key
     assert len(set(seen)) == 3
+    warm = plan_swing(p, initial=first, **kw)       # started from a plan: the guess is an input
+    assert len(set(seen)) == 4
+    again = plan_swing(p, initial=first, **kw)      # a hit, bit for bit
+    assert seen[-1] == seen[-2] and np.array_equal(warm.states, again.states)
+    plan_swing(p, initial=finer, **kw)              # another initial plan: new key
+    assert len(set(seen)) == 5
 
 
 
@@ -494,8 +500,9 @@ def test_shipped_plans_serve_a_fresh_install(monkeypatch, tmp_path):
     shipped = sorted(plan_cache.PACKAGED.glob("plan-*.npz"))
     # +-20 deg (the quick start), 0 deg (the default, the landing's tests), 20 deg resting
     # on the line, the lines' 8, the quick benchmark's +-10 deg and 1.1 / 1.3 m swings,
-    # custom_params.py's 1.15 m
-    assert len(shipped) == 17
+    # custom_params.py's 1.15 m (at 1.1, 1.15 and 1.3 m also the solve started from the
+    # 1.2 m plan, path.plan_warm_spacing), and the 1.27 m plans of the warm start's test
+    assert len(shipped) == 23
     monkeypatch.setenv("BPLIR_CACHE_DIR", str(tmp_path))
 
     def no_solve(*a, **k):
@@ -518,6 +525,8 @@ def test_shipped_plans_serve_a_fresh_install(monkeypatch, tmp_path):
     from bplir_drake.analysis.traverse.run import swing_params
     from bplir_drake.params import preset
 
+    q = preset().with_(scenario=dc.replace(preset().scenario, grip_spacing=1.27))
+    assert P.scenario_plan(q).feasible   # test_plan_tracking's warm start: three solves
     base, seen = preset(), set()
     for name in ("line_flat.toml", "line_span.toml"):
         line = load_line(Path(__file__).resolve().parents[1] / "examples" / name)

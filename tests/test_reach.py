@@ -125,8 +125,10 @@ def test_10_and_20_ms_of_delay_are_captured_on_the_grip_on_20_degree_lines(incli
     the lab firmware's 10 ms of actuation delay,
     ``path.plan_delay_compensation``; no reach), EKF in the loop, with 10
     and 20 ms of actuation delay, seeds 0 and 1.  Measured: every case
-    captured within 1 cm of the planned grip; +20 deg 0.33-0.44 m/s in
-    1.23-1.24 s, -20 deg 0.09-0.20 m/s in 1.29-1.30 s.  Not yet held (the
+    captured; +20 deg (the auto law shoots) 0.33-0.40 m/s in 1.23-1.24 s
+    within 1.8 cm of the planned grip (the aim law: 0.33-0.44 m/s, within
+    1 cm), -20 deg (the auto law aims) 0.09-0.20 m/s in 1.29-1.30 s within
+    1 cm.  Not yet held (the
     README's Status): m2, I2 or lc2 of the real robot off by 10 % -- at
     +20 deg 1 of 6 captured (2 crashes, 3 timeouts), at -20 deg 2 of 6."""
     from bplir_drake.analysis.swing.run import SwingRunner
@@ -137,7 +139,7 @@ def test_10_and_20_ms_of_delay_are_captured_on_the_grip_on_20_degree_lines(incli
     runs = [runner.run(p.with_(scenario=dc.replace(p.scenario, actuation_delay=d)),
                        seed=k).summary for d in (0.01, 0.02) for k in (0, 1)]
     assert [r["outcome"] for r in runs] == ["captured"] * 4
-    assert all(abs(r["landing_error_m"]) < 0.01 and r["swing_time_s"] < 1.35 for r in runs)
+    assert all(abs(r["landing_error_m"]) < 0.02 and r["swing_time_s"] < 1.35 for r in runs)
     assert all(r["peak_motor_power_W"] < 220.0 and r["peak_torque_Nm"] <= 20.0 + 1e-9
                for r in runs)
 
@@ -193,15 +195,16 @@ def test_landing_takes_over_in_the_last_forward_swing_and_aims_at_the_band():
 
 @pytest.mark.parametrize("incline", [0.0, 20.0, -20.0])
 def test_held_out_samples_of_the_realistic_study_land_on_the_grip(incline):
-    """The default controller (plan tracking with the apex landing) on
+    """The default controller (plan tracking with the auto landing law) on
     samples 0-15 of root seed 2 of ``examples/study_realistic.toml`` --
     held out: the landing was tuned on root seed 0 -- with the grip spacing
     fixed at 1.2 m (the
     shipped plans; the spacing draws need a plan each).  Every draw else:
     friction, masses, inertias, centres of mass, link lengths, IMU noise,
     biases and misalignment, 0-20 ms of delay, wind and gusts.  Measured:
-    16 of 16 captured at 0 and +20 deg, within 0.1 D of the grip, the
-    fastest at 0.45 and 0.46 m/s; at -20 deg sample 11 crashes at 0.503 m/s
+    16 of 16 captured at 0 and +20 deg (shooting), within 0.1 D of the
+    grip, the fastest at 0.43 and 0.47 m/s (the aim law: 0.45 and 0.46);
+    at -20 deg (aiming) sample 11 crashes at 0.503 m/s
     (captured at 0.50 m/s before the standstill calibration widened the
     filter's R to the measured noise: the margin to a crash is thin,
     README), the other 15 land."""
@@ -225,19 +228,21 @@ def test_held_out_samples_of_the_realistic_study_land_on_the_grip(incline):
         assert runs[k]["outcome"] == "crash" and 0.5 < runs[k]["capture_speed_mps"] < 0.51
     landed = [r for r in runs if r["success"]]
     assert all(abs(r["landing_error_m"]) < 0.12 for r in landed)
-    assert all(r["capture_speed_mps"] < 0.47 for r in landed)
+    assert all(r["capture_speed_mps"] < 0.48 for r in landed)
     assert all(r["peak_motor_power_W"] < 220.0 for r in runs)
 
 
-@pytest.mark.parametrize("incline,fails", [(0.0, []), (20.0, ["lc2 -10%", "lc2 +10%"]),
+@pytest.mark.parametrize("incline,fails", [(0.0, []), (20.0, []),
                                            (-20.0, ["lc2 -10%"])])
 def test_link_2_parameters_off_by_10_percent(incline, fails):
     """m2, I2 or lc2 of the simulated robot 10 % off the nominal model the
     controller uses (seed 0, EKF in the loop, plan tracking with the
-    landing).  Measured: every m2 and I2 case captured at every incline
-    (0.31-0.45 m/s, within 3 cm of the grip); lc2 -10 % crashes at +-20
-    deg (0.62 m/s) and +10 % at +20 deg (0.54 m/s) -- a 5.5 cm shift of
-    link 2's centre of mass, five times the realistic study's draw.  Before
+    default landing law: shooting at 0 and +20 deg, aiming at -20 deg).
+    Measured: every case captured at 0 and +20 deg (0.36-0.44 m/s, within
+    6.1 cm of the grip: lc2 -10 % lands 6.05 cm short at 0 deg); at -20 deg
+    lc2 -10 % crashes (0.62 m/s) -- a 5.5 cm shift of link 2's centre of
+    mass, five times the realistic study's draw.  (The aim law at +20 deg
+    crashed both lc2 cases, at 0.62 and 0.54 m/s.)  Before
     the landing (plan tracking alone): 1 of 6 captured at +20 deg, 2 of 6
     at -20 deg."""
     from bplir_drake.analysis.swing.run import SwingRunner
@@ -254,5 +259,5 @@ def test_link_2_parameters_off_by_10_percent(incline, fails):
             if r["outcome"] != "captured":
                 missed.append(f"{field} {name}")
             else:
-                assert abs(r["landing_error_m"]) < 0.06
+                assert abs(r["landing_error_m"]) < 0.065
     assert missed == fails

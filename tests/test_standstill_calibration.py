@@ -111,8 +111,11 @@ def test_measured_noise_widens_the_filter_only_beyond_the_tolerance():
 def test_widening_to_the_measured_noise_lands_swings_with_noisy_imus():
     """IMU noise x5 (both sensors), default swing, seeds 0-7 (the widening
     has no tuned gain: R follows the measured ratio; seeds 0-7 were the
-    only ones looked at).  Measured: 6 of 8 captured with it, 3 of 8
-    without (noise_tolerance 100: never widened); at x10 3 and 2 of 8."""
+    only ones looked at).  Measured with the default landing law (auto:
+    shooting on this line): 5 of 8 captured with it, 2 of 8 without
+    (noise_tolerance 100: never widened); at x10 3 and 1 of 8.  The aim law
+    (the default until 2026-11-23) lands 6 of 8 with it at x5 (3 without),
+    3 at x10: under heavy sensor noise the shot loses a swing."""
     from bplir_drake.analysis.swing import SwingRunner
     from bplir_drake.params import BplirParams
 
@@ -121,5 +124,5 @@ def test_widening_to_the_measured_noise_lands_swings_with_noisy_imus():
                                accel_sigma=5 * p.imu.accel_sigma))
     off = p.with_(estimator=dc.replace(p.estimator, noise_tolerance=100.0))
     runner = SwingRunner()
-    assert sum(runner.run(p, seed=s).success for s in range(8)) == 6
-    assert sum(runner.run(off, seed=s).success for s in range(8)) == 3
+    assert sum(runner.run(p, seed=s).success for s in range(8)) == 5
+    assert sum(runner.run(off, seed=s).success for s in range(8)) == 2

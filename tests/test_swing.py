@@ -55,11 +55,12 @@ def _swing_outcome(seed):
 
 
 def test_twenty_seeds_with_ekf_and_uncertain_friction():
-    """The default (plan tracking with the apex landing, standstill
-    calibration).  Measured: all of seeds 0-19 captured at 0.333-0.408 m/s
-    after 1.342-1.363 s, within 6 mm of the planned grip (1000 of 1000 over
-    root seed 0 of the default study, README).  The path generator, the
-    default until 2026-11-23, captured 308 of seeds 0-319 (96 %)."""
+    """The default (plan tracking with the auto landing law, which shoots on
+    this plan, standstill calibration).  Measured: all of seeds 0-19
+    captured at 0.152-0.403 m/s after 1.336-1.371 s, within 9.3 mm of the
+    planned grip, peak torque 6.2-16.9 N m (the aim law, the default until
+    2026-11-23: 0.333-0.408 m/s after 1.342-1.363 s, within 6 mm).  The path
+    generator, the default before it, captured 308 of seeds 0-319 (96 %)."""
     with ProcessPoolExecutor(2) as ex:
         rows = list(ex.map(_swing_outcome, range(20)))
     assert [r[0] for r in rows if r[1] != "captured"] == []
@@ -67,7 +68,7 @@ def test_twenty_seeds_with_ekf_and_uncertain_friction():
         assert torque <= 20.0 + 1e-9
         assert fixed_open == (outcome == "captured")   # the interlock never opens early
         if outcome == "captured":
-            assert 0.32 <= speed <= 0.42 and 1.33 <= t <= 1.38
+            assert 0.15 <= speed <= 0.41 and 1.33 <= t <= 1.38
         else:
             assert outcome == "crash" and speed > 0.5   # a fast arrival is never a success
 

@@ -27,6 +27,7 @@ Outputs ``torque`` (the command) and ``reference`` (the plan's elbow angle).
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, fields
 
 import numpy as np
@@ -228,6 +229,7 @@ class ApexShot:
     min_time: float
     min_rate: float
     hold_depth: float = 0.03
+    give_up_rate: float = 0.0
     steps: int = 12
 
     @classmethod
@@ -236,7 +238,7 @@ class ApexShot:
         ``landing_*`` fields) on the nominal ``plant`` and ``friction``."""
         return cls(Landing.from_params(plant, alpha, path), friction, path.shoot_height,
                    path.shoot_depth, path.shoot_min_time, path.shoot_min_rate,
-                   path.shoot_hold_depth)
+                   path.shoot_hold_depth, path.shoot_give_up_rate)
 
     def takes_over(self, x) -> bool:
         """Whether the law takes over (asked in the plan's last forward
@@ -262,34 +264,33 @@ class ApexShot:
     def _friction(c, i: int, v: float) -> float:
         if not c["on"]:
             return 0.0
-        return (c["fv"][i] * v + c["fc"][i] * (2.0 / np.pi) * np.arctan(v / c["b"])
+        return (c["fv"][i] * v + c["fc"][i] * (2.0 / math.pi) * math.atan(v / c["b"])
                 + c["drag"][i] * v * abs(v))
 
     def _link1_accel(self, c, q1, q2, v1, v2, a2) -> float:
         """Link 1's acceleration (passive joint) with the elbow accelerating
         at ``a2``, on the nominal model."""
-        c2, s2 = np.cos(q2), np.sin(q2)
+        c2, s2 = math.cos(q2), math.sin(q2)
         m12, m11 = c["a"] + c["k12"] * c2, c["m11"] + 2.0 * c["k12"] * c2
         bias = -c["k12"] * s2 * (2.0 * v1 * v2 + v2 * v2)
-        grav = c["g1"] * np.sin(q1) + c["g12"] * np.sin(q1 + q2)
+        grav = c["g1"] * math.sin(q1) + c["g12"] * math.sin(q1 + q2)
         return -(m12 * a2 + bias + grav + self._friction(c, 0, v1)) / m11
 
     def _shoot(self, c, x, T: float, q2f: float):
         """(link 1's rate at ``T``, the gripper's distance to the line then
         less ``height``; the elbow's acceleration now) of the quartic to
-        ``q2f``."""
+        ``q2f``: ``q2 + v2 t + k2 t^2 + k3 t^3 + k4 t^4`` at rest with zero
+        acceleration at ``T`` (closed form)."""
         q1, q2, v1, v2 = x
-        M = np.array([[T ** 2, T ** 3, T ** 4], [2 * T, 3 * T ** 2, 4 * T ** 3],
-                      [2.0, 6 * T, 12 * T ** 2]])
-        k2, k3, k4 = np.linalg.solve(M, [q2f - q2 - v2 * T, -v2, 0.0])
-
-        def elbow(t):
-            return (q2 + v2 * t + k2 * t * t + k3 * t ** 3 + k4 * t ** 4,
-                    v2 + 2 * k2 * t + 3 * k3 * t * t + 4 * k4 * t ** 3,
-                    2 * k2 + 6 * k3 * t + 12 * k4 * t * t)
+        d, vT = q2f - q2 - v2 * T, v2 * T
+        k2 = (6.0 * d + 3.0 * vT) / T ** 2
+        k3 = -(8.0 * d + 5.0 * vT) / T ** 3
+        k4 = (3.0 * d + 2.0 * vT) / T ** 4
 
         def rates(t, q, w):
-            q2t, v2t, a2t = elbow(t)
+            q2t = q2 + v2 * t + k2 * t * t + k3 * t ** 3 + k4 * t ** 4
+            v2t = v2 + 2 * k2 * t + 3 * k3 * t * t + 4 * k4 * t ** 3
+            a2t = 2 * k2 + 6 * k3 * t + 12 * k4 * t * t
             return w, self._link1_accel(c, q, q2t, w, v2t, a2t)
 
         dt = T / self.steps
@@ -303,7 +304,7 @@ class ApexShot:
             v1 += dt / 6 * (r1[1] + 2 * r2[1] + 2 * r3[1] + r4[1])
             t += dt
         p, s = self.landing.plant, q1 - self.landing.alpha
-        h = -p.l1 * np.cos(s) - p.l2 * np.cos(s + q2f)
+        h = -p.l1 * math.cos(s) - p.l2 * math.cos(s + q2f)
         return np.array([v1, h - self.height]), 2.0 * k2
 
     def solve(self, x):
@@ -345,14 +346,28 @@ class ApexShot:
         r, acc = self._shoot(c, x, T, q2f)
         return (acc, T) if abs(r[1]) < 0.002 else None
 
+    def gives_up(self, x) -> bool:
+        """Whether the shot has missed: link 1 swings back faster than
+        ``give_up_rate`` with the gripper still below the aimed height.
+        Chasing the line then slides the gripper along it as link 1 falls
+        back (crashes at 1-2 m/s); giving up leaves a timeout, the robot
+        still hanging from its holding gripper (0: never gives up)."""
+        return (self.give_up_rate > 0.0 and x[2] < -self.give_up_rate
+                and self.landing.height(x) < self.height)
+
     def torque(self, x) -> float:
         """The elbow torque at the relative state ``x``: the computed torque
-        of the solved elbow acceleration (the landing's where none)."""
+        of the solved elbow acceleration (the landing's where none; the
+        elbow braked to rest once the shot :meth:`gives_up`)."""
         x = [float(v) for v in x]
-        sol = self.solve(x)
-        if sol is None:
-            return self.landing.torque(x)
-        c, (q1, q2, v1, v2), a2 = self._model(), x, sol[0]
+        c, (q1, q2, v1, v2) = self._model(), x
+        if self.gives_up(x):
+            a2 = -self.landing.rate_gain * v2
+        else:
+            sol = self.solve(x)
+            if sol is None:
+                return self.landing.torque(x)
+            a2 = sol[0]
         a1 = self._link1_accel(c, q1, q2, v1, v2, a2)
         m12 = c["a"] + c["k12"] * np.cos(q2)
         return float(m12 * a1 + c["a"] * a2 + c["k12"] * np.sin(q2) * v1 * v1

@@ -93,6 +93,11 @@ class SwingPlan(Result):
         moving = w[np.abs(w) > 0.05]
         return int(np.count_nonzero(np.diff(np.sign(moving)) != 0))
 
+    def objective(self, time_weight: float = 1.0) -> float:
+        """The planner's cost ``int tau^2 dt + time_weight T`` on the dense
+        samples (the collocation's own value up to the quadrature)."""
+        return float(np.trapezoid(self.torque ** 2, self.times)) + time_weight * self.duration
+
     def plot(self, axes=None, *, params: BplirParams):
         """Angles, torque and power, and the robot on the line drawn with the
         nominal links and grip spacing of ``params`` (three axes)."""
@@ -124,6 +129,7 @@ def plan_swing(params: BplirParams, *, power_limit: float | None = None, knots: 
                time_weight: float = 1.0, max_duration: float | None = None,
                guess_duration: float = 1.5, tolerance: float = 1e-4,
                iterations: int = 1500, end_depth: float = 0.0,
+               initial: SwingPlan | None = None,
                cache: bool = True, progress: bool = False) -> SwingPlan:
     """Plan the scenario's swing on the nominal model, from the nominal start
     pose (what the controller knows; the simulated robot never enters).
@@ -132,10 +138,14 @@ def plan_swing(params: BplirParams, *, power_limit: float | None = None, knots: 
     scenario's timeout).  ``end_depth``: the plan comes to rest with the free
     gripper this far below the line (m, inside the capture band), so that
     the band is entered just before the end, slowly, instead of during the
-    final braking.  With ``cache`` the plan is read from, or written to, the
-    disk cache (:func:`plan_cache_path`: keyed by every input the planner
-    reads; a solve takes about a minute).  ``progress``: count SNOPT's
-    evaluations on standard error while it solves."""
+    final braking.  ``initial``: start the solver from this plan (its
+    states shifted linearly in time onto this start and target, its
+    torque as is) instead of the straight line from start to target over
+    ``guess_duration`` (:func:`warm_guess`).  With ``cache`` the plan is
+    read from, or written to, the disk cache (:func:`plan_cache_path`:
+    keyed by every input the planner reads; a solve takes about a
+    minute).  ``progress``: count SNOPT's evaluations on standard error
+    while it solves."""
     from ...systems.plant import initial_configuration
 
     if not 5 <= knots <= 400:
@@ -156,9 +166,15 @@ def plan_swing(params: BplirParams, *, power_limit: float | None = None, knots: 
                   knots=knots, time_weight=time_weight, guess_duration=guess_duration,
                   tolerance=tolerance, iterations=iterations,
                   incline_deg=params.scenario.incline_deg)
+    guess = None
+    if initial is not None:
+        guess = warm_guess(initial, q0, qT)
+        inputs["initial"] = hashlib.sha256(b"".join(
+            np.ascontiguousarray(a, dtype=float).tobytes() for a in guess)).hexdigest()
+
     def solve():
         return _solve_plan(params, q0, qT, tau_max, power, tmax, knots, time_weight,
-                           guess_duration, tolerance, iterations, progress)
+                           guess_duration, tolerance, iterations, progress, guess)
 
     if not cache:
         return solve()
@@ -167,8 +183,20 @@ def plan_swing(params: BplirParams, *, power_limit: float | None = None, knots: 
     return cached(inputs, solve)
 
 
+def warm_guess(plan: SwingPlan, q0, qT) -> tuple:
+    """(times, states, torque) of ``plan`` as an initial guess from ``q0`` to
+    ``qT``: its angles shifted by ``(1 - s) (q0 - its start) + s (qT - its
+    end)`` at the fraction ``s`` of its duration, its rates and torque as
+    they are (a plan for a nearby grip spacing)."""
+    s = (plan.times - plan.times[0]) / (plan.times[-1] - plan.times[0])
+    states = np.array(plan.states, dtype=float)
+    states[:, :2] += (np.outer(1.0 - s, np.asarray(q0) - states[0, :2])
+                      + np.outer(s, np.asarray(qT) - states[-1, :2]))
+    return np.asarray(plan.times, dtype=float), states, np.asarray(plan.torque, dtype=float)
+
+
 def _solve_plan(params, q0, qT, tau_max, power, tmax, knots, time_weight, guess_duration,
-                tolerance, iterations, progress=False) -> SwingPlan:
+                tolerance, iterations, progress=False, guess=None) -> SwingPlan:
     """The DirectCollocation solve of :func:`plan_swing`."""
     from pydrake.all import (DirectCollocation, PiecewisePolynomial, SnoptSolver, Solve,
                              SolverOptions)
@@ -191,8 +219,13 @@ def _solve_plan(params, q0, qT, tau_max, power, tmax, knots, time_weight, guess_
     dircol.AddRunningCost(u[0] ** 2)
     if time_weight > 0:
         dircol.AddFinalCost(dircol.time()[0] * float(time_weight))
-    dircol.SetInitialTrajectory(PiecewisePolynomial(), PiecewisePolynomial.FirstOrderHold(
-        [0.0, min(guess_duration, tmax)], np.c_[x0, xT]))
+    if guess is None:
+        dircol.SetInitialTrajectory(PiecewisePolynomial(), PiecewisePolynomial.FirstOrderHold(
+            [0.0, min(guess_duration, tmax)], np.c_[x0, xT]))
+    else:
+        times, states, torque = guess
+        dircol.SetInitialTrajectory(PiecewisePolynomial.FirstOrderHold(times, torque[None, :]),
+                                    PiecewisePolynomial.FirstOrderHold(times, states.T))
     options = SolverOptions()
     snopt = SnoptSolver().solver_id()
     options.SetOption(snopt, "Major iterations limit", int(iterations))
@@ -232,7 +265,12 @@ def scenario_plan(params: BplirParams) -> SwingPlan:
     """The plan for the scenario of ``params`` with ``path.plan_end_depth``,
     for its grip spacing rounded to ``path.plan_spacing_step``: from
     :func:`plan_swing` (disk cache), the first feasible one of the guesses
-    :data:`PLAN_GUESSES`."""
+    :data:`PLAN_GUESSES`; and, for a grip spacing other than
+    ``path.plan_warm_spacing``, also the plan started from that spacing's
+    plan (same line, :func:`warm_guess`), whichever has the lower
+    :meth:`SwingPlan.objective`.  The straight-line guesses alone end in
+    another local optimum at 1.27 m (link 1 reversing four times, twice
+    the cost; its neighbours reverse twice)."""
     sc, depth, step = params.scenario, params.path.plan_end_depth, params.path.plan_spacing_step
     if step > 0:   # the measured spacing on the plans' grid
         spacing = round(round(sc.grip_spacing / step) * step, 9)
@@ -241,6 +279,12 @@ def scenario_plan(params: BplirParams) -> SwingPlan:
         plan = plan_swing(params, end_depth=depth, guess_duration=guess)
         if plan.feasible:
             break
+    warm = params.path.plan_warm_spacing
+    if warm > 0 and abs(params.scenario.grip_spacing - warm) > 1e-9:
+        ref = scenario_plan(params.with_(scenario=replace(params.scenario, grip_spacing=warm)))
+        started = plan_swing(params, end_depth=depth, initial=ref)
+        if started.feasible and (not plan.feasible or started.objective() < plan.objective()):
+            plan = started
     if not plan.feasible:
         raise ParameterError(f"no feasible plan for a {sc.incline_deg:g} deg line within "
                              f"{plan.torque_limit:g} N m and {plan.power_limit:g} W")

@@ -110,7 +110,7 @@ def test_clock_free_uphill_swing(uphill):
 def test_quick_start_captures_on_a_20_degree_line_without_a_config(tmp_path, capsys, incline):
     """``bplir swing --incline +-20`` as a user types it: the default path
     mode ("auto") tracks the shipped plan; captured on the planned grip
-    (seed 0: +20 deg at 0.38 m/s, -20 deg at 0.11 m/s), within the motor's
+    (seed 0: +20 deg at 0.39 m/s, -20 deg at 0.11 m/s), within the motor's
     ratings.  The
     dissertation's controller keeps its path generator, which times out
     uphill and crashes downhill."""

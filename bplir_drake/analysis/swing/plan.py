@@ -269,8 +269,9 @@ def scenario_plan(params: BplirParams) -> SwingPlan:
     ``path.plan_warm_spacing``, also the plan started from that spacing's
     plan (same line, :func:`warm_guess`), whichever has the lower
     :meth:`SwingPlan.objective`.  The straight-line guesses alone end in
-    another local optimum at 1.27 m (link 1 reversing four times, twice
-    the cost; its neighbours reverse twice)."""
+    other local optima at 1.27 m on the horizontal line (link 1 reversing
+    four times, 2.3 times the cost; its neighbours reverse twice) and at
+    1.1 m on the -20 deg line (4.2 times the cost)."""
     sc, depth, step = params.scenario, params.path.plan_end_depth, params.path.plan_spacing_step
     if step > 0:   # the measured spacing on the plans' grid
         spacing = round(round(sc.grip_spacing / step) * step, 9)

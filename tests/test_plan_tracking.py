@@ -94,9 +94,10 @@ def test_clock_free_uphill_swing(uphill):
     """The same 20 degree swing with the plan indexed by the estimated state
     (no clock), with the default landing law (shooting).  Measured, seeds
     0-19: all 20 captured at 0.254-0.494 m/s after 1.232-1.259 s, within
-    1.7 cm of the grip (the aim law: 0.33-0.47 m/s, 1.1 cm).  Without the landing seeds 2, 6, 8, 10 and 15 crashed at 0.50-0.72
-    m/s (the arrival timing is not corrected without along-track feedback;
-    the landing reads the arrival from link 1's rate instead)."""
+    1.7 cm of the grip (the aim law: 0.33-0.47 m/s, 1.1 cm).  Without the
+    landing seeds 2, 6, 8, 10 and 15 crashed at 0.50-0.72 m/s (the arrival
+    timing is not corrected without along-track feedback; the landing reads
+    the arrival from link 1's rate instead)."""
     p = uphill.with_(path=dc.replace(uphill.path, plan_indexing="state"))
     rows = [run_swing(p, seed=k).summary for k in range(20)]
     assert [k for k, s in enumerate(rows) if s["outcome"] != "captured"] == []

@@ -584,7 +584,11 @@ class PathParams(_Block):
     shoot_hold_depth: float = _p(0.03, "m", 0, 1, doc="landing_law 'shoot': the stop time is held at shoot_min_time only within this of the aimed height; further below it (link 1 stopped early, no shot found) the apex landing's aim law steers.  Without it the held 40-60 ms shot asked 24 cm below the line for 935 N m (tested) and crashed -20 deg swings at 2.5-4.6 m/s; 0.03 and 0.08 m gave the same captures there (tuning root seed 0) and the swapped robot's swing is unchanged (120 swings)")
     shoot_give_up_rate: float = _p(0.1, "rad/s", 0, 5, doc="landing_law 'shoot': once link 1 swings back faster than this with the gripper below the aimed height, the shot gives up: the elbow is braked to rest and the swing times out, the robot hanging, instead of chasing the line at the torque limit while link 1 falls back (held-out sample 770 of root seed 2: a crash at 2.2 m/s; on tuning root seed 0, 200 swings each, no capture lost at 0 / +20 deg); 0: never")
     shoot_link1_share: float = _p(0.5, "", 0, 1, doc="landing_law 'auto': the shooting landing where link 1 makes at least this share of the planned gripper's rise rate shoot_depth below the line, the aim law elsewhere (the plans on the 1.1-1.3 m grid: 0 deg 0.71-0.89, 0.26 at 1.27 m from the straight-line guesses before plan_warm_spacing, +20 deg 1.19-1.43, -20 deg -0.46 to 0.20; -10 deg 0.43 / 0.50 / 0.57 at 1.1 / 1.2 / 1.3 m)")
-    plan_delay_compensation: float = _p(0.01, "s", 0, 0.1, doc="mode 'plan': the actuation delay the plan tracker assumes (whole periods; the lab firmware's 10 ms): it acts on the state predicted this far ahead and indexes the plan as much later (controller.delay_compensation, when set, takes precedence)")
+    plan_delay_compensation: float = _p(0.01, "s", 0, 0.1, doc="mode 'plan': the actuation delay the plan tracker assumes (whole periods; the lab firmware's 10 ms): it acts on the state predicted this far ahead and indexes the plan as much later (controller.delay_compensation, when set, takes precedence); with plan_delay_probe, until the delay is identified")
+    plan_delay_probe: float = _p(10.0, "N m", 0, 20, doc="mode 'plan': the amplitude of the delay probe, two opposite doublets (+A, +A, -A, -A, -A, -A, +A, +A) on the first eight ticks' commands, from whose echo in the gyros the actuation delay is identified (systems/delay_id.py) and then compensated instead of plan_delay_compensation; on root seed 0 of the realistic study (400 swings at 0 deg) one doublet of 10 N m identified every delay and captured 392 against 385 with the fixed 10 ms; two doublets hold against noisier gyros (tests); 0: no probe, plan_delay_compensation throughout")
+    plan_delay_max: float = _p(0.03, "s", 0.01, 0.1, doc="mode 'plan' with plan_delay_probe: the longest actuation delay the identification considers (whole periods)")
+    plan_delay_window: float = _p(12, "ticks", 8, 50, doc="mode 'plan' with plan_delay_probe: the ticks of gyro samples the identification fits (12: 120 ms from the release)")
+    plan_delay_min_ratio: float = _p(1.25, "", 1, 100, doc="mode 'plan' with plan_delay_probe: the identified delay is used only if the runner-up candidate fits the gyros this many times worse; else plan_delay_compensation stays")
 
     def resolved(self, incline_deg: float, controller: "ControllerParams") -> "PathParams":
         """The path block with ``mode = "auto"`` made concrete: ``plan`` (plan
@@ -610,6 +614,9 @@ class PathParams(_Block):
         if self.landing_law not in LANDING_LAWS:
             raise ParameterError(f"path.landing_law = '{self.landing_law}' is unknown; "
                                  "allowed: " + ", ".join(LANDING_LAWS))
+        if self.plan_delay_window != round(self.plan_delay_window):
+            raise ParameterError(f"path.plan_delay_window = {self.plan_delay_window:g} ticks "
+                                 "is not a whole number; allowed: 8 .. 50")
         if self.landing_lead > 0 and self.reach_speed > 0:
             raise ParameterError(f"path.landing_lead = {self.landing_lead:g} m s/rad and "
                                  f"path.reach_speed = {self.reach_speed:g} m/s are both set; "

@@ -63,12 +63,13 @@ def test_benchmark_scores_actuation_delay(tmp_path, params):
                         workers=2, out=tmp_path)
     rows = {(r["controller"], r["label"]): r for r in res["rows"]}
     # the default (plan tracking with the auto landing law, here the shooting
-    # landing, 10 ms assumed) lands both (measured 0.249 m/s at 10 ms, 0.469
-    # at 30 ms, near the limit; the aim law, the default until 2026-11-23: 0.32
-    # and 0.23); the dissertation's design has no delay compensation and
-    # crashes far above the 0.5 m/s limit (16 and 19 m/s, over 220 W: the
-    # loop is past its delay margin)
-    for label, (lo, hi) in (("10 ms", (0.20, 0.30)), ("30 ms", (0.42, 0.50))):
+    # landing; the delay probed, identified and compensated) lands both
+    # (measured 0.250 m/s at 10 ms, 0.400 at 30 ms; assuming the firmware's
+    # 10 ms instead of identifying, 0.249 and 0.469, near the limit; the aim
+    # law, the default until 2026-11-23: 0.32 and 0.23); the dissertation's
+    # design has no delay compensation and crashes far above the 0.5 m/s
+    # limit (16 and 19 m/s, over 220 W: the loop is past its delay margin)
+    for label, (lo, hi) in (("10 ms", (0.20, 0.30)), ("30 ms", (0.35, 0.45))):
         assert rows["qft", label]["outcome"] == "captured"
         assert lo < rows["qft", label]["capture_speed_mps"] < hi
         assert rows["dissertation", label]["outcome"] == "crash"

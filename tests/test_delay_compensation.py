@@ -67,19 +67,21 @@ def test_a_known_delay_is_compensated(delay):
 
 def test_the_default_swing_captures_with_10_and_20_ms_of_delay():
     """The default controller (plan tracking with the auto landing law, the
-    shooting landing on this horizontal line; the tracker assumes the lab
-    firmware's 10 ms: ``path.plan_delay_compensation``) on seeds 4-9, none
-    of them used for tuning it, with the default standstill calibration.
-    Measured capture speeds: 0.196-0.396 m/s without delay, 0.177-0.410 at
-    10 ms, 0.164-0.419 at 20 ms; at 30 ms 1 of the 6 crashes (0.57 m/s) and
-    the others land at 0.30-0.46 m/s.  (The aim law, the default until
-    2026-11-23: 0.33-0.41, 0.31-0.37, 0.28-0.36, and 2 crashes at 30 ms.)"""
+    shooting landing on this horizontal line; the delay probed and
+    identified at the start, :mod:`bplir_drake.systems.delay_id`) on seeds
+    4-9, none of them used for tuning it, with the default standstill
+    calibration.  Every delay is identified; measured capture speeds:
+    0.162-0.402 m/s without delay, 0.173-0.412 at 10 ms, 0.149-0.411 at
+    20 ms, 0.100-0.431 at 30 ms.  (Assuming the firmware's 10 ms instead of
+    identifying it, the default until 2026-11-24: 0.196-0.396, 0.177-0.410,
+    0.164-0.419, and at 30 ms 1 of the 6 crashed at 0.57 m/s.)"""
     runner = SwingRunner()
-    for delay, (lo, hi), captures in ((0.0, (0.19, 0.40), 6), (0.01, (0.17, 0.42), 6),
-                                      (0.02, (0.16, 0.42), 6), (0.03, (0.30, 0.47), 5)):
+    for delay, (lo, hi) in ((0.0, (0.15, 0.41)), (0.01, (0.16, 0.42)), (0.02, (0.14, 0.42)),
+                            (0.03, (0.09, 0.44))):
         p = BplirParams()
         p = p.with_(scenario=dc.replace(p.scenario, actuation_delay=delay))
         runs = [runner.run(p, seed=s).summary for s in range(4, 10)]
+        assert all(r["delay_identified_s"] == pytest.approx(delay, abs=1e-9) for r in runs)
         speeds = [r["capture_speed_mps"] for r in runs if r["success"]]
-        assert len(speeds) == captures, delay
+        assert len(speeds) == 6, delay
         assert lo <= min(speeds) and max(speeds) <= hi, (delay, speeds)

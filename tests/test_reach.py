@@ -205,12 +205,11 @@ def test_held_out_samples_of_the_realistic_study_land_on_the_grip(incline):
     shipped plans; the spacing draws need a plan each).  Every draw else:
     friction, masses, inertias, centres of mass, link lengths, IMU noise,
     biases and misalignment, 0-20 ms of delay, wind and gusts.  Measured:
-    16 of 16 captured at 0 and +20 deg (shooting), within 0.1 D of the
-    grip, the fastest at 0.43 and 0.47 m/s (the aim law: 0.45 and 0.46);
-    at -20 deg (aiming) sample 11 crashes at 0.503 m/s
-    (captured at 0.50 m/s before the standstill calibration widened the
-    filter's R to the measured noise: the margin to a crash is thin,
-    README), the other 15 land."""
+    16 of 16 captured on every line, within 0.1 D of the grip, the fastest
+    at 0.43, 0.47 and 0.41 m/s (0 and +20 deg shooting; the aim law: 0.45
+    and 0.46; -20 deg aiming).  At -20 deg sample 11 crashed at 0.503 m/s
+    before the delay probe (its 20 ms were compensated as 10); identified,
+    it lands at 0.41 m/s."""
     from bplir_drake.analysis.montecarlo import load_study, sample_params
     from bplir_drake.analysis.swing.run import SwingRunner
 
@@ -226,9 +225,7 @@ def test_held_out_samples_of_the_realistic_study_land_on_the_grip(incline):
         params, seed, _ = sample_params(study, k)
         runs.append(runner.run(params, seed=seed).summary)
     missed = [k for k, r in enumerate(runs) if not r["success"]]
-    assert missed == ([11] if incline < 0 else [])
-    for k in missed:
-        assert runs[k]["outcome"] == "crash" and 0.5 < runs[k]["capture_speed_mps"] < 0.51
+    assert missed == []
     landed = [r for r in runs if r["success"]]
     assert all(abs(r["landing_error_m"]) < 0.12 for r in landed)
     assert all(r["capture_speed_mps"] < 0.48 for r in landed)

@@ -149,9 +149,11 @@ def test_compare_presets_and_examples(tmp_path, monkeypatch, params, capsys):
     by = {r["variant"]: r for r in rows}
     assert by["qft (EKF)"]["outcome"] == "captured"
     assert by["qft (true state)"]["outcome"] == "captured"
-    # measured (seed 0): the default tracks its plan with at most 8.7 N m (9.1 on
-    # the true state); the path generator brakes the elbow at the 19.9 N m limit
-    assert by["qft (EKF)"]["peak_torque_Nm"] < 10 and by["qft (true state)"]["peak_torque_Nm"] < 10
+    # measured (seed 0): the default's peak is its delay probe's (10 N m on the
+    # plan's -3.7 N m: 13.70, 13.67 on the true state; it tracked its plan with at
+    # most 8.7 N m before the probe); the path generator brakes the elbow at the
+    # 19.9 N m limit
+    assert by["qft (EKF)"]["peak_torque_Nm"] < 14 and by["qft (true state)"]["peak_torque_Nm"] < 14
     assert by["qft, path generator (EKF)"]["outcome"] == "captured"
     assert by["qft, path generator (EKF)"]["peak_torque_Nm"] > 19
     assert by["lab firmware (EKF)"]["outcome"] == "crash"

@@ -43,6 +43,7 @@ from ..systems.controller import CpflController
 from ..systems.disturbance import (CommandDelay, DisturbanceSource, delay_steps,
                                    disturbance_schedule, has_disturbance)
 from ..systems.calibration import ImuCalibration, calibrate_standstill
+from ..systems.delay_id import probe_torques
 from ..systems.ekf import KinematicEkf
 from ..systems.imu import standstill_samples
 from ..systems.friction import FRICTION_PARAMETERS, set_friction
@@ -193,7 +194,8 @@ def add_sensing(builder, params: BplirParams, robot: Robot, q0, seed: int, estim
 
 
 def add_swing_controller(builder, params: BplirParams, state_port, robot: Robot, path_geometry,
-                         plan_gains=None, controller=None) -> dict[str, Any]:
+                         plan_gains=None, controller=None, imu_port=None,
+                         q0=None) -> dict[str, Any]:
     """The swing controller, reading ``state_port`` (the estimate or the
     sampled true state): a user's (``controller``, a factory, or
     ``controller.plugin``: :mod:`.plugin`) as ``{"controller": system}``;
@@ -205,8 +207,13 @@ def add_swing_controller(builder, params: BplirParams, state_port, robot: Robot,
     ``controller.delay_compensation`` (a :class:`DelayPredictor`, also
     returned) when that is set; the plan tracker over
     ``path.plan_delay_compensation`` when it is not (the lab firmware's
-    10 ms by default), indexing the plan as much later.  Every system uses
-    the nominal model."""
+    10 ms by default), indexing the plan as much later.  With
+    ``path.plan_delay_probe`` (and ``imu_port``, the IMU samples, and
+    ``q0``, the start pose) the plan tracker probes the delay and a
+    :class:`~bplir_drake.systems.delay_id.DelayIdentifier` (also returned,
+    ``"delay_id"``) identifies it; the tracker and the predictor then
+    compensate the identified delay.  Every system uses the nominal
+    model."""
     T = params.controller.period
     if controller is not None or params.controller.plugin:
         from .plugin import make_plugin
@@ -221,8 +228,26 @@ def add_swing_controller(builder, params: BplirParams, state_port, robot: Robot,
     if params.path.mode == "plan" and not assumed:
         assumed = params.path.plan_delay_compensation
     steps = delay_steps(assumed, T)
-    predictor = None
-    if steps:
+    pp = params.path
+    identify = (pp.mode == "plan" and not params.controller.delay_compensation
+                and pp.plan_delay_probe > 0 and imu_port is not None)
+    predictor = identifier = None
+    if identify:
+        from ..systems.delay_id import DelayIdentifier
+        from ..systems.predictor import DelayPredictor
+
+        most = max(delay_steps(pp.plan_delay_max, T), 1)
+        identifier = builder.AddNamedSystem("delay_id", DelayIdentifier(
+            q0, params.plant, params.friction, params.motor, T,
+            params.controller.compute_latency, most, min(steps, most),
+            int(round(pp.plan_delay_window)), pp.plan_delay_min_ratio))
+        builder.Connect(imu_port, identifier.imu_port)
+        predictor = builder.AddNamedSystem("predictor", DelayPredictor(
+            params.plant, params.friction, T, most, adaptive=True))
+        builder.Connect(identifier.GetOutputPort("delay_steps"), predictor.steps_port)
+        builder.Connect(state_port, predictor.estimate_port)
+        state_port = predictor.predicted_port
+    elif steps:
         from ..systems.predictor import DelayPredictor
 
         predictor = builder.AddNamedSystem("predictor", DelayPredictor(
@@ -237,7 +262,6 @@ def add_swing_controller(builder, params: BplirParams, state_port, robot: Robot,
                              "gains of a planned swing: plan_gains=tracking_plan(params)[1] "
                              "(bplir_drake.analysis.swing.plan), or build with "
                              "bplir_drake.analysis.swing.swing_diagram(params)")
-        pp = params.path
         law = pp.landing_law
         if law == "auto":   # resolved on the plan's own samples (the breaks of x0), as
             # the traversal's current budget resolves it: the two cannot disagree
@@ -250,14 +274,20 @@ def add_swing_controller(builder, params: BplirParams, state_port, robot: Robot,
             reach = Landing.from_params(params.plant, path_geometry.alpha, pp)
         elif pp.reach_speed > 0:
             reach = Reach.from_params(params.plant, path_geometry.alpha, pp)
+        probe = probe_torques(pp.plan_delay_probe) if identify else ()
         tracker = builder.AddNamedSystem("plan_tracker", PlanTracker(
             plan_gains, params.controller.torque_limit, T, indexing=pp.plan_indexing,
-            reach=reach, lead=steps * T))
+            reach=reach, lead=steps * T, probe=probe, adaptive_lead=identify))
         builder.Connect(state_port, tracker.get_input_port(0))
+        out = {"controller": tracker}
+        if identifier is not None:
+            builder.Connect(identifier.GetOutputPort("delay_steps"), tracker.steps_port)
+            builder.Connect(tracker.GetOutputPort("torque"), identifier.command_port)
+            out["delay_id"] = identifier
         if predictor is not None:
             builder.Connect(tracker.GetOutputPort("torque"), predictor.command_port)
-            return {"predictor": predictor, "controller": tracker}
-        return {"controller": tracker}
+            out["predictor"] = predictor
+        return out
     from ..systems.path import PathGenerator
 
     fv1 = params.friction.fv1 if params.path.predict_friction else 0.0
@@ -329,6 +359,8 @@ def add_swing_loggers(builder, params: BplirParams, robot: Robot, sampler, estim
     }
     if reference is not None:
         loggers["reference"] = TickLogger(builder, reference, T)
+    if "delay_id" in control:
+        loggers["delay_fit"] = TickLogger(builder, control["delay_id"].GetOutputPort("fit"), T)
     if "path" in control:
         loggers["v"] = TickLogger(builder, ctrl.GetOutputPort("v"), T)
         loggers["blend_end"] = TickLogger(builder, control["path"].GetOutputPort("blend_end"), T)
@@ -369,7 +401,7 @@ def build_swing(params: BplirParams, *, seed: int | None = None, use_estimator: 
                   else sampled(builder, robot.plant.get_state_output_port(),
                                params.controller.period))
     control = add_swing_controller(builder, params, state_port, robot, path_geometry, plan_gains,
-                                   controller)
+                                   controller, imu_port=sampler.get_output_port(0), q0=q0)
     add_actuation(builder, params, control["controller"].GetOutputPort("torque"), robot.motor)
     lock = add_interlock(builder, params, robot, estimate_port, line_geometry)
     loggers = add_swing_loggers(builder, params, robot, sampler, estimate_port, control,

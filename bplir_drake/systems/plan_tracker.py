@@ -445,14 +445,20 @@ class PlanTracker(LeafSystem):
     actuation delay).  ``reach``: the terminal law (:class:`Landing` or
     :class:`Reach`), which takes over near the line in the plan's last
     forward swing of link 1 (after ``t_final``) and latches (discrete
-    state: phase, tick count, reach flag)."""
+    state: phase, tick count, reach flag).
+
+    ``probe``: torques (N m) added to the commands of ticks 0, 1, ... (the
+    delay probe of :mod:`bplir_drake.systems.delay_id`).  With
+    ``adaptive_lead`` the lead is ``delay_steps`` ticks, read from that
+    input (an identified delay) instead of ``lead``."""
 
     def __init__(self, gains, torque_limit: float, period: float,
                  indexing: str = "time", phase_weights=(1.0, 1.0, 0.01, 0.01),
                  search: float = 0.05, reach: Landing | Reach | ApexShot | None = None,
-                 lead: float = 0.0):
+                 lead: float = 0.0, probe=(), adaptive_lead: bool = False):
         super().__init__()
         self.reach, self.lead = reach, float(lead)
+        self.probe = tuple(float(u) for u in probe)
         if indexing not in PLAN_INDEXING:
             raise ValueError(f"indexing = {indexing!r}; allowed: " + ", ".join(PLAN_INDEXING))
         self.K, self.x0, self.u0, self.k0 = gains.K, gains.x0, gains.u0, gains.k0
@@ -469,6 +475,8 @@ class PlanTracker(LeafSystem):
         self._steps = np.linspace(0.0, search, n)
         self.period = period
         self.DeclareVectorInputPort("state", 4)
+        self.steps_port = (self.DeclareVectorInputPort("delay_steps", 1) if adaptive_lead
+                           else None)
         self._xd = self.DeclareDiscreteState(3)  # [phase tau of the last tick, tick count, reach]
         self._tick = declare_tick_result(self, self._tick_law,
                                          {self.xd_ticket(), self.all_input_ports_ticket()})
@@ -510,9 +518,16 @@ class PlanTracker(LeafSystem):
         ``"time"`` indexing the phase is the tick's time ``k T``."""
         x = self.get_input_port(0).Eval(context)
         tau_prev, k, reached = context.get_discrete_state(self._xd).get_value()
-        tau = k * self.period + self.lead if self.indexing == "time" else self.phase(tau_prev, x)
+        lead = self.lead
+        if self.steps_port is not None:
+            lead = round(self.steps_port.Eval(context)[0]) * self.period
+        tau = k * self.period + lead if self.indexing == "time" else self.phase(tau_prev, x)
         reach = self.reaching(tau, x, reached)
-        return (*self.law(tau, x, reach), tau, k + 1, float(reach))
+        u, reference = self.law(tau, x, reach)
+        i = int(round(k))
+        if i < len(self.probe):
+            u = float(np.clip(u + self.probe[i], -self.torque_limit, self.torque_limit))
+        return (u, reference, tau, k + 1, float(reach))
 
     def _store(self, context, discrete_state):
         discrete_state.get_mutable_vector(self._xd).SetFromVector(self._tick.Eval(context)[2:])

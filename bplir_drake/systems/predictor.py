@@ -86,9 +86,15 @@ class DelayPredictor(LeafSystem):
     commands of the last ``steps`` ticks (oldest first), the command of tick
     k stored at ``t_{k+1}`` (:mod:`bplir_drake.systems.schedule`).  The
     output does not depend on ``command``, so the loop through the
-    controller has no algebraic loop."""
+    controller has no algebraic loop.
 
-    def __init__(self, plant: PlantParams, friction: FrictionParams, period: float, steps: int):
+    With ``adaptive`` the number of ticks comes from the input
+    ``delay_steps`` (0 .. ``steps``; an identified delay,
+    :class:`~bplir_drake.systems.delay_id.DelayIdentifier`): the prediction
+    runs over the last that many commands (0: the estimate itself)."""
+
+    def __init__(self, plant: PlantParams, friction: FrictionParams, period: float, steps: int,
+                 adaptive: bool = False):
         super().__init__()
         if steps < 1:
             raise ValueError("DelayPredictor needs steps >= 1")
@@ -96,9 +102,12 @@ class DelayPredictor(LeafSystem):
         self._rates = nominal_rates(plant, friction)
         self.estimate_port = self.DeclareVectorInputPort("estimate", 4)
         self.command_port = self.DeclareVectorInputPort("command", 1)
+        self.steps_port = self.DeclareVectorInputPort("delay_steps", 1) if adaptive else None
         self._xd = self.DeclareDiscreteState(steps)
-        self._prediction = declare_tick_result(
-            self, self._predict, {self.xd_ticket(), self.estimate_port.ticket()})
+        prerequisites = {self.xd_ticket(), self.estimate_port.ticket()}
+        if adaptive:
+            prerequisites.add(self.steps_port.ticket())
+        self._prediction = declare_tick_result(self, self._predict, prerequisites)
         declare_store(self, period, self._store)
         self.predicted_port = self.DeclareVectorOutputPort(
             "predicted", 4, lambda context, out: out.SetFromVector(self._prediction.Eval(context)),
@@ -106,6 +115,9 @@ class DelayPredictor(LeafSystem):
 
     def _predict(self, context):
         commands = context.get_discrete_state(self._xd).get_value()
+        if self.steps_port is not None:
+            n = min(max(int(round(self.steps_port.Eval(context)[0])), 0), self.steps)
+            commands = commands[len(commands) - n:]
         return predict_state(self.estimate_port.Eval(context), commands, self.period,
                              self.plant_params, self.friction, rates=self._rates)
 

@@ -187,6 +187,10 @@ def swing_summary(p: BplirParams, lg: dict[str, Log], status: dict, seed: int,
     captured = status["outcome"] == "captured"
     x_end = x[-1]
     mirror_err = float(np.abs(x_end[:2] - qT).max())
+    # the actuation delay the controller identified (nan: none identified)
+    fit = lg["delay_fit"].data if "delay_fit" in lg else np.zeros((0, 2))
+    fit = fit[fit[:, 1] > 0]
+    delay_id = float(fit[-1, 0] * p.controller.period) if len(fit) else math.nan
     summary = {
         "success": captured,
         "outcome": status["outcome"],
@@ -209,6 +213,8 @@ def swing_summary(p: BplirParams, lg: dict[str, Log], status: dict, seed: int,
         "final_configuration_rad": x_end[:2].tolist(),
         "target_configuration_rad": qT.tolist(),
         "mirror_error_rad": mirror_err,
+        "delay_identified_s": delay_id,
+        "delay_fit_ratio": float(fit[-1, 1]) if len(fit) else math.nan,
         "estimator_in_loop": use_est,
         "controller": p.controller.preset,
         "path_mode": p.path.mode,

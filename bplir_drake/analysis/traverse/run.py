@@ -123,9 +123,9 @@ def swing_params(params: BplirParams, holding: int, spacing: float,
     incline is rounded to 0.1 deg and the spacing to 1 mm (the planned swings
     of a line are then a few, cached; 0.05 deg is 1 mm over a grip spacing).
     With ``traverse.landing`` (the default) the swing lands as a single
-    swing does (the apex landing, the delay compensation), the swapped robot
-    by ``traverse.swapped_landing_law`` (its fallback aiming at
-    ``traverse.swapped_landing_margin``, its shot held from
+    swing does (the apex landing, the delay probe and its compensation),
+    the swapped robot by ``traverse.swapped_landing_law`` (its fallback
+    aiming at ``traverse.swapped_landing_margin``, its shot held from
     ``traverse.swapped_shoot_min_time``)."""
     p = params if holding == 1 else swapped(params)
     sc = dc.replace(p.scenario, grip_spacing=round(float(spacing), 3),
@@ -139,7 +139,8 @@ def swing_params(params: BplirParams, holding: int, spacing: float,
         # it, seed 0 of examples/line_span.toml landed on a spacer)
         path = dc.replace(p.path, mode="plan", reach_speed=0.0, plan_end_depth=tp.plan_end_depth)
         if not tp.landing:   # plan tracking alone, as traversals were first built
-            path = dc.replace(path, landing_lead=0.0, plan_delay_compensation=0.0)
+            path = dc.replace(path, landing_lead=0.0, plan_delay_compensation=0.0,
+                              plan_delay_probe=0.0)
         elif holding == 2:
             path = dc.replace(path, landing_margin=tp.swapped_landing_margin,
                               landing_law=tp.swapped_landing_law,
@@ -154,13 +155,21 @@ def budgeted_currents(plan, p: BplirParams) -> np.ndarray:
     planned gripper comes within the terminal law's take-over depth of the
     line (in the plan's second half) to its end, the current of the torque
     limit.  The terminal law's feedback is not planned, and the swapped
-    robot's runs at the limit there (README, "Traversal Monte Carlo")."""
+    robot's runs at the limit there (README, "Traversal Monte Carlo").  The
+    delay probe (``path.plan_delay_probe``) adds its torques to the first
+    ticks."""
+    from ...systems.delay_id import probe_torques
     from ...systems.motor import max_torque
     from ...systems.plan_tracker import height_rates, landing_law
 
     motor, path = p.motor, p.path
     t = np.arange(int(plan.duration / motor.driver_period) + 1) * motor.driver_period
-    tq = np.abs(np.interp(t, plan.times, plan.torque))
+    tq = np.interp(t, plan.times, plan.torque)
+    if not p.controller.delay_compensation:   # the probe of the plan tracker's ticks
+        probe = probe_torques(path.plan_delay_probe)
+        ticks = np.floor(t / p.controller.period + 1e-9).astype(int)
+        tq = tq + np.array([probe[k] if k < len(probe) else 0.0 for k in ticks])
+    tq = np.abs(tq)
     if path.landing_lead > 0:
         alpha = math.radians(p.scenario.incline_deg)
         law = landing_law(p.plant, alpha, plan.states, path)

@@ -1,0 +1,175 @@
+"""Identifying the actuation delay at the start of every swing.
+
+A robot's actuation delay (the firmware's command pipeline, the driver)
+is not what the nominal model says to within a controller period, and the
+delay compensation of :class:`~bplir_drake.systems.predictor.DelayPredictor`
+helps only when it assumes the right one: the realistic study's misses
+gather where the true delay is two periods and the tracker assumes one.
+
+The smooth part of a swing's command cannot tell the delay apart from a
+model error (a ramp that acts 10 ms late looks like a slightly heavier
+link), so the controller makes the delay visible: a *probe*, two opposite
+doublets (``+A, +A, -A, -A, -A, -A, +A, +A``: zero net impulse and zero net
+displacement; the elbow moves by under 0.01 rad and comes back) on top of
+the first eight ticks' commands
+(:class:`~bplir_drake.systems.plan_tracker.PlanTracker` adds it).  The two
+gyros see the doublets' triangles in the link rates ``delay`` ticks
+late.  :class:`DelayIdentifier` records the first
+``window`` ticks' commands and gyro samples, predicts the gyro rates for
+every candidate delay ``0 .. max_steps`` ticks on the nominal model (plant,
+friction and the driver's current loop, :func:`probe_rates`), removes each
+gyro's mean error (the gyro biases, a steady model error) and keeps the
+candidate with the least squared error -- if the runner-up's error is at
+least ``min_ratio`` times it; a fit that cannot tell the candidates apart
+(sensors far noisier than the study's) keeps the nominal delay.  Tested: the candidates' fits and
+the whole swing's identification on the study's draws (README, "Monte
+Carlo").
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from pydrake.systems.framework import LeafSystem
+
+from ..params import FrictionParams, MotorParams, PlantParams
+from .predictor import nominal_rates
+from .schedule import declare_store
+
+#: the probe's torque pattern, in units of its amplitude, from tick 0: two
+#: opposite doublets (zero net impulse and zero net displacement)
+PROBE_PATTERN = (1.0, 1.0, -1.0, -1.0, -1.0, -1.0, 1.0, 1.0)
+
+
+def probe_torques(amplitude: float) -> tuple[float, ...]:
+    """The probe's torques (N m) of ticks 0, 1, ...: the doublet
+    :data:`PROBE_PATTERN` of ``amplitude`` (empty for 0)."""
+    return tuple(amplitude * s for s in PROBE_PATTERN) if amplitude else ()
+
+
+def probe_rates(q0, commands, steps: int, period: float, latency: float, plant: PlantParams,
+                friction: FrictionParams, motor: MotorParams, substeps: int = 10,
+                rates=None) -> np.ndarray:
+    """The absolute link rates (gyro 1, gyro 2; rad/s) at ticks 1 .. N of
+    the nominal model started at rest at the relative angles ``q0`` when
+    the command of tick k (``commands``, N values, N m) reaches the driver
+    ``steps`` ticks and ``latency`` s later; the driver's dead-band and
+    torque limit apply and its current follows with ``motor.tau_current``
+    (exactly, over each substep).  RK4 on the plant, ``substeps`` per tick."""
+    f = rates or nominal_rates(plant, friction)
+    commands = [float(c) for c in commands]
+    n = len(commands)
+    x = [float(q0[0]), float(q0[1]), 0.0, 0.0]
+    torque, out = 0.0, []
+
+    def target(i):   # the torque the driver regulates to for the command of tick i
+        if not 0 <= i < n:
+            return 0.0
+        u = min(max(commands[i], -motor.torque_limit), motor.torque_limit)
+        return 0.0 if abs(u) < motor.deadband else u
+
+    def advance(x, torque, duration, goal):
+        m = max(1, int(math.ceil(duration / period * substeps - 1e-9)))
+        h = duration / m
+        decay = math.exp(-h / motor.tau_current)
+        for _ in range(m):
+            # the current loop's torque over the substep: its mean, held
+            mean = goal + (torque - goal) * (1.0 - decay) * motor.tau_current / h
+            torque = goal + (torque - goal) * decay
+            a = f(*x, mean)
+            b = f(*(x[m] + 0.5 * h * a[m] for m in range(4)), mean)
+            c = f(*(x[m] + 0.5 * h * b[m] for m in range(4)), mean)
+            d = f(*(x[m] + h * c[m] for m in range(4)), mean)
+            x = [x[m] + h / 6.0 * (a[m] + 2.0 * b[m] + 2.0 * c[m] + d[m]) for m in range(4)]
+        return x, torque
+
+    for k in range(n):   # tick k: the previous command until the latency, then this one
+        if latency > 0.0:
+            x, torque = advance(x, torque, latency, target(k - 1 - steps))
+        x, torque = advance(x, torque, period - latency, target(k - steps))
+        out.append((x[2], x[2] + x[3]))
+    return np.array(out)
+
+
+def delay_fit(q0, commands, gyros, max_steps: int, period: float, latency: float,
+              plant: PlantParams, friction: FrictionParams, motor: MotorParams) -> np.ndarray:
+    """The squared gyro error (rad^2/s^2) of every candidate delay ``0 ..
+    max_steps`` ticks: the gyro samples ``gyros`` of ticks 1 .. N (N x 2)
+    against :func:`probe_rates` of ``commands`` (ticks 0 .. N-1), each
+    gyro's mean error removed."""
+    gyros = np.asarray(gyros, dtype=float)
+    f = nominal_rates(plant, friction)
+    sse = []
+    for steps in range(max_steps + 1):
+        e = gyros - probe_rates(q0, commands, steps, period, latency, plant, friction, motor,
+                                rates=f)
+        e -= e.mean(axis=0)
+        sse.append(float((e ** 2).sum()))
+    return np.array(sse)
+
+
+class DelayIdentifier(LeafSystem):
+    """Inputs ``imu`` (the sample of the tick, ``IMU_COLUMNS`` order) and
+    ``command`` (the controller's command of the tick, probe included);
+    output ``delay_steps``: the delay (whole ticks) the controller should
+    compensate -- ``nominal_steps`` until the first ``window`` ticks are
+    in, then the candidate of :func:`delay_fit` with the least error,
+    latched for the swing (``nominal_steps`` still if the runner-up's error
+    is less than ``min_ratio`` times the winner's).  Output ``fit``: ``(delay_steps, the runner-up's
+    error over the winner's)`` (0 until identified), a confidence for the
+    record.  Discrete state: the commands of ticks 0 .. window-1, the gyro
+    samples of ticks 1 .. window, the tick count and the result, stored at
+    each tick (:mod:`bplir_drake.systems.schedule`)."""
+
+    def __init__(self, q0, plant: PlantParams, friction: FrictionParams, motor: MotorParams,
+                 period: float, latency: float, max_steps: int, nominal_steps: int,
+                 window: int = 12, min_ratio: float = 1.25):
+        super().__init__()
+        if window < 2 or max_steps < 1:
+            raise ValueError("DelayIdentifier needs window >= 2 and max_steps >= 1")
+        self.q0 = (float(q0[0]), float(q0[1]))
+        self.model = (plant, friction, motor)
+        self.period, self.latency = float(period), float(latency)
+        self.max_steps, self.window = int(max_steps), int(window)
+        self.nominal_steps, self.min_ratio = int(nominal_steps), float(min_ratio)
+        self.imu_port = self.DeclareVectorInputPort("imu", 6)
+        self.command_port = self.DeclareVectorInputPort("command", 1)
+        n = self.window
+        # [commands 0..n-1, gyro1 1..n, gyro2 1..n, ticks stored, steps, ratio]
+        self._xd = self.DeclareDiscreteState(
+            np.concatenate([np.zeros(3 * n), [0.0, float(nominal_steps), 0.0]]))
+        declare_store(self, period, self._store)
+        xd = {self.xd_ticket()}
+        self.DeclareVectorOutputPort("delay_steps", 1, lambda c, o: o.SetAtIndex(
+            0, c.get_discrete_state(self._xd).GetAtIndex(3 * n + 1)), xd)
+        self.DeclareVectorOutputPort("fit", 2, self._calc_fit, xd)
+
+    def _calc_fit(self, context, out):
+        x = context.get_discrete_state(self._xd).get_value()
+        n = self.window
+        done = x[3 * n] > n
+        out.SetFromVector([x[3 * n + 1] if done else 0.0, x[3 * n + 2] if done else 0.0])
+
+    def _store(self, context, discrete_state):
+        """At ``t_{k+1}``: store tick k's command and gyro sample; once
+        ticks 0 .. window are in, identify."""
+        x = context.get_discrete_state(self._xd).get_value().copy()
+        n = self.window
+        k = int(round(x[3 * n]))
+        if k > n:
+            return
+        if k < n:
+            x[k] = self.command_port.Eval(context)[0]
+        if k >= 1:
+            gyro = self.imu_port.Eval(context)[:2]
+            x[n + k - 1], x[2 * n + k - 1] = gyro
+        x[3 * n] = k + 1
+        if k == n:
+            sse = delay_fit(self.q0, x[:n], np.column_stack([x[n:2 * n], x[2 * n:3 * n]]),
+                            self.max_steps, self.period, self.latency, *self.model)
+            best = int(np.argmin(sse))
+            runner_up = np.min(np.delete(sse, best))
+            ratio = runner_up / max(sse[best], 1e-300)
+            x[3 * n + 1] = best if ratio >= self.min_ratio else self.nominal_steps
+            x[3 * n + 2] = ratio
+        discrete_state.get_mutable_vector(self._xd).SetFromVector(x)

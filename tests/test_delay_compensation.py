@@ -73,7 +73,7 @@ def test_the_default_swing_captures_with_10_and_20_ms_of_delay():
     calibration.  Every delay is identified; measured capture speeds:
     0.162-0.402 m/s without delay, 0.173-0.412 at 10 ms, 0.149-0.411 at
     20 ms, 0.100-0.431 at 30 ms.  (Assuming the firmware's 10 ms instead of
-    identifying it, the default until 2026-11-24: 0.196-0.396, 0.177-0.410,
+    identifying it, as before the probe: 0.196-0.396, 0.177-0.410,
     0.164-0.419, and at 30 ms 1 of the 6 crashed at 0.57 m/s.)"""
     runner = SwingRunner()
     for delay, (lo, hi) in ((0.0, (0.15, 0.41)), (0.01, (0.16, 0.42)), (0.02, (0.14, 0.42)),

@@ -268,7 +268,7 @@ def test_auto_landing_lands_realistic_swings_the_aim_law_crashes(k, aim_speed, a
     threshold, half, was not tuned; 20 ms of delay): the aim law (the
     default until 2026-11-23) crashes, the auto law (the default since; the
     shooting landing on this line) captures.  Both with the delay probed
-    and identified (20 ms, the default since 2026-11-24); assuming the
+    and identified (20 ms; the probe is the default); assuming the
     firmware's 10 ms instead, 0.527 and 0.332 m/s.
     Over samples 0-119 auto turned 6 crashes into captures and lost none
     (README, realistic study: 956 against 931 of 1000)."""

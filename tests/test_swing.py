@@ -56,11 +56,13 @@ def _swing_outcome(seed):
 
 def test_twenty_seeds_with_ekf_and_uncertain_friction():
     """The default (plan tracking with the auto landing law, which shoots on
-    this plan, standstill calibration).  Measured: all of seeds 0-19
-    captured at 0.152-0.403 m/s after 1.336-1.371 s, within 9.3 mm of the
-    planned grip, peak torque 6.2-16.9 N m (the aim law, the default until
-    2026-11-23: 0.333-0.408 m/s after 1.342-1.363 s, within 6 mm).  The path
-    generator, the default before it, captured 308 of seeds 0-319 (96 %)."""
+    this plan, standstill calibration, the delay probe).  Measured: all of
+    seeds 0-19 captured at 0.162-0.403 m/s after 1.335-1.370 s, within
+    9.7 mm of the planned grip, peak torque 13.4-19.2 N m (the probe's
+    13.4 at the least; before the probe 0.152-0.403 m/s, 6.2-16.9 N m; the
+    aim law, the default until 2026-11-23: 0.333-0.408 m/s after
+    1.342-1.363 s, within 6 mm).  The path generator, the default before
+    it, captured 308 of seeds 0-319 (96 %)."""
     with ProcessPoolExecutor(2) as ex:
         rows = list(ex.map(_swing_outcome, range(20)))
     assert [r[0] for r in rows if r[1] != "captured"] == []

@@ -42,11 +42,12 @@ def test_planned_target_rests_inside_the_band(uphill):
 
 def test_uphill_swing_with_ekf_tracking_a_plan(uphill):
     """Measured (seeds 0-19, friction +/-20 %, IMU noise, EKF; the default
-    auto landing law, which shoots on this plan): all 20 captured at
-    0.238-0.496 m/s after 1.230-1.259 s, within 1.5 cm of the planned grip;
-    peak motor power 101-108 W against the 220 W rating, peak torque
-    13.2-17.4 N m.  The aim law (the default until 2026-11-23): 0.34-0.43
-    m/s, within 1 cm, 8.0-10.5 N m.  Without a landing (plan tracking to
+    auto landing law, which shoots on this plan, and the delay probe): all
+    20 captured at 0.277-0.475 m/s after 1.231-1.255 s, within 1.5 cm of
+    the planned grip; peak motor power 102-112 W against the 220 W rating,
+    peak torque 11.9-15.4 N m (before the probe 0.238-0.496 m/s, 101-108
+    W, 13.2-17.4 N m).  The aim law (the default until 2026-11-23):
+    0.34-0.43 m/s, within 1 cm, 8.0-10.5 N m.  Without a landing (plan tracking to
     the end) seeds 8 and 15 crashed at 0.57-0.58 m/s."""
     plan, gains = tracking_plan(uphill)
     tracker = PlanTracker(gains, 20.0, 0.002)
@@ -93,8 +94,9 @@ def test_state_indexed_tracker_reads_no_clock(uphill):
 def test_clock_free_uphill_swing(uphill):
     """The same 20 degree swing with the plan indexed by the estimated state
     (no clock), with the default landing law (shooting).  Measured, seeds
-    0-19: all 20 captured at 0.254-0.494 m/s after 1.232-1.259 s, within
-    1.7 cm of the grip (the aim law: 0.33-0.47 m/s, 1.1 cm).  Without the
+    0-19: all 20 captured at 0.276-0.464 m/s after 1.225-1.253 s, within
+    1.6 cm of the grip (before the delay probe 0.254-0.494 m/s; the aim
+    law: 0.33-0.47 m/s, 1.1 cm).  Without the
     landing seeds 2, 6, 8, 10 and 15 crashed at 0.50-0.72 m/s (the arrival
     timing is not corrected without along-track feedback; the landing reads
     the arrival from link 1's rate instead)."""

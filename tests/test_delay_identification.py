@@ -95,13 +95,17 @@ def test_the_adaptive_predictor_predicts_over_the_identified_ticks():
 def test_the_default_swing_identifies_its_delay():
     """The default controller probes and identifies 0-30 ms of actuation
     delay in the realistic study's draws.  Root seed 5 samples 0-3 (not
-    used in tuning), each with 0, 20 and 30 ms (10 ms: the delay tests of
-    test_delay_compensation): all 12 identified, the runner-up's fit error
-    at least 2x the winner's (measured: 3.4x at the least, median 4.7x),
-    clear of the 1.25x below which the nominal delay stays."""
+    used in tuning; the grip spacing held at 1.2 m), each with 0, 20 and
+    30 ms (10 ms: the delay tests of test_delay_compensation): all 12
+    identified, the runner-up's fit error at least 2x the winner's
+    (measured: 3.5x at the least, median 4.6x), clear of the 1.25x below
+    which the nominal delay stays."""
     from bplir_drake.analysis.montecarlo import load_study, sample_params
 
-    study = load_study("examples/study_realistic.toml").with_(seed=5)
+    study = load_study("examples/study_realistic.toml")
+    # the grip spacing at 1.2 m: the shipped plan (a drawn spacing solves its own)
+    study = study.with_(seed=5, distributions=tuple(
+        d for d in study.distributions if d.name != "scenario.grip_spacing"))
     runner = SwingRunner()
     ratios = []
     for index in range(4):

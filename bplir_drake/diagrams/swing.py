@@ -43,7 +43,7 @@ from ..systems.controller import CpflController
 from ..systems.disturbance import (CommandDelay, DisturbanceSource, delay_steps,
                                    disturbance_schedule, has_disturbance)
 from ..systems.calibration import ImuCalibration, calibrate_standstill
-from ..systems.delay_id import probe_torques
+from ..systems.delay_id import planned_probe
 from ..systems.ekf import KinematicEkf
 from ..systems.imu import standstill_samples
 from ..systems.friction import FRICTION_PARAMETERS, set_friction
@@ -229,8 +229,8 @@ def add_swing_controller(builder, params: BplirParams, state_port, robot: Robot,
         assumed = params.path.plan_delay_compensation
     steps = delay_steps(assumed, T)
     pp = params.path
-    identify = (pp.mode == "plan" and not params.controller.delay_compensation
-                and pp.plan_delay_probe > 0 and imu_port is not None)
+    probe = planned_probe(pp, params.controller) if imu_port is not None else ()
+    identify = bool(probe)
     predictor = identifier = None
     if identify:
         from ..systems.delay_id import DelayIdentifier
@@ -274,7 +274,6 @@ def add_swing_controller(builder, params: BplirParams, state_port, robot: Robot,
             reach = Landing.from_params(params.plant, path_geometry.alpha, pp)
         elif pp.reach_speed > 0:
             reach = Reach.from_params(params.plant, path_geometry.alpha, pp)
-        probe = probe_torques(pp.plan_delay_probe) if identify else ()
         tracker = builder.AddNamedSystem("plan_tracker", PlanTracker(
             plan_gains, params.controller.torque_limit, T, indexing=pp.plan_indexing,
             reach=reach, lead=steps * T, probe=probe, adaptive_lead=identify))

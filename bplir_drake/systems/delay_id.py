@@ -47,6 +47,16 @@ def probe_torques(amplitude: float) -> tuple[float, ...]:
     return tuple(amplitude * s for s in PROBE_PATTERN) if amplitude else ()
 
 
+def planned_probe(path, controller) -> tuple[float, ...]:
+    """The probe's torques (N m, ticks 0, 1, ...) that the plan tracker of
+    the ``path`` and ``controller`` blocks adds: none unless it tracks a
+    plan (``path.mode = "plan"``) without a delay set in
+    ``controller.delay_compensation``."""
+    if path.mode != "plan" or controller.delay_compensation:
+        return ()
+    return probe_torques(path.plan_delay_probe)
+
+
 def probe_rates(q0, commands, steps: int, period: float, latency: float, plant: PlantParams,
                 friction: FrictionParams, motor: MotorParams, substeps: int = 10,
                 rates=None) -> np.ndarray:

@@ -158,17 +158,16 @@ def budgeted_currents(plan, p: BplirParams) -> np.ndarray:
     robot's runs at the limit there (README, "Traversal Monte Carlo").  The
     delay probe (``path.plan_delay_probe``) adds its torques to the first
     ticks."""
-    from ...systems.delay_id import probe_torques
+    from ...systems.delay_id import planned_probe
     from ...systems.motor import max_torque
     from ...systems.plan_tracker import height_rates, landing_law
 
     motor, path = p.motor, p.path
     t = np.arange(int(plan.duration / motor.driver_period) + 1) * motor.driver_period
     tq = np.interp(t, plan.times, plan.torque)
-    if not p.controller.delay_compensation:   # the probe of the plan tracker's ticks
-        probe = probe_torques(path.plan_delay_probe)
-        ticks = np.floor(t / p.controller.period + 1e-9).astype(int)
-        tq = tq + np.array([probe[k] if k < len(probe) else 0.0 for k in ticks])
+    probe = planned_probe(path, p.controller)   # on the plan tracker's first ticks
+    ticks = np.floor(t / p.controller.period + 1e-9).astype(int)
+    tq = tq + np.array([probe[k] if k < len(probe) else 0.0 for k in ticks])
     tq = np.abs(tq)
     if path.landing_lead > 0:
         alpha = math.radians(p.scenario.incline_deg)

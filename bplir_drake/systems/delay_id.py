@@ -79,18 +79,18 @@ def probe_rates(q0, commands, steps: int, period: float, latency: float, plant: 
         return 0.0 if abs(u) < motor.deadband else u
 
     def advance(x, torque, duration, goal):
-        m = max(1, int(math.ceil(duration / period * substeps - 1e-9)))
-        h = duration / m
+        count = max(1, int(math.ceil(duration / period * substeps - 1e-9)))
+        h = duration / count
         decay = math.exp(-h / motor.tau_current)
-        for _ in range(m):
+        for _ in range(count):
             # the current loop's torque over the substep: its mean, held
             mean = goal + (torque - goal) * (1.0 - decay) * motor.tau_current / h
             torque = goal + (torque - goal) * decay
             a = f(*x, mean)
-            b = f(*(x[m] + 0.5 * h * a[m] for m in range(4)), mean)
-            c = f(*(x[m] + 0.5 * h * b[m] for m in range(4)), mean)
-            d = f(*(x[m] + h * c[m] for m in range(4)), mean)
-            x = [x[m] + h / 6.0 * (a[m] + 2.0 * b[m] + 2.0 * c[m] + d[m]) for m in range(4)]
+            b = f(*(x[i] + 0.5 * h * a[i] for i in range(4)), mean)
+            c = f(*(x[i] + 0.5 * h * b[i] for i in range(4)), mean)
+            d = f(*(x[i] + h * c[i] for i in range(4)), mean)
+            x = [x[i] + h / 6.0 * (a[i] + 2.0 * b[i] + 2.0 * c[i] + d[i]) for i in range(4)]
         return x, torque
 
     for k in range(n):   # tick k: the previous command until the latency, then this one

@@ -232,26 +232,23 @@ def add_swing_controller(builder, params: BplirParams, state_port, robot: Robot,
     probe = planned_probe(pp, params.controller) if imu_port is not None else ()
     identify = bool(probe)
     predictor = identifier = None
+    size = steps   # the predictor's ticks (with identification: the most it may need)
     if identify:
         from ..systems.delay_id import DelayIdentifier
-        from ..systems.predictor import DelayPredictor
 
-        most = max(delay_steps(pp.plan_delay_max, T), 1)
+        size = max(delay_steps(pp.plan_delay_max, T), 1)
         identifier = builder.AddNamedSystem("delay_id", DelayIdentifier(
             q0, params.plant, params.friction, params.motor, T,
-            params.controller.compute_latency, most, min(steps, most),
+            params.controller.compute_latency, size, min(steps, size),
             int(round(pp.plan_delay_window)), pp.plan_delay_min_ratio))
         builder.Connect(imu_port, identifier.imu_port)
-        predictor = builder.AddNamedSystem("predictor", DelayPredictor(
-            params.plant, params.friction, T, most, adaptive=True))
-        builder.Connect(identifier.GetOutputPort("delay_steps"), predictor.steps_port)
-        builder.Connect(state_port, predictor.estimate_port)
-        state_port = predictor.predicted_port
-    elif steps:
+    if size:
         from ..systems.predictor import DelayPredictor
 
         predictor = builder.AddNamedSystem("predictor", DelayPredictor(
-            params.plant, params.friction, T, steps))
+            params.plant, params.friction, T, size, adaptive=identify))
+        if identify:
+            builder.Connect(identifier.GetOutputPort("delay_steps"), predictor.steps_port)
         builder.Connect(state_port, predictor.estimate_port)
         state_port = predictor.predicted_port
     if params.path.mode == "plan":

@@ -156,25 +156,40 @@ def add_robot(builder, params: BplirParams, seed: int) -> Robot:
     return Robot(plant, friction, dist, motor)
 
 
+def believed_start(params: BplirParams) -> np.ndarray:
+    """The start pose the robot computes: both grippers on the line at the
+    scenario's grip spacing, with the *nominal* link lengths (rad).  The
+    simulated robot starts at the pose of its true lengths
+    (:func:`swing_geometry`), a few mrad away with 2 mm length errors."""
+    from ..systems.plant import initial_configuration
+
+    sc = params.scenario
+    return initial_configuration(sc.grip_spacing, params.plant, math.radians(sc.incline_deg))
+
+
 def standstill_calibration(params: BplirParams, q0, seed: int) -> ImuCalibration:
     """The IMU calibration the robot makes before the swing, held on the line
-    at rest in the pose ``q0`` (its joint encoders and the grip geometry):
-    ``estimator.standstill_samples`` samples of the simulated sensors
+    at rest in the true pose ``q0``: ``estimator.standstill_samples`` samples
+    of the simulated sensors there
     (:func:`~bplir_drake.systems.imu.standstill_samples`, seeded by ``seed``)
     reduced by :func:`~bplir_drake.systems.calibration.calibrate_standstill`
-    with the filter's gravity.  No calibration (identity) with 0 samples."""
+    with the filter's gravity against the pose the robot believes it is in
+    (:func:`believed_start`: the robot never reads its true pose).  No
+    calibration (identity) with 0 samples."""
     n = int(round(params.estimator.standstill_samples))
     if n < 2:
         return ImuCalibration()
     theta = absolute_from_relative(np.asarray(q0[:2], dtype=float))
     samples = standstill_samples(params.imu, theta, params.simulated_plant.g, seed, n)
-    return calibrate_standstill(samples, theta, params.estimator.g)
+    believed = absolute_from_relative(np.asarray(believed_start(params)[:2], dtype=float))
+    return calibrate_standstill(samples, believed, params.estimator.g)
 
 
 def add_sensing(builder, params: BplirParams, robot: Robot, q0, seed: int, estimator=None):
     """Two IMUs on the simulated links and the kinematic EKF (nominal
-    geometry, started at the known pose ``q0`` at rest, with the standstill
-    calibration of :func:`standstill_calibration`), or a user's estimator
+    geometry, started at rest at the pose the robot believes it is in,
+    :func:`believed_start`, with the standstill calibration of
+    :func:`standstill_calibration` made in the true pose ``q0``), or a user's estimator
     (``estimator``, a factory, or ``estimator.plugin``: :mod:`.plugin`).
     Returns ``(sampler, estimator, estimate port)``."""
     sampler = add_imus(builder, robot.plant, params, seed)
@@ -185,7 +200,8 @@ def add_sensing(builder, params: BplirParams, robot: Robot, q0, seed: int, estim
         builder.Connect(sampler.get_output_port(0), user.GetInputPort("imu"))
         return sampler, user, user.GetOutputPort("state")
     est = params.estimator.for_loop()
-    x0_abs = absolute_from_relative(np.array([q0[0], q0[1], 0.0, 0.0]))
+    qb = believed_start(params)
+    x0_abs = absolute_from_relative(np.array([qb[0], qb[1], 0.0, 0.0]))
     ekf = builder.AddNamedSystem("ekf", KinematicEkf(
         est, x0_abs, sigmas=(est.start_angle_sigma, est.start_rate_sigma, est.start_bias_sigma),
         calibration=standstill_calibration(params, q0, seed)))
@@ -397,7 +413,8 @@ def build_swing(params: BplirParams, *, seed: int | None = None, use_estimator: 
                   else sampled(builder, robot.plant.get_state_output_port(),
                                params.controller.period))
     control = add_swing_controller(builder, params, state_port, robot, path_geometry, plan_gains,
-                                   controller, imu_port=sampler.get_output_port(0), q0=q0)
+                                   controller, imu_port=sampler.get_output_port(0),
+                                   q0=believed_start(params))
     add_actuation(builder, params, control["controller"].GetOutputPort("torque"), robot.motor)
     lock = add_interlock(builder, params, robot, estimate_port, line_geometry)
     loggers = add_swing_loggers(builder, params, robot, sampler, estimate_port, control,

@@ -329,7 +329,7 @@ class EstimatorParams(_Block):
     gyro_meas_sigma: float = _positive(0.02, "rad/s", doc="(5.40) gyro measurement noise")
     accel_meas_sigma: float = _positive(0.427, "m/s^2", doc="accelerometer measurement noise (5.39)")
     integration: str = "euler"
-    loop_accel_process_sigma: float = _positive(0.2, "m/s^2", doc="in-loop tuning: process noise (0.2 with Heun's step since 2026-11-23, 2.0 with the trapezoid step before; chosen on root seed 0 of the realistic study, README \"Robust swing\")")
+    loop_accel_process_sigma: float = _positive(0.2, "m/s^2", doc="in-loop tuning: process noise (0.2 with Heun's step since 2026-11-23, 2.0 with the trapezoid step before; chosen on root seed 0 of the realistic study, README \"The realistic study\")")
     loop_gyro_meas_sigma: float = _positive(0.0166, "rad/s", doc="in-loop tuning: gyro noise (Table 5.1)")
     loop_accel_meas_sigma: float = _positive(0.1, "m/s^2", doc="in-loop tuning: accelerometer noise (0.05 before 2026-11-23)")
     # Heun's step with the accelerations at both ends of the period (was

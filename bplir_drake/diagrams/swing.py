@@ -225,7 +225,8 @@ def add_swing_controller(builder, params: BplirParams, state_port, robot: Robot,
     ``path.plan_delay_compensation`` when it is not (the lab firmware's
     10 ms by default), indexing the plan as much later.  With
     ``path.plan_delay_probe`` (and ``imu_port``, the IMU samples, and
-    ``q0``, the start pose) the plan tracker probes the delay and a
+    ``q0``, the start pose the robot believes, :func:`believed_start`) the
+    plan tracker probes the delay and a
     :class:`~bplir_drake.systems.delay_id.DelayIdentifier` (also returned,
     ``"delay_id"``) identifies it; the tracker and the predictor then
     compensate the identified delay.  Every system uses the nominal

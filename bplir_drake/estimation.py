@@ -304,9 +304,8 @@ def estimate(t, samples, params: EstimatorParams, x0=(0.0, 0.0, 0.0, 0.0), *,
                 s, A = ekf_predict(s, prediction_input(u_prev, u, params), params,
                                    with_jacobian=True,
                                    radial=prediction_input(radial_prev, z[2:4], params))
-            prior = s
-            s, nu, S = ekf_update(s, z, u, params, with_innovation=True,
-                                  hold=t[k] - t[0] < params.calibrate_after)
+            s, nu, S, prior = ekf_update(s, z, u, params, with_innovation=True,
+                                         hold=t[k] - t[0] < params.calibrate_after)
             nis[k] = float(nu @ np.linalg.solve(S, nu))
             u_prev, radial_prev = u, z[2:4]
         if smooth:

@@ -243,3 +243,52 @@ def test_heuns_step_in_the_loop_estimates_the_landing_rates_better():
         heun, trapezoid = rmse
         assert heun[0] < 0.005 and trapezoid[0] > 0.009, (seed, rmse)
         assert trapezoid[0] > 2.5 * heun[0] and trapezoid[1] > 1.5 * heun[1], (seed, rmse)
+
+
+def test_covariance_inflation_is_the_plain_update_on_the_inflated_prediction():
+    """``inflate_nis = k``: where a tick's NIS exceeds ``4 k`` the update is
+    exactly the plain one (``inflate_nis = 0``) on the predicted covariance
+    times ``NIS / (4 k)``; below it, exactly the plain update."""
+    base = dc.replace(EstimatorParams().for_loop(), inflate_nis=0.0)
+    p = dc.replace(base, inflate_nis=3.0)
+    _, n = E.state_layout(p)
+    s = E.EkfState(np.r_[0.3, 2.2, 1.0, -0.5, np.zeros(n - 4)], np.diag(np.full(n, 1e-4)))
+    u = np.array([0.4, -0.2])
+    h, H = E.kinematic_h_jacobian(s.x, u, p)
+    _, R = E.noise_matrices(p)
+    S = H @ s.P @ H.T + R
+    for scale, inflated in ((0.5, False), (40.0, True)):
+        nu = scale * np.sqrt(np.diag(S))            # the NIS grows as scale^2
+        nis = float(nu @ np.linalg.solve(S, nu))
+        assert (nis > 12.0) == inflated
+        out = E.ekf_update(s, h + nu, u, p)
+        P = s.P * (nis / 12.0 if inflated else 1.0)
+        plain = E.ekf_update(E.EkfState(s.x, P), h + nu, u, base)
+        np.testing.assert_array_equal(out.x, plain.x)
+        np.testing.assert_array_equal(out.P, plain.P)
+
+
+def test_inflation_lands_the_quick_benchmarks_torque_noise():
+    """The quick benchmark's torque-noise cases on root seed 0 (3 N m and
+    another level; the inflation's 3 was chosen on these two cases and on
+    seed 1's, so this documents the choice rather than holding it out):
+    with Heun's step and its small process noise the 3 N m case crashed
+    (0.65 m/s); with the inflation both land.  The full benchmark's torque
+    noise went from 0.75 to 0.92 on root seeds 0 and 1 (README)."""
+    import tempfile
+
+    from bplir_drake.analysis.montecarlo.benchmark import run_benchmark
+    from bplir_drake.params import BplirParams
+
+    p = BplirParams()
+    scores = {}
+    for k in (p.estimator.loop_inflate_nis, 0.0):
+        q = p.with_(estimator=dc.replace(p.estimator, loop_inflate_nis=k))
+        with tempfile.TemporaryDirectory() as d:
+            res = run_benchmark(q, ["qft"], quick=True, seed=0, workers=1, out=d,
+                                categories=("torque noise",))
+        scores[k] = res["scores"]["qft"]["overall"]
+        if k == 0.0:
+            miss = [r for r in res["rows"] if not r["success"]]
+            assert [r["label"] for r in miss] == ["3 N m"] and miss[0]["outcome"] == "crash"
+    assert p.estimator.loop_inflate_nis == 3.0 and scores == {3.0: 1.0, 0.0: 0.5}

@@ -386,9 +386,12 @@ def ekf_update(s: EkfState, z, u, p: EstimatorParams, *, with_innovation: bool =
     updated (their gain rows zeroed: the Schmidt-Kalman filter; the Joseph
     form keeps the covariance right for any gain), as while the angles
     converge from a start far off, where a filter would otherwise explain
-    its angle error by biases and misalignments.  With ``with_innovation``
-    returns ``(state, innovation, its covariance S)`` (for consistency
-    checks)."""
+    its angle error by biases and misalignments.  With ``p.inflate_nis``
+    a prediction whose innovation is too large for it is inflated first
+    (:class:`~bplir_drake.params.EstimatorParams`).  With
+    ``with_innovation`` returns ``(state, innovation, its covariance S
+    before any inflation, the prediction the update used)`` (for
+    consistency checks and the smoother's backward pass)."""
     layout, _ = state_layout(p)
     u = np.asarray(u, dtype=float)
     h, H = kinematic_h_jacobian(s.x, u, p)
@@ -402,16 +405,23 @@ def ekf_update(s: EkfState, z, u, p: EstimatorParams, *, with_innovation: bool =
     _, R = noise_matrices(p)
     PHt = s.P @ H.T
     S = H @ PHt + R
+    nu = np.asarray(z, dtype=float) - h
+    S_raw = S
+    if p.inflate_nis > 0.0:   # covariance inflation (params doc)
+        excess = float(nu @ np.linalg.solve(S, nu)) / (p.inflate_nis * len(nu))
+        if excess > 1.0:
+            s = EkfState(s.x, s.P * excess)
+            PHt = s.P @ H.T
+            S = H @ PHt + R
     K = np.linalg.solve(S, PHt.T).T
     held = _held_states(p) if hold else None
     if held is not None:   # Schmidt: considered, not updated, while the angles converge
         K[held] = 0.0
-    nu = np.asarray(z, dtype=float) - h
     x = s.x + K @ nu
     IKH = _identity(len(s.x)) - K @ H
     P = IKH @ s.P @ IKH.T + K @ R @ K.T
     out = EkfState(x, 0.5 * (P + P.T))
-    return (out, nu, S) if with_innovation else out
+    return (out, nu, S_raw, s) if with_innovation else out
 
 
 def _held_states(p: EstimatorParams):

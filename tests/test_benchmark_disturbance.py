@@ -69,7 +69,7 @@ def test_benchmark_scores_actuation_delay(tmp_path, params):
     # assuming the firmware's 10 ms instead of identifying, 0.249 and 0.469,
     # near the limit; the aim law, the default until 2026-11-23: 0.32 and
     # 0.23); the dissertation's design has no delay compensation and
-    # crashes far above the 0.5 m/s limit (5.4 and 16 m/s; 16 and 19 with
+    # crashes far above the 0.5 m/s limit (5.7 and 16 m/s; 16 and 19 with
     # the trapezoid filter: the loop is past its delay margin)
     for label, (lo, hi) in (("10 ms", (0.23, 0.33)), ("30 ms", (0.25, 0.35))):
         assert rows["qft", label]["outcome"] == "captured"

@@ -272,17 +272,19 @@ def test_inflation_lands_the_quick_benchmarks_torque_noise():
     """The quick benchmark's torque-noise cases on root seed 0 (3 N m and
     another level; the inflation's 3 was chosen on these two cases and on
     seed 1's, so this documents the choice rather than holding it out):
-    with Heun's step and its small process noise the 3 N m case crashed
-    (0.65 m/s); with the inflation both land.  The full benchmark's torque
-    noise went from 0.75 to 0.92 on root seeds 0 and 1 (README)."""
+    with Heun's step and its small process noise (the default, inflation
+    off) the 3 N m case crashes (0.65 m/s); with ``loop_inflate_nis = 3``
+    both land.  It stays off by default: the realistic traversal study
+    fell from 185 to 168 of 200 with it (README, "Robustness benchmark")."""
     import tempfile
 
     from bplir_drake.analysis.montecarlo.benchmark import run_benchmark
     from bplir_drake.params import BplirParams
 
     p = BplirParams()
+    assert p.estimator.loop_inflate_nis == 0.0
     scores = {}
-    for k in (p.estimator.loop_inflate_nis, 0.0):
+    for k in (3.0, 0.0):
         q = p.with_(estimator=dc.replace(p.estimator, loop_inflate_nis=k))
         with tempfile.TemporaryDirectory() as d:
             res = run_benchmark(q, ["qft"], quick=True, seed=0, workers=1, out=d,
@@ -291,4 +293,5 @@ def test_inflation_lands_the_quick_benchmarks_torque_noise():
         if k == 0.0:
             miss = [r for r in res["rows"] if not r["success"]]
             assert [r["label"] for r in miss] == ["3 N m"] and miss[0]["outcome"] == "crash"
-    assert p.estimator.loop_inflate_nis == 3.0 and scores == {3.0: 1.0, 0.0: 0.5}
+            assert 0.6 < miss[0]["capture_speed_mps"] < 0.7
+    assert scores == {3.0: 1.0, 0.0: 0.5}

@@ -79,7 +79,7 @@ def swing_geometry(params: BplirParams):
     true_p = params.simulated_plant
     q0 = initial_configuration(sc.grip_spacing, true_p, alpha)
     qT = target_configuration(sc.grip_spacing, true_p, alpha)
-    initial_configuration(sc.grip_spacing, params.plant, alpha)  # validates for the model too
+    believed_start(params)  # the robot's own start pose: validates the scenario for the model too
     pg = PathGeometry.from_scenario(params.plant, sc.grip_spacing, alpha, sc.capture_distance)
     lg = LineGeometry(true_p.l1, true_p.l2, alpha, sc.grip_spacing)
     return q0, qT, pg, lg

@@ -287,21 +287,36 @@ class ApexShot:
         k3 = -(8.0 * d + 5.0 * vT) / T ** 3
         k4 = (3.0 * d + 2.0 * vT) / T ** 4
 
-        def rates(t, q, w):
+        # _link1_accel and _friction inlined (the same arithmetic, in the same
+        # order: this runs ~50 times per shot, several shots per tick)
+        a, k12, m11c, g1, g12 = c["a"], c["k12"], c["m11"], c["g1"], c["g12"]
+        on, fv, fc, b, drag = c["on"], c["fv"][0], c["fc"][0], c["b"], c["drag"][0]
+        cos, sin, atan, pi = math.cos, math.sin, math.atan, math.pi
+
+        def accel(t, q, w):   # link 1's acceleration at time t of the quartic
             q2t = q2 + v2 * t + k2 * t * t + k3 * t ** 3 + k4 * t ** 4
             v2t = v2 + 2 * k2 * t + 3 * k3 * t * t + 4 * k4 * t ** 3
             a2t = 2 * k2 + 6 * k3 * t + 12 * k4 * t * t
-            return w, self._link1_accel(c, q, q2t, w, v2t, a2t)
+            c2, s2 = cos(q2t), sin(q2t)
+            m12, m11 = a + k12 * c2, m11c + 2.0 * k12 * c2
+            bias = -k12 * s2 * (2.0 * w * v2t + v2t * v2t)
+            grav = g1 * sin(q) + g12 * sin(q + q2t)
+            fr = (fv * w + fc * (2.0 / pi) * atan(w / b) + drag * w * abs(w)) if on else 0.0
+            return -(m12 * a2t + bias + grav + fr) / m11
 
         dt = T / self.steps
+        h2, h6 = dt / 2, dt / 6
         t = 0.0
         for _ in range(self.steps):   # RK4 on link 1
-            r1 = rates(t, q1, v1)
-            r2 = rates(t + dt / 2, q1 + dt / 2 * r1[0], v1 + dt / 2 * r1[1])
-            r3 = rates(t + dt / 2, q1 + dt / 2 * r2[0], v1 + dt / 2 * r2[1])
-            r4 = rates(t + dt, q1 + dt * r3[0], v1 + dt * r3[1])
-            q1 += dt / 6 * (r1[0] + 2 * r2[0] + 2 * r3[0] + r4[0])
-            v1 += dt / 6 * (r1[1] + 2 * r2[1] + 2 * r3[1] + r4[1])
+            d1 = accel(t, q1, v1)
+            w2 = v1 + h2 * d1
+            d2 = accel(t + h2, q1 + h2 * v1, w2)
+            w3 = v1 + h2 * d2
+            d3 = accel(t + h2, q1 + h2 * w2, w3)
+            w4 = v1 + dt * d3
+            d4 = accel(t + dt, q1 + dt * w3, w4)
+            q1 += h6 * (v1 + 2 * w2 + 2 * w3 + w4)
+            v1 += h6 * (d1 + 2 * d2 + 2 * d3 + d4)
             t += dt
         p, s = self.landing.plant, q1 - self.landing.alpha
         h = -p.l1 * math.cos(s) - p.l2 * math.cos(s + q2f)
@@ -314,9 +329,11 @@ class ApexShot:
         if x[2] > self.min_rate:
             decel = max(self.landing.deceleration(x), 2.0)
             T, q2f = min(0.5, max(0.03, x[2] / decel)), float(x[1])
+            shot = None   # the shot at (T, q2f) once it converged
             for _ in range(8):
-                r, _ = self._shoot(c, x, T, q2f)
+                r, acc = self._shoot(c, x, T, q2f)
                 if abs(r[0]) < 1e-3 and abs(r[1]) < 1e-4:
+                    shot = r, acc
                     break
                 J = np.column_stack([(self._shoot(c, x, T + 1e-4, q2f)[0] - r) / 1e-4,
                                      (self._shoot(c, x, T, q2f + 1e-4)[0] - r) / 1e-4])
@@ -329,7 +346,7 @@ class ApexShot:
                 if not 0.015 <= T <= 0.8:
                     break
             if 0.015 <= T <= 0.8:
-                r, acc = self._shoot(c, x, T, q2f)
+                r, acc = shot or self._shoot(c, x, T, q2f)
                 if abs(r[0]) <= 0.05 and abs(r[1]) <= 0.005 and T >= self.min_time:
                     return acc, T
         if self.landing.height(x) < self.height - self.hold_depth:
@@ -343,7 +360,8 @@ class ApexShot:
             if abs(slope) < 1e-6:
                 return None
             q2f += min(0.3, max(-0.3, -r[1] / slope))
-        r, acc = self._shoot(c, x, T, q2f)
+        else:
+            r, acc = self._shoot(c, x, T, q2f)
         return (acc, T) if abs(r[1]) < 0.002 else None
 
     def gives_up(self, x) -> bool:

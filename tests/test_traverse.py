@@ -155,6 +155,12 @@ def test_route_grips_lie_off_obstacles_and_within_reach(name):
             assert lo < line.chord(a, b)[0] < hi
         ob = plan.obstacle
         assert plan.hold < ob.start < ob.end < plan.landing1   # swing 1 straddles it
+        # planned landings keep the landing tolerance from obstacles and the
+        # stretch's end (8.0 m long, line_flat's last landing lay 4.5 cm from
+        # the end: 7 of 200 realistic traversals on root seed 0 landed past it)
+        land = tp.gripper_width / 2 + tp.clearance + tp.landing_tolerance
+        for s in (plan.landing1, plan.landing2):
+            assert line.obstacle_at(s, land) is None and s <= line.length - land
     # the catenary: incline 0 at the low point, about 15 deg at the tower
     span = load_line(ROOT / "examples" / "line_span.toml")
     assert math.degrees(span.incline_at(0.0)) == pytest.approx(0.0, abs=1e-9)
@@ -175,6 +181,10 @@ BAD_LINES = [
                                                  {"position": 3.0, "width": 0.3}]},
      "no grip from"),
     ({"length": 6.0, "start": 1.2, "tower": 3}, "unknown key 'tower'"),
+    # the last landing would lie 4.5 cm from the stretch's end
+    ({"length": 8.0, "start": 1.2, "obstacles": [
+        {"position": 1.7, "width": 0.25}, {"position": 3.8, "width": 0.4},
+        {"position": 5.85, "width": 0.15}]}, "on the stretch (length 8 m)"),
 ]
 
 

@@ -28,7 +28,7 @@ Outputs ``torque`` (the command) and ``reference`` (the plan's elbow angle).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 
 import numpy as np
 from pydrake.systems.framework import LeafSystem
@@ -171,6 +171,13 @@ class Landing(_LineServo):
     min_decel: float
     _prefix = "landing"
 
+    @classmethod
+    def from_params(cls, plant, alpha: float, path):
+        """The law of ``path`` (its ``landing_*`` fields), its margin less
+        ``path.landing_bias`` (never above the line)."""
+        law = super().from_params(plant, alpha, path)
+        return replace(law, margin=max(0.0, law.margin - path.landing_bias))
+
     def deceleration(self, x) -> float:
         """Link 1's deceleration ``b1 / M11`` on the nominal model with the
         elbow held (rad/s^2; negative while gravity speeds it up)."""
@@ -234,9 +241,11 @@ class ApexShot:
 
     @classmethod
     def from_params(cls, plant, friction, alpha: float, path):
-        """The law of ``path`` (its ``shoot_*`` fields; the fallback from its
-        ``landing_*`` fields) on the nominal ``plant`` and ``friction``."""
-        return cls(Landing.from_params(plant, alpha, path), friction, path.shoot_height,
+        """The law of ``path`` (its ``shoot_*`` fields, the aim raised by
+        ``landing_bias``; the fallback from its ``landing_*`` fields) on the
+        nominal ``plant`` and ``friction``."""
+        height = min(0.0, path.shoot_height + path.landing_bias)
+        return cls(Landing.from_params(plant, alpha, path), friction, height,
                    path.shoot_depth, path.shoot_min_time, path.shoot_min_rate,
                    path.shoot_hold_depth, path.shoot_give_up_rate)
 

@@ -169,6 +169,24 @@ def run_swing(params: BplirParams, *, seed: int | None = None, use_estimator: bo
                              integrator=integrator, driver_state=driver_state)
 
 
+def arrival_height_error(p: BplirParams, est: Log, status: dict) -> float:
+    """How far above the truth the robot's estimate put the gripper (m) at
+    its arrival at the line (nan: no arrival).  At the arrival (the first
+    time the gripper comes within ``scenario.capture_distance`` of the line,
+    the moment its jaw senses the line) the gripper is that far below the
+    line; the estimate's distance there (the estimate log interpolated to
+    the arrival, the nominal model) less that is its error.  No true state
+    is read: what the robot itself can measure at each capture."""
+    from ...systems.plan_tracker import height_rates
+
+    t = status["event_time_s"]
+    if status["outcome"] not in ("captured", "crash") or not np.isfinite(t) or not len(est.t):
+        return math.nan
+    x = est.at([t])[0]
+    h = height_rates(p.plant, math.radians(p.scenario.incline_deg), x)[0]
+    return float(h + p.scenario.capture_distance)
+
+
 def swing_summary(p: BplirParams, lg: dict[str, Log], status: dict, seed: int,
                   use_est: bool) -> dict:
     """The summary of a swing from its logs and the interlock's ``status``
@@ -203,6 +221,10 @@ def swing_summary(p: BplirParams, lg: dict[str, Log], status: dict, seed: int,
         # (the mirror point, 2 D from the start): negative = short of it
         "landing_error_m": (status["travel_m"] - 2.0 * sc.grip_spacing
                             if status["outcome"] in ("captured", "crash") else float("nan")),
+        # what the gripper's jaw sensor tells the robot at the arrival: the
+        # line is capture_distance from the gripper then, so the estimated
+        # height's error is the estimate's distance less that (nominal model)
+        "landing_height_error_m": arrival_height_error(p, est, status),
         "fixed_gripper_open": status["fixed_gripper_open"],
         "peak_torque_Nm": float(np.abs(tau).max()),
         "peak_motor_power_W": float(np.abs(power).max()),

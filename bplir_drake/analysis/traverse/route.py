@@ -88,8 +88,8 @@ def hold_position(line: Line, params: BplirParams, k: int, front: float) -> Obst
             continue
         if nxt is not None and l2 > nxt.start - land:
             continue   # the second landing would pass the next obstacle with one gripper
-        if l2 > line.length - hw:
-            continue
+        if l2 > line.length - land:
+            continue   # the end of the stretch (a tower's clamp) is an obstacle too
         return ObstaclePlan(ob, float(s), float(s - D), float(l1), float(l2))
     nxt_text = f" and before '{nxt.name}' at {nxt.start:g} m" if nxt is not None else ""
     raise LineError(f"{where}: no grip from {lo:.3g} to {hi:.3g} m lands both swings clear of "

@@ -44,7 +44,8 @@ OUTCOMES = ("passed", "swing crash", "swing timeout", "swing fault", "landed on 
 ROW_FIELDS = ("index", "kind", "obstacle", "holding_gripper", "robot", "t_start_s", "duration_s",
               "hold_m", "from_m", "to_m", "incline_deg", "outcome", "capture_speed_mps",
               "capture_impulse_Ns", "effective_mass_kg", "peak_torque_Nm", "peak_power_W",
-              "energy_J", "i2t_start_A2s", "i2t_end_A2s", "seed")
+              "energy_J", "i2t_start_A2s", "i2t_end_A2s", "landing_bias_m",
+              "landing_height_error_m", "seed")
 
 
 @dataclass
@@ -149,6 +150,21 @@ def swing_params(params: BplirParams, holding: int, spacing: float,
     return p
 
 
+def learnt_landing(p: BplirParams, errors) -> BplirParams:
+    """``p`` with ``path.landing_bias`` set to ``traverse.landing_learning``
+    times the mean of ``errors``: the landing height errors (m, swing summary
+    ``landing_height_error_m``) of the earlier captures of the robot
+    holding with the same gripper, which the robot measured itself at each
+    arrival.  Unchanged without earlier captures, with learning off or
+    without the terminal landing."""
+    tp = p.traverse
+    errors = [e for e in errors if math.isfinite(e)]
+    if tp.landing_learning <= 0.0 or not errors or tp.swing_mode != "plan" or not tp.landing:
+        return p
+    bias = min(0.02, max(-0.02, tp.landing_learning * float(np.mean(errors))))
+    return p.with_(path=dc.replace(p.path, landing_bias=bias))
+
+
 def budgeted_currents(plan, p: BplirParams) -> np.ndarray:
     """The currents (A, one per driver period) the rest planner budgets for
     the planned swing ``plan`` of ``p``: the plan's, and from the moment the
@@ -222,6 +238,8 @@ class _Traversal:
         self.pos = {1: self.front, 2: self.rear}
         self.clamp = {g: (self.pos[g], 0.0) for g in (1, 2)}
         self.swings = 0
+        # the landing height errors of the captures so far, per holding gripper
+        self.landing_errors = {1: [], 2: []}
         self.est_err, self.fixed_open = math.nan, False
         self.robot = params.simulated_plant
         self.mass = self.robot.m1 + self.robot.m2
@@ -328,7 +346,8 @@ class _Traversal:
         spacing, _ = self.line.chord(start, hold)
         target = hold + tp.grip_spacing
         _, inc = self.line.chord(start, min(target, self.line.length))
-        p = swing_params(self.params, hold_g, spacing, inc)
+        p = learnt_landing(swing_params(self.params, hold_g, spacing, inc),
+                           self.landing_errors[hold_g])
         # rest first when the planned swing would eat into the i^2 t margin
         # the standstill calibration of the IMUs (estimator.standstill_samples)
         # holds still on the line before the swing: it counts as rest too
@@ -390,7 +409,11 @@ class _Traversal:
                         outcome=s["outcome"], capture_speed_mps=s["capture_speed_mps"],
                         capture_impulse_Ns=impulse, effective_mass_kg=m_eff,
                         peak_torque_Nm=s["peak_torque_Nm"], peak_power_W=s["peak_motor_power_W"],
-                        energy_J=elec + standby, i2t_start_A2s=h0, i2t_end_A2s=self.h, seed=seed)
+                        energy_J=elec + standby, i2t_start_A2s=h0, i2t_end_A2s=self.h,
+                        landing_bias_m=p.path.landing_bias,
+                        landing_height_error_m=s["landing_height_error_m"], seed=seed)
+        if s["success"]:
+            self.landing_errors[hold_g].append(s["landing_height_error_m"])
         self.t += duration
         # the swinging gripper opened at the start, closes at capture
         self.holds.append((swing_g, self.closed[swing_g], t[0]))

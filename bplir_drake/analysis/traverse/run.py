@@ -127,7 +127,8 @@ def swing_params(params: BplirParams, holding: int, spacing: float,
     swing does (the apex landing, the delay probe and its compensation),
     the swapped robot by ``traverse.swapped_landing_law`` (its fallback
     aiming at ``traverse.swapped_landing_margin``, its shot held from
-    ``traverse.swapped_shoot_min_time``)."""
+    ``traverse.swapped_shoot_min_time``, its filter's covariance inflation
+    ``traverse.swapped_inflate_nis``)."""
     p = params if holding == 1 else swapped(params)
     sc = dc.replace(p.scenario, grip_spacing=round(float(spacing), 3),
                     incline_deg=round(math.degrees(incline), 1))
@@ -146,6 +147,8 @@ def swing_params(params: BplirParams, holding: int, spacing: float,
             path = dc.replace(path, landing_margin=tp.swapped_landing_margin,
                               landing_law=tp.swapped_landing_law,
                               shoot_min_time=tp.swapped_shoot_min_time)
+            p = p.with_(estimator=dc.replace(p.estimator,
+                                             loop_inflate_nis=tp.swapped_inflate_nis))
         p = p.with_(path=path)
     return p
 

@@ -17,7 +17,8 @@ DIST_KINDS = ("uniform", "normal", "truncnormal")
 UNCERTAIN_BLOCKS = ("true_plant", "true_friction", "imu", "motor", "scenario")
 #: swing summary fields kept per sample
 RESULT_FIELDS = ("outcome", "success", "swing_time_s", "capture_distance_m", "capture_speed_mps",
-                 "closest_distance_m", "travel_m", "landing_error_m", "fixed_gripper_open",
+                 "closest_distance_m", "travel_m", "landing_error_m",
+                 "landing_height_error_m", "fixed_gripper_open",
                  "peak_torque_Nm", "peak_motor_power_W", "energy_in_J",
                  "max_estimation_error_rad", "mirror_error_rad", "delay_identified_s")
 #: traversal summary fields kept per sample of a traversal study (the worst

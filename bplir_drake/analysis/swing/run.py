@@ -176,7 +176,9 @@ def arrival_height_error(p: BplirParams, est: Log, status: dict) -> float:
     the moment its jaw senses the line) the gripper is that far below the
     line; the estimate's distance there (the estimate log interpolated to
     the arrival, the nominal model) less that is its error.  No true state
-    is read: what the robot itself can measure at each capture."""
+    is read: what the robot itself can measure at each capture.  The log
+    is the in-loop estimator's, which runs in a swing on the true state
+    (``use_estimator=False``) too, unused: there this is its error."""
     from ...systems.plan_tracker import height_rates
 
     t = status["event_time_s"]

@@ -484,7 +484,7 @@ def prediction_input(u_prev, u, p: EstimatorParams) -> np.ndarray:
     if p.integration == "euler":
         return np.asarray(u_prev)
     if p.integration == "heun":
-        return np.r_[u_prev, u]
+        return np.concatenate((u_prev, u))
     return 0.5 * (np.asarray(u_prev) + u)
 
 

@@ -297,17 +297,21 @@ class ApexShot:
         k4 = (3.0 * d + 2.0 * vT) / T ** 4
 
         # _link1_accel and _friction inlined (the same arithmetic, in the same
-        # order: this runs ~50 times per shot, several shots per tick)
+        # order: this runs ~50 times per shot, several shots per tick), the
+        # quartic's terms evaluated once per distinct time of the RK4 stages
         a, k12, m11c, g1, g12 = c["a"], c["k12"], c["m11"], c["g1"], c["g12"]
         on, fv, fc, b, drag = c["on"], c["fv"][0], c["fc"][0], c["b"], c["drag"][0]
         cos, sin, atan, pi = math.cos, math.sin, math.atan, math.pi
 
-        def accel(t, q, w):   # link 1's acceleration at time t of the quartic
+        def elbow(t):   # the quartic's angle, rate, acceleration and inertia terms at t
             q2t = q2 + v2 * t + k2 * t * t + k3 * t ** 3 + k4 * t ** 4
             v2t = v2 + 2 * k2 * t + 3 * k3 * t * t + 4 * k4 * t ** 3
             a2t = 2 * k2 + 6 * k3 * t + 12 * k4 * t * t
             c2, s2 = cos(q2t), sin(q2t)
-            m12, m11 = a + k12 * c2, m11c + 2.0 * k12 * c2
+            return q2t, v2t, a2t, s2, a + k12 * c2, m11c + 2.0 * k12 * c2
+
+        def accel(e, q, w):   # link 1's acceleration with the elbow at e
+            q2t, v2t, a2t, s2, m12, m11 = e
             bias = -k12 * s2 * (2.0 * w * v2t + v2t * v2t)
             grav = g1 * sin(q) + g12 * sin(q + q2t)
             fr = (fv * w + fc * (2.0 / pi) * atan(w / b) + drag * w * abs(w)) if on else 0.0
@@ -316,17 +320,20 @@ class ApexShot:
         dt = T / self.steps
         h2, h6 = dt / 2, dt / 6
         t = 0.0
+        e0 = elbow(t)
         for _ in range(self.steps):   # RK4 on link 1
-            d1 = accel(t, q1, v1)
+            em, e1 = elbow(t + h2), elbow(t + dt)
+            d1 = accel(e0, q1, v1)
             w2 = v1 + h2 * d1
-            d2 = accel(t + h2, q1 + h2 * v1, w2)
+            d2 = accel(em, q1 + h2 * v1, w2)
             w3 = v1 + h2 * d2
-            d3 = accel(t + h2, q1 + h2 * w2, w3)
+            d3 = accel(em, q1 + h2 * w2, w3)
             w4 = v1 + dt * d3
-            d4 = accel(t + dt, q1 + dt * w3, w4)
+            d4 = accel(e1, q1 + dt * w3, w4)
             q1 += h6 * (v1 + 2 * w2 + 2 * w3 + w4)
             v1 += h6 * (d1 + 2 * d2 + 2 * d3 + d4)
             t += dt
+            e0 = e1
         p, s = self.landing.plant, q1 - self.landing.alpha
         h = -p.l1 * math.cos(s) - p.l2 * math.cos(s + q2f)
         return np.array([v1, h - self.height]), 2.0 * k2

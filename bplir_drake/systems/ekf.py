@@ -204,11 +204,6 @@ def _input_noises(p: EstimatorParams) -> dict:
     return {2: Qu, 4: both}
 
 
-def _input_noise(p: EstimatorParams, inputs: int) -> np.ndarray:
-    """The noise covariance of a prediction's ``inputs`` (2 or 4) readings."""
-    return _input_noises(p)[inputs]
-
-
 def initial_state(p: EstimatorParams, x0, sigmas=None) -> EkfState:
     """Initial filter state; ``sigmas`` = (angle, rate[, bias]) overrides p0."""
     layout, n = state_layout(p)
@@ -384,7 +379,7 @@ def ekf_predict(s: EkfState, u, p: EstimatorParams, *, with_jacobian: bool = Fal
     x_new, A, W = discrete_f_jacobians(s.x, np.asarray(u, dtype=float), p)
     if "misalign" in layout and radial is not None:
         A[:, layout["misalign"]] += misalignment_columns(radial, W)
-    Qu = _input_noise(p, W.shape[1])
+    Qu = _input_noises(p)[W.shape[1]]   # 4: independent noise on the readings at both ends
     P = A @ s.P @ A.T + (W @ Qu) @ W.T
     P.flat[::P.shape[0] + 1] += _walk_variances(p) * p.period   # the diagonal
     return (EkfState(x_new, P), A) if with_jacobian else EkfState(x_new, P)

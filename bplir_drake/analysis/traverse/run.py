@@ -531,13 +531,16 @@ __all__ = ["TraverseResult", "run_traverse", "swing_params", "budgeted_currents"
 
 # ----------------------------------------------------------- tables
 
-#: columns of the per-manoeuvre table: (row key, header, format)
+#: columns of the per-manoeuvre table: (row key, header, format), the
+#: landing's figures in mm (rows hold metres)
 TABLE_COLUMNS = (
     ("index", "#", "{}"), ("kind", "manoeuvre", "{}"), ("obstacle", "obstacle", "{}"),
     ("holding_gripper", "holds", "{}"), ("from_m", "from [m]", "{:.3f}"),
     ("to_m", "to [m]", "{:.3f}"), ("incline_deg", "incline [deg]", "{:.1f}"),
     ("outcome", "outcome", "{}"), ("duration_s", "time [s]", "{:.2f}"),
     ("capture_speed_mps", "capture [m/s]", "{:.3f}"),
+    ("landing_bias_m", "aim raised [mm]", "mm"),
+    ("landing_height_error_m", "height error [mm]", "mm"),
     ("capture_impulse_Ns", "impulse [N s]", "{:.2f}"),
     ("peak_torque_Nm", "peak torque [N m]", "{:.1f}"), ("peak_power_W", "peak power [W]", "{:.0f}"),
     ("energy_J", "energy [J]", "{:.1f}"), ("i2t_end_A2s", "i2t after [A2 s]", "{:.0f}"),
@@ -549,6 +552,8 @@ def _cell(value, fmt: str) -> str:
         return "--"
     if value == "":
         return ""
+    if fmt == "mm":
+        return f"{1e3 * value:+.1f}"
     return fmt.format(value)
 
 

@@ -282,6 +282,23 @@ class ImuParams(_Block):
         return 1.0 / self.rate_hz
 
 
+@dataclass(frozen=True)
+class LineSensorParams(_Block):
+    """A range sensor on each gripper's jaw looking at the line (a short-range
+    laser triangulation or time-of-flight sensor, as line-inspection robots
+    carry to find the conductor), sampled with the IMUs: it reads the free
+    gripper's distance below the line, with white noise and a constant
+    offset (its mounting), while that distance is within ``range``.  The
+    estimator fuses it (:mod:`bplir_drake.systems.line_sensor`); 0: no
+    sensor, the IMUs alone (the dissertation's robot)."""
+
+    _name = "line_sensor"
+    range: float = _p(0.1, "m", 0, 1, doc="largest gripper-to-line distance the sensor reads (0: no sensor, the IMUs alone: the dissertation's and the lab's robots, with_controller)")
+    sigma: float = _p(0.001, "m", 0, 0.05, doc="white noise per sample")
+    offset: float = _p(0.0, "m", -0.02, 0.02, doc="constant reading error (mounting): the sensor reads the distance plus this")
+    filter_sigma: float = _positive(0.0015, "m", doc="the noise the estimator assumes for a reading (its R)")
+
+
 def sigma_from_density(density: float, rate_hz: float) -> float:
     """Per-sample standard deviation of white noise with the given density."""
     return density * math.sqrt(rate_hz)
@@ -740,6 +757,7 @@ class BplirParams:
     scenario: ScenarioParams = field(default_factory=ScenarioParams)
     drive: DriveParams = field(default_factory=DriveParams)
     traverse: TraverseParams = field(default_factory=TraverseParams)
+    line_sensor: LineSensorParams = field(default_factory=LineSensorParams)
     true_plant: PlantParams | None = None
     true_friction: FrictionParams | None = None
     preset_name: str = "dissertation"
@@ -783,7 +801,10 @@ class BplirParams:
         if _is_plugin(name):
             return replace(self, controller=replace(self.controller, plugin=name))
         path = replace(self.path, mode="lab") if name == "lab" else self.path
-        return replace(self, controller=ControllerParams.preset_named(name), path=path)
+        # the published robots sense the line with their IMUs alone
+        sensor = self.line_sensor if name == "qft" else replace(self.line_sensor, range=0.0)
+        return replace(self, controller=ControllerParams.preset_named(name), path=path,
+                       line_sensor=sensor)
 
     def with_estimator(self, spec: str) -> "BplirParams":
         """A user's estimator ``"module:factory"`` in the swing
@@ -835,7 +856,8 @@ BLOCKS = {
     "plant": PlantParams, "friction": FrictionParams, "motor": MotorParams,
     "imu": ImuParams, "estimator": EstimatorParams, "controller": ControllerParams,
     "path": PathParams, "scenario": ScenarioParams, "drive": DriveParams,
-    "traverse": TraverseParams, "true_plant": PlantParams, "true_friction": FrictionParams,
+    "traverse": TraverseParams, "line_sensor": LineSensorParams,
+    "true_plant": PlantParams, "true_friction": FrictionParams,
 }
 
 
@@ -851,6 +873,7 @@ def _lab() -> BplirParams:
     return BplirParams(
         estimator=EstimatorParams(r1=0.5, r2=0.5, l1=0.8),
         controller=ControllerParams.preset_named("lab"),
+        line_sensor=LineSensorParams(range=0.0),
         preset_name="lab",
     )
 
@@ -957,7 +980,7 @@ def as_jsonable(params: BplirParams) -> dict[str, Any]:
 
 __all__ = [
     "ParameterError", "PlantParams", "FrictionParams", "MotorParams", "ImuParams",
-    "EstimatorParams", "ControllerParams", "PathParams", "ScenarioParams",
+    "EstimatorParams", "LineSensorParams", "ControllerParams", "PathParams", "ScenarioParams",
     "BplirParams", "preset", "PRESETS", "from_dict", "load_toml", "to_toml",
     "save_toml", "to_dict", "sigma_from_density", "DriveParams", "TraverseParams",
     "swapped", "swapped_plant", "swapped_imu",

@@ -63,7 +63,7 @@ def test_correction_inverts_the_sensor_error_model_exactly():
         np.testing.assert_allclose(cal.correct(measured), ideal, rtol=0, atol=1e-12)
 
 
-def _imu_group(standstill: int, seed: int, n: int) -> list[int]:
+def _imu_group(standstill: int, seed: int, n: int, sensor_range: float = 0.0) -> list[int]:
     from bplir_drake.analysis.montecarlo import load_study, run_sample
 
     st = load_study(STUDY)
@@ -72,19 +72,23 @@ def _imu_group(standstill: int, seed: int, n: int) -> list[int]:
                   samples=n, seed=seed,
                   params=p.with_(scenario=dc.replace(p.scenario, gust_rate=0.0),
                                  estimator=dc.replace(p.estimator,
-                                                      standstill_samples=standstill)))
+                                                      standstill_samples=standstill),
+                                 line_sensor=dc.replace(p.line_sensor, range=sensor_range)))
     return [k for k in range(n) if not run_sample(st, k)["success"]]
 
 
 def test_calibration_captures_swings_with_biased_misaligned_imus():
     """The realistic study's IMU errors alone (bias +/-0.03 rad/s,
-    misalignment +/-2.5 deg, noise x0.5-2), EKF in the loop.  Held-out seeds:
-    root seed 1 (the calibration's only choice, 500 samples = 5 s, was made
-    on root seed 0).  Measured: 12 of 12 captured with the calibration; 1
-    of the first 6 without it (with the trapezoid in-loop filter before
-    2026-11-23: 10 of 12, and 0 of 6)."""
+    misalignment +/-2.5 deg, noise x0.5-2), EKF in the loop, the IMUs alone
+    (no line sensor).  Held-out seeds: root seed 1 (the calibration's only
+    choice, 500 samples = 5 s, was made on root seed 0).  Measured: 12 of
+    12 captured with the calibration; 1 of the first 6 without it (with
+    the trapezoid in-loop filter before 2026-11-23: 10 of 12, and 0 of 6).
+    With the jaw's line sensor (its default 10 cm range) and no
+    calibration 5 of those 6 land: the last 10 cm are measured."""
     assert _imu_group(500, 1, 12) == []
     assert _imu_group(0, 1, 6) == [1, 2, 3, 4, 5]
+    assert _imu_group(0, 1, 6, sensor_range=0.1) == [5]
 
 
 def test_measured_noise_widens_the_filter_only_beyond_the_tolerance():
@@ -120,17 +124,28 @@ def test_widening_to_the_measured_noise_lands_swings_with_noisy_imus():
     0 of 8.  Without the inflation 7 and 5, at x10 3 and 3; with the
     trapezoid filter before it: 5 and 2 of 8, at x10 3 and 1.  The aim law
     (the default until 2026-11-23) lands 6 of 8 with it at x5 (3 without),
-    3 at x10: under heavy sensor noise the shot loses a swing."""
+    3 at x10: under heavy sensor noise the shot loses a swing.  All of
+    these are the IMUs alone (``line_sensor.range = 0``).  With the jaw's
+    line sensor (the default since 2026-11-24) the last 10 cm are measured:
+    8 of 8 with the widening at x5 and at x10, 1 and 0 without it."""
     from bplir_drake.analysis.swing import SwingRunner
     from bplir_drake.params import BplirParams
 
-    p = BplirParams()
-    p = p.with_(imu=dc.replace(p.imu, gyro_sigma=5 * p.imu.gyro_sigma,
-                               accel_sigma=5 * p.imu.accel_sigma))
-    off = p.with_(estimator=dc.replace(p.estimator, noise_tolerance=100.0))
+    base = BplirParams()
+
+    def noisy(k, sensor=True):
+        p = base.with_(imu=dc.replace(base.imu, gyro_sigma=k * base.imu.gyro_sigma,
+                                      accel_sigma=k * base.imu.accel_sigma))
+        return p if sensor else p.with_(line_sensor=dc.replace(p.line_sensor, range=0.0))
+
+    def off(p):
+        return p.with_(estimator=dc.replace(p.estimator, noise_tolerance=100.0))
+
     runner = SwingRunner()
-    assert sum(runner.run(p, seed=s).success for s in range(8)) == 7
-    assert sum(runner.run(off, seed=s).success for s in range(8)) == 0
+    assert sum(runner.run(noisy(5, False), seed=s).success for s in range(8)) == 7
+    assert sum(runner.run(off(noisy(5, False)), seed=s).success for s in range(8)) == 0
+    assert sum(runner.run(noisy(10), seed=s).success for s in range(8)) == 8
+    assert sum(runner.run(off(noisy(5)), seed=s).success for s in range(8)) == 1
 
 
 def test_the_filter_starts_from_the_pose_the_robot_believes_not_the_true_one():

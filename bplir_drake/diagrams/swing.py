@@ -43,6 +43,7 @@ from ..systems.controller import CpflController
 from ..systems.disturbance import (CommandDelay, DisturbanceSource, delay_steps,
                                    disturbance_schedule, has_disturbance)
 from ..systems.calibration import ImuCalibration, calibrate_standstill
+from ..systems.line_sensor import LineSensor, standstill_readings
 from ..systems.delay_id import planned_probe
 from ..systems.ekf import KinematicEkf
 from ..systems.imu import standstill_samples
@@ -59,6 +60,7 @@ SAMPLE_FIELDS: dict[str, tuple[str, ...]] = {
     "true_friction": FRICTION_PARAMETERS,
     "imu": ("accel_sigma", "gyro_sigma", "gyro_bias1", "gyro_bias2", "gyro_drift", "misalign1",
             "misalign2", "accel_scale1", "accel_scale2", "gyro_scale1", "gyro_scale2", "noise"),
+    "line_sensor": ("sigma", "offset"),
     "scenario": ("seed", "friction_uncertainty", "wind_torque1", "wind_torque2", "gust_torque",
                  "gust_rate", "gust_duration", "torque_noise"),
 }
@@ -112,6 +114,8 @@ def set_swing_sample(built: Built, context, params: BplirParams, seed: int) -> N
     set_inertial_parameters(built.plant, context, params.simulated_plant)
     set_friction(built.systems["friction"], context, params.simulated_friction)
     built.systems["imu"].set_sensor(context, params.imu, seed)
+    if "line_sensor" in built.systems:
+        built.systems["line_sensor"].set_sensor(context, params.line_sensor, seed)
     if "ekf" in built.systems:  # a user's estimator calibrates itself, or not
         built.systems["ekf"].set_calibration(context,
                                              standstill_calibration(params, built.q0, seed))
@@ -174,7 +178,9 @@ def standstill_calibration(params: BplirParams, q0, seed: int) -> ImuCalibration
     (:func:`~bplir_drake.systems.imu.standstill_samples`, seeded by ``seed``)
     reduced by :func:`~bplir_drake.systems.calibration.calibrate_standstill`
     with the filter's gravity against the pose the robot believes it is in
-    (:func:`believed_start`: the robot never reads its true pose).  No
+    (:func:`believed_start`: the robot never reads its true pose); with a
+    line sensor, as many of its readings there, whose mean is its offset
+    (:func:`~bplir_drake.systems.line_sensor.standstill_readings`).  No
     calibration (identity) with 0 samples."""
     n = int(round(params.estimator.standstill_samples))
     if n < 2:
@@ -182,7 +188,11 @@ def standstill_calibration(params: BplirParams, q0, seed: int) -> ImuCalibration
     theta = absolute_from_relative(np.asarray(q0[:2], dtype=float))
     samples = standstill_samples(params.imu, theta, params.simulated_plant.g, seed, n)
     believed = absolute_from_relative(np.asarray(believed_start(params)[:2], dtype=float))
-    return calibrate_standstill(samples, believed, params.estimator.g)
+    calibration = calibrate_standstill(samples, believed, params.estimator.g)
+    if params.line_sensor.range > 0:   # the free gripper holds the line: the gap is 0
+        offset = float(np.mean(standstill_readings(params.line_sensor, seed, n)))
+        calibration = replace(calibration, line_offset=offset)
+    return calibration
 
 
 def add_sensing(builder, params: BplirParams, robot: Robot, q0, seed: int, estimator=None):
@@ -202,10 +212,19 @@ def add_sensing(builder, params: BplirParams, robot: Robot, q0, seed: int, estim
     est = params.estimator.for_loop()
     qb = believed_start(params)
     x0_abs = absolute_from_relative(np.array([qb[0], qb[1], 0.0, 0.0]))
+    ls = params.line_sensor
+    alpha = math.radians(params.scenario.incline_deg)
+    line = (params.plant.l1, params.plant.l2, alpha, ls.filter_sigma) if ls.range > 0 else None
     ekf = builder.AddNamedSystem("ekf", KinematicEkf(
         est, x0_abs, sigmas=(est.start_angle_sigma, est.start_rate_sigma, est.start_bias_sigma),
-        calibration=standstill_calibration(params, q0, seed)))
+        calibration=standstill_calibration(params, q0, seed), line=line))
     builder.Connect(sampler.get_output_port(0), ekf.get_input_port(0))
+    if line is not None:
+        true = params.simulated_plant
+        sensor = builder.AddNamedSystem("line_sensor", LineSensor(
+            ls, true.l1, true.l2, alpha, params.imu.period, seed))
+        builder.Connect(robot.plant.get_state_output_port(), sensor.state_port)
+        builder.Connect(sensor.GetOutputPort("line_gap"), ekf.line_port)
     return sampler, ekf, ekf.GetOutputPort("estimate_relative")
 
 
@@ -427,5 +446,7 @@ def build_swing(params: BplirParams, *, seed: int | None = None, use_estimator: 
                **control, "interlock": lock}
     if robot.disturbance is not None:
         systems["disturbance"] = robot.disturbance
+    if diagram.HasSubsystemNamed("line_sensor"):
+        systems["line_sensor"] = diagram.GetSubsystemByName("line_sensor")
     return Built(diagram, robot.plant, systems, loggers, params, q0,
                  swing_structure(params, use_est))

@@ -35,9 +35,11 @@ import numpy as np
 class ImuCalibration:
     """Gyro biases (rad/s), accelerometer misalignments (rad) and scale
     errors of both IMUs, with the standard errors of the biases (rad/s)
-    and misalignments (rad) from the calibration window, and the measured
+    and misalignments (rad) from the calibration window, the measured
     noise per sample ``(gyro rad/s, accelerometer m/s^2)`` (0: not
-    measured)."""
+    measured) and the line range sensor's offset (m: its mean reading
+    while the free gripper holds the line, where the gap is 0; removed
+    from every reading of the swing)."""
 
     bias: tuple = (0.0, 0.0)
     misalign: tuple = (0.0, 0.0)
@@ -46,6 +48,7 @@ class ImuCalibration:
     misalign_sigma: tuple = (0.0, 0.0)
     samples: int = 0
     noise: tuple = (0.0, 0.0)
+    line_offset: float = 0.0
 
     def correct(self, sample) -> np.ndarray:
         """``sample`` (6, ``IMU_COLUMNS`` order) with each accelerometer's
@@ -68,7 +71,8 @@ class ImuCalibration:
                 "accel_scale_error": list(self.scale),
                 "gyro_bias_sigma_rad_s": list(self.bias_sigma),
                 "misalignment_sigma_rad": list(self.misalign_sigma), "samples": self.samples,
-                "gyro_noise_rad_s": self.noise[0], "accel_noise_m_s2": self.noise[1]}
+                "gyro_noise_rad_s": self.noise[0], "accel_noise_m_s2": self.noise[1],
+                "line_sensor_offset_m": self.line_offset}
 
 
 def calibrate_standstill(samples, theta, g: float) -> ImuCalibration:

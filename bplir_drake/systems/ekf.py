@@ -433,6 +433,26 @@ def ekf_update(s: EkfState, z, u, p: EstimatorParams, *, with_innovation: bool =
     return (out, nu, S_raw, s) if with_innovation else out
 
 
+def ekf_gap_update(s: EkfState, reading: float, line) -> EkfState:
+    """The update with a line range sensor's reading (m, the free gripper's
+    distance below the line): ``line = (l1, l2, alpha, sigma)``, the
+    nominal link lengths, the line's incline and the reading's noise
+    (:func:`~bplir_drake.systems.line_sensor.line_gap`); scalar, Joseph
+    form."""
+    from .line_sensor import line_gap
+
+    l1, l2, alpha, sigma = line
+    gap, d1, d2 = line_gap(s.x[0], s.x[1], l1, l2, alpha)
+    H = np.zeros(len(s.x))
+    H[0], H[1] = d1, d2
+    PHt = s.P @ H
+    K = PHt / (H @ PHt + sigma * sigma)
+    x = s.x + K * (reading - gap)
+    IKH = _identity(len(s.x)) - np.outer(K, H)
+    P = IKH @ s.P @ IKH.T + sigma * sigma * np.outer(K, K)
+    return EkfState(x, 0.5 * (P + P.T))
+
+
 def _held_states(p: EstimatorParams):
     """The slice of the states beyond the angles and rates (gyro bias and
     self-calibration), which ``hold`` keeps from updating."""
@@ -489,7 +509,11 @@ class KinematicEkf(LeafSystem):
     """Discrete EKF at ``params.period`` on the tick schedule
     (:mod:`bplir_drake.systems.schedule`).
 
-    Input ``imu`` (6, see :data:`bplir_drake.systems.imu.IMU_COLUMNS`).
+    Input ``imu`` (6, see :data:`bplir_drake.systems.imu.IMU_COLUMNS`) and,
+    with ``line = (l1, l2, alpha, sigma)`` (nominal link lengths, the line's
+    incline, the reading's noise), ``line_gap`` (2: a line range sensor's
+    reading and valid flag, :class:`~bplir_drake.systems.line_sensor.LineSensor`),
+    fused after the IMU sample (:func:`ekf_gap_update`).
     Outputs ``estimate`` (theta1, theta2, omega1, omega2: absolute),
     ``estimate_relative`` (q1, q2, q1d, q2d), ``covariance_diagonal`` (n) and
     ``gyro_bias`` (2): the posterior of the sample held at the input,
@@ -498,7 +522,7 @@ class KinematicEkf(LeafSystem):
     """
 
     def __init__(self, params: EstimatorParams, x0=(0.0, 0.0, 0.0, 0.0), sigmas=None,
-                 calibration: ImuCalibration | None = None):
+                 calibration: ImuCalibration | None = None, line=None):
         super().__init__()
         if not isinstance(params, EstimatorParams):
             raise TypeError("KinematicEkf takes EstimatorParams (geometry and noise only)")
@@ -511,6 +535,10 @@ class KinematicEkf(LeafSystem):
         self._bias = layout.get("bias")
         self.n = n = len(init.x)
         self.imu_port = self.DeclareVectorInputPort("imu", 6)
+        # a line range sensor's (reading, valid): ekf_gap_update with line
+        self._line = tuple(float(v) for v in line) if line is not None else None
+        self.line_port = (self.DeclareVectorInputPort("line_gap", 2)
+                          if line is not None else None)
         # [x (n), P (n*n), previous corrected accelerometer readings (4),
         # first-sample flag]: _unpack()
         packed = np.concatenate([init.x, init.P.ravel(), np.zeros(4), [1.0]])
@@ -541,10 +569,14 @@ class KinematicEkf(LeafSystem):
     def _posterior(self, context):
         """The packed filter state after this tick's sample."""
         s, u_prev, first = self._unpack(context.get_discrete_state(self._state).get_value())
-        sample = context.get_abstract_parameter(self._calibration).get_value().correct(
-            self.imu_port.Eval(context))
+        calibration = context.get_abstract_parameter(self._calibration).get_value()
+        sample = calibration.correct(self.imu_port.Eval(context))
         s, u = ekf_step(s, u_prev, sample, context.get_abstract_parameter(self._tuned).get_value(),
                         first=first, hold=context.get_time() < self.params.calibrate_after)
+        if self._line is not None:
+            reading, valid = self.line_port.Eval(context)
+            if valid > 0.5:
+                s = ekf_gap_update(s, reading - calibration.line_offset, self._line)
         return np.concatenate([s.x, s.P.ravel(), u, [0.0]])
 
     def _store(self, context, discrete_state):

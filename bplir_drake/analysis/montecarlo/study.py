@@ -14,7 +14,7 @@ from ...params import BLOCKS, BplirParams, ParameterError, from_dict, read_toml,
 
 DIST_KINDS = ("uniform", "normal", "truncnormal")
 #: blocks a distribution may address (never the nominal model)
-UNCERTAIN_BLOCKS = ("true_plant", "true_friction", "imu", "motor", "scenario")
+UNCERTAIN_BLOCKS = ("true_plant", "true_friction", "imu", "line_sensor", "motor", "scenario")
 #: swing summary fields kept per sample
 RESULT_FIELDS = ("outcome", "success", "swing_time_s", "capture_distance_m", "capture_speed_mps",
                  "closest_distance_m", "travel_m", "landing_error_m",

@@ -174,19 +174,21 @@ def arrival_height_error(p: BplirParams, est: Log, status: dict) -> float:
     its arrival at the line (nan: no arrival).  At the arrival (the first
     time the gripper comes within ``scenario.capture_distance`` of the line,
     the moment its jaw senses the line) the gripper is that far below the
-    line; the estimate's distance there (the estimate log interpolated to
-    the arrival, the nominal model) less that is its error.  No true state
-    is read: what the robot itself can measure at each capture.  The log
-    is the in-loop estimator's, which runs in a swing on the true state
+    line; the estimate's distance there (the nominal model; the last
+    tick's estimate before the arrival carried to it at its own rate of
+    approach: the arrival falls between ticks, and the gripper rises up to
+    3 mm in one at 0.3 m/s) less that is its error.  No true state is read:
+    what the robot itself can measure at each capture.  The log is the
+    in-loop estimator's, which runs in a swing on the true state
     (``use_estimator=False``) too, unused: there this is its error."""
     from ...systems.plan_tracker import height_rates
 
     t = status["event_time_s"]
     if status["outcome"] not in ("captured", "crash") or not np.isfinite(t) or not len(est.t):
         return math.nan
-    x = est.at([t])[0]
-    h = height_rates(p.plant, math.radians(p.scenario.incline_deg), x)[0]
-    return float(h + p.scenario.capture_distance)
+    k = max(int(np.searchsorted(est.t, t, side="right")) - 1, 0)
+    h, rate, _ = height_rates(p.plant, math.radians(p.scenario.incline_deg), est.data[k])
+    return float(h + rate * (t - est.t[k]) + p.scenario.capture_distance)
 
 
 def swing_summary(p: BplirParams, lg: dict[str, Log], status: dict, seed: int,

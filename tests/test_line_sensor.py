@@ -1,0 +1,164 @@
+"""The jaw's line range sensor (``line_sensor``) and its fusion in the EKF."""
+import math
+
+import numpy as np
+import pytest
+from pydrake.systems.analysis import Simulator
+from pydrake.systems.framework import DiagramBuilder
+from pydrake.systems.primitives import ConstantVectorSource
+
+from bplir_drake.params import LineSensorParams, ParameterError, preset
+from bplir_drake.systems.ekf import EkfState, ekf_gap_update
+from bplir_drake.systems.line_sensor import LineSensor, line_gap
+from bplir_drake.systems.plan_tracker import height_rates
+from bplir_drake.systems.plant import initial_configuration
+
+
+def test_the_gap_is_zero_where_both_grippers_hold_the_line_and_its_gradient_exact():
+    p = preset().plant
+    for spacing in (1.1, 1.2, 1.3):
+        for incline in (-20.0, 0.0, 20.0):
+            a = math.radians(incline)
+            q = initial_configuration(spacing, p, a)
+            assert line_gap(q[0], q[0] + q[1], p.l1, p.l2, a)[0] == pytest.approx(0.0, abs=1e-12)
+    a, t1, t2, h = 0.3, 0.4, -1.9, 1e-6
+    gap, d1, d2 = line_gap(t1, t2, p.l1, p.l2, a)
+    assert d1 == pytest.approx((line_gap(t1 + h, t2, p.l1, p.l2, a)[0]
+                                - line_gap(t1 - h, t2, p.l1, p.l2, a)[0]) / (2 * h), rel=1e-7)
+    assert d2 == pytest.approx((line_gap(t1, t2 + h, p.l1, p.l2, a)[0]
+                                - line_gap(t1, t2 - h, p.l1, p.l2, a)[0]) / (2 * h), rel=1e-7)
+    # the terminal laws' distance to the line, with the other sign
+    assert gap == pytest.approx(-height_rates(p, a, [t1, t2 - t1, 0.0, 0.0])[0], abs=1e-12)
+
+
+def _readings(sensor_params, state, ticks=1, alpha=0.0):
+    p = preset().plant
+    b = DiagramBuilder()
+    src = b.AddSystem(ConstantVectorSource(np.asarray(state, dtype=float)))
+    sensor = b.AddSystem(LineSensor(sensor_params, p.l1, p.l2, alpha, 0.01, seed=3))
+    b.Connect(src.get_output_port(), sensor.state_port)
+    diagram = b.Build()
+    sim = Simulator(diagram)
+    ctx = sensor.GetMyContextFromRoot(sim.get_mutable_context())
+    out = []
+    for k in range(ticks):
+        sim.AdvanceTo(0.01 * k)
+        out.append(sensor.get_output_port().Eval(ctx).copy())
+    return np.array(out)
+
+
+def test_the_sensor_reads_the_true_gap_plus_its_offset_and_noise_within_range():
+    p = preset().plant
+    # 30 mm below the line at the mirror of the start pose, lifted by link 1
+    q = -initial_configuration(1.2, p)
+    q[0] -= 0.03 / p.l1
+    gap = line_gap(q[0], q[0] + q[1], p.l1, p.l2, 0.0)[0]
+    assert 0.02 < gap < 0.04
+    exact = _readings(LineSensorParams(range=0.1, sigma=0.0, offset=0.002), [*q, 0, 0])[0]
+    assert exact == pytest.approx([gap + 0.002, 1.0], abs=1e-12)
+    noisy = _readings(LineSensorParams(range=0.1, sigma=0.001), [*q, 0, 0], ticks=400)
+    assert np.all(noisy[:, 1] == 1.0)
+    # 400 samples: the sample std within +-10 % of sigma (chi-square, ~3.5 sd)
+    assert np.std(noisy[:, 0] - gap, ddof=1) == pytest.approx(0.001, rel=0.1)
+    assert abs(np.mean(noisy[:, 0] - gap)) < 4 * 0.001 / 20
+    short = _readings(LineSensorParams(range=0.02, sigma=0.001), [*q, 0, 0])[0]
+    assert list(short) == [0.0, 0.0]   # out of range: no reading
+    with pytest.raises(ValueError, match="range = 0"):
+        LineSensor(LineSensorParams(range=0.0), p.l1, p.l2, 0.0, 0.01)
+    with pytest.raises(ParameterError, match=r"line_sensor.range = -0.1 is out of range"):
+        LineSensorParams(range=-0.1)
+
+
+def test_a_reading_moves_the_estimated_gap_by_the_kalman_share():
+    """Scalar update: the gap's innovation shrinks to ``sigma^2 / (H P H' +
+    sigma^2)`` of itself (to first order: a 0.5 mm innovation)."""
+    p = preset().plant
+    q = -initial_configuration(1.2, p)
+    x = np.array([q[0] + 1e-3, q[0] + q[1] - 1e-3, 0.1, -0.2, 0.0, 0.0])
+    P = np.diag([4e-6, 9e-6, 1e-4, 1e-4, 1e-6, 1e-6])
+    P[0, 1] = P[1, 0] = 2e-6
+    sigma = 0.0015
+    gap, d1, d2 = line_gap(x[0], x[1], p.l1, p.l2, 0.0)
+    reading = gap + 5e-4
+    H = np.array([d1, d2, 0, 0, 0, 0])
+    share = sigma ** 2 / (H @ P @ H + sigma ** 2)
+    post = ekf_gap_update(EkfState(x, P), reading, (p.l1, p.l2, 0.0, sigma))
+    new = line_gap(post.x[0], post.x[1], p.l1, p.l2, 0.0)[0]
+    assert (reading - new) == pytest.approx((reading - gap) * share, rel=1e-3)
+    # and the gap's variance falls by the same share
+    assert H @ post.P @ H == pytest.approx((H @ P @ H) * share, rel=1e-9)
+
+
+def test_the_sensor_removes_the_landing_error_that_link_length_errors_leave():
+    """With the IMUs alone, the standstill calibration takes the pose the
+    robot believes (nominal lengths) for the true one: the misalignments
+    it removes carry the start pose's error, whose height error ``L`` at
+    the start (the nominal kinematics at the true pose) comes back at the
+    mirrored landing pose with the same sign, about twice over (slope 1.96
+    over 1000 swings of the realistic study, root seed 7).  Noise-free
+    IMUs, default swing, seed 0: measured landing height errors 6.89 /
+    -4.06 / 0.67 mm for L = 3.27 / -3.27 / 0.51 mm; with the line sensor
+    (noise-free readings) 0.25 / 0.05 / 0.25 mm."""
+    import dataclasses as dc
+
+    from bplir_drake.analysis.swing.run import run_swing
+
+    p0 = preset()
+    for d1, d2, imu_alone in ((0.002, -0.002, 6.89e-3), (-0.002, 0.002, -4.06e-3),
+                              (0.002, 0.002, 0.67e-3)):
+        true = dc.replace(p0.plant, l1=p0.plant.l1 + d1, l2=p0.plant.l2 + d2)
+        q = initial_configuration(1.2, true)
+        L = -line_gap(q[0], q[0] + q[1], p0.plant.l1, p0.plant.l2, 0.0)[0]
+        base = p0.with_(true_plant=true, imu=dc.replace(p0.imu, noise=False))
+        alone = run_swing(base.with_(line_sensor=LineSensorParams(range=0.0)), seed=0).summary
+        fused = run_swing(base.with_(line_sensor=LineSensorParams(range=0.1, sigma=0.0)),
+                          seed=0).summary
+        assert alone["outcome"] == fused["outcome"] == "captured"
+        assert alone["landing_height_error_m"] == pytest.approx(imu_alone, abs=0.02e-3)
+        assert abs(alone["landing_height_error_m"]) > abs(L)          # the start's error, grown
+        assert math.copysign(1, alone["landing_height_error_m"]) == math.copysign(1, L)
+        assert abs(fused["landing_height_error_m"]) < 0.3e-3
+
+
+def test_the_standstill_calibration_measures_the_sensors_offset_on_the_line():
+    """Before the swing the free gripper holds the line (gap 0): the mean of
+    its 500 readings is the offset, to ``sigma / sqrt(500)``; the IMUs'
+    calibration is unchanged by it."""
+    import dataclasses as dc
+
+    from bplir_drake.diagrams.swing import standstill_calibration, swing_geometry
+    from bplir_drake.systems.line_sensor import standstill_readings
+
+    p = preset()
+    p = p.with_(line_sensor=dc.replace(p.line_sensor, offset=0.0008, sigma=0.002))
+    q0 = swing_geometry(p)[0]
+    cal = standstill_calibration(p, q0, seed=4)
+    readings = standstill_readings(p.line_sensor, 4, 500)
+    assert cal.line_offset == pytest.approx(np.mean(readings), abs=1e-15)
+    assert cal.line_offset == pytest.approx(0.0008, abs=4 * 0.002 / math.sqrt(500))
+    assert cal.summary()["line_sensor_offset_m"] == cal.line_offset
+    without = standstill_calibration(p.with_(line_sensor=dc.replace(p.line_sensor, range=0.0)),
+                                     q0, seed=4)
+    assert without.line_offset == 0.0
+    assert (without.bias, without.misalign) == (cal.bias, cal.misalign)
+
+
+def test_a_calibrated_offset_does_not_move_the_landing():
+    """A 5 mm mounting offset, calibrated on the line before the swing:
+    the landing height error stays that of no offset (noise-free sensors,
+    default swing, seed 0: measured 0.42 mm both); uncalibrated (no
+    standstill window) the estimate lands 4.8 mm lower (-4.36 mm)."""
+    import dataclasses as dc
+
+    from bplir_drake.analysis.swing.run import run_swing
+
+    p = preset()
+    p = p.with_(imu=dc.replace(p.imu, noise=False),
+                line_sensor=dc.replace(p.line_sensor, sigma=0.0, offset=0.005))
+    zero = p.with_(line_sensor=dc.replace(p.line_sensor, offset=0.0))
+    raw = p.with_(estimator=dc.replace(p.estimator, standstill_samples=0))
+    e = {name: run_swing(q, seed=0).summary["landing_height_error_m"]
+         for name, q in (("offset", p), ("zero", zero), ("raw", raw))}
+    assert e["offset"] == pytest.approx(e["zero"], abs=1e-5)
+    assert e["zero"] == pytest.approx(0.42e-3, abs=0.02e-3)
+    assert e["raw"] - e["zero"] == pytest.approx(-0.005, abs=0.5e-3)

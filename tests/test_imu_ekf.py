@@ -288,7 +288,7 @@ def test_inflation_lands_the_quick_benchmarks_torque_noise():
     assert p.estimator.loop_inflate_nis == 3.0 and p.traverse.swapped_inflate_nis == 0.0
     # the IMUs alone: with the jaw's line sensor (the default since
     # 2026-11-24) both cases land with and without the inflation
-    p = p.with_(line_sensor=dc.replace(p.line_sensor, range=0.0))
+    p = p.imu_only()
     scores = {}
     for k in (3.0, 0.0):
         q = p.with_(estimator=dc.replace(p.estimator, loop_inflate_nis=k))

@@ -204,8 +204,11 @@ def test_held_out_samples_of_the_realistic_study_land_on_the_grip(incline):
     fixed at 1.2 m (the
     shipped plans; the spacing draws need a plan each).  Every draw else:
     friction, masses, inertias, centres of mass, link lengths, IMU noise,
-    biases and misalignment, 0-20 ms of delay, wind and gusts.  Measured
-    with the Heun-step in-loop filter and the believed start pose
+    biases and misalignment, the line sensor's noise and offset, 0-20 ms of
+    delay, wind and gusts.  Measured with the jaw's line sensor and the
+    shot's -18 mm aim (2026-11-24): 16 of 16 on every line, the fastest at
+    0.31, 0.33 and 0.41 m/s, within 4, 4 and 8 cm of the grip.  With the
+    IMUs alone, the Heun-step in-loop filter and the believed start pose
     (2026-11-23): 15, 15 and 16 of 16 captured at 0, +20 and -20 deg, within
     0.1 D of the grip, the fastest at 0.46, 0.43 and 0.39 m/s; sample 15 at
     0 deg crashes at 0.59 m/s and sample 5 at +20 deg at 0.63 m/s (both
@@ -229,10 +232,11 @@ def test_held_out_samples_of_the_realistic_study_land_on_the_grip(incline):
         params, seed, _ = sample_params(study, k)
         runs.append(runner.run(params, seed=seed).summary)
     missed = [k for k, r in enumerate(runs) if not r["success"]]
-    assert missed == {0.0: [15], 20.0: [5], -20.0: []}[incline]
+    assert missed == []
     landed = [r for r in runs if r["success"]]
-    assert all(abs(r["landing_error_m"]) < 0.12 for r in landed)
-    assert all(r["capture_speed_mps"] < 0.48 for r in landed)
+    assert all(abs(r["landing_error_m"]) < 0.09 for r in landed)
+    assert all(r["capture_speed_mps"] < {0.0: 0.32, 20.0: 0.34, -20.0: 0.42}[incline]
+               for r in landed)
     assert all(r["peak_motor_power_W"] < 220.0 for r in runs)
 
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import dataclasses as dc
 
-from ...params import BplirParams, ControllerParams
+from ...params import BplirParams
 from .run import run_swing
 
 #: (label, controller preset, path mode, estimator in the loop); "auto" is
@@ -24,8 +24,8 @@ def compare_presets(params: BplirParams, seed: int | None = None) -> list[dict]:
     one row per run with its summary figures."""
     rows = []
     for label, ctrl, mode, est in VARIANTS:
-        p = params.with_(controller=ControllerParams.preset_named(ctrl),
-                         path=dc.replace(params.path, mode=mode))
+        p = params.with_controller(ctrl)   # the published robots without the line sensor
+        p = p.with_(path=dc.replace(p.path, mode=mode))
         r = run_swing(p, seed=seed, use_estimator=est)
         rows.append({"variant": label} | {k: r.summary[k] for k in COLUMNS}
                     | {"_result": r})

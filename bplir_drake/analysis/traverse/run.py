@@ -126,9 +126,11 @@ def swing_params(params: BplirParams, holding: int, spacing: float,
     With ``traverse.landing`` (the default) the swing lands as a single
     swing does (the apex landing, the delay probe and its compensation),
     the swapped robot by ``traverse.swapped_landing_law`` (its fallback
-    aiming at ``traverse.swapped_landing_margin``, its shot held from
+    aiming at ``traverse.swapped_landing_margin``, its shot aimed at
+    ``traverse.swapped_shoot_height`` and held from
     ``traverse.swapped_shoot_min_time``, its filter's covariance inflation
-    ``traverse.swapped_inflate_nis``)."""
+    ``traverse.swapped_inflate_nis``, its line sensor's range at most
+    ``traverse.swapped_line_range``)."""
     p = params if holding == 1 else swapped(params)
     sc = dc.replace(p.scenario, grip_spacing=round(float(spacing), 3),
                     incline_deg=round(math.degrees(incline), 1))
@@ -146,9 +148,12 @@ def swing_params(params: BplirParams, holding: int, spacing: float,
         elif holding == 2:
             path = dc.replace(path, landing_margin=tp.swapped_landing_margin,
                               landing_law=tp.swapped_landing_law,
-                              shoot_min_time=tp.swapped_shoot_min_time)
+                              shoot_min_time=tp.swapped_shoot_min_time,
+                              shoot_height=tp.swapped_shoot_height)
             p = p.with_(estimator=dc.replace(p.estimator,
-                                             loop_inflate_nis=tp.swapped_inflate_nis))
+                                             loop_inflate_nis=tp.swapped_inflate_nis),
+                        line_sensor=dc.replace(p.line_sensor, range=min(
+                            p.line_sensor.range, tp.swapped_line_range)))
         p = p.with_(path=path)
     return p
 

@@ -94,11 +94,12 @@ def test_the_sensor_removes_the_landing_error_that_link_length_errors_leave():
     robot believes (nominal lengths) for the true one: the misalignments
     it removes carry the start pose's error, whose height error ``L`` at
     the start (the nominal kinematics at the true pose) comes back at the
-    mirrored landing pose with the same sign, about twice over (slope 1.96
-    over 1000 swings of the realistic study, root seed 7).  Noise-free
-    IMUs, default swing, seed 0: measured landing height errors 6.89 /
-    -4.06 / 0.67 mm for L = 3.27 / -3.27 / 0.51 mm; with the line sensor
-    (noise-free readings) 0.25 / 0.05 / 0.25 mm."""
+    mirrored landing pose with the same sign, about twice over (slope 1.75
+    over 1000 swings of the realistic study, root seed 7, the IMUs alone).
+    Noise-free IMUs, default swing, seed 0: measured landing height errors
+    6.89 / -4.06 / 0.67 mm for L = 3.27 / -3.27 / 0.51 mm (the IMUs
+    alone, ``imu_only``); with the line sensor (noise-free readings, its
+    0.2 m range, the -18 mm shot) 0.07 / 0.21 / 0.18 mm."""
     import dataclasses as dc
 
     from bplir_drake.analysis.swing.run import run_swing

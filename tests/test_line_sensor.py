@@ -180,7 +180,8 @@ def test_the_presets_and_the_swapped_robot_choose_their_sensing():
     assert preset("lab").line_sensor.range == 0.0
     assert p.with_controller("qft").line_sensor.range == 0.2
     only = p.imu_only()
-    assert (only.line_sensor.range, only.path.shoot_height) == (0.0, -0.015)
+    assert (only.line_sensor.range, only.path.shoot_height, only.path.shoot_min_time) == (
+        0.0, -0.015, 0.04)
     assert swing_params(p, 1, 1.2, 0.0).line_sensor.range == 0.2
     swapped = swing_params(p, 2, 1.2, 0.0)
     assert (swapped.line_sensor.range, swapped.path.shoot_height) == (0.0, -0.015)

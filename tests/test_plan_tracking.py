@@ -43,9 +43,10 @@ def test_planned_target_rests_inside_the_band(uphill):
 def test_uphill_swing_with_ekf_tracking_a_plan(uphill):
     """Measured (seeds 0-19, friction +/-20 %, IMU noise, EKF; the default
     auto landing law, which shoots on this plan, the delay probe and the
-    jaw's line sensor): all 20 captured at 0.226-0.308 m/s after
-    1.251-1.259 s, within 1.1 cm of the planned grip; peak motor power
-    104-109 W against the 220 W rating, peak torque 12.0-18.2 N m
+    jaw's line sensor, the shot held from 0.03 s): all 20 captured at
+    0.180-0.290 m/s after 1.252-1.260 s, within 1.1 cm of the planned grip;
+    peak motor power 104-109 W against the 220 W rating, peak torque
+    12.0-18.0 N m
     (2026-11-24; with the IMUs alone 0.196-0.377 m/s, within 1.2 cm,
     12.0-18.6 N m; with the trapezoid filter before
     2026-11-23: 0.277-0.475 m/s, 102-112 W, 11.9-15.4 N m; before the probe
@@ -66,7 +67,7 @@ def test_uphill_swing_with_ekf_tracking_a_plan(uphill):
         assert s["fixed_gripper_open"]
         assert s["peak_motor_power_W"] < 220.0 and s["peak_torque_Nm"] <= 20.0 + 1e-9
         assert abs(s["landing_error_m"]) < 0.012 and 1.24 < s["swing_time_s"] < 1.27
-        assert 0.22 < s["capture_speed_mps"] < 0.32
+        assert 0.17 < s["capture_speed_mps"] < 0.30
 
 
 def test_state_indexed_tracker_reads_no_clock(uphill):

@@ -57,9 +57,9 @@ def _swing_outcome(seed):
 def test_twenty_seeds_with_ekf_and_uncertain_friction():
     """The default (plan tracking with the auto landing law, which shoots on
     this plan, standstill calibration, the delay probe, the jaw's line
-    sensor).  Measured: all of seeds 0-19 captured at 0.161-0.249 m/s after
-    1.356-1.365 s, within 2.4 mm of the planned grip, peak torque
-    13.6-17.4 N m (2026-11-24; with the IMUs alone 0.162-0.403 m/s after
+    sensor, the shot held from 0.03 s).  Measured: all of seeds 0-19
+    captured at 0.138-0.245 m/s after 1.357-1.366 s, within 2.5 mm of the
+    planned grip, peak torque 13.6-16.2 N m (2026-11-24; with the IMUs alone 0.162-0.403 m/s after
     1.335-1.370 s, within 9.7 mm, 13.4-19.2 N m, the probe's 13.4 at the
     least; before the probe 0.152-0.403 m/s, 6.2-16.9 N m; the
     aim law, the default until 2026-11-23: 0.333-0.408 m/s after
@@ -72,7 +72,7 @@ def test_twenty_seeds_with_ekf_and_uncertain_friction():
         assert torque <= 20.0 + 1e-9
         assert fixed_open == (outcome == "captured")   # the interlock never opens early
         if outcome == "captured":
-            assert 0.15 <= speed <= 0.26 and 1.35 <= t <= 1.37
+            assert 0.13 <= speed <= 0.25 and 1.35 <= t <= 1.37
         else:
             assert outcome == "crash" and speed > 0.5   # a fast arrival is never a success
 

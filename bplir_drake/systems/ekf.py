@@ -48,6 +48,7 @@ from pydrake.systems.framework import LeafSystem
 
 from ..params import EstimatorParams
 from .calibration import ImuCalibration
+from .line_sensor import line_gap
 from .schedule import declare_store, declare_tick_result
 
 
@@ -439,8 +440,6 @@ def ekf_gap_update(s: EkfState, reading: float, line) -> EkfState:
     nominal link lengths, the line's incline and the reading's noise
     (:func:`~bplir_drake.systems.line_sensor.line_gap`); scalar, Joseph
     form."""
-    from .line_sensor import line_gap
-
     l1, l2, alpha, sigma = line
     gap, d1, d2 = line_gap(s.x[0], s.x[1], l1, l2, alpha)
     H = np.zeros(len(s.x))

@@ -207,7 +207,10 @@ def test_held_out_samples_of_the_realistic_study_land_on_the_grip(incline):
     biases and misalignment, the line sensor's noise and offset, 0-20 ms of
     delay, wind and gusts.  Measured with the jaw's line sensor and the
     shot's -18 mm aim (2026-11-24): 16 of 16 on every line, the fastest at
-    0.31, 0.33 and 0.41 m/s, within 4, 4 and 8 cm of the grip.  With the
+    0.31, 0.33 and 0.41 m/s, within 4, 4 and 8 cm of the grip; at -20 deg
+    with the shot held from 0.05 s and aimed 19 mm below the line
+    (shoot_lift_min_time, shoot_lift_height, later that day) instead of
+    the aim law, the fastest at 0.329 m/s, within 7.7 cm.  With the
     IMUs alone, the Heun-step in-loop filter and the believed start pose
     (2026-11-23): 15, 15 and 16 of 16 captured at 0, +20 and -20 deg, within
     0.1 D of the grip, the fastest at 0.46, 0.43 and 0.39 m/s; sample 15 at
@@ -235,21 +238,23 @@ def test_held_out_samples_of_the_realistic_study_land_on_the_grip(incline):
     assert missed == []
     landed = [r for r in runs if r["success"]]
     assert all(abs(r["landing_error_m"]) < 0.09 for r in landed)
-    assert all(r["capture_speed_mps"] < {0.0: 0.32, 20.0: 0.34, -20.0: 0.42}[incline]
+    assert all(r["capture_speed_mps"] < {0.0: 0.32, 20.0: 0.34, -20.0: 0.34}[incline]
                for r in landed)
     assert all(r["peak_motor_power_W"] < 220.0 for r in runs)
 
 
-@pytest.mark.parametrize("incline,fails", [(0.0, []), (20.0, []),
-                                           (-20.0, ["lc2 -10%"])])
+@pytest.mark.parametrize("incline,fails", [(0.0, []), (20.0, []), (-20.0, [])])
 def test_link_2_parameters_off_by_10_percent(incline, fails):
     """m2, I2 or lc2 of the simulated robot 10 % off the nominal model the
     controller uses (seed 0, EKF in the loop, plan tracking with the
-    default landing law: shooting at 0 and +20 deg, aiming at -20 deg).
+    default landing law: shooting, held from 0.05 s and aimed 19 mm below
+    the line at -20 deg).
     Measured: every case captured at 0 and +20 deg (0.36-0.44 m/s, within
     6.1 cm of the grip: lc2 -10 % lands 6.05 cm short at 0 deg); at -20 deg
-    lc2 -10 % crashes (0.62 m/s) -- a 5.5 cm shift of link 2's centre of
-    mass, five times the realistic study's draw.  (The aim law at +20 deg
+    every case at 0.12-0.29 m/s, within 5 cm (2026-11-24: lc2 +10 % at
+    0.289 m/s, 5.0 cm past the grip).  With the aim law at -20 deg (before
+    2026-11-24) lc2 -10 % crashed at 0.62 m/s -- a 5.5 cm shift of link 2's
+    centre of mass, five times the realistic study's draw.  (The aim law at +20 deg
     crashed both lc2 cases, at 0.62 and 0.54 m/s.)  Before
     the landing (plan tracking alone): 1 of 6 captured at +20 deg, 2 of 6
     at -20 deg."""

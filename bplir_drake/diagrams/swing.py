@@ -288,7 +288,8 @@ def add_swing_controller(builder, params: BplirParams, state_port, robot: Robot,
         builder.Connect(state_port, predictor.estimate_port)
         state_port = predictor.predicted_port
     if params.path.mode == "plan":
-        from ..systems.plan_tracker import ApexShot, Landing, PlanTracker, Reach, landing_law
+        from ..systems.plan_tracker import (ApexShot, Landing, PlanTracker, Reach,
+                                            resolved_landing)
 
         if plan_gains is None:
             raise ValueError("path.mode = 'plan' (the qft preset's default) needs the tracking "
@@ -298,8 +299,9 @@ def add_swing_controller(builder, params: BplirParams, state_port, robot: Robot,
         law = pp.landing_law
         if law == "auto":   # resolved on the plan's own samples (the breaks of x0), as
             # the traversal's current budget resolves it: the two cannot disagree
-            law = landing_law(params.plant, path_geometry.alpha, plan_gains.x0.vector_values(
-                plan_gains.x0.get_segment_times()).T, pp)
+            law, pp = resolved_landing(params.plant, path_geometry.alpha,
+                                       plan_gains.x0.vector_values(
+                                           plan_gains.x0.get_segment_times()).T, pp)
         reach = None   # the terminal law: the apex landing, the reach or none
         if pp.landing_lead > 0 and law == "shoot":
             reach = ApexShot.from_params(params.plant, params.friction, path_geometry.alpha, pp)

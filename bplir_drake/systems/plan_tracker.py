@@ -422,17 +422,31 @@ def link1_share(p, alpha: float, states, depth: float) -> float:
     return by_link1 / total if abs(total) > 1e-9 else 0.0
 
 
-def landing_law(p, alpha: float, states, path) -> str:
-    """``path.landing_law``, with ``"auto"`` resolved on the planned swing
-    (``states``, relative, in time order): ``"shoot"`` where link 1 makes
-    at least ``path.shoot_link1_share`` of the gripper's rise when it comes
-    within ``path.shoot_depth`` of the line (the shot predicts link 1's
-    stop; it has nothing to aim with where the elbow lifts the gripper, as
-    at the end of the -20 degree plan), ``"aim"`` elsewhere."""
+def resolved_landing(p, alpha: float, states, path):
+    """(law, path): ``path.landing_law`` with ``"auto"`` resolved on the
+    planned swing (``states``, relative, in time order), and ``path`` with
+    the shot's hold time and aim of that swing.  Where link 1 makes at least
+    ``path.shoot_link1_share`` of the gripper's rise when it comes within
+    ``path.shoot_depth`` of the line, the shot held from
+    ``path.shoot_min_time``; where the elbow lifts the gripper (the end of
+    the -20 degree plan: link 1 creeps while the elbow stops the gripper
+    at the line, and a short hold asks for the torque limit both ways), the
+    shot held from ``path.shoot_lift_min_time`` and aimed at
+    ``path.shoot_lift_height``, or the aim law if ``shoot_lift_min_time``
+    is 0 (the rule until 2026-11-24)."""
     if path.landing_law != "auto":
-        return path.landing_law
-    share = link1_share(p, alpha, states, path.shoot_depth)
-    return "shoot" if share >= path.shoot_link1_share else "aim"
+        return path.landing_law, path
+    if link1_share(p, alpha, states, path.shoot_depth) >= path.shoot_link1_share:
+        return "shoot", path
+    if path.shoot_lift_min_time > 0:
+        return "shoot", replace(path, shoot_min_time=path.shoot_lift_min_time,
+                                shoot_height=path.shoot_lift_height)
+    return "aim", path
+
+
+def landing_law(p, alpha: float, states, path) -> str:
+    """The law of :func:`resolved_landing`: ``"aim"`` or ``"shoot"``."""
+    return resolved_landing(p, alpha, states, path)[0]
 
 
 def height_rates(p, alpha: float, x) -> tuple[float, float, float]:

@@ -70,6 +70,25 @@ def test_uphill_swing_with_ekf_tracking_a_plan(uphill):
         assert 0.17 < s["capture_speed_mps"] < 0.30
 
 
+def test_downhill_swing_with_ekf_tracking_a_plan(uphill):
+    """The -20 deg line, seeds 0-19 (friction +/-20 %, IMU noise, EKF; the
+    default auto landing law, which shoots here held from 0.05 s and aimed
+    19 mm below the line, the delay probe and the jaw's line sensor).
+    Measured 2026-11-24: all 20 captured at 0.096-0.254 m/s after
+    1.285-1.302 s, within 8 mm of the planned grip, peak torque 16.8-19.2
+    N m (the delay probe on the plan's start torque), peak power 32-40 W.
+    With the aim law (the default before that day): 0.23-0.28 m/s, within
+    1.0 cm, 17.0 N m, 40 W at most."""
+    down = uphill.with_(scenario=dc.replace(uphill.scenario, incline_deg=-20.0))
+    rows = [run_swing(down, seed=k).summary for k in range(20)]
+    assert [k for k, s in enumerate(rows) if s["outcome"] != "captured"] == []
+    for s in rows:
+        assert s["peak_motor_power_W"] < 45.0 and s["peak_torque_Nm"] <= 20.0 + 1e-9
+        assert abs(s["landing_error_m"]) < 0.009 and 1.28 < s["swing_time_s"] < 1.31
+        assert 0.09 < s["capture_speed_mps"] < 0.26
+    assert np.median([s["capture_speed_mps"] for s in rows]) < 0.2
+
+
 def test_state_indexed_tracker_reads_no_clock(uphill):
     """indexing = "state": the plan's phase comes from the estimate alone.  It
     finds the plan time of a plan state, never goes back, and the same state

@@ -89,6 +89,21 @@ def test_downhill_swing_with_ekf_tracking_a_plan(uphill):
     assert np.median([s["capture_speed_mps"] for s in rows]) < 0.2
 
 
+def test_the_tracker_keeps_the_elbow_within_the_motor_power(uphill):
+    """With ``power_limit`` the command is clipped to ``P / |q2'|`` on the
+    estimated elbow rate: at 18 rad/s a 220 W motor gives at most 12.2 N m
+    either way; at rest the torque limit alone applies."""
+    plan, gains = tracking_plan(uphill)
+    free = PlanTracker(gains, 20.0, 0.01)
+    capped = PlanTracker(gains, 20.0, 0.01, power_limit=220.0)
+    x = plan.states[int(np.searchsorted(plan.times, 0.5))] + [1.0, 0.0, 0.0, 0.0]
+    fast, rest = np.r_[x[:3], 18.0], np.r_[x[:3], 0.0]
+    assert abs(free.law(0.5, fast)[0]) == 20.0
+    assert capped.law(0.5, fast)[0] == pytest.approx(np.sign(free.law(0.5, fast)[0]) * 220 / 18)
+    assert capped.law(0.5, rest) == free.law(0.5, rest)
+    assert capped.law(0.5, plan.states[0]) == free.law(0.5, plan.states[0])
+
+
 def test_state_indexed_tracker_reads_no_clock(uphill):
     """indexing = "state": the plan's phase comes from the estimate alone.  It
     finds the plan time of a plan state, never goes back, and the same state

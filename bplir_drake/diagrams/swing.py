@@ -311,7 +311,8 @@ def add_swing_controller(builder, params: BplirParams, state_port, robot: Robot,
             reach = Reach.from_params(params.plant, path_geometry.alpha, pp)
         tracker = builder.AddNamedSystem("plan_tracker", PlanTracker(
             plan_gains, params.controller.torque_limit, T, indexing=pp.plan_indexing,
-            reach=reach, lead=steps * T, probe=probe, adaptive_lead=identify))
+            reach=reach, lead=steps * T, probe=probe, adaptive_lead=identify,
+            power_limit=pp.plan_power_share * params.motor.power_rating))
         builder.Connect(state_port, tracker.get_input_port(0))
         out = {"controller": tracker}
         if identifier is not None:

@@ -498,13 +498,19 @@ class PlanTracker(LeafSystem):
     ``probe``: torques (N m) added to the commands of ticks 0, 1, ... (the
     delay probe of :mod:`bplir_drake.systems.delay_id`).  With
     ``adaptive_lead`` the lead is ``delay_steps`` ticks, read from that
-    input (an identified delay) instead of ``lead``."""
+    input (an identified delay) instead of ``lead``.  ``power_limit`` (W, 0:
+    none): every command is also clipped to ``power_limit / |q2'|`` on the
+    state input's elbow rate, so that the motor's mechanical power stays
+    within its rating (the planner holds the plan to it at its knots; the
+    feedback and the terminal law are not planned)."""
 
     def __init__(self, gains, torque_limit: float, period: float,
                  indexing: str = "time", phase_weights=(1.0, 1.0, 0.01, 0.01),
                  search: float = 0.05, reach: Landing | Reach | ApexShot | None = None,
-                 lead: float = 0.0, probe=(), adaptive_lead: bool = False):
+                 lead: float = 0.0, probe=(), adaptive_lead: bool = False,
+                 power_limit: float = 0.0):
         super().__init__()
+        self.power_limit = float(power_limit)
         self.reach, self.lead = reach, float(lead)
         self.probe = tuple(float(u) for u in probe)
         if indexing not in PLAN_INDEXING:
@@ -552,7 +558,10 @@ class PlanTracker(LeafSystem):
         else:
             u = self.u0.value(t)[0, 0] - (self.K.value(t) @ (np.asarray(x) - x0))[0] \
                 - self.k0.value(t)[0, 0]
-        return float(np.clip(u, -self.torque_limit, self.torque_limit)), float(x0[1])
+        limit = self.torque_limit
+        if self.power_limit > 0.0 and abs(x[3]) > 0.0:
+            limit = min(limit, self.power_limit / abs(float(x[3])))
+        return float(np.clip(u, -limit, limit)), float(x0[1])
 
     def phase(self, tau: float, x) -> float:
         """The plan time nearest to ``x`` in ``[tau, tau + search]``."""

@@ -4,12 +4,16 @@ where the time of the closed loop goes.
 
 Run: python benchmarks/bench_swing.py [SEEDS]   (default 10; prints figures,
 not a test).  Goal (issue 14): >= 20 simulated s per wall s for the closed
-loop (30 the stretch).
+loop (30 the stretch).  It also prints the ceiling of that figure: the
+closed loop's C++ part alone, with every Python system of the 100 Hz chain
+taken out and the commands replayed (:func:`cpp_ceiling`).
 """
 import collections
 import functools
 import sys
 import time
+
+import numpy as np
 
 
 def free_swing_rate(duration: float = 20.0) -> float:
@@ -73,6 +77,84 @@ def python_tick_floor(systems: int = 6, duration: float = 20.0, period: float = 
 
     rate(0)   # warm up
     return rate(0), rate(systems)
+
+
+def cpp_ceiling(seeds: int = 5, accuracies=(1e-4, 1e-3)):
+    """{accuracy: simulated s per wall s} of the closed loop's C++ part
+    alone: the same simulated robot (plant, friction, motor and driver), its
+    four Drake IMU sensors sampled at the tick by C++ zero-order holds, the
+    plant state sampled likewise (what the interlock and a true-state
+    controller read), the same continuous loggers, and each swing's logged
+    commands replayed through the compute latency -- everything but the
+    Python chain (IMU error model, EKF, predictor, plan tracker, interlock,
+    delay identification).  The highest rate the closed loop could reach
+    with a chain that costs nothing, at each integrator accuracy."""
+    from pydrake.systems.framework import DiagramBuilder
+    from pydrake.systems.primitives import LogVectorOutput, TrajectorySource, ZeroOrderHold
+    from pydrake.systems.sensors import Accelerometer, Gyroscope
+    from pydrake.math import RigidTransform
+    from pydrake.trajectories import PiecewisePolynomial
+
+    from bplir_drake.analysis.swing.run import SWING_INTEGRATOR, run_swing
+    from bplir_drake.diagrams.swing import add_robot
+    from bplir_drake.params import preset
+    from bplir_drake.simulate import make_simulator
+
+    p = preset().resolved()
+    T, latency = p.controller.period, p.controller.compute_latency
+    swings = []
+    for seed in range(seeds):
+        r = run_swing(p, seed=seed)
+        cmd = r.logs["command"]
+        swings.append((seed, np.append(cmd.t, cmd.t[-1] + 1e3), cmd.data[:, 0],
+                       r.logs["state"].t[-1], r.summary["start_configuration_rad"]))
+    rates = {}
+    for acc in accuracies:
+        sim_s = wall = 0.0
+        for seed, t, u, duration, q0 in swings:
+            b = DiagramBuilder()
+            robot = add_robot(b, p, seed)
+            plant = robot.plant
+            replay = b.AddSystem(TrajectorySource(PiecewisePolynomial.ZeroOrderHold(
+                t, np.append(u, u[-1]).reshape(1, -1))))
+            hold = b.AddSystem(ZeroOrderHold(T, 1, latency))
+            b.Connect(replay.get_output_port(0), hold.get_input_port(0))
+            b.Connect(hold.get_output_port(0), robot.motor.GetInputPort("torque_command"))
+            for link, radius in (("link1", p.imu.r1), ("link2", p.imu.r2)):
+                body, X = plant.GetBodyByName(link), RigidTransform([0.0, -radius, 0.0])
+                gyro = b.AddSystem(Gyroscope(body, X))
+                acc_sensor = b.AddSystem(Accelerometer(body, X, [0.0, -p.simulated_plant.g, 0.0]))
+                b.Connect(plant.get_body_poses_output_port(), gyro.get_body_poses_input_port())
+                b.Connect(plant.get_body_spatial_velocities_output_port(),
+                          gyro.get_body_velocities_input_port())
+                b.Connect(plant.get_body_poses_output_port(), acc_sensor.get_body_poses_input_port())
+                b.Connect(plant.get_body_spatial_velocities_output_port(),
+                          acc_sensor.get_body_velocities_input_port())
+                b.Connect(plant.get_body_spatial_accelerations_output_port(),
+                          acc_sensor.get_body_accelerations_input_port())
+                for port in (gyro.get_measurement_output_port(),
+                             acc_sensor.get_measurement_output_port()):
+                    sample = b.AddSystem(ZeroOrderHold(T, 3))
+                    b.Connect(port, sample.get_input_port(0))
+                    LogVectorOutput(sample.get_output_port(0), b, T)
+            state = b.AddSystem(ZeroOrderHold(T, 4))
+            b.Connect(plant.get_state_output_port(), state.get_input_port(0))
+            LogVectorOutput(state.get_output_port(0), b, T)
+            LogVectorOutput(plant.get_state_output_port(), b, 0.005)
+            LogVectorOutput(robot.friction.get_output_port(0), b, 0.005)
+            for name in ("torque", "power", "current", "tripped"):
+                LogVectorOutput(robot.motor.GetOutputPort(name), b, 0.005)
+
+            class Built:   # what make_simulator reads
+                diagram, plant = b.Build(), robot.plant
+
+            sim = make_simulator(Built, q0, accuracy=acc, integrator=SWING_INTEGRATOR)
+            t0 = time.perf_counter()
+            sim.AdvanceTo(duration)
+            wall += time.perf_counter() - t0
+            sim_s += duration
+        rates[acc] = sim_s / wall
+    return rates
 
 
 def closed_loop(seeds: int):
@@ -173,6 +255,15 @@ def main():
           f"({wall / seeds * 1e3:.0f} ms per swing; {dict(outcomes)})")
     print(f"ratio closed loop / free swing: {loop / free:.3f}; goal >= 20 simulated s per wall s: "
           f"{'met' if loop >= 20 else 'not met'}")
+    ceiling = cpp_ceiling()
+    from bplir_drake.analysis.swing.run import SWING_ACCURACY
+
+    print("the closed loop's C++ part alone (plant, friction, motor, the four Drake IMU sensors "
+          "and the state sampled at the ticks, the loggers; the commands replayed; seeds 0-4): "
+          + ", ".join(f"{rate:.1f} simulated s per wall s at accuracy {acc:g}"
+                      + (" (the swing's)" if acc == SWING_ACCURACY else "")
+                      for acc, rate in ceiling.items())
+          + f"; the whole closed loop reaches {loop / ceiling[SWING_ACCURACY]:.2f} of its ceiling")
     bare, ticked = python_tick_floor()
     print(f"free swing {bare:.1f} simulated s per wall s; with six empty Python systems ticking "
           f"at 100 Hz {ticked:.1f} (ratio {ticked / bare:.3f}): the closed loop's floor before "

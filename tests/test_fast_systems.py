@@ -196,17 +196,22 @@ def test_interlock_locates_the_arrival_between_ticks_exactly():
 
 def test_fast_swing_matches_an_accurate_reference():
     """The default integrator (error-controlled RK3 at 1e-4) against RK5 at
-    1e-10 on the same diagram, seeds 0-2: the same outcome, capture speeds
-    within 1e-3 m/s (over seeds 0-19 the largest difference measured is in
-    the README), and the run ends at the tick after the interlock decided."""
-    from bplir_drake.analysis.swing.run import run_swing
+    1e-10 on the same diagram, seeds 0-19 (issue 14): every swing captured
+    by both, capture speeds within 1e-4 m/s (the issue asks 1e-3; the largest
+    difference measured is 1.2e-5 m/s, README "Speed"), and the run ends at the tick
+    after the interlock decided."""
+    from bplir_drake.analysis.swing.run import SwingRunner
 
     params = preset()
-    for seed in range(3):
-        fast = run_swing(params, seed=seed)
-        ref = run_swing(params, seed=seed, accuracy=1e-10, integrator="runge_kutta5")
+    runner = SwingRunner()
+    worst = 0.0
+    for seed in range(20):
+        fast = runner.run(params, seed=seed)
+        ref = runner.run(params, seed=seed, accuracy=1e-10, integrator="runge_kutta5")
         assert fast.summary["outcome"] == ref.summary["outcome"] == "captured"
-        assert fast.summary["capture_speed_mps"] == pytest.approx(
-            ref.summary["capture_speed_mps"], abs=1e-3)
+        worst = max(worst, abs(fast.summary["capture_speed_mps"]
+                               - ref.summary["capture_speed_mps"]))
         t_end = fast.logs["state"].t[-1]
         assert fast.summary["swing_time_s"] < t_end <= fast.summary["swing_time_s"] + 0.0101
+    # the requirement is 1e-3 m/s; the integrator holds ten times that (measured 1.2e-5)
+    assert worst <= 1e-4

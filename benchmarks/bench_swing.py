@@ -91,11 +91,10 @@ def cpp_ceiling(seeds: int = 5, accuracies=(1e-4, 1e-3)):
     with a chain that costs nothing, at each integrator accuracy."""
     from pydrake.systems.framework import DiagramBuilder
     from pydrake.systems.primitives import LogVectorOutput, TrajectorySource, ZeroOrderHold
-    from pydrake.systems.sensors import Accelerometer, Gyroscope
-    from pydrake.math import RigidTransform
     from pydrake.trajectories import PiecewisePolynomial
 
     from bplir_drake.analysis.swing.run import SWING_INTEGRATOR, run_swing
+    from bplir_drake.diagrams.parts import Built, add_imu_sensors
     from bplir_drake.diagrams.swing import add_robot
     from bplir_drake.params import preset
     from bplir_drake.simulate import make_simulator
@@ -120,20 +119,8 @@ def cpp_ceiling(seeds: int = 5, accuracies=(1e-4, 1e-3)):
             hold = b.AddSystem(ZeroOrderHold(T, 1, latency))
             b.Connect(replay.get_output_port(0), hold.get_input_port(0))
             b.Connect(hold.get_output_port(0), robot.motor.GetInputPort("torque_command"))
-            for link, radius in (("link1", p.imu.r1), ("link2", p.imu.r2)):
-                body, X = plant.GetBodyByName(link), RigidTransform([0.0, -radius, 0.0])
-                gyro = b.AddSystem(Gyroscope(body, X))
-                acc_sensor = b.AddSystem(Accelerometer(body, X, [0.0, -p.simulated_plant.g, 0.0]))
-                b.Connect(plant.get_body_poses_output_port(), gyro.get_body_poses_input_port())
-                b.Connect(plant.get_body_spatial_velocities_output_port(),
-                          gyro.get_body_velocities_input_port())
-                b.Connect(plant.get_body_poses_output_port(), acc_sensor.get_body_poses_input_port())
-                b.Connect(plant.get_body_spatial_velocities_output_port(),
-                          acc_sensor.get_body_velocities_input_port())
-                b.Connect(plant.get_body_spatial_accelerations_output_port(),
-                          acc_sensor.get_body_accelerations_input_port())
-                for port in (gyro.get_measurement_output_port(),
-                             acc_sensor.get_measurement_output_port()):
+            for sensors in add_imu_sensors(b, plant, p):
+                for port in sensors:
                     sample = b.AddSystem(ZeroOrderHold(T, 3))
                     b.Connect(port, sample.get_input_port(0))
                     LogVectorOutput(sample.get_output_port(0), b, T)
@@ -145,10 +132,8 @@ def cpp_ceiling(seeds: int = 5, accuracies=(1e-4, 1e-3)):
             for name in ("torque", "power", "current", "tripped"):
                 LogVectorOutput(robot.motor.GetOutputPort(name), b, 0.005)
 
-            class Built:   # what make_simulator reads
-                diagram, plant = b.Build(), robot.plant
-
-            sim = make_simulator(Built, q0, accuracy=acc, integrator=SWING_INTEGRATOR)
+            sim = make_simulator(Built(b.Build(), plant), q0, accuracy=acc,
+                                 integrator=SWING_INTEGRATOR)
             t0 = time.perf_counter()
             sim.AdvanceTo(duration)
             wall += time.perf_counter() - t0

@@ -213,5 +213,5 @@ def test_fast_swing_matches_an_accurate_reference():
                                - ref.summary["capture_speed_mps"]))
         t_end = fast.logs["state"].t[-1]
         assert fast.summary["swing_time_s"] < t_end <= fast.summary["swing_time_s"] + 0.0101
-    # the requirement is 1e-3 m/s; the integrator holds ten times that (measured 1.2e-5)
+    # the requirement is 1e-3 m/s; asserted ten times tighter (measured 1.2e-5)
     assert worst <= 1e-4

@@ -103,14 +103,15 @@ def add_plant_with_friction(builder, plant_params: PlantParams,
     return out, friction
 
 
-def add_imus(builder, plant, params: BplirParams, seed: int):
-    """Drake Gyroscope/Accelerometer on each link + the sampling/noise model."""
+def add_imu_sensors(builder, plant, params: BplirParams):
+    """Drake's Gyroscope and Accelerometer on each link (C++, ideal: the
+    true kinematics at the IMU's radius); returns their measurement output
+    ports ``[(gyro1, accel1), (gyro2, accel2)]``."""
     from pydrake.math import RigidTransform
     from pydrake.systems.sensors import Accelerometer, Gyroscope
 
-    sampler = builder.AddSystem(ImuSampler(params.imu, seed))
-    sampler.set_name("imu")
     g = params.simulated_plant.g
+    ports = []
     for i, (link, r) in enumerate((("link1", params.imu.r1), ("link2", params.imu.r2)), 1):
         body = plant.GetBodyByName(link)
         X_BS = RigidTransform([0.0, -r, 0.0])
@@ -127,8 +128,17 @@ def add_imus(builder, plant, params: BplirParams, seed: int):
                                (plant.get_body_spatial_accelerations_output_port(),
                                 acc.get_body_accelerations_input_port())):
             builder.Connect(port, sys_port)
-        builder.Connect(gyro.get_measurement_output_port(), sampler.GetInputPort(f"gyro{i}"))
-        builder.Connect(acc.get_measurement_output_port(), sampler.GetInputPort(f"accel{i}"))
+        ports.append((gyro.get_measurement_output_port(), acc.get_measurement_output_port()))
+    return ports
+
+
+def add_imus(builder, plant, params: BplirParams, seed: int):
+    """Drake Gyroscope/Accelerometer on each link + the sampling/noise model."""
+    sampler = builder.AddSystem(ImuSampler(params.imu, seed))
+    sampler.set_name("imu")
+    for i, (gyro, accel) in enumerate(add_imu_sensors(builder, plant, params), 1):
+        builder.Connect(gyro, sampler.GetInputPort(f"gyro{i}"))
+        builder.Connect(accel, sampler.GetInputPort(f"accel{i}"))
     return sampler
 
 

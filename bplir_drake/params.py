@@ -234,6 +234,24 @@ class MotorParams(_Block):
     power_rating: float = _positive(220.0, "W", doc="motor power rating")
     driver_period: float = _p(0.01, "s", 0, 1, lo_open=True,
                               doc="update period of the driver's i^2 t interlock")
+    supply_voltage: float = _p(30.0, "V", 1, 100,
+                               doc="supply voltage (Table 4.2: 30 V as built, 48 V nominal)")
+    resistance: float = _positive(48.0 / 124.0, "ohm",
+                                  doc="winding resistance (Table 4.2: 48 V / 124 A stall)")
+    voltage_fraction: float = _fraction(
+        0.98, doc="largest driver output voltage / supply (ESCON 50/5 datasheet: 0.98)")
+    envelope: bool = field(default=True, metadata=dict(
+        doc="the driver's output voltage limits the current (back-EMF and winding resistance)"))
+
+    @property
+    def back_emf_constant(self) -> float:
+        """Motor back-EMF constant (V s/rad), equal to ``km`` in SI units."""
+        return self.km
+
+    @property
+    def max_voltage(self) -> float:
+        """Largest voltage the driver puts across the motor (V)."""
+        return self.voltage_fraction * self.supply_voltage
 
     def _check(self):
         if self.i_cont > self.i_peak:

@@ -9,6 +9,20 @@ current state, so the motor has no direct feedthrough.  The current loop is a
 C++ ``LinearSystem`` driven by the target current, which changes only when the
 command or the trip state does (:class:`MotorDriver`).
 
+The voltage envelope (Table 4.2): the driver can put at most
+``V_max = voltage_fraction * supply_voltage`` across the winding, whose
+resistance is ``R`` and whose back-EMF is ``Km N q2'`` (the back-EMF constant
+equals the torque constant in SI units), so the current is confined to
+``[(-V_max - Km N q2')/R, (V_max - Km N q2')/R]`` (:func:`current_window`).
+The current loop follows its target with ``tau_current``; the current that
+flows is that state clipped to the window, so the winding voltage
+``R i + Km N q2'`` never leaves ``[-V_max, V_max]``: motoring runs out of
+voltage as the elbow speeds up, braking does not (the back-EMF helps it).  The
+winding inductance (an electrical time constant well under the 5 ms loop) is
+neglected.  Braking power (``V i < 0``) flows back into the supply
+(the ESCON is a four-quadrant driver; a battery takes it): it is logged as
+negative electrical power and summed as the regenerated energy.
+
 The i^2 t interlock: ``h' = i^2 - i_cont^2`` (clipped at zero) is integrated
 at the driver period; the driver trips when ``h`` reaches
 ``(i_peak^2 - i_cont^2) t_peak`` (so a 15 A command is cut after 2.675 s) and
@@ -48,6 +62,59 @@ def current_command(tau_cmd: float, p: MotorParams, tripped: bool) -> float:
         return 0.0
     i_lim = p.i_cont if tripped else p.i_peak
     return min(max(tau / p.torque_per_amp, -i_lim), i_lim)
+
+
+def back_emf(q2d, p: MotorParams):
+    """The winding's back-EMF (V) at the elbow rate ``q2d`` (rad/s)."""
+    return p.back_emf_constant * p.gear_ratio * q2d
+
+
+def current_window(q2d, p: MotorParams):
+    """(lowest, highest) current (A) the driver's voltage can drive at the
+    elbow rate ``q2d``; ``(-inf, inf)`` without the envelope."""
+    if not p.envelope:
+        return -np.inf, np.inf
+    e = back_emf(q2d, p)
+    return (-p.max_voltage - e) / p.resistance, (p.max_voltage - e) / p.resistance
+
+
+def torque_window(q2d: float, p: MotorParams, i_limit: float | None = None,
+                  torque_limit: float | None = None) -> tuple[float, float]:
+    """(lowest, highest) elbow torque (N m) the motor can deliver at the
+    elbow rate ``q2d``: the voltage envelope, the current limit ``i_limit``
+    (default ``i_peak``) and the torque saturation (default ``torque_limit``)."""
+    i_lim = p.i_peak if i_limit is None else i_limit
+    t_lim = p.torque_limit if torque_limit is None else torque_limit
+    lo, hi = current_window(q2d, p)
+    kt = p.torque_per_amp
+    lo_t = max(-t_lim, kt * max(lo, -i_lim))
+    hi_t = min(t_lim, kt * min(hi, i_lim))
+    return lo_t, max(lo_t, hi_t)
+
+
+def winding_voltage(current, q2d, p: MotorParams):
+    """The voltage across the winding (V): ``R i + Km N q2'``."""
+    return p.resistance * np.asarray(current) + back_emf(np.asarray(q2d), p)
+
+
+def no_load_speed(p: MotorParams, voltage: float | None = None) -> float:
+    """The elbow rate (rad/s) at which the back-EMF equals ``voltage``
+    (default the driver's largest output voltage)."""
+    v = p.max_voltage if voltage is None else voltage
+    return v / (p.back_emf_constant * p.gear_ratio)
+
+
+def stall_torque(p: MotorParams, voltage: float | None = None) -> float:
+    """The motor shaft's torque (N m) at rest with ``voltage`` across the
+    winding and no current limit: ``Km V / R`` (before the gearbox)."""
+    v = p.max_voltage if voltage is None else voltage
+    return p.km * v / p.resistance
+
+
+def envelope_curve(p: MotorParams, speeds) -> np.ndarray:
+    """(n, 2): the lowest and highest deliverable elbow torque at each
+    elbow rate in ``speeds`` (current limit ``i_peak``, torque saturation)."""
+    return np.array([torque_window(float(w), p) for w in np.asarray(speeds, dtype=float)])
 
 
 def interlock_budget(p: MotorParams) -> float:
@@ -159,16 +226,36 @@ class DriverLogic(LeafSystem):
         out.SetAtIndex(0, min(p.torque_limit, p.torque_per_amp * i_lim))
 
 
-def _motor_power(p: MotorParams):
-    """Electrical-to-mechanical power meter (C++ symbolic): input ``(i, q1,
-    q2, q1d, q2d)``, output ``tau q2d`` (W), state the motor's work (J)."""
-    from pydrake.symbolic import MakeVectorVariable, Variable
+def _electrics(p: MotorParams):
+    """The current loop and the meters (C++ symbolic).
+
+    Input ``(i_target, q1, q2, q1d, q2d)``; state ``(i_loop / i_peak,
+    mechanical work, electrical energy, copper loss, regenerated energy)``;
+    output ``(torque, current, voltage, back-EMF, mechanical power,
+    electrical power)``.  The current is the loop's state clipped to the
+    voltage window at the present ``q2d`` (:func:`current_window`)."""
+    from pydrake.symbolic import MakeVectorVariable, Variable, max as smax, min as smin
     from pydrake.systems.primitives import SymbolicVectorSystem
 
     u = MakeVectorVariable(5, "u")
-    power = p.torque_per_amp * u[0] * u[4]
-    return SymbolicVectorSystem(state=[Variable("work")], input=u, dynamics=[power],
-                                output=[power])
+    x = [Variable(n) for n in ("i_loop", "work", "electrical", "copper", "regenerated")]
+    ip, kt = p.i_peak, p.torque_per_amp
+    emf = p.back_emf_constant * p.gear_ratio * u[4]
+    i = ip * x[0]
+    if p.envelope:
+        i = smin(smax(i, (-p.max_voltage - emf) / p.resistance),
+                 (p.max_voltage - emf) / p.resistance)
+    volt = p.resistance * i + emf
+    mech = kt * i * u[4]
+    elec = volt * i
+    dyn = [(u[0] / ip - x[0]) / p.tau_current, mech, elec, p.resistance * i * i,
+           smax(-elec, 0.0)]
+    return SymbolicVectorSystem(state=x, input=u, dynamics=dyn,
+                                output=[kt * i, i, volt, emf, mech, elec])
+
+
+#: output rows of the motor's ``electrics`` (its ``MotorDriver`` ports)
+ELECTRIC_OUTPUTS = ("torque", "current", "voltage", "back_emf", "power", "electrical_power")
 
 
 class MotorDriver(Diagram):
@@ -177,47 +264,51 @@ class MotorDriver(Diagram):
 
     * ``driver`` (:class:`DriverLogic`, discrete): the target current of the
       command and the i^2 t interlock;
-    * ``current_loop`` (C++ ``LinearSystem``): the current follows the target
-      with the time constant ``tau_current``; state ``i / i_peak``, outputs
-      ``(Kt i, i)``;
-    * ``power_meter`` (C++ symbolic): ``tau q2d`` and the motor's work.
+    * ``electrics`` (C++ symbolic): the current loop (the current follows
+      the target with the time constant ``tau_current``, clipped to the
+      voltage envelope at the elbow's present rate), the winding voltage,
+      the back-EMF, the powers and their integrals (mechanical work,
+      electrical energy, copper loss, regenerated energy).
 
-    Inputs ``torque_command`` (1) and ``state`` (4, plant state for the
-    power); outputs ``torque`` (delivered elbow torque), ``power`` (tau*q2d,
-    W), ``current`` (A), ``tripped`` (1 while the driver limits to i_cont)
-    and ``available``.  The delivered torque depends only on the current
-    state: no direct feedthrough from the command."""
+    Inputs ``torque_command`` (1) and ``state`` (4, the plant state);
+    outputs ``torque`` (delivered elbow torque), ``current`` (A),
+    ``voltage`` and ``back_emf`` (V), ``power`` (tau q2d, W),
+    ``electrical_power`` (V i, W), ``tripped`` (1 while the driver limits
+    to i_cont) and ``available`` (the current limit's torque).  The
+    delivered torque depends on the loop's state and the plant state only:
+    no direct feedthrough from the command."""
 
     def __init__(self, params: MotorParams):
         from pydrake.systems.framework import DiagramBuilder
-        from pydrake.systems.primitives import Demultiplexer, LinearSystem, Multiplexer
+        from pydrake.systems.primitives import Demultiplexer, Multiplexer
 
         super().__init__()
         self.params = params
-        tau, kt = params.tau_current, params.torque_per_amp
         b = DiagramBuilder()
         logic = b.AddNamedSystem("driver", DriverLogic(params))
-        # state: the current in units of the peak current (the integrator's
-        # error control then weighs it like the joint angles)
-        ip = params.i_peak
-        loop = b.AddNamedSystem("current_loop", LinearSystem(
-            [[-1.0 / tau]], [[1.0 / (tau * ip)]], [[kt * ip], [ip]], [[0.0], [0.0]]))
-        meter = b.AddNamedSystem("power_meter", _motor_power(params))
-        split = b.AddSystem(Demultiplexer(2))
+        elec = b.AddNamedSystem("electrics", _electrics(params))
+        split = b.AddSystem(Demultiplexer(len(ELECTRIC_OUTPUTS)))
         mux = b.AddSystem(Multiplexer([1, 4]))
         b.ExportInput(logic.GetInputPort("torque_command"), "torque_command")
         b.ExportInput(mux.get_input_port(1), "state")
-        b.Connect(logic.GetOutputPort("target_current"), loop.get_input_port(0))
-        b.Connect(loop.get_output_port(0), split.get_input_port(0))
+        b.Connect(logic.GetOutputPort("target_current"), mux.get_input_port(0))
+        b.Connect(mux.get_output_port(0), elec.get_input_port(0))
+        b.Connect(elec.get_output_port(0), split.get_input_port(0))
         b.Connect(split.get_output_port(1), logic.GetInputPort("current"))
-        b.Connect(split.get_output_port(1), mux.get_input_port(0))
-        b.Connect(mux.get_output_port(0), meter.get_input_port(0))
-        b.ExportOutput(split.get_output_port(0), "torque")
-        b.ExportOutput(meter.get_output_port(0), "power")
-        b.ExportOutput(split.get_output_port(1), "current")
+        for k, name in enumerate(ELECTRIC_OUTPUTS):
+            b.ExportOutput(split.get_output_port(k), name)
         b.ExportOutput(logic.GetOutputPort("tripped"), "tripped")
         b.ExportOutput(logic.GetOutputPort("available"), "available")
         b.BuildInto(self)
+
+    def energies(self, context) -> dict:
+        """The integrals since the start of ``context`` (J): the motor's
+        mechanical work at the elbow, the electrical energy drawn (net), the
+        copper loss and the energy regenerated into the supply."""
+        sys = self.GetSubsystemByName("electrics")
+        v = sys.GetMyContextFromRoot(context).get_continuous_state_vector().CopyToVector()
+        return {"mechanical_J": float(v[1]), "electrical_J": float(v[2]),
+                "copper_J": float(v[3]), "regenerated_J": float(v[4])}
 
 
 def max_torque(p: MotorParams) -> float:
@@ -226,5 +317,7 @@ def max_torque(p: MotorParams) -> float:
 
 
 __all__ = ["MotorDriver", "duty_cycle_to_current", "current_to_duty_cycle",
+           "back_emf", "current_window", "torque_window", "winding_voltage", "no_load_speed",
+           "stall_torque", "envelope_curve", "ELECTRIC_OUTPUTS",
            "DriverLogic", "apply_deadband", "current_command", "interlock_budget", "max_torque",
            "i2t_trace", "i2t_after_rest", "rest_for"]

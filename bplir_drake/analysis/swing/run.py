@@ -191,6 +191,27 @@ def arrival_height_error(p: BplirParams, est: Log, status: dict) -> float:
     return float(h + rate * (t - est.t[k]) + p.scenario.capture_distance)
 
 
+def motor_summary(p: BplirParams, lg: dict[str, Log]) -> dict:
+    """The motor's voltage and electrical energy over a swing (from its
+    logs): the peak winding voltage, the driver's largest output, the time
+    the current was held by the voltage envelope, the electrical energy
+    drawn from the supply (net) and the energy regenerated into it."""
+    m = p.motor
+    if "voltage" not in lg:
+        return {}
+    v = lg["voltage"].data[:, 0]
+    tv = lg["voltage"].t
+    pe = lg["electrical_power"].data[:, 0]
+    on = (np.abs(v) >= m.max_voltage * (1.0 - 1e-6)) if m.envelope else np.zeros(len(v), bool)
+    dt = np.diff(tv)
+    return {"supply_voltage_V": m.supply_voltage, "max_voltage_V": m.max_voltage,
+            "peak_voltage_V": float(np.abs(v).max()) if len(v) else math.nan,
+            "on_envelope_s": float(np.sum(dt * on[:-1])) if len(v) > 1 else 0.0,
+            "electrical_energy_J": float(np.sum(0.5 * (pe[1:] + pe[:-1]) * dt)),
+            "regenerated_J": float(np.sum(0.5 * dt * (np.maximum(-pe[1:], 0.0)
+                                                       + np.maximum(-pe[:-1], 0.0))))}
+
+
 def swing_summary(p: BplirParams, lg: dict[str, Log], status: dict, seed: int,
                   use_est: bool) -> dict:
     """The summary of a swing from its logs and the interlock's ``status``
@@ -235,6 +256,7 @@ def swing_summary(p: BplirParams, lg: dict[str, Log], status: dict, seed: int,
         "motor_power_rating_W": p.motor.power_rating,
         "within_power_rating": bool(np.abs(power).max() <= p.motor.power_rating),
         "energy_in_J": energy_in,
+        **motor_summary(p, lg),
         "max_estimation_error_rad": est_err,
         "final_configuration_rad": x_end[:2].tolist(),
         "target_configuration_rad": qT.tolist(),
@@ -262,7 +284,9 @@ def swing_summary(p: BplirParams, lg: dict[str, Log], status: dict, seed: int,
 
 LOG_COLUMNS = ("t", "q1", "q2", "q1d", "q2d", "q1_est", "q2_est", "q1d_est", "q2d_est",
                "q2_ref", "torque_cmd", "torque", "power", "current", "f1", "f2",
-               "gripper_x", "gripper_y", "kinetic", "potential", "energy")
+               "gripper_x", "gripper_y", "kinetic", "potential", "energy",
+               "voltage", "back_emf", "electrical_power", "torque_available_lo",
+               "torque_available_hi")
 
 
 def log_table(result: SwingResult) -> tuple[list[str], np.ndarray]:
@@ -281,8 +305,26 @@ def log_table(result: SwingResult) -> tuple[list[str], np.ndarray]:
     pe = np.array([potential_energy(r[:2], tp) for r in x])
     fr = -lg["friction"].data
     cols = [t[:, None], x, est, ref, cmd, lg["torque"].data, lg["power"].data, lg["current"].data,
-            fr, gp, ke[:, None], pe[:, None], (ke + pe)[:, None]]
+            fr, gp, ke[:, None], pe[:, None], (ke + pe)[:, None], motor_columns(p, lg, x)]
     return list(LOG_COLUMNS), np.hstack(cols)
+
+
+def motor_columns(p: BplirParams, lg: dict[str, Log], x) -> np.ndarray:
+    """(N, 5) on the state's grid: winding voltage, back-EMF, electrical
+    power, and the lowest and highest torque the motor could deliver at
+    that instant (voltage envelope at the true elbow rate, the driver's
+    present current limit, the torque saturation)."""
+    from ...systems.motor import back_emf, torque_window
+
+    m, t = p.motor, lg["state"].t
+    limit = min(p.controller.torque_limit, m.torque_limit)
+    tripped = lg["tripped"].at(t)[:, 0] > 0.5 if "tripped" in lg else np.zeros(len(t), bool)
+    window = np.array([torque_window(float(r[3]), m, m.i_cont if tr else m.i_peak, limit)
+                       for r, tr in zip(x, tripped)]).reshape(len(t), 2)
+    nan = np.full((len(t), 1), np.nan)
+    volt = lg["voltage"].at(t) if "voltage" in lg else nan
+    elec = lg["electrical_power"].at(t) if "electrical_power" in lg else nan
+    return np.hstack([volt, back_emf(x[:, 3:4], m), elec, window])
 
 
 def write_log_csv(result: SwingResult, path) -> Path:

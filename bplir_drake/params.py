@@ -311,7 +311,7 @@ class LineSensorParams(_Block):
     sensor, the IMUs alone (the dissertation's robot)."""
 
     _name = "line_sensor"
-    range: float = _p(0.2, "m", 0, 1, doc="largest gripper-to-line distance the sensor reads (0: no sensor, the IMUs alone: the dissertation's and the lab's robots, with_controller).  0.2 m chosen on root seed 0 of the realistic study (400 single swings per line, shoot_height -18 mm, offset calibrated): 0.1 m captured 400 / 399 / 398 at 0 / +20 / -20 deg with capture speed p95 0.288 / 0.308 / 0.392 m/s, 0.2 m 400 / 400 / 399 with 0.282 / 0.302 / 0.377")
+    range: float = _p(0.0, "m", 0, 1, doc="largest gripper-to-line distance the sensor reads; 0: no sensor, the IMUs alone (the dissertation's robot)")
     sigma: float = _p(0.001, "m", 0, 0.05, doc="white noise per sample")
     offset: float = _p(0.0, "m", -0.02, 0.02, doc="constant reading error (mounting): the sensor reads the distance plus this")
     filter_sigma: float = _positive(0.0015, "m", doc="the noise the estimator assumes for a reading (its R)")
@@ -451,13 +451,20 @@ TRAPEZOID_LOOP_TUNING = {"loop_integration": "trapezoid", "loop_accel_process_si
                          "loop_accel_meas_sigma": 0.05}
 
 
-#: the ``PathParams`` fields of the robot without a line sensor
-#: (:meth:`BplirParams.imu_only`), its shot held from 0.04 s and aimed 15 mm
-#: below the line (the tuning before 2026-11-24), where
-#: the IMUs alone leave the landing estimate 3.2-3.4 mm rms off (-18 mm, the
-#: default with the sensor, captured 380 / 376 of 400 at 0 / +20 deg on root
-#: seed 0 of the realistic study, 2026-11-23, against 400 / 398)
+#: the shooting landing's aim and hold of the robot without the jaw's line
+#: sensor (the defaults; :meth:`BplirParams.imu_only`)
 IMU_ONLY_TUNING = {"shoot_height": -0.015, "shoot_min_time": 0.04, "shoot_lift_min_time": 0.0}
+
+#: the jaw's line sensor as a hardware option: its range, and the landing's
+#: aim and hold with it (:meth:`BplirParams.with_hardware`)
+LINE_SENSOR_OPTION = {"range": 0.2, "shoot_height": -0.018, "shoot_min_time": 0.03,
+                      "shoot_lift_min_time": 0.05}
+
+#: named hardware options on top of a preset (:meth:`BplirParams.with_hardware`)
+HARDWARE_OPTIONS = {
+    "line-sensor": "a range sensor in each gripper's jaw reading the line within 0.2 m",
+    "48v": "a 48 V supply (the motor's datasheet rating) instead of the 30 V the robot has",
+}
 
 
 # ---------------------------------------------------------------- controller
@@ -608,6 +615,7 @@ class PathParams(_Block):
     pump_gain: float = _p(1.0, "", 0.5, 3, doc="RTS gain lam in the first half (energy pumping for inclines)")
     lab_gain: float = _p(1.5, "", 0, 5, doc="gain of the lab firmware path")
     plan_end_depth: float = _p(0.015, "m", 0, 0.1, doc="mode 'plan': the planned swing comes to rest this far below the line (inside the capture band); 15 mm chosen on seeds 0-19 at +-20 deg: 13 mm crashed 9/20 uphill, 17 mm timed out 4/20 downhill")
+    plan_voltage_share: float = _fraction(0.9, doc="mode 'plan': share of the driver's largest voltage the plan may use at its knots (the rest is the feedback's headroom)")
     plan_spacing_step: float = _p(0.01, "m", 0, 0.1, doc="mode 'plan': the plan is made for the grip spacing measured at the start rounded to this step, so that a study drawing the spacing solves a few plans (one per step, cached), not one per swing (0: the exact spacing)")
     plan_warm_spacing: float = _p(1.2, "m", 0, 3, doc="mode 'plan': a plan for another grip spacing is also solved from this spacing's plan on the same line, and the cheaper of the two kept (the straight-line initial guesses alone found a plan of twice the cost at 1.27 m, whose swings crashed 17 of 53 times in the realistic study against 27 of 947 elsewhere); 0: the straight-line guesses only")
     plan_indexing: str = "time"   # mode 'plan': "time" (reads the clock) or "state" (clock-free phase)
@@ -636,16 +644,15 @@ class PathParams(_Block):
     # until 2026-11-24 the aim law there)
     landing_law: str = "auto"
     landing_bias: float = _p(0.0, "m", -0.02, 0.02, doc="how far the robot's estimate of the gripper's height ran above the truth in its earlier landings (the traversal learns it from each capture, traverse.landing_learning): the terminal laws aim that much higher (shoot_height + landing_bias, landing_margin - landing_bias; never above the line); 0: no correction, a single swing")
-    shoot_height: float = _p(-0.018, "m", -0.02, 0, doc="landing_law 'shoot': the gripper's aimed distance to the line when link 1 stops (negative: inside the capture band).  -18 mm since 2026-11-24, with the jaw's line sensor (line_sensor), chosen on root seed 0 of the realistic study with the sensor's noise and offset drawn (400 single swings at 0 / +20 deg, a 0.1 m range: -15 mm 400 / 399 captured, capture speed p95 0.377 / 0.381 m/s, the sensor's noise and offset not drawn; -18 mm 400 / 399, p95 0.288 / 0.308; -19 mm, the offset drawn but not calibrated, 400 / 400, 0.289 / 0.320).  With the IMUs alone (line_sensor.range = 0) -15 mm was chosen on root seed 0 for the traversals' swapped swing at 1.2 m (120 swings each, realistic / friction-only: -12 mm 99 / 119, -15 mm 97 / 120, -18 mm 76 / 118; the aim law 80 / 120).  With the delay probe, single swings on root seed 0 (400 at 0 / +20 deg): -10 mm 358 / 243, -12 mm 379 / 327, -15 mm 392 / 392, -17 mm 393 / 397, -18 mm 388 / 393; -17 mm was then measured on held-out root seed 3 (1000 swings): 964 / 987 against -15 mm's 977 / 982, so -15 mm stays")
+    shoot_height: float = _p(-0.015, "m", -0.02, 0, doc="landing_law 'shoot': the gripper's aimed distance to the line when link 1 stops (negative: inside the capture band)")
     shoot_depth: float = _p(0.3, "m", 0, 1, doc="landing_law 'shoot': it takes over once the gripper is this close to the line in the plan's last forward swing of link 1")
-    shoot_min_time: float = _p(0.03, "s", 0.02, 0.5, doc="landing_law 'shoot': with less time to link 1's stop, or link 1 slower than shoot_min_rate, the stop time is held at this.  0.03 s since 2026-11-24, with the jaw's line sensor, chosen on root seed 0 of the realistic study (400 single swings: 0.04 s 400 / 400 captured at 0 / +20 deg, capture speed p95 0.282 / 0.302 m/s; 0.03 s 400 / 400, 0.278 / 0.287; 0.02 s at +20 deg 400, 0.284; 0.05 s at +20 deg 400, 0.359).  With the IMUs alone 0.04 was chosen on root seed 0 of the realistic study, single swings, 200 each at 0 / +20 deg: 0.02 s 187 / -, 0.03 s 189 / -, 0.04 s 191 / 194 (capture speed p50 0.311 / 0.360 m/s), 0.06 s 191 / 192 (0.344 / 0.407), 0.09 s 133 / -; the swapped robot's swing 97 of 120 at 0.04 and 0.06")
+    shoot_min_time: float = _p(0.04, "s", 0.02, 0.5, doc="landing_law 'shoot': with less time to link 1's stop, or link 1 slower than shoot_min_rate, the stop time is held at this")
     shoot_min_rate: float = _p(0.02, "rad/s", 0, 5, doc="landing_law 'shoot': see shoot_min_time.  0.02 rad/s since 2026-11-24 (0.1 before): on the -20 deg line link 1 creeps at 0.1-0.3 rad/s while the elbow lifts the gripper, and below 0.1 rad/s the shot was held (or, 3 cm below its aim, handed to the aim law, which asked for the torque limit) where a free shot existed.  Tuning root seed 0 of the realistic study (400 single swings per line): at 0 / +20 deg 0.02 gives the same swings as 0.1 (400 / 400 captured, capture speed p95 0.278 / 0.287 m/s); at -20 deg, held from 0.05 s (shoot_lift_min_time), 400 / 400 with p95 0.280 / 0.281 m/s and max 0.349 / 0.422 m/s.  The first held-out run (root seed 9, 1000 swings at -20 deg) with 0.1 crashed 6 (grip spacings 1.10-1.14 m); 5 of them were this hand-off, and land at 0.25-0.35 m/s with 0.02 (that seed is therefore no longer held out; README)")
-    shoot_lift_min_time: float = _p(0.05, "s", 0, 0.5, doc="landing_law 'auto': shoot_min_time of the swings whose plan lifts the gripper with the elbow (link 1's share below shoot_link1_share: the -20 deg line); 0: the aim law there instead of the shot (the rule until 2026-11-24, the IMUs-alone robot's, IMU_ONLY_TUNING).  0.05 s chosen on root seed 0 of the realistic study at -20 deg (400 single swings, the sensor's noise and offset drawn): the aim law 399 captured, capture speed p95 0.377 m/s; the shot held from 0.03 s 389, 0.394 (shoot_min_rate 0.1: link 1 creeps at 0.1-0.3 rad/s there, and the hold starts early); with shoot_min_rate 0.02, held from 0.02 s 399, 0.303; 0.03 s 399, 0.298; 0.04 s 400, 0.290; 0.05 s 400, 0.280 (max 0.349); 0.06 s 400, 0.301; 0.065 s 400, 0.320; held from 0.05 s with shoot_min_rate 0.1, 400, 0.281 (max 0.422)")
+    shoot_lift_min_time: float = _p(0.0, "s", 0, 0.5, doc="landing_law 'auto': shoot_min_time where the plan lifts the gripper with the elbow (link 1's share below shoot_link1_share, as downhill); 0: the aim law there")
     shoot_lift_height: float = _p(-0.019, "m", -0.02, 0, doc="landing_law 'auto': shoot_height of the swings whose plan lifts the gripper with the elbow (see shoot_lift_min_time).  -19 mm chosen on root seed 0 of the realistic study at -20 deg (400 single swings, held from 0.05 s, shoot_min_rate 0.02): -18 mm 400 captured, capture speed p50 / p95 / max 0.202 / 0.280 / 0.349 m/s; -19 mm 400, 0.181 / 0.261 / 0.322; -19.5 mm 400, 0.175 / 0.261 / 0.335.  (At 0 / +20 deg -19 mm was not better than -18: shoot_height)")
     shoot_hold_depth: float = _p(0.03, "m", 0, 1, doc="landing_law 'shoot': the stop time is held at shoot_min_time only within this of the aimed height; further below it (link 1 stopped early, no shot found) the apex landing's aim law steers.  Without it the held 40-60 ms shot asked 24 cm below the line for 935 N m (tested) and crashed -20 deg swings at 2.5-4.6 m/s; 0.03 and 0.08 m gave the same captures there (tuning root seed 0) and the swapped robot's swing is unchanged (120 swings)")
     shoot_give_up_rate: float = _p(0.1, "rad/s", 0, 5, doc="landing_law 'shoot': once link 1 swings back faster than this with the gripper below the aimed height, the shot gives up: the elbow is braked to rest and the swing times out, the robot hanging, instead of chasing the line at the torque limit while link 1 falls back (held-out sample 770 of root seed 2: a crash at 2.2 m/s; on tuning root seed 0, 200 swings each, no capture lost at 0 / +20 deg); 0: never")
     shoot_link1_share: float = _p(0.5, "", 0, 1, doc="landing_law 'auto': the shooting landing held from shoot_min_time where link 1 makes at least this share of the planned gripper's rise rate shoot_depth below the line, held from shoot_lift_min_time (or the aim law, shoot_lift_min_time = 0) elsewhere (the plans on the 1.1-1.3 m grid: 0 deg 0.71-0.89, 0.26 at 1.27 m from the straight-line guesses before plan_warm_spacing, +20 deg 1.19-1.43, -20 deg -0.46 to 0.20; -10 deg 0.43 / 0.50 / 0.57 at 1.1 / 1.2 / 1.3 m)")
-    plan_power_share: float = _p(0.0, "", 0, 2, doc="mode 'plan': the tracker clips its command so that the elbow's mechanical power on the estimated (delay-predicted) rate, |tau q2'|, stays within this share of motor.power_rating (0, the default: no clip, the torque limit alone).  Measured 2026-11-24 with 1: the traversals' swapped robot brakes its elbow at up to 293 W mid-swing (the LQR's feedback on a plan held to the rating at its knots); realistic traversals of examples/line_flat.toml (200 each) without / with it: tuning root seed 0 196 / 195 passed, peak power p50 281 / 196 W, above 220 W in 198 / 17; root seeds 1 and 3 193 + 194 / 190 + 195 passed, above 220 W in 197 + 194 / 26 + 17 (the true rate runs ahead of the predicted one); sample 113 of seed 1 then times out on the swapped robot's first swing; 0.9 on seed 0: 195 passed, p50 178 W, 14 above 220 W.  Not the default: it costs captures the rating does not (the simulated motor delivers the torque); single swings stay below 140 W, where it never clips")
     plan_delay_compensation: float = _p(0.01, "s", 0, 0.1, doc="mode 'plan': the actuation delay the plan tracker assumes (whole periods; the lab firmware's 10 ms): it acts on the state predicted this far ahead and indexes the plan as much later (controller.delay_compensation, when set, takes precedence); with plan_delay_probe, until the delay is identified")
     plan_delay_probe: float = _p(10.0, "N m", 0, 20, doc="mode 'plan': the amplitude of the delay probe, two opposite doublets (+A, +A, -A, -A, -A, -A, +A, +A) on the first eight ticks' commands, from whose echo in the gyros the actuation delay is identified (systems/delay_id.py) and then compensated instead of plan_delay_compensation; tuned on root seed 0 of the realistic study, 400 swings per line: every delay identified, 392 / 392 / 400 captured at 0 / +20 / -20 deg against 385 / 386 / 398 with the fixed 10 ms (one doublet did as well there; two hold against noisier gyros, tests); 0: no probe, plan_delay_compensation throughout")
     plan_delay_max: float = _p(0.03, "s", 0.01, 0.1, doc="mode 'plan' with plan_delay_probe: the longest actuation delay the identification considers (whole periods)")
@@ -845,10 +852,27 @@ class BplirParams:
 
     def imu_only(self) -> "BplirParams":
         """The robot without the jaw's line sensor (``line_sensor.range = 0``:
-        the IMUs alone, as before 2026-11-24), with the shooting landing's
-        aim of that robot (:data:`IMU_ONLY_TUNING`)."""
+        the IMUs alone), with the shooting landing's aim of that robot
+        (:data:`IMU_ONLY_TUNING`)."""
         return replace(self, line_sensor=replace(self.line_sensor, range=0.0),
                        path=replace(self.path, **IMU_ONLY_TUNING))
+
+    def with_hardware(self, *names: str) -> "BplirParams":
+        """The robot with the named hardware options (:data:`HARDWARE_OPTIONS`):
+        ``"line-sensor"`` (the jaw's line range sensor and the landing's aim
+        with it, :data:`LINE_SENSOR_OPTION`), ``"48v"`` (a 48 V supply)."""
+        p = self
+        for name in names:
+            if name == "line-sensor":
+                o = LINE_SENSOR_OPTION
+                p = replace(p, line_sensor=replace(p.line_sensor, range=o["range"]),
+                            path=replace(p.path, **{k: v for k, v in o.items() if k != "range"}))
+            elif name == "48v":
+                p = replace(p, motor=replace(p.motor, supply_voltage=48.0))
+            else:
+                raise ParameterError(f"unknown hardware option '{name}'; allowed: "
+                                     + ", ".join(HARDWARE_OPTIONS))
+        return p
 
     def with_estimator(self, spec: str) -> "BplirParams":
         """A user's estimator ``"module:factory"`` in the swing
@@ -1025,7 +1049,8 @@ def as_jsonable(params: BplirParams) -> dict[str, Any]:
 __all__ = [
     "ParameterError", "PlantParams", "FrictionParams", "MotorParams", "ImuParams",
     "EstimatorParams", "LineSensorParams", "ControllerParams", "PathParams", "ScenarioParams",
-    "BplirParams", "preset", "PRESETS", "from_dict", "load_toml", "to_toml",
+    "BplirParams", "preset", "PRESETS", "HARDWARE_OPTIONS", "LINE_SENSOR_OPTION",
+    "from_dict", "load_toml", "to_toml",
     "save_toml", "to_dict", "sigma_from_density", "DriveParams", "TraverseParams",
     "swapped", "swapped_plant", "swapped_imu",
 ]

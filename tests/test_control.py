@@ -233,3 +233,26 @@ def test_controller_realisation_equals_python_control(design):
         tf_to_ss((1.0, 2.0, 3.0), (1.0, 1.0))
     with pytest.raises(ValueError, match="must not be zero"):
         tf_to_ss((1.0,), (0.0, 0.0))
+
+
+def test_cpfl_saturates_at_the_envelope_of_the_present_speed(params):
+    """With the nominal motor the discrete CPFL controller commands no more
+    than the voltage lets through at the estimated elbow rate, and its
+    anti-windup sees that bound (the realised v is the bound's)."""
+    from bplir_drake.systems.controller import CpflController, cpfl_terms
+
+    m = params.motor
+    ctrl = CpflController(params.plant, params.controller, params.friction, motor=m)
+    plain = CpflController(params.plant, params.controller, params.friction)
+    x = np.array([0.2, -1.0, 0.5, 12.0])
+    hi = m.torque_per_amp * (m.max_voltage - m.km * m.gear_ratio * 12.0) / m.resistance
+    for sys, expected in ((ctrl, hi), (plain, 20.0)):
+        c = sys.CreateDefaultContext()
+        sys.GetInputPort("state").FixValue(c, x)
+        sys.GetInputPort("reference").FixValue(c, [1.5])   # far ahead: saturates
+        sys.GetInputPort("feedforward").FixValue(c, [0.0])
+        sys.GetInputPort("torque_available").FixValue(c, [20.0])
+        tau = sys.GetOutputPort("torque").Eval(c)[0]
+        assert tau == pytest.approx(expected, rel=1e-9)
+        a, b = cpfl_terms(x[:2], x[2:], params.plant)
+        assert sys.GetOutputPort("v").Eval(c)[0] == pytest.approx((tau - b) / a, rel=1e-9)

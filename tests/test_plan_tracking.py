@@ -89,19 +89,29 @@ def test_downhill_swing_with_ekf_tracking_a_plan(uphill):
     assert np.median([s["capture_speed_mps"] for s in rows]) < 0.2
 
 
-def test_the_tracker_keeps_the_elbow_within_the_motor_power(uphill):
-    """With ``power_limit`` the command is clipped to ``P / |q2'|`` on the
-    estimated elbow rate: at 18 rad/s a 220 W motor gives at most 12.2 N m
-    either way; at rest the torque limit alone applies."""
+def test_the_tracker_commands_only_what_the_motor_can_deliver(uphill):
+    """With the nominal motor the command is clipped to the voltage
+    envelope at the estimated elbow rate: at 12 rad/s the 30 V driver drives
+    (29.4 V - 24.6 V of back-EMF) / 0.39 ohm = 12.5 A forwards, and the full
+    current backwards; at rest the torque limit alone applies."""
+    from bplir_drake.params import MotorParams
+
     plan, gains = tracking_plan(uphill)
+    m = MotorParams()
     free = PlanTracker(gains, 20.0, 0.01)
-    capped = PlanTracker(gains, 20.0, 0.01, power_limit=220.0)
-    x = plan.states[int(np.searchsorted(plan.times, 0.5))] + [1.0, 0.0, 0.0, 0.0]
-    fast, rest = np.r_[x[:3], 18.0], np.r_[x[:3], 0.0]
-    assert abs(free.law(0.5, fast)[0]) == 20.0
-    assert capped.law(0.5, fast)[0] == pytest.approx(np.sign(free.law(0.5, fast)[0]) * 220 / 18)
-    assert capped.law(0.5, rest) == free.law(0.5, rest)
-    assert capped.law(0.5, plan.states[0]) == free.law(0.5, plan.states[0])
+    capped = PlanTracker(gains, 20.0, 0.01, motor=m)
+    x = plan.states[int(np.searchsorted(plan.times, 0.5))]
+    hi = m.torque_per_amp * (m.max_voltage - m.km * m.gear_ratio * 12.0) / m.resistance
+    assert hi == pytest.approx(16.6, abs=0.1)
+    push = np.r_[x[:3], 12.0] + [-2.0, 0.0, 0.0, 0.0]
+    pull = np.r_[x[:3], 12.0] + [2.0, 0.0, 0.0, 0.0]
+    assert free.law(0.5, push)[0] == 20.0 and capped.law(0.5, push)[0] == pytest.approx(hi)
+    assert free.law(0.5, pull)[0] == -20.0
+    assert capped.law(0.5, pull)[0] == pytest.approx(-m.torque_per_amp * 15.0)
+    rest = np.r_[x[:3], 0.0]
+    i_max = m.torque_per_amp * 15.0
+    assert capped.law(0.5, rest)[0] == pytest.approx(np.clip(free.law(0.5, rest)[0], -i_max,
+                                                             i_max))
 
 
 def test_state_indexed_tracker_reads_no_clock(uphill):

@@ -312,7 +312,7 @@ def add_swing_controller(builder, params: BplirParams, state_port, robot: Robot,
         tracker = builder.AddNamedSystem("plan_tracker", PlanTracker(
             plan_gains, params.controller.torque_limit, T, indexing=pp.plan_indexing,
             reach=reach, lead=steps * T, probe=probe, adaptive_lead=identify,
-            power_limit=pp.plan_power_share * params.motor.power_rating))
+            motor=params.motor))
         builder.Connect(state_port, tracker.get_input_port(0))
         out = {"controller": tracker}
         if identifier is not None:
@@ -330,7 +330,8 @@ def add_swing_controller(builder, params: BplirParams, state_port, robot: Robot,
                                                         T, fv1))
     builder.Connect(state_port, path.get_input_port(0))
     ctrl = builder.AddNamedSystem("controller", CpflController(
-        params.plant, params.controller, params.friction, use_prefilter=False))
+        params.plant, params.controller, params.friction, use_prefilter=False,
+        motor=params.motor))
     builder.Connect(state_port, ctrl.GetInputPort("state"))
     builder.Connect(path.GetOutputPort("reference"), ctrl.GetInputPort("reference"))
     builder.Connect(path.GetOutputPort("feedforward"), ctrl.GetInputPort("feedforward"))

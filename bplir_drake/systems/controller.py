@@ -36,6 +36,7 @@ from pydrake.systems.scalar_conversion import TemplateSystem
 
 from ..params import ControllerParams, FrictionParams, PlantParams
 from .friction import friction_torques
+from .motor import current_window
 from .plant import bias_term, gravity_vector, mass_matrix
 from .schedule import declare_store, declare_tick_result
 
@@ -139,15 +140,17 @@ def saturate_with_antiwindup(e, xK, K: StateSpace, a, b, limit, X: float):
 
     Returns (tau_hat, v, v_hat, e_tilde, tau_unsat).  ``v`` excludes the
     feed-forward; ``b`` must already include it (``b + a v_ff``).
+    ``limit``: the symmetric bound, or ``(lowest, highest)`` torque.
     """
+    lo, hi = (-limit, limit) if np.ndim(limit) == 0 else limit
     CxK = (K.C @ xK)[0] if K.n else 0.0 * e
     D = K.D[0, 0]
     u0 = CxK + D * e
     tau0 = a * u0 + b
-    if tau0 > limit:
-        tau_hat = 0.0 * tau0 + limit
-    elif tau0 < -limit:
-        tau_hat = 0.0 * tau0 - limit
+    if tau0 > hi:
+        tau_hat = 0.0 * tau0 + hi
+    elif tau0 < lo:
+        tau_hat = 0.0 * tau0 + lo
     else:
         return tau0, u0, u0, e, tau0
     v_hat = (tau_hat - b) / a
@@ -165,8 +168,9 @@ class _CpflLaw:
     ports, filters and one evaluation of CPFL + outer loop + saturation."""
 
     def _setup(self, plant: PlantParams, ctrl: ControllerParams, friction, continuous: bool,
-               use_prefilter: bool):
+               use_prefilter: bool, motor=None):
         self.plant_params, self.ctrl, self.friction = plant, ctrl, friction
+        self.motor = motor
         self.continuous, self.use_prefilter = continuous, use_prefilter
         self.K, self.F = outer_loop(ctrl, 0.0 if continuous else ctrl.period)
         if not use_prefilter:
@@ -188,6 +192,11 @@ class _CpflLaw:
         a, b = cpfl_terms(x[0:2], x[2:4], self.plant_params,
                           self.friction if self.ctrl.friction_compensation else None)
         limit = min(self.ctrl.torque_limit, avail) if avail > 0 else 0.0 * avail
+        if self.motor is not None and self.motor.envelope and not self.continuous:
+            lo, hi = current_window(float(x[3]), self.motor)
+            kt = self.motor.torque_per_amp
+            lowest = max(-limit, kt * lo)
+            limit = (lowest, max(lowest, min(limit, kt * hi)))
         tau_hat, v, v_hat, e_t, tau0 = saturate_with_antiwindup(
             e, xK, K, a, b + a * v_ff, limit, self.ctrl.aw_gain)
         q = self.ctrl.torque_quantum
@@ -209,9 +218,10 @@ class DiscreteCpflController(_CpflLaw, LeafSystem):
     :func:`CpflController`."""
 
     def __init__(self, plant: PlantParams, ctrl: ControllerParams,
-                 friction: FrictionParams | None = None, use_prefilter: bool = True):
+                 friction: FrictionParams | None = None, use_prefilter: bool = True,
+                 motor=None):
         LeafSystem.__init__(self)
-        self._setup(plant, ctrl, friction, False, use_prefilter)
+        self._setup(plant, ctrl, friction, False, use_prefilter, motor)
         n = self.nF + self.nK
         # [xF (nF), xK (nK), command of the previous tick (for delay_samples = 1)]:
         # _split() names the filter states
@@ -297,7 +307,7 @@ ContinuousCpflController = ContinuousCpflController_[None]
 
 def CpflController(plant: PlantParams, ctrl: ControllerParams,
                    friction: FrictionParams | None = None, continuous: bool = False,
-                   use_prefilter: bool = True):
+                   use_prefilter: bool = True, motor=None):
     """The CPFL controller: inputs ``state`` (q1, q2, q1d, q2d: relative,
     estimated or true), ``reference`` (q2_ref), ``feedforward`` (v_ff,
     rad/s^2), ``torque_available`` (N m); outputs ``torque`` (saturated
@@ -307,7 +317,10 @@ def CpflController(plant: PlantParams, ctrl: ControllerParams,
     :class:`ContinuousCpflController`); otherwise discrete
     (:class:`DiscreteCpflController`).  ``use_prefilter=False`` bypasses F
     (path tracking: the smooth path comes with its own feed-forward; a step
-    prefilter would only add lag)."""
+    prefilter would only add lag).  ``motor`` (the nominal motor; discrete
+    controller only): the saturation also holds the torque within the
+    voltage envelope at the state input's elbow rate, and the anti-windup
+    acts on that bound."""
     if continuous:
         return ContinuousCpflController(plant, ctrl, friction, use_prefilter)
-    return DiscreteCpflController(plant, ctrl, friction, use_prefilter)
+    return DiscreteCpflController(plant, ctrl, friction, use_prefilter, motor)

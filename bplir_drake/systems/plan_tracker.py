@@ -34,6 +34,7 @@ import numpy as np
 from pydrake.systems.framework import LeafSystem
 
 from ..params import PLAN_INDEXING
+from .motor import torque_window
 from .plant import bias_term, gravity_vector, mass_matrix
 from .schedule import declare_store, declare_tick_result
 
@@ -498,19 +499,21 @@ class PlanTracker(LeafSystem):
     ``probe``: torques (N m) added to the commands of ticks 0, 1, ... (the
     delay probe of :mod:`bplir_drake.systems.delay_id`).  With
     ``adaptive_lead`` the lead is ``delay_steps`` ticks, read from that
-    input (an identified delay) instead of ``lead``.  ``power_limit`` (W, 0:
-    none): every command is also clipped to ``power_limit / |q2'|`` on the
-    state input's elbow rate, so that the motor's mechanical power stays
-    within its rating (the planner holds the plan to it at its knots; the
-    feedback and the terminal law are not planned)."""
+    input (an identified delay) instead of ``lead``.  ``motor`` (the
+    nominal motor, optional): every command is clipped to the torque the
+    motor can deliver at the state input's elbow rate
+    (:func:`~bplir_drake.systems.motor.torque_window`: the voltage envelope
+    and the peak current), the torque it asks for beyond that would not
+    come (the planner holds the plan to the envelope; the feedback and the
+    terminal law are not planned)."""
 
     def __init__(self, gains, torque_limit: float, period: float,
                  indexing: str = "time", phase_weights=(1.0, 1.0, 0.01, 0.01),
                  search: float = 0.05, reach: Landing | Reach | ApexShot | None = None,
                  lead: float = 0.0, probe=(), adaptive_lead: bool = False,
-                 power_limit: float = 0.0):
+                 motor=None):
         super().__init__()
-        self.power_limit = float(power_limit)
+        self.motor = motor
         self.reach, self.lead = reach, float(lead)
         self.probe = tuple(float(u) for u in probe)
         if indexing not in PLAN_INDEXING:
@@ -558,10 +561,14 @@ class PlanTracker(LeafSystem):
         else:
             u = self.u0.value(t)[0, 0] - (self.K.value(t) @ (np.asarray(x) - x0))[0] \
                 - self.k0.value(t)[0, 0]
-        limit = self.torque_limit
-        if self.power_limit > 0.0 and abs(x[3]) > 0.0:
-            limit = min(limit, self.power_limit / abs(float(x[3])))
-        return float(np.clip(u, -limit, limit)), float(x0[1])
+        lo, hi = self.window(x)
+        return float(min(max(u, lo), hi)), float(x0[1])
+
+    def window(self, x) -> tuple[float, float]:
+        """(lowest, highest) torque the tracker commands at the state ``x``."""
+        if self.motor is None:
+            return -self.torque_limit, self.torque_limit
+        return torque_window(float(x[3]), self.motor, torque_limit=self.torque_limit)
 
     def phase(self, tau: float, x) -> float:
         """The plan time nearest to ``x`` in ``[tau, tau + search]``."""
@@ -583,7 +590,8 @@ class PlanTracker(LeafSystem):
         u, reference = self.law(tau, x, reach)
         i = int(round(k))
         if i < len(self.probe):
-            u = float(np.clip(u + self.probe[i], -self.torque_limit, self.torque_limit))
+            lo, hi = self.window(x)
+            u = float(min(max(u + self.probe[i], lo), hi))
         return (u, reference, tau, k + 1, float(reach))
 
     def _store(self, context, discrete_state):

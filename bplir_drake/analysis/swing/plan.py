@@ -5,8 +5,13 @@ ratings, how long does it take, and what does it look like?
 The plan is the full-state trajectory from the start pose at rest to the
 mirror target at rest (7.1) on the nominal model *with* joint friction
 (Coulomb smoothing widened to at least 0.2 rad/s so the problem is smooth),
-with ``|tau| <= torque_limit`` and ``|tau q2'| <= power_limit`` at every knot,
-minimising ``int tau^2 dt + time_weight * T``.
+with ``|tau| <= torque_limit``, ``|tau q2'| <= power_limit`` and the winding
+voltage ``R tau/kt + Km N q2'`` within ``path.plan_voltage_share`` of the
+driver's largest output voltage at every knot (the motor's voltage
+envelope: ``motor.envelope``), minimising ``int tau^2 dt + time_weight * T``.
+A plan is feasible when its constraints hold within the tolerance at the
+knots and the voltage stays within the driver's largest output everywhere
+along the reconstructed trajectory, between the knots too.
 
 This answers the incline question of chapter 7 with numbers: the
 dissertation's heuristic (maximum torque during the whole first half) needed
@@ -54,6 +59,11 @@ class SwingPlan(Result):
     torque_limit: float
     power_limit: float
     tolerance: float
+    voltage_limit: float = math.inf   # the driver's largest output voltage (V)
+    voltage_share: float = 1.0        # the share of it the knots may use
+    resistance: float = 0.0           # winding resistance (ohm)
+    emf_per_rate: float = 0.0         # back-EMF per elbow rate, Km N (V s/rad)
+    torque_per_amp: float = 1.0       # kt (N m/A)
 
     @property
     def duration(self) -> float:
@@ -64,6 +74,17 @@ class SwingPlan(Result):
     def power(self) -> np.ndarray:
         """Mechanical elbow power along the plan (W)."""
         return self.torque * self.states[:, 3]
+
+    @property
+    def voltage(self) -> np.ndarray:
+        """Winding voltage along the plan (V): ``R tau/kt + Km N q2'``."""
+        return (self.resistance * self.torque / self.torque_per_amp
+                + self.emf_per_rate * self.states[:, 3])
+
+    @property
+    def peak_voltage(self) -> float:
+        """Largest |winding voltage| of the plan (V)."""
+        return float(np.max(np.abs(self.voltage)))
 
     @property
     def peak_torque(self) -> float:
@@ -111,6 +132,10 @@ class SwingPlan(Result):
                 "peak_motor_power_W": self.peak_power, "energy_in_J": self.energy_in,
                 "friction_loss_J": self.dissipated, "link1_reversals": self.link1_reversals,
                 "torque_limit_Nm": self.torque_limit, "power_limit_W": self.power_limit,
+                "peak_voltage_V": self.peak_voltage if self.emf_per_rate else None,
+                "voltage_limit_V": (self.voltage_limit if math.isfinite(self.voltage_limit)
+                                    else None),
+                "peak_elbow_rate_rad_s": float(np.max(np.abs(self.states[:, 3]))),
                 "constraint_tolerance": self.tolerance}
 
 
@@ -160,8 +185,10 @@ def plan_swing(params: BplirParams, *, power_limit: float | None = None, knots: 
     q0 = initial_configuration(params.scenario.grip_spacing, params.plant,
                                math.radians(params.scenario.incline_deg))
     qT = planned_target(params, end_depth)
-    tau_max = min(params.controller.torque_limit, params.motor.torque_limit)
+    m = params.motor
+    tau_max = min(params.controller.torque_limit, m.torque_limit, m.torque_per_amp * m.i_peak)
     inputs = dict(plant=params.plant.as_dict(), friction=params.friction.as_dict(),
+                  envelope=plan_envelope(params),
                   q0=q0.tolist(), qT=qT.tolist(), tau_max=tau_max, power=power, tmax=tmax,
                   knots=knots, time_weight=time_weight, guess_duration=guess_duration,
                   tolerance=tolerance, iterations=iterations,
@@ -181,6 +208,19 @@ def plan_swing(params: BplirParams, *, power_limit: float | None = None, knots: 
     from .plan_cache import cached
 
     return cached(inputs, solve)
+
+
+def plan_envelope(params: BplirParams) -> dict | None:
+    """The motor's voltage envelope as the planner holds it (``None``
+    without it): the driver's largest voltage, the share of it the knots
+    may use, the winding resistance, the back-EMF per elbow rate and the
+    torque per ampere (nominal motor)."""
+    m = params.motor
+    if not m.envelope:
+        return None
+    return dict(voltage=m.max_voltage, share=params.path.plan_voltage_share,
+                resistance=m.resistance, emf_per_rate=m.back_emf_constant * m.gear_ratio,
+                torque_per_amp=m.torque_per_amp)
 
 
 def warm_guess(plan: SwingPlan, q0, qT) -> tuple:
@@ -216,6 +256,11 @@ def _solve_plan(params, q0, qT, tau_max, power, tmax, knots, time_weight, guess_
     dircol.AddConstraintToAllKnotPoints(u[0] >= -tau_max)
     dircol.AddConstraintToAllKnotPoints(u[0] * x[3] <= power)
     dircol.AddConstraintToAllKnotPoints(u[0] * x[3] >= -power)
+    env = plan_envelope(params)
+    if env is not None:   # the winding voltage, linear in the torque and the elbow rate
+        volt = env["resistance"] / env["torque_per_amp"] * u[0] + env["emf_per_rate"] * x[3]
+        dircol.AddConstraintToAllKnotPoints(volt <= env["share"] * env["voltage"])
+        dircol.AddConstraintToAllKnotPoints(volt >= -env["share"] * env["voltage"])
     dircol.AddRunningCost(u[0] ** 2)
     if time_weight > 0:
         dircol.AddFinalCost(dircol.time()[0] * float(time_weight))
@@ -242,9 +287,16 @@ def _solve_plan(params, q0, qT, tau_max, power, tmax, knots, time_weight, guess_
     states = np.array([xs.value(t).ravel() for t in times])
     torque = np.array([us.value(t).ravel()[0] for t in times])
     fr = np.array([friction_torques(s[2:4], friction) for s in states])
-    return SwingPlan(times, states, torque, fr, bool(result.is_success()), feasible,
+    electric = {} if env is None else dict(
+        voltage_limit=env["voltage"], voltage_share=env["share"],
+        resistance=env["resistance"], emf_per_rate=env["emf_per_rate"],
+        torque_per_amp=env["torque_per_amp"])
+    plan = SwingPlan(times, states, torque, fr, bool(result.is_success()), feasible,
                      result.get_solver_id().name(), params.scenario.incline_deg, tau_max,
-                     power, tolerance)
+                     power, tolerance, **electric)
+    if env is not None and plan.peak_voltage > env["voltage"]:   # between the knots
+        plan = replace(plan, feasible=False)
+    return plan
 
 
 #: initial-guess durations (s) :func:`tracking_plan` tries in turn until a
@@ -287,8 +339,10 @@ def scenario_plan(params: BplirParams) -> SwingPlan:
         if started.feasible and (not plan.feasible or started.objective() < plan.objective()):
             plan = started
     if not plan.feasible:
+        volts = (f", {plan.voltage_share:g} of {plan.voltage_limit:g} V at the knots"
+                 if math.isfinite(plan.voltage_limit) else "")
         raise ParameterError(f"no feasible plan for a {sc.incline_deg:g} deg line within "
-                             f"{plan.torque_limit:g} N m and {plan.power_limit:g} W")
+                             f"{plan.torque_limit:g} N m and {plan.power_limit:g} W{volts}")
     return plan
 
 

@@ -36,7 +36,7 @@ from pathlib import Path
 import numpy as np
 
 #: bump when the planner's formulation changes (old cache files are ignored)
-VERSION = 1
+VERSION = 2
 
 
 def cache_dir() -> Path:

@@ -1,0 +1,88 @@
+"""Solve the plans and tracking gains the package ships and put them in
+``bplir_drake/data/plans`` (a maintainer's tool: run it after a change to
+the planner, the nominal model or the motor's envelope).
+
+    python scripts/ship_plans.py            # solve into a fresh cache, then copy
+    python scripts/ship_plans.py --check    # list what would ship, solve nothing
+
+The shipped set is what the quick start, the examples and the tests use:
+the +-20 deg and 0 deg swings, the 20 deg swing resting on the line, the
+quick benchmark's +-10 deg and 1.1 / 1.15 / 1.3 m swings (with their warm
+starts from 1.2 m), the 1.27 m warm start, and every swing of the example
+lines (both robots); gains for the swings the tests track.
+"""
+from __future__ import annotations
+
+import argparse
+import dataclasses as dc
+import os
+import shutil
+import sys
+import tempfile
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def scenarios():
+    """(plans to solve, plans whose gains ship) as callables returning a plan."""
+    from bplir_drake.analysis.swing import plan as P
+    from bplir_drake.analysis.traverse.line import load_line
+    from bplir_drake.analysis.traverse.route import plan_route
+    from bplir_drake.analysis.traverse.run import swing_params
+    from bplir_drake.params import load_toml, preset
+
+    base = preset()
+    up = load_toml(ROOT / "examples" / "uphill_plan.toml")
+
+    def at(p, **sc):
+        return p.with_(scenario=dc.replace(p.scenario, **sc))
+
+    plans = [lambda: P.plan_swing(at(up, incline_deg=20.0), end_depth=0.0)]
+    tracked = [at(up, incline_deg=20.0), at(up, incline_deg=-20.0),
+               base.with_(path=dc.replace(base.path, mode="plan"))]
+    quick = ([at(base, incline_deg=a) for a in (-10.0, 10.0)]
+             + [at(base, grip_spacing=d) for d in (1.1, 1.15, 1.3)])
+    tracked += quick + [swing_params(base, g, base.traverse.grip_spacing, 0.0) for g in (1, 2)]
+    plans += [lambda p=p: P.scenario_plan(p) for p in [at(base, grip_spacing=1.27)]]
+    for name in ("line_flat.toml", "line_span.toml"):
+        line = load_line(ROOT / "examples" / name)
+        for r in plan_route(line, base):
+            for g, (a, b) in ((1, (r.rear, r.landing1)), (2, (r.hold, r.landing2))):
+                sp = swing_params(base, g, base.traverse.grip_spacing, line.chord(a, b)[1])
+                plans.append(lambda sp=sp: P.plan_swing(sp, end_depth=sp.path.plan_end_depth))
+    return plans, tracked
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--check", action="store_true", help="count, solve nothing")
+    args = ap.parse_args(argv)
+    cache = Path(tempfile.mkdtemp(prefix="bplir-plans-"))
+    os.environ["BPLIR_CACHE_DIR"] = str(cache)
+    from bplir_drake.analysis.swing import plan as P
+    from bplir_drake.analysis.swing.plan_cache import PACKAGED
+
+    plans, tracked = scenarios()
+    if args.check:
+        print(f"{len(plans)} plans, {len(tracked)} tracked swings")
+        return 0
+    for make in plans:
+        plan = make()
+        print(f"plan {plan.incline_deg:+.1f} deg: feasible {plan.feasible}, "
+              f"{plan.duration:.2f} s, peak {plan.peak_voltage:.1f} V", flush=True)
+    for p in tracked:
+        plan, _ = P.tracking_plan(p)
+        print(f"gains {plan.incline_deg:+.1f} deg, {p.scenario.grip_spacing:g} m", flush=True)
+    for old in PACKAGED.glob("*.npz"):
+        old.unlink()
+    for f in sorted(cache.glob("*.npz")):
+        shutil.copy2(f, PACKAGED / f.name)
+    print(f"shipped {len(list(PACKAGED.glob('plan-*.npz')))} plans and "
+          f"{len(list(PACKAGED.glob('gains-*.npz')))} gains in {PACKAGED}")
+    shutil.rmtree(cache, ignore_errors=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -47,9 +47,18 @@ def _load_params(args):
         if args.preset:  # the file's tables override the named preset
             from .params import from_dict, read_toml
 
-            return from_dict(read_toml(args.config) | {"preset": args.preset})
-        return load_toml(args.config)
-    return preset(args.preset or "dissertation")
+            params = from_dict(read_toml(args.config) | {"preset": args.preset})
+        else:
+            params = load_toml(args.config)
+    else:
+        params = preset(args.preset or "dissertation")
+    return _with_hardware(params, args)
+
+
+def _with_hardware(params, args):
+    """``params`` with the ``--hardware`` options (comma-separated names)."""
+    names = [n.strip() for n in (getattr(args, "hardware", None) or "").split(",") if n.strip()]
+    return params.with_hardware(*names) if names else params
 
 
 def _emit(obj, as_json: bool, text_lines) -> None:
@@ -97,17 +106,26 @@ def _in_range(name: str, value, lo: float, hi: float, *, lo_open: bool = False,
 def cmd_model(args) -> int:
     """``bplir model``: minimum pendulum period, Table 4.1, hanging eigenvalues."""
     from .analysis.model.friction_table import PUBLISHED_TABLE_4_1, friction_table, published_setup
+    from dataclasses import replace
+
+    from .analysis.model.envelope import torque_envelope
     from .analysis.model.linearization import hanging_linearization
     from .analysis.model.pendulum import pendulum_periods
+    from .analysis.swing import run_swing
     from .params import to_dict
 
     params = _load_params(args)
+    out_dir = _out_dir(args.out)
+    if args.incline is not None:
+        params = params.with_(scenario=replace(params.scenario, incline_deg=args.incline))
     per = pendulum_periods(params.plant)
     fr = params.friction
     t_elbow = friction_table(fr.fc2, fr.b, 40.0)
     t_pub = published_setup(fr.b)
     lin = hanging_linearization(params)
     wn, zeta = lin.modes()
+    swing = None if args.no_swing else run_swing(params)
+    env = torque_envelope(params, swing=swing)
     out = {
         "T_min_s": per.T_min_printed,
         "T_min_note": "(6.14) as printed uses l1 + lc2: the links straight (q2 = 0), "
@@ -125,6 +143,8 @@ def cmd_model(args) -> int:
         "hanging_eigenvalues": [[float(z.real), float(z.imag)] for z in lin.eigenvalues],
         "hanging_modes": [{"wn_rad_s": float(w), "zeta": float(z)} for w, z in zip(wn, zeta)],
         "torque_per_amp_Nm_A": params.motor.torque_per_amp,
+        "envelope": env.summary(),
+        "files": {"envelope": str(save_figure(env.plot(), out_dir / "envelope.png"))},
         "parameters": to_dict(params),
     }
     lines = [
@@ -135,6 +155,9 @@ def cmd_model(args) -> int:
         f"  published 0.0272 / 0.35 reproduced by fc = {t_pub.fc} N m over "
         f"+/-{t_pub.vmax} rad/s: {t_pub.rmse_candidate:.4f} / {t_pub.rmse_viscous:.4f}",
         "hanging eigenvalues: " + ", ".join(f"{z.real:.4g}{z.imag:+.4g}j" for z in lin.eigenvalues),
+        f"motor at {env.supply_voltage:g} V: no-load elbow rate {env.no_load_speed:.1f} rad/s, "
+        f"full current up to {env.corner_speed():.1f} rad/s, at most {env.max_power():.0f} W",
+        f"envelope figure: {out['files']['envelope']}",
     ]
     _emit(out, args.json, lines)
     return 0
@@ -485,6 +508,7 @@ def _study(args):
         study = load_study(args.study)
         if args.preset or args.config:
             raise InputError("--study holds the parameters; drop --preset/--config")
+        study = dc.replace(study, params=_with_hardware(study.params, args))
     else:
         study = Study(params=_load_params(args))
     changes = {}
@@ -766,6 +790,9 @@ def build_parser() -> argparse.ArgumentParser:
         p = sub.add_parser(name, help=help)
         p.add_argument("--preset", default=None, help="parameter preset (dissertation, lab)")
         p.add_argument("--config", default=None, help="parameter TOML file")
+        p.add_argument("--hardware", default=None,
+                       help="hardware added to the robot, comma-separated: line-sensor (the "
+                            "jaw's line range sensor), 48v (a 48 V supply instead of 30 V)")
         p.add_argument("--json", action="store_true", help="print JSON on stdout")
         if out:
             p.add_argument("--out", default=out, help=f"output directory (default {out})")
@@ -801,7 +828,10 @@ def build_parser() -> argparse.ArgumentParser:
         for n in names:
             option(p, *table[n])
 
-    command("model", cmd_model, "model facts: T_min, Table 4.1, hanging eigenvalues")
+    p = command("model", cmd_model, "model facts: T_min, Table 4.1, hanging eigenvalues, the "
+                "motor's torque-speed envelope with a swing's operating points", "out/model")
+    shared(p, "incline")
+    option(p, "--no-swing", bool, help="draw the envelope without a swing's operating points")
 
     p = command("freeswing", cmd_freeswing, "simulate a free swing (plant + friction)",
                 "out/freeswing")

@@ -182,3 +182,47 @@ def test_compare_presets_and_examples(tmp_path, monkeypatch, params, capsys):
     assert (tmp_path / "one_swing.png").stat().st_size > 30_000
     runpy.run_path(str(ex / "samples_in_context.py"))
     assert "diagrams built: 1" in capsys.readouterr().out
+
+
+def _voltage_in_log(args):
+    """(incline, seed, largest |voltage| of the written log, driver maximum,
+    largest breach of the deliverable torque window, outcome)."""
+    import tempfile
+
+    from bplir_drake.analysis.swing.run import write_log_csv
+    from bplir_drake.params import preset
+
+    incline, seed = args
+    p = preset()
+    p = p.with_(scenario=dc.replace(p.scenario, incline_deg=incline))
+    res = run_swing(p, seed=seed)
+    with tempfile.TemporaryDirectory() as d:
+        path = write_log_csv(res, f"{d}/log.csv")
+        names = path.read_text().splitlines()[0].split(",")
+        log = np.loadtxt(path, delimiter=",", skiprows=1)
+    col = {n: log[:, i] for i, n in enumerate(names)}
+    m = p.motor
+    # the voltage is the winding's: R i + Km N q2'
+    np.testing.assert_allclose(col["voltage"], m.resistance * col["current"] + col["back_emf"],
+                               atol=1e-4 * m.max_voltage)
+    breach = max(float(np.max(col["torque"] - col["torque_available_hi"])),
+                 float(np.max(col["torque_available_lo"] - col["torque"])))
+    return (incline, seed, float(np.abs(col["voltage"]).max()), m.max_voltage, breach,
+            res.summary["outcome"])
+
+
+def test_default_robot_stays_within_the_driver_voltage():
+    """Every swing log of the default robot (the 30 V supply, IMUs alone) at
+    0, +20 and -20 deg, seeds 0-3: the winding voltage stays within the
+    driver's largest output (0.98 x 30 V) and the delivered torque within
+    the envelope at the logged elbow rate."""
+    cases = [(a, s) for a in (0.0, 20.0, -20.0) for s in range(4)]
+    with ProcessPoolExecutor(2) as ex:
+        rows = list(ex.map(_voltage_in_log, cases))
+    for incline, seed, peak, limit, breach, outcome in rows:
+        assert limit == pytest.approx(29.4)
+        assert peak <= limit * (1 + 1e-6), (incline, seed, peak)
+        assert breach <= 1e-3 * 20.0, (incline, seed, breach)
+        assert outcome == "captured", (incline, seed)
+    # the uphill swing is the one that reaches the envelope
+    assert max(r[2] for r in rows if r[0] == 20.0) > 27.0

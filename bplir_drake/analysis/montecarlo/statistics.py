@@ -21,7 +21,8 @@ def wilson_interval(successes: int, n: int, confidence: float = 0.95) -> tuple[f
 
 
 PERCENTILE_FIELDS = ("capture_speed_mps", "swing_time_s", "peak_torque_Nm", "peak_motor_power_W",
-                     "energy_in_J", "max_estimation_error_rad")
+                     "peak_voltage_V", "on_envelope_s", "energy_in_J",
+                     "max_estimation_error_rad")
 
 
 def percentiles(rows: list[dict], fields) -> dict:
@@ -29,7 +30,8 @@ def percentiles(rows: list[dict], fields) -> dict:
     (an empty table for a field with no finite value)."""
     pct = {}
     for f in fields:
-        v = np.array([r[f] for r in rows if r[f] is not None and np.isfinite(r[f])], dtype=float)
+        v = np.array([r[f] for r in rows if r.get(f) is not None and np.isfinite(r[f])],
+                     dtype=float)
         pct[f] = ({q: float(np.percentile(v, int(q[1:]))) for q in ("p5", "p50", "p95")}
                   | {"max": float(v.max())}) if v.size else {}
     return pct

@@ -20,14 +20,15 @@ RESULT_FIELDS = ("outcome", "success", "swing_time_s", "capture_distance_m", "ca
                  "closest_distance_m", "travel_m", "landing_error_m",
                  "landing_height_error_m", "fixed_gripper_open",
                  "peak_torque_Nm", "peak_motor_power_W", "energy_in_J",
-                 "max_estimation_error_rad", "mirror_error_rad", "delay_identified_s")
+                 "max_estimation_error_rad", "mirror_error_rad", "delay_identified_s",
+                 "peak_voltage_V", "on_envelope_s")
 #: traversal summary fields kept per sample of a traversal study (the worst
 #: swing's figures under the swing fields' names)
 TRAVERSE_FIELDS = ("outcome", "success", "obstacles_passed", "swings", "failed_swing",
                    "time_s", "distance_m", "speed_m_per_min", "energy_J", "energy_per_m_J",
                    "rest_time_s", "capture_speed_mps", "peak_capture_impulse_Ns",
                    "swing_time_s", "peak_torque_Nm", "peak_motor_power_W", "energy_in_J",
-                   "peak_i2t_A2s", "max_estimation_error_rad", "fixed_gripper_open")
+                   "peak_voltage_V", "peak_i2t_A2s", "max_estimation_error_rad", "fixed_gripper_open")
 #: what a traversal sets itself from the line (a study may not draw it)
 TRAVERSE_FIXED = ("scenario.grip_spacing", "scenario.incline_deg")
 STUDY_FILE, RESULTS_FILE, SUMMARY_FILE = "study.toml", "results.csv", "summary.json"

@@ -235,6 +235,24 @@ def warm_guess(plan: SwingPlan, q0, qT) -> tuple:
     return np.asarray(plan.times, dtype=float), states, np.asarray(plan.torque, dtype=float)
 
 
+#: re-solves with a tighter voltage bound at the knots when the voltage
+#: between them exceeds the driver's output
+PLAN_VOLTAGE_REFINEMENTS = 4
+
+
+def _peak_voltage(dircol, result, env, knots) -> float:
+    """The largest |winding voltage| along the reconstructed trajectory."""
+    if env is None:
+        return 0.0
+    xs = dircol.ReconstructStateTrajectory(result)
+    us = dircol.ReconstructInputTrajectory(result)
+    t = np.linspace(xs.start_time(), xs.end_time(), 20 * knots)
+    rate = xs.vector_values(t)[3]
+    tau = us.vector_values(t)[0]
+    return float(np.max(np.abs(env["resistance"] / env["torque_per_amp"] * tau
+                               + env["emf_per_rate"] * rate)))
+
+
 def _solve_plan(params, q0, qT, tau_max, power, tmax, knots, time_weight, guess_duration,
                 tolerance, iterations, progress=False, guess=None) -> SwingPlan:
     """The DirectCollocation solve of :func:`plan_swing`."""
@@ -257,10 +275,11 @@ def _solve_plan(params, q0, qT, tau_max, power, tmax, knots, time_weight, guess_
     dircol.AddConstraintToAllKnotPoints(u[0] * x[3] <= power)
     dircol.AddConstraintToAllKnotPoints(u[0] * x[3] >= -power)
     env = plan_envelope(params)
+    volts = []
     if env is not None:   # the winding voltage, linear in the torque and the elbow rate
         volt = env["resistance"] / env["torque_per_amp"] * u[0] + env["emf_per_rate"] * x[3]
-        dircol.AddConstraintToAllKnotPoints(volt <= env["share"] * env["voltage"])
-        dircol.AddConstraintToAllKnotPoints(volt >= -env["share"] * env["voltage"])
+        volts = dircol.AddConstraintToAllKnotPoints(volt <= env["share"] * env["voltage"]) + \
+            dircol.AddConstraintToAllKnotPoints(volt >= -env["share"] * env["voltage"])
     dircol.AddRunningCost(u[0] ** 2)
     if time_weight > 0:
         dircol.AddFinalCost(dircol.time()[0] * float(time_weight))
@@ -280,6 +299,17 @@ def _solve_plan(params, q0, qT, tau_max, power, tmax, knots, time_weight, guess_
         if progress:  # Drake calls it at every evaluation of the costs and constraints
             prog.AddVisualizationCallback(lambda z: bar.update(), prog.decision_variables())
         result = Solve(prog, None, options)
+        share = None if env is None else env["share"]
+        for _ in range(PLAN_VOLTAGE_REFINEMENTS):   # the voltage between the knots
+            peak = _peak_voltage(dircol, result, env, knots)
+            if env is None or peak <= env["voltage"]:
+                break
+            share *= 0.98 * env["voltage"] / peak
+            for b in volts:
+                c = b.evaluator()
+                c.UpdateLowerBound(np.maximum(c.lower_bound(), -share * env["voltage"]))
+                c.UpdateUpperBound(np.minimum(c.upper_bound(), share * env["voltage"]))
+            result = Solve(prog, result.GetSolution(), options)
     feasible = not result.GetInfeasibleConstraintNames(prog, tolerance)
     xs = dircol.ReconstructStateTrajectory(result)
     us = dircol.ReconstructInputTrajectory(result)
@@ -288,7 +318,7 @@ def _solve_plan(params, q0, qT, tau_max, power, tmax, knots, time_weight, guess_
     torque = np.array([us.value(t).ravel()[0] for t in times])
     fr = np.array([friction_torques(s[2:4], friction) for s in states])
     electric = {} if env is None else dict(
-        voltage_limit=env["voltage"], voltage_share=env["share"],
+        voltage_limit=env["voltage"], voltage_share=share,
         resistance=env["resistance"], emf_per_rate=env["emf_per_rate"],
         torque_per_amp=env["torque_per_amp"])
     plan = SwingPlan(times, states, torque, fr, bool(result.is_success()), feasible,

@@ -44,7 +44,7 @@ OUTCOMES = ("passed", "swing crash", "swing timeout", "swing fault", "landed on 
 ROW_FIELDS = ("index", "kind", "obstacle", "holding_gripper", "robot", "t_start_s", "duration_s",
               "hold_m", "from_m", "to_m", "incline_deg", "outcome", "capture_speed_mps",
               "capture_impulse_Ns", "effective_mass_kg", "peak_torque_Nm", "peak_power_W",
-              "energy_J", "i2t_start_A2s", "i2t_end_A2s", "landing_bias_m",
+              "peak_voltage_V", "energy_J", "i2t_start_A2s", "i2t_end_A2s", "landing_bias_m",
               "landing_height_error_m", "seed")
 
 
@@ -417,6 +417,7 @@ class _Traversal:
                         outcome=s["outcome"], capture_speed_mps=s["capture_speed_mps"],
                         capture_impulse_Ns=impulse, effective_mass_kg=m_eff,
                         peak_torque_Nm=s["peak_torque_Nm"], peak_power_W=s["peak_motor_power_W"],
+                        peak_voltage_V=s.get("peak_voltage_V", math.nan),
                         energy_J=elec + standby, i2t_start_A2s=h0, i2t_end_A2s=self.h,
                         landing_bias_m=p.path.landing_bias,
                         landing_height_error_m=s["landing_height_error_m"], seed=seed)
@@ -463,6 +464,7 @@ class _Traversal:
             "capture_speed_mps": max(speeds) if speeds else math.nan,
             "peak_torque_Nm": max([r["peak_torque_Nm"] for r in swings] + [0.0]),
             "peak_motor_power_W": max([r["peak_power_W"] for r in swings] + [0.0]),
+            "peak_voltage_V": max([r["peak_voltage_V"] for r in swings] + [0.0]),
             "max_estimation_error_rad": self.est_err,
             "fixed_gripper_open": self.fixed_open,
             "outcome": self.outcome, "success": self.outcome == "passed",
@@ -548,6 +550,7 @@ TABLE_COLUMNS = (
     ("landing_height_error_m", "height error [mm]", "mm"),
     ("capture_impulse_Ns", "impulse [N s]", "{:.2f}"),
     ("peak_torque_Nm", "peak torque [N m]", "{:.1f}"), ("peak_power_W", "peak power [W]", "{:.0f}"),
+    ("peak_voltage_V", "peak voltage [V]", "{:.1f}"),
     ("energy_J", "energy [J]", "{:.1f}"), ("i2t_end_A2s", "i2t after [A2 s]", "{:.0f}"),
 )
 

@@ -8,7 +8,7 @@ Log format (CSV, header required, extra columns ignored)::
 
     t,gyro1,gyro2,acc1_x,acc1_y,acc2_x,acc2_y
 
-in s, rad/s and m/s^2, IMU frames as in SPEC.md.  Bad logs raise
+in s, rad/s and m/s^2, IMU frames as in docs/concepts.md.  Bad logs raise
 :class:`LogError` (one line naming the problem): missing columns,
 non-numeric cells, non-increasing time, a sampling period more than 20 %
 away from the configured one, or NaN in two or more consecutive rows.  An

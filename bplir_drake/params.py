@@ -14,7 +14,7 @@ nominal blocks).  Controllers never receive the ``true_*`` blocks.
 
 Dissertation sources: Table 4.3 (plant, friction), Table 4.2 and
 (4.12)-(4.14) (motor), Table 5.1 and (5.36)-(5.40) (IMU, estimator), chapter
-6 (controller), chapter 7 (path), SPEC.md (scenario and success criteria).
+6 (controller), chapter 7 (path), docs/concepts.md (scenario and success criteria).
 """
 from __future__ import annotations
 
@@ -186,7 +186,7 @@ class FrictionParams(_Block):
     cd: float = _p(1.0, "", 0, doc="drag coefficient")
     area1: float = _p(0.0, "m^2 (lumped)", 0, doc="effective drag area, joint 1")
     area2: float = _p(0.0, "m^2 (lumped)", 0, doc="effective drag area, joint 2")
-    enabled: bool = True
+    enabled: bool = field(default=True, metadata=dict(doc="joint friction on (false: a frictionless plant)"))
 
     def drag_coefficients(self) -> tuple[float, float]:
         """(k1, k2) = 0.5 rho Cd A of each joint (N m s^2/rad^2)."""
@@ -292,7 +292,7 @@ class ImuParams(_Block):
     accel_scale2: float = _p(0.0, "", -0.2, 0.2, doc="accelerometer scale error, IMU 2")
     gyro_scale1: float = _p(0.0, "", -0.2, 0.2, doc="gyro scale error, IMU 1 (reads (1 + s) omega)")
     gyro_scale2: float = _p(0.0, "", -0.2, 0.2, doc="gyro scale error, IMU 2")
-    noise: bool = True
+    noise: bool = field(default=True, metadata=dict(doc="add the IMUs' white noise (false: noise-free readings; biases and misalignments stay)"))
 
     @property
     def period(self) -> float:
@@ -363,40 +363,40 @@ class EstimatorParams(_Block):
     accel_process_sigma: float = _positive(0.427, "m/s^2", doc="(5.39) process noise on the accelerometer inputs")
     gyro_meas_sigma: float = _positive(0.02, "rad/s", doc="(5.40) gyro measurement noise")
     accel_meas_sigma: float = _positive(0.427, "m/s^2", doc="accelerometer measurement noise (5.39)")
-    integration: str = "euler"
-    loop_accel_process_sigma: float = _positive(0.2, "m/s^2", doc="in-loop tuning: process noise (0.2 with Heun's step since 2026-11-23, 2.0 with the trapezoid step before; chosen on root seed 0 of the realistic study, README \"The realistic study\")")
+    integration: str = field(default="euler", metadata=dict(doc="prediction step of the offline filter: euler (5.3), trapezoid or heun", allowed="euler, trapezoid, heun"))
+    loop_accel_process_sigma: float = _positive(0.2, "m/s^2", doc="in-loop tuning: process noise on the accelerometer inputs (with Heun's step)")
     loop_gyro_meas_sigma: float = _positive(0.0166, "rad/s", doc="in-loop tuning: gyro noise (Table 5.1)")
-    loop_accel_meas_sigma: float = _positive(0.1, "m/s^2", doc="in-loop tuning: accelerometer noise (0.05 before 2026-11-23)")
+    loop_accel_meas_sigma: float = _positive(0.1, "m/s^2", doc="in-loop tuning: accelerometer measurement noise")
     # Heun's step with the accelerations at both ends of the period (was
     # "trapezoid"): its smaller discretisation error lets the filter trust the
     # accelerometers' gravity 10x more (process noise 0.2 instead of 2.0 m/s^2)
-    loop_integration: str = "heun"
+    loop_integration: str = field(default="heun", metadata=dict(doc="in-loop tuning: prediction step of the swing's filter (heun: the accelerations at both ends of the period)", allowed="euler, trapezoid, heun"))
     p0_angle: float = _positive(1.0, "rad", doc="initial angle standard deviation")
     p0_rate: float = _positive(0.5, "rad/s", doc="initial rate standard deviation")
-    start_angle_sigma: float = _positive(0.02, "rad", doc="initial angle sd when a swing starts at rest on the line, from the pose the robot believes it is in (nominal link lengths; 3 mrad instead of 20 changed nothing with Heun's step on root seed 0 of the realistic study)")
+    start_angle_sigma: float = _positive(0.02, "rad", doc="initial angle sd when a swing starts at rest on the line, about the pose the robot believes it is in")
     start_rate_sigma: float = _positive(0.05, "rad/s", doc="initial rate sd at a swing start (at rest)")
     start_bias_sigma: float = _positive(0.002, "rad/s", doc="gyro-bias sd at a swing start (calibrated while held on the line)")
-    standstill_samples: float = _p(500, "samples", 0, 100000, doc="IMU samples averaged at rest on the line before a swing to calibrate the gyro biases and accelerometer misalignments (0: none, the dissertation's filter; 500 = 5 s, the default: a 2.5 deg misalignment crashes at 1.5 m/s without it, README \"Robustness benchmark\")")
-    tuned_gyro_noise: float = _positive(0.0166, "rad/s", doc="the gyro noise per sample the in-loop tuning assumes (Table 5.1): a standstill calibration that measures more widens the gyro's R by the ratio")
-    tuned_accel_noise: float = _positive(0.02156, "m/s^2", doc="the accelerometer noise per sample the in-loop tuning assumes (Table 5.1): a standstill calibration that measures more widens the accelerometers' R by the ratio")
-    noise_tolerance: float = _p(1.2, "", 1, 100, doc="R is widened only when the measured noise exceeds the tuned one by more than this factor (500 standstill samples of the datasheet noise measure it within +-6 %)")
-    inflate_nis: float = _p(0.0, "", 0, 1000, doc="covariance inflation: where a tick's normalised innovation squared exceeds this multiple of its expectation (4), the predicted covariance is inflated by the excess before the update, so that accelerations the process noise does not cover (torque noise, heavy sensor noise) move the estimate (0: never)")
-    loop_inflate_nis: float = _p(3.0, "", 0, 1000, doc="in-loop tuning: inflate_nis (3 since 2026-11-24, but for the swapped robot's traversal swings, traverse.swapped_inflate_nis: at 3 the full benchmark's torque noise rose from 0.75 to 0.92 on root seeds 0 and 1, the quick benchmark's 3 N m case landed 18 of 20 repeats against 14, the realistic single-swing studies on held-out root seeds 5 and 6 kept their counts on every line; on every traversal swing the realistic traversal study on root seed 1 fell from 185 to 168 of 200, the swapped robot's swings crashing)")
-    estimate_bias: bool = True
+    standstill_samples: float = _p(500, "samples", 0, 100000, doc="IMU samples averaged at rest on the line before a swing to calibrate gyro biases and misalignments (0: none, the dissertation's filter; 500 = 5 s)")
+    tuned_gyro_noise: float = _positive(0.0166, "rad/s", doc="gyro noise per sample the in-loop tuning assumes (Table 5.1); a standstill calibration measuring more widens R by the ratio")
+    tuned_accel_noise: float = _positive(0.02156, "m/s^2", doc="accelerometer noise per sample the in-loop tuning assumes (Table 5.1); a standstill calibration measuring more widens R by the ratio")
+    noise_tolerance: float = _p(1.2, "", 1, 100, doc="R is widened only when the measured noise exceeds the tuned one by more than this factor (500 samples measure it within 6 %)")
+    inflate_nis: float = _p(0.0, "", 0, 1000, doc="covariance inflation: a tick whose normalised innovation squared exceeds this multiple of its expectation inflates the predicted covariance by the excess (0: never)")
+    loop_inflate_nis: float = _p(3.0, "", 0, 1000, doc="in-loop tuning: inflate_nis of the swing's filter (lets torque noise and heavy sensor noise move the estimate)")
+    estimate_bias: bool = field(default=True, metadata=dict(doc="estimate a constant gyro bias per IMU (two extra states)"))
     bias_sigma0: float = _positive(0.05, "rad/s", doc="initial gyro-bias standard deviation")
     bias_walk: float = _positive(1e-3, "rad/s/sqrt(s)", doc="gyro-bias random walk")
-    estimate_misalignment: bool = False
+    estimate_misalignment: bool = field(default=False, metadata=dict(doc="self-calibration: estimate each accelerometer's misalignment"))
     misalign_sigma0: float = _positive(0.05, "rad", doc="initial accelerometer-misalignment standard deviation (self-calibration states)")
     misalign_walk: float = _positive(1e-4, "rad/sqrt(s)", doc="accelerometer-misalignment random walk")
-    estimate_gyro_scale: bool = False
+    estimate_gyro_scale: bool = field(default=False, metadata=dict(doc="self-calibration: estimate each gyro's scale error"))
     gyro_scale_sigma0: float = _positive(0.02, "1", doc="initial gyro scale-error standard deviation (self-calibration states)")
     gyro_scale_walk: float = _positive(1e-5, "1/sqrt(s)", doc="gyro scale-error random walk")
-    estimate_imu_position: bool = False
-    calibrate_after: float = _p(0.0, "s", 0, 3600, doc="the gyro-bias and self-calibration states are held (Schmidt 'consider' states: not updated) for this long after the first sample, while the angles converge from an unknown start (0: never held; a swing starts from its known pose)")
+    estimate_imu_position: bool = field(default=False, metadata=dict(doc="self-calibration: estimate each IMU's distance along its link"))
+    calibrate_after: float = _p(0.0, "s", 0, 3600, doc="bias and self-calibration states are held (Schmidt consider states) this long after the first sample while the angles converge (0: never held)")
     imu_position_sigma0: float = _positive(0.02, "m", doc="initial standard deviation of each IMU's distance along its link (self-calibration states; they start at r1, r2)")
     imu_position_walk: float = _positive(1e-5, "m/sqrt(s)", doc="IMU-distance random walk")
-    datasheet_process_sigma: float = _positive(0.05, "m/s^2", doc="process noise on the accelerometer inputs when R is the IMUs' own noise (with_sensor_noise; chosen on estimation benchmark logs 0-17: mean NIS 4.07, inside its 95 % band)")
-    plugin: str = ""   # "module:factory" of a user's estimator (replaces the EKF in a swing)
+    datasheet_process_sigma: float = _positive(0.05, "m/s^2", doc="process noise on the accelerometer inputs when R is the IMUs' own noise (with_sensor_noise; NIS-consistent on the estimation benchmark)")
+    plugin: str = field(default="", metadata=dict(doc="module:factory of your own estimator, used in a swing instead of the EKF ('' : the EKF)", allowed="module:factory or ''"))
 
     def self_calibrating(self) -> "EstimatorParams":
         """The same filter with the self-calibration states (accelerometer
@@ -444,9 +444,9 @@ class EstimatorParams(_Block):
                        integration=self.loop_integration, inflate_nis=self.loop_inflate_nis)
 
 
-#: the in-loop filter tuning before 2026-11-23 (``EstimatorParams`` fields):
-#: the trapezoid step, which needs 10x the process noise of Heun's step; the
-#: adaptive path's delay compensation and latch were built with it
+#: the in-loop filter tuning with the trapezoid step (``EstimatorParams``
+#: fields), which needs 10x the process noise of Heun's step; the adaptive
+#: path's delay compensation and latch were built with it
 TRAPEZOID_LOOP_TUNING = {"loop_integration": "trapezoid", "loop_accel_process_sigma": 2.0,
                          "loop_accel_meas_sigma": 0.05}
 
@@ -475,7 +475,7 @@ CONTROLLER_PRESETS = ("qft", "dissertation", "lab")
 #: ``e = F(r) - y`` and of the prefilter ``F(s)``.  ``dissertation`` is
 #: (6.23)-(6.24) as published (for the measured family (4.16), whose sign
 #: is negative); ``lab`` is the firmware's proportional law (sign corrected
-#: for the simulated plant q2'' = v, see SPEC.md); ``qft`` is designed for
+#: for the simulated plant q2'' = v, see docs/errata.md); ``qft`` is designed for
 #: the plant family of the simulated CPFL loop by :mod:`bplir_drake.analysis.control.qft`
 #: (``bplir qft --family diagram`` re-verifies it).
 OUTER_LOOP_DESIGNS = {
@@ -495,21 +495,21 @@ class ControllerParams(_Block):
     ``f_den`` override it."""
 
     _name = "controller"
-    preset: str = "qft"
+    preset: str = field(default="qft", metadata=dict(doc="the controller preset: qft (plan tracking with its landing), dissertation (CPFL + QFT + path generator), lab (the lab firmware)", allowed="qft, dissertation, lab"))
     period: float = _p(0.01, "s", 0, 1, lo_open=True, doc="controller sample time Ts")
     torque_limit: float = _positive(20.0, "N m", doc="saturation in the controller")
     aw_gain: float = _p(100.0, "", 0, doc="anti-windup gain X >> 1 (Fig. 6.7); 0 disables")
     delay_samples: float = _p(0.0, "samples", 0, 1, doc="command applied this many samples late (0 or 1)")
     torque_quantum: float = _p(0.0, "N m", 0, 5, doc="truncate the torque to multiples of this (firmware: 1)")
     compute_latency: float = _p(3e-4, "s", 0, 0.01, doc="time from the IMU sample to the command reaching the driver (< period)")
-    delay_compensation: float = _p(0.0, "s", 0, 0.1, doc="actuation delay the controller assumes (whole periods): it acts on the state predicted this far ahead from the estimate and its own past commands (0: none)")
-    friction_compensation: bool = False
-    sign_correct: bool = True
-    plugin: str = ""   # "module:factory" of a user's controller (replaces path + CPFL)
-    k_num: tuple = ()
-    k_den: tuple = ()
-    f_num: tuple = ()
-    f_den: tuple = ()
+    delay_compensation: float = _p(0.0, "s", 0, 0.1, doc="actuation delay the CPFL controller assumes (whole periods): it acts on the state predicted this far ahead (0: none)")
+    friction_compensation: bool = field(default=False, metadata=dict(doc="CPFL includes the nominal friction in its feedback linearisation"))
+    sign_correct: bool = field(default=True, metadata=dict(doc="negate a K of negative gain (the published K = -216 matches the measured plant's sign, see errata)"))
+    plugin: str = field(default="", metadata=dict(doc="module:factory of your own controller ('' : the preset's)", allowed="module:factory or ''"))
+    k_num: tuple = field(default=(), metadata=dict(doc="outer-loop K numerator, highest power first (empty: the preset's design)"))
+    k_den: tuple = field(default=(), metadata=dict(doc="outer-loop K denominator, highest power first"))
+    f_num: tuple = field(default=(), metadata=dict(doc="prefilter F numerator, highest power first"))
+    f_den: tuple = field(default=(), metadata=dict(doc="prefilter F denominator, highest power first"))
 
     def _check(self):
         if not isinstance(self.plugin, str) or (self.plugin and not _is_plugin(self.plugin)):
@@ -594,7 +594,7 @@ class PathParams(_Block):
     :mod:`bplir_drake.systems.plan_tracker`)."""
 
     _name = "path"
-    mode: str = "auto"
+    mode: str = field(default="auto", metadata=dict(doc="how the swing is steered: auto (plan for the qft preset, adaptive otherwise), plan, adaptive, rts, lab", allowed="auto, plan, adaptive, rts, lab"))
     blend_exponent: float = _p(2.0, "", 1, 10, doc="exponent n of the blend weight F = (s/s_e)^n (7.20)")
     arrival_rate: float = _p(0.45, "rad/s", 0, 2, lo_open=True, doc="link-1 rate aimed for where the gripper enters the capture band")
     adapt_window: float = _p(0.3, "", 0, 1, doc="s_e adapts from s > -adapt_window * s_f ...")
@@ -608,20 +608,19 @@ class PathParams(_Block):
     latch_ramp: float = _positive(2.0, "1/s", doc="after the latch the blend weight rises to 1 at this rate")
     latch_lift: float = _p(0.01, "m", -0.1, 0.1, doc="after the latch the line-seeking path aims this far above the line (tracking error margin)")
     lead_time: float = _p(0.01, "s", 0, 0.1, doc="path evaluated at s + q1' * lead_time (ZOH + motor lag)")
-    predict_friction: bool = True
-    calibrate: bool = True
+    predict_friction: bool = field(default=True, metadata=dict(doc="the path generator's arrival predictor includes the nominal link-1 damping"))
+    calibrate: bool = field(default=True, metadata=dict(doc="the path generator fits link 1's effective damping during the first half of the swing"))
     calibrate_start: float = _p(0.2, "rad/s", 0, doc="record the calibration start once q1' exceeds this")
     calibrate_at: float = _p(0.35, "", 0, 1, doc="fit the effective damping at s = -calibrate_at * s_f")
     pump_gain: float = _p(1.0, "", 0.5, 3, doc="RTS gain lam in the first half (energy pumping for inclines)")
     lab_gain: float = _p(1.5, "", 0, 5, doc="gain of the lab firmware path")
-    plan_end_depth: float = _p(0.015, "m", 0, 0.1, doc="mode 'plan': the planned swing comes to rest this far below the line (inside the capture band); 15 mm chosen on seeds 0-19 at +-20 deg: 13 mm crashed 9/20 uphill, 17 mm timed out 4/20 downhill")
+    plan_end_depth: float = _p(0.015, "m", 0, 0.1, doc="mode 'plan': the planned swing comes to rest this far below the line, inside the capture band, so the band is entered slowly")
     plan_voltage_share: float = _fraction(0.9, doc="mode 'plan': share of the driver's largest voltage the plan may use at its knots (the rest is the feedback's headroom)")
-    plan_spacing_step: float = _p(0.01, "m", 0, 0.1, doc="mode 'plan': the plan is made for the grip spacing measured at the start rounded to this step, so that a study drawing the spacing solves a few plans (one per step, cached), not one per swing (0: the exact spacing)")
-    plan_warm_spacing: float = _p(1.2, "m", 0, 3, doc="mode 'plan': a plan for another grip spacing is also solved from this spacing's plan on the same line, and the cheaper of the two kept (the straight-line initial guesses alone found a plan of twice the cost at 1.27 m, whose swings crashed 17 of 53 times in the realistic study against 27 of 947 elsewhere); 0: the straight-line guesses only")
-    plan_indexing: str = "time"   # mode 'plan': "time" (reads the clock) or "state" (clock-free phase)
-    # mode 'plan': the terminal reach (systems/plan_tracker.py, issue 17), off by default: it
-    # lands on the back swing, 0.6-0.9 m short of the planned grip (README, "Status")
-    reach_speed: float = _p(0.0, "m/s", 0, 2, doc="mode 'plan': the terminal reach's speed toward the line where it aims (0, the default: no reach, the LQR to the end; 0.2 was tuned on root seed 0 of the realistic study, but the reach captures on the back swing, 0.6-0.9 m short of the planned grip)")
+    plan_spacing_step: float = _p(0.01, "m", 0, 0.1, doc="mode 'plan': plans are made for the measured grip spacing rounded to this step, so a study drawing the spacing solves few plans (0: exact)")
+    plan_warm_spacing: float = _p(1.2, "m", 0, 3, doc="mode 'plan': a plan for another spacing is also solved from this spacing's plan and the cheaper one kept (0: straight-line guesses only)")
+    plan_indexing: str = field(default="time", metadata=dict(doc="mode 'plan': time (the plan read by the clock) or state (the plan phase nearest the estimate: no clock)", allowed="time, state"))
+    # mode 'plan': the terminal reach (systems/plan_tracker.py), off by default
+    reach_speed: float = _p(0.0, "m/s", 0, 2, doc="mode 'plan': the terminal reach's speed toward its aim (0: no reach; it lands on the back swing, short of the grip)")
     reach_depth: float = _p(0.12, "m", 0, 0.5, doc="mode 'plan': the reach takes over once the gripper is this close to the line in the plan's second half (or at the plan's end)")
     reach_lift: float = _p(-0.01, "m", -0.1, 0.1, doc="mode 'plan': the reach aims the gripper this far from the line (negative: below, inside the capture band)")
     reach_brake: float = _positive(1.25, "m/s^2", doc="mode 'plan': the reach's speed profile toward its aim, sqrt(reach_speed^2 + 2 reach_brake |distance|)")
@@ -629,35 +628,29 @@ class PathParams(_Block):
     reach_hold: float = _p(-0.05, "m", -0.2, 0, doc="mode 'plan': see reach_tangent")
     reach_rate_gain: float = _positive(30.0, "1/s", doc="mode 'plan': the reach's speed error to acceleration gain")
     # mode 'plan': the apex landing (systems/plan_tracker.py, issue 17)
-    landing_lead: float = _p(0.025, "m s/rad", 0, 1, doc="mode 'plan': the apex landing aims the gripper landing_margin + landing_lead q1' below the line, so that it rises as link 1 slows and reaches the band when link 1 stops (0: no landing, the LQR to the end); 0.025 chosen on root seed 0 of the realistic study (README)")
+    landing_lead: float = _p(0.025, "m s/rad", 0, 1, doc="mode 'plan': the aim law aims landing_margin + landing_lead q1' below the line, so the gripper meets the band as link 1 stops (0: no aim law)")
     landing_margin: float = _p(0.01, "m", 0, 0.1, doc="mode 'plan': the landing aims the gripper this far below the line when link 1 stops (inside the capture band)")
-    landing_depth: float = _p(0.12, "m", 0, 0.5, doc="mode 'plan': the landing takes over once the gripper is this close to the line in the plan's last forward swing of link 1 (or at the plan's end) ...")
+    landing_depth: float = _p(0.12, "m", 0, 0.5, doc="mode 'plan': the aim law takes over once the gripper is this close to the line in the plan's last forward swing of link 1")
     landing_take_rate: float = _p(1.2, "rad/s", 0, 10, doc="mode 'plan': ... or once link 1 slows below this rate while decelerating")
     landing_gain: float = _positive(10.0, "1/s", doc="mode 'plan': the landing's height error to rate gain")
     landing_rate_gain: float = _positive(30.0, "1/s", doc="mode 'plan': the landing's rate error to acceleration gain")
     landing_min_decel: float = _positive(1.0, "rad/s^2", doc="mode 'plan': link 1 counts as decelerating above this (nominal model, elbow held)")
-    # mode 'plan': "aim" (the apex landing's aim law), "shoot" (ApexShot: it
-    # solves for link 1's stop every tick; the traversals' swapped robot's default,
-    # traverse.swapped_landing_law) or "auto" (the default since 2026-11-23: per plan,
-    # shoot_link1_share: the shot, held from shoot_min_time where link 1 carries the
-    # planned gripper to the line and from shoot_lift_min_time where the elbow lifts it;
-    # until 2026-11-24 the aim law there)
-    landing_law: str = "auto"
-    landing_bias: float = _p(0.0, "m", -0.02, 0.02, doc="how far the robot's estimate of the gripper's height ran above the truth in its earlier landings (the traversal learns it from each capture, traverse.landing_learning): the terminal laws aim that much higher (shoot_height + landing_bias, landing_margin - landing_bias; never above the line); 0: no correction, a single swing")
+    landing_law: str = field(default="auto", metadata=dict(doc="plan tracking's terminal law: auto (shoot where link 1 carries the gripper to the line, aim where the elbow lifts it), shoot, aim", allowed="auto, shoot, aim"))
+    landing_bias: float = _p(0.0, "m", -0.02, 0.02, doc="how far the robot's estimate of the gripper's height ran above the truth at earlier landings; both landing laws aim this much higher")
     shoot_height: float = _p(-0.015, "m", -0.02, 0, doc="landing_law 'shoot': the gripper's aimed distance to the line when link 1 stops (negative: inside the capture band)")
     shoot_depth: float = _p(0.3, "m", 0, 1, doc="landing_law 'shoot': it takes over once the gripper is this close to the line in the plan's last forward swing of link 1")
     shoot_min_time: float = _p(0.04, "s", 0.02, 0.5, doc="landing_law 'shoot': with less time to link 1's stop, or link 1 slower than shoot_min_rate, the stop time is held at this")
-    shoot_min_rate: float = _p(0.02, "rad/s", 0, 5, doc="landing_law 'shoot': see shoot_min_time.  0.02 rad/s since 2026-11-24 (0.1 before): on the -20 deg line link 1 creeps at 0.1-0.3 rad/s while the elbow lifts the gripper, and below 0.1 rad/s the shot was held (or, 3 cm below its aim, handed to the aim law, which asked for the torque limit) where a free shot existed.  Tuning root seed 0 of the realistic study (400 single swings per line): at 0 / +20 deg 0.02 gives the same swings as 0.1 (400 / 400 captured, capture speed p95 0.278 / 0.287 m/s); at -20 deg, held from 0.05 s (shoot_lift_min_time), 400 / 400 with p95 0.280 / 0.281 m/s and max 0.349 / 0.422 m/s.  The first held-out run (root seed 9, 1000 swings at -20 deg) with 0.1 crashed 6 (grip spacings 1.10-1.14 m); 5 of them were this hand-off, and land at 0.25-0.35 m/s with 0.02 (that seed is therefore no longer held out; README)")
-    shoot_lift_min_time: float = _p(0.0, "s", 0, 0.5, doc="landing_law 'auto': shoot_min_time where the plan lifts the gripper with the elbow (link 1's share below shoot_link1_share, as downhill); 0: the aim law there")
-    shoot_lift_height: float = _p(-0.019, "m", -0.02, 0, doc="landing_law 'auto': shoot_height of the swings whose plan lifts the gripper with the elbow (see shoot_lift_min_time).  -19 mm chosen on root seed 0 of the realistic study at -20 deg (400 single swings, held from 0.05 s, shoot_min_rate 0.02): -18 mm 400 captured, capture speed p50 / p95 / max 0.202 / 0.280 / 0.349 m/s; -19 mm 400, 0.181 / 0.261 / 0.322; -19.5 mm 400, 0.175 / 0.261 / 0.335.  (At 0 / +20 deg -19 mm was not better than -18: shoot_height)")
-    shoot_hold_depth: float = _p(0.03, "m", 0, 1, doc="landing_law 'shoot': the stop time is held at shoot_min_time only within this of the aimed height; further below it (link 1 stopped early, no shot found) the apex landing's aim law steers.  Without it the held 40-60 ms shot asked 24 cm below the line for 935 N m (tested) and crashed -20 deg swings at 2.5-4.6 m/s; 0.03 and 0.08 m gave the same captures there (tuning root seed 0) and the swapped robot's swing is unchanged (120 swings)")
-    shoot_give_up_rate: float = _p(0.1, "rad/s", 0, 5, doc="landing_law 'shoot': once link 1 swings back faster than this with the gripper below the aimed height, the shot gives up: the elbow is braked to rest and the swing times out, the robot hanging, instead of chasing the line at the torque limit while link 1 falls back (held-out sample 770 of root seed 2: a crash at 2.2 m/s; on tuning root seed 0, 200 swings each, no capture lost at 0 / +20 deg); 0: never")
-    shoot_link1_share: float = _p(0.5, "", 0, 1, doc="landing_law 'auto': the shooting landing held from shoot_min_time where link 1 makes at least this share of the planned gripper's rise rate shoot_depth below the line, held from shoot_lift_min_time (or the aim law, shoot_lift_min_time = 0) elsewhere (the plans on the 1.1-1.3 m grid: 0 deg 0.71-0.89, 0.26 at 1.27 m from the straight-line guesses before plan_warm_spacing, +20 deg 1.19-1.43, -20 deg -0.46 to 0.20; -10 deg 0.43 / 0.50 / 0.57 at 1.1 / 1.2 / 1.3 m)")
-    plan_delay_compensation: float = _p(0.01, "s", 0, 0.1, doc="mode 'plan': the actuation delay the plan tracker assumes (whole periods; the lab firmware's 10 ms): it acts on the state predicted this far ahead and indexes the plan as much later (controller.delay_compensation, when set, takes precedence); with plan_delay_probe, until the delay is identified")
-    plan_delay_probe: float = _p(10.0, "N m", 0, 20, doc="mode 'plan': the amplitude of the delay probe, two opposite doublets (+A, +A, -A, -A, -A, -A, +A, +A) on the first eight ticks' commands, from whose echo in the gyros the actuation delay is identified (systems/delay_id.py) and then compensated instead of plan_delay_compensation; tuned on root seed 0 of the realistic study, 400 swings per line: every delay identified, 392 / 392 / 400 captured at 0 / +20 / -20 deg against 385 / 386 / 398 with the fixed 10 ms (one doublet did as well there; two hold against noisier gyros, tests); 0: no probe, plan_delay_compensation throughout")
+    shoot_min_rate: float = _p(0.02, "rad/s", 0, 5, doc="landing_law 'shoot': with link 1 slower than this the shot's stop time is held at shoot_min_time")
+    shoot_lift_min_time: float = _p(0.0, "s", 0, 0.5, doc="landing_law 'auto': shoot_min_time where the plan lifts the gripper with the elbow (downhill); 0: the aim law there")
+    shoot_lift_height: float = _p(-0.019, "m", -0.02, 0, doc="landing_law 'auto': shoot_height where the plan lifts the gripper with the elbow (see shoot_lift_min_time)")
+    shoot_hold_depth: float = _p(0.03, "m", 0, 1, doc="landing_law 'shoot': the stop time is held at shoot_min_time only within this of the aimed height")
+    shoot_give_up_rate: float = _p(0.1, "rad/s", 0, 5, doc="landing_law 'shoot': once link 1 swings back faster than this with the gripper below its aim, the shot brakes the elbow and gives up")
+    shoot_link1_share: float = _p(0.5, "", 0, 1, doc="landing_law 'auto': the shot where link 1 makes at least this share of the planned gripper's rise rate near the line, else the lift rule")
+    plan_delay_compensation: float = _p(0.01, "s", 0, 0.1, doc="mode 'plan': actuation delay the tracker assumes until it has identified one (whole periods; the lab firmware's 10 ms)")
+    plan_delay_probe: float = _p(10.0, "N m", 0, 20, doc="mode 'plan': amplitude of the delay probe, two opposite doublets on the first eight commands whose gyro echo identifies the delay (0: none)")
     plan_delay_max: float = _p(0.03, "s", 0.01, 0.1, doc="mode 'plan' with plan_delay_probe: the longest actuation delay the identification considers (whole periods)")
     plan_delay_window: float = _p(12, "ticks", 8, 50, doc="mode 'plan' with plan_delay_probe: the ticks of gyro samples the identification fits (12: 120 ms from the release)")
-    plan_delay_min_ratio: float = _p(1.25, "", 1, 100, doc="mode 'plan' with plan_delay_probe: the identified delay is used only if the runner-up candidate fits the gyros this many times worse; else plan_delay_compensation stays")
+    plan_delay_min_ratio: float = _p(1.25, "", 1, 100, doc="mode 'plan': the identified delay is used only if the runner-up candidate fits the gyros this many times worse")
 
     def resolved(self, incline_deg: float, controller: "ControllerParams") -> "PathParams":
         """The path block with ``mode = "auto"`` made concrete: ``plan`` (plan
@@ -716,8 +709,8 @@ class ScenarioParams(_Block):
     gust_duration: float = _p(0.1, "s", 0, 1, lo_open=True, doc="duration of one gust")
     torque_noise: float = _p(0.0, "N m", 0, 20, doc="white noise on the applied elbow torque (per controller period)")
     actuation_delay: float = _p(0.0, "s", 0, 0.2, doc="extra delay of the torque command (whole controller periods)")
-    seed: int = 0
-    use_estimator: bool = True
+    seed: int = field(default=0, metadata=dict(doc="seed of the swing's random draws (sensor noise, gusts, the simulated friction)", allowed="[0, 2^32)"))
+    use_estimator: bool = field(default=True, metadata=dict(doc="the controller reads the EKF's estimate (false: the true state sampled at its tick)"))
 
     def _check(self):
         if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
@@ -758,22 +751,19 @@ class TraverseParams(_Block):
     clearance: float = _p(0.05, "m", 0, 1, doc="gap kept between a clasped gripper and an obstacle")
     gripper_width: float = _p(0.08, "m", 0, 0.5, doc="length of line a clasped gripper covers")
     landing_tolerance: float = _p(0.08, "m", 0, 1, doc="planned landings lie at least this much further from obstacles (the swing's landing error)")
-    swing_mode: str = "plan"
+    swing_mode: str = field(default="plan", metadata=dict(doc="how traversal swings are steered: plan (plan tracking) or the path generator (adaptive)", allowed="plan, adaptive"))
     plan_end_depth: float = _p(0.013, "m", 0, 0.02, doc="swing_mode 'plan': the planned swing comes to rest this far below the line (path.plan_end_depth of every traversal swing)")
     # swing_mode 'plan': the single swing's apex landing and delay compensation
     # (path.landing_*, path.plan_delay_compensation) on every traversal swing
-    landing: bool = True
-    swapped_landing_margin: float = _p(0.0, "m", 0, 0.1, doc="swing_mode 'plan' with landing: path.landing_margin of the swings that hold with gripper 2 (the swapped robot's planned swing uses the whole torque limit, and its landing lags a deeper aim: 10 / 5 / 2.5 / 0 mm passed 4 / 18 / 20 / 24 of 40 realistic traversals of examples/line_flat.toml, tuning root seed 0)")
-    # swing_mode 'plan' with landing: path.landing_law of the swings that hold with
-    # gripper 2; "shoot" passes more realistic traversals than "aim" (109 against
-    # 80 of 200, README "Traversal Monte Carlo")
-    swapped_landing_law: str = "shoot"
-    swapped_shoot_min_time: float = _p(0.06, "s", 0.02, 0.5, doc="swing_mode 'plan' with landing: path.shoot_min_time of the swings that hold with gripper 2 (0.06 s: 109 of 200 realistic traversals of examples/line_flat.toml on root seed 1 and 100 of 100 friction-only on root seed 2; the single swing's 0.04 s: 107 and 99)")
-    swapped_shoot_height: float = _p(-0.015, "m", -0.02, 0, doc="swing_mode 'plan' with landing: path.shoot_height of the swings that hold with gripper 2 (-15 mm: its aim with the IMUs alone, chosen for path.shoot_height before 2026-11-24; see swapped_line_range)")
-    swapped_line_range: float = _p(0.0, "m", 0, 1, doc="swing_mode 'plan' with landing: the largest line_sensor.range of the swings that hold with gripper 2 (0, the default: their estimate uses the IMUs alone, as their landing was tuned).  Chosen on tuning root seed 0 of the realistic traversal study (200 traversals of examples/line_flat.toml): 0 passed 196; the sensor's 0.2 m 191 with swapped_shoot_height -15 mm and 143 of the first 155 with -18 mm (on the first 148: 145 / 144 / 137, -17 mm 143).  With an exact height the swapped robot's shot, its swinging link nearly upright and its elbow at the torque limit, arrives at 0.45-0.5 m/s from -15 mm and times out from -18 mm")
-    swapped_inflate_nis: float = _p(0.0, "", 0, 1000, doc="estimator.loop_inflate_nis of the swings that hold with gripper 2 (0: no covariance inflation; with the single swing's 3 the realistic traversal study on root seed 1 fell from 185 to 168 of 200, the swapped robot's swings crashing: its landing makes large tracking corrections, which the inflation reads as model error)")
-    landing_learning: float = _p(0.5, "", 0, 1, doc="swing_mode 'plan' with landing: each swing aims this share of the mean landing height error (swing summary landing_height_error_m) of the earlier captures of the robot holding with the same gripper higher (path.landing_bias); 0: every swing aims as the first.  0.5 chosen on tuning root seed 0 of the realistic traversal study (200 traversals of examples/line_flat.toml: 0 / 0.5 / 0.7 passed 184 / 189 / 188; the swing crashes and timeouts after the first swing of each gripper 7 / 2 / 2)")
-    rest: bool = True
+    landing: bool = field(default=True, metadata=dict(doc="traversal swings end with the single swing's landing law"))
+    swapped_landing_margin: float = _p(0.0, "m", 0, 0.1, doc="path.landing_margin of the swings holding with gripper 2")
+    swapped_landing_law: str = field(default="shoot", metadata=dict(doc="path.landing_law of the swings holding with gripper 2 (the swapped robot)", allowed="auto, shoot, aim"))
+    swapped_shoot_min_time: float = _p(0.06, "s", 0.02, 0.5, doc="path.shoot_min_time of the swings holding with gripper 2")
+    swapped_shoot_height: float = _p(-0.015, "m", -0.02, 0, doc="path.shoot_height of the swings holding with gripper 2")
+    swapped_line_range: float = _p(0.0, "m", 0, 1, doc="the largest line_sensor.range of the swings holding with gripper 2 (0: they estimate with the IMUs alone)")
+    swapped_inflate_nis: float = _p(0.0, "", 0, 1000, doc="estimator.loop_inflate_nis of the swings holding with gripper 2 (0: no inflation; its large landing corrections read as model error)")
+    landing_learning: float = _p(0.5, "", 0, 1, doc="each swing aims this share of the mean landing height error of the earlier captures holding with the same gripper higher (0: no learning)")
+    rest: bool = field(default=True, metadata=dict(doc="rest before a swing until the driver's i^2 t state allows the planned swing"))
     i2t_margin: float = _p(0.2, "", 0, 0.9, doc="share of the driver's i^2 t budget a swing may not use: the planner rests until the planned swing keeps this share free")
     max_incline_deg: float = _p(25.0, "deg", 0, 60, doc="steepest line incline accepted in a line file")
 
@@ -920,6 +910,32 @@ def swapped(params: BplirParams) -> BplirParams:
         estimator=replace(est, l1=nominal.l2, r1=nominal.l2 - est.r2, r2=est.l1 - est.r1))
 
 
+def parameter_reference(blocks=None) -> list[dict[str, Any]]:
+    """One row per parameter of the default set (``blocks``: the block names
+    to list, default all but the simulated robot's copies): block, name,
+    unit, allowed range, default and one-line meaning."""
+    base = BplirParams()
+    names = blocks or [b for b in BLOCKS if not b.startswith("true_")]
+    rows = []
+    for block in names:
+        if block not in BLOCKS or block.startswith("true_"):
+            raise ParameterError(f"unknown parameter block '{block}'; allowed: "
+                                 + ", ".join(b for b in BLOCKS if not b.startswith("true_")))
+        value = getattr(base, block)
+        for f in fields(value):
+            md = f.metadata
+            default = getattr(value, f.name)
+            if "lo" in md:
+                allowed = _range_text(md)
+            elif isinstance(default, bool):
+                allowed = "true, false"
+            else:
+                allowed = md.get("allowed", "")
+            rows.append({"block": block, "name": f.name, "unit": md.get("unit", ""),
+                         "range": allowed, "default": default, "doc": md.get("doc", "")})
+    return rows
+
+
 BLOCKS = {
     "plant": PlantParams, "friction": FrictionParams, "motor": MotorParams,
     "imu": ImuParams, "estimator": EstimatorParams, "controller": ControllerParams,
@@ -937,7 +953,7 @@ def _dissertation() -> BplirParams:
 def _lab() -> BplirParams:
     """The lab prototype: the estimator geometry of the firmware (r1 = r2 =
     0.5 m, l1 = 0.8 m while the calibrated link is 0.9091 m) and the firmware
-    controller (SPEC.md, "The lab firmware")."""
+    controller (the lab firmware of the dissertation's robot)."""
     return BplirParams(
         estimator=EstimatorParams(r1=0.5, r2=0.5, l1=0.8),
         controller=ControllerParams.preset_named("lab"),
@@ -1052,5 +1068,5 @@ __all__ = [
     "BplirParams", "preset", "PRESETS", "HARDWARE_OPTIONS", "LINE_SENSOR_OPTION",
     "from_dict", "load_toml", "to_toml",
     "save_toml", "to_dict", "sigma_from_density", "DriveParams", "TraverseParams",
-    "swapped", "swapped_plant", "swapped_imu",
+    "swapped", "swapped_plant", "swapped_imu", "parameter_reference", "BLOCKS",
 ]

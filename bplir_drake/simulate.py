@@ -41,7 +41,7 @@ def make_simulator(built, q0, v0=(0.0, 0.0), *, accuracy: float = 1e-6,
     ``set_context(context)``, when given, writes anything else into the
     fresh context (e.g. a Monte Carlo sample) before the simulator is
     initialised.  Error-controlled RK3 at accuracy 1e-6 handles the smoothed
-    Coulomb friction (b = 0.01) well (ENGINEERING.md); ``max_step`` (s)
+    Coulomb friction (b = 0.01) well; ``max_step`` (s)
     bounds the step.
     """
     sim = Simulator(built.diagram)

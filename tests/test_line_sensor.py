@@ -130,7 +130,7 @@ def test_the_standstill_calibration_measures_the_sensors_offset_on_the_line():
     from bplir_drake.diagrams.swing import standstill_calibration, swing_geometry
     from bplir_drake.systems.line_sensor import standstill_readings
 
-    p = preset()
+    p = preset().with_hardware("line-sensor")
     p = p.with_(line_sensor=dc.replace(p.line_sensor, offset=0.0008, sigma=0.002))
     q0 = swing_geometry(p)[0]
     cal = standstill_calibration(p, q0, seed=4)
@@ -153,7 +153,7 @@ def test_a_calibrated_offset_does_not_move_the_landing():
 
     from bplir_drake.analysis.swing.run import run_swing
 
-    p = preset()
+    p = preset().with_hardware("line-sensor")
     p = p.with_(imu=dc.replace(p.imu, noise=False),
                 line_sensor=dc.replace(p.line_sensor, sigma=0.0, offset=0.005))
     zero = p.with_(line_sensor=dc.replace(p.line_sensor, offset=0.0))
@@ -166,22 +166,26 @@ def test_a_calibrated_offset_does_not_move_the_landing():
 
 
 def test_the_presets_and_the_swapped_robot_choose_their_sensing():
-    """The default robot has the sensor; the published robots (the
-    ``dissertation`` and ``lab`` controllers) and ``imu_only`` have not; a
-    traversal's swapped robot estimates with its IMUs alone
-    (``traverse.swapped_line_range`` = 0: 196 of 200 realistic traversals on
-    tuning root seed 0 against 191 with its sensor)."""
+    """The default robot is the dissertation's (IMUs alone, the landing aimed
+    for them); the line sensor is a named hardware option that brings its
+    landing aim; a traversal's swapped robot estimates with its IMUs alone
+    (``traverse.swapped_line_range`` = 0)."""
     from bplir_drake.analysis.traverse.run import swing_params
+    from bplir_drake.params import IMU_ONLY_TUNING, LINE_SENSOR_OPTION
 
     p = preset()
-    assert p.line_sensor.range == 0.2 and p.path.shoot_height == -0.018
-    assert p.with_controller("dissertation").line_sensor.range == 0.0
-    assert p.with_controller("lab").line_sensor.range == 0.0
+    assert p.line_sensor.range == 0.0 and p.motor.supply_voltage == 30.0
+    assert {k: getattr(p.path, k) for k in IMU_ONLY_TUNING} == IMU_ONLY_TUNING
     assert preset("lab").line_sensor.range == 0.0
-    assert p.with_controller("qft").line_sensor.range == 0.2
-    only = p.imu_only()
-    assert (only.line_sensor.range, only.path.shoot_height, only.path.shoot_min_time) == (
-        0.0, -0.015, 0.04)
-    assert swing_params(p, 1, 1.2, 0.0).line_sensor.range == 0.2
-    swapped = swing_params(p, 2, 1.2, 0.0)
+    s = p.with_hardware("line-sensor")
+    assert (s.line_sensor.range, s.path.shoot_height, s.path.shoot_min_time,
+            s.path.shoot_lift_min_time) == tuple(LINE_SENSOR_OPTION.values())
+    assert s.with_controller("dissertation").line_sensor.range == 0.0
+    assert s.with_controller("qft").line_sensor.range == 0.2
+    assert s.imu_only() == p
+    assert p.with_hardware("48v").motor.supply_voltage == 48.0
+    with pytest.raises(ParameterError, match="unknown hardware option 'solar'"):
+        p.with_hardware("solar")
+    assert swing_params(s, 1, 1.2, 0.0).line_sensor.range == 0.2
+    swapped = swing_params(s, 2, 1.2, 0.0)
     assert (swapped.line_sensor.range, swapped.path.shoot_height) == (0.0, -0.015)

@@ -109,7 +109,7 @@ def _add_scene(meshcat, scene: ReplayScene, recording_end: float, log_end: float
 def replay_html(plant: PlantParams, t, q, scene: ReplayScene, *, fps: float = 30.0,
                 base=None, title: str = "BPLIR replay") -> str:
     """The HTML of a Meshcat replay of the joint angles ``q`` (n x 2, rad,
-    SPEC.md conventions) logged at times ``t`` (s), resampled at ``fps``.
+    the conventions of docs/concepts.md) logged at times ``t`` (s), resampled at ``fps``.
 
     ``base``: optional ``(n x 3)`` pose of the holding gripper (x, y,
     rotation) per logged time, for motion that moves the robot along the

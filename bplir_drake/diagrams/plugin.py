@@ -14,7 +14,7 @@ The factory receives the parameters with the **nominal** model only
 **Controller** (:data:`CONTROLLER`)
 
 * input port ``state`` (4): the state ``(q1, q2, q1d, q2d)`` (rad, rad/s;
-  relative elbow angle, SPEC.md conventions) from the estimator, its
+  relative elbow angle, the conventions of docs/concepts.md) from the estimator, its
   tick-k result, held over the controller tick ``T``
   (``controller.period``), or the true state sampled at the tick with
   ``--true-state``;

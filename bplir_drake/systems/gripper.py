@@ -3,8 +3,7 @@ holds the line.
 
 A small state machine updated every ``period`` (the controller's tick) from
 the *true* plant state -- in the robot this is the gripper's contact/proximity
-sensing, not the estimator.  Outcomes (SPEC.md, "Swing scenarios and
-success"):
+sensing, not the estimator.  Outcomes (docs/concepts.md, "Conventions"):
 
 * ``captured``: first arrival -- after the vertical has been passed, the free
   gripper comes within ``capture_distance`` of the line (or crosses it

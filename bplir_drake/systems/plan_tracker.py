@@ -434,7 +434,7 @@ def resolved_landing(p, alpha: float, states, path):
     at the line, and a short hold asks for the torque limit both ways), the
     shot held from ``path.shoot_lift_min_time`` and aimed at
     ``path.shoot_lift_height``, or the aim law if ``shoot_lift_min_time``
-    is 0 (the rule until 2026-11-24)."""
+    is 0 (the default, the robot without the line sensor)."""
     if path.landing_law != "auto":
         return path.landing_law, path
     if link1_share(p, alpha, states, path.shoot_depth) >= path.shoot_link1_share:

@@ -1,6 +1,6 @@
 """The BPLIR acrobot as a Drake ``MultibodyPlant`` plus its closed form.
 
-Conventions (SPEC.md): the line is the x axis through the fixed gripper
+Conventions (docs/concepts.md): the line is the x axis through the fixed gripper
 (origin), y is up, gravity is -y.  ``q1`` is link 1's angle from the downward
 vertical (passive joint at the fixed gripper), ``q2`` the elbow angle of link
 2 relative to link 1 (actuated).  Both joints rotate about +z, so positive

@@ -4,7 +4,7 @@
 build_swing`), draws the simulated robot's friction within
 ``+/- scenario.friction_uncertainty`` from the seed (unless ``true_friction``
 is given), runs until the gripper interlock reports an outcome, and returns
-the logs and a summary with the success criteria of SPEC.md and the
+the logs and a summary with the success criteria of docs/concepts.md and the
 thresholds and seed used.
 """
 from __future__ import annotations
@@ -54,7 +54,7 @@ class SwingResult:
 
     @property
     def success(self) -> bool:
-        """The swing captured the line (SPEC.md criteria)."""
+        """The swing captured the line (the success criteria)."""
         return bool(self.summary["success"])
 
     def to_dict(self) -> dict:
@@ -215,7 +215,7 @@ def motor_summary(p: BplirParams, lg: dict[str, Log]) -> dict:
 def swing_summary(p: BplirParams, lg: dict[str, Log], status: dict, seed: int,
                   use_est: bool) -> dict:
     """The summary of a swing from its logs and the interlock's ``status``
-    (SPEC.md criteria, peaks, energy, estimation error, thresholds, seed)."""
+    (success criteria, peaks, energy, estimation error, thresholds, seed)."""
     sc = p.scenario
     st = lg["state"]
     x, t = st.data, st.t

@@ -926,7 +926,7 @@ def parameter_reference(blocks=None) -> list[dict[str, Any]]:
             md = f.metadata
             default = getattr(value, f.name)
             if "lo" in md:
-                allowed = _range_text(md)
+                allowed = _range_text(dict(md, unit=""))
             elif isinstance(default, bool):
                 allowed = "true, false"
             else:

@@ -28,3 +28,27 @@ def test_the_python_guide_runs(tmp_path, monkeypatch, capsys):
     # the gyro integral's largest angle error (rad): measured 0.0579 at 1.3 m
     errors = [float(v) for v in re.findall(r"captured (0\.\d+)\n", out)]
     assert errors and errors[-1] == pytest.approx(0.058, abs=0.003)
+
+
+def test_the_documentation_site_builds_without_warnings(tmp_path):
+    """The site builds from docs/ with warnings as errors (the command the
+    README names), and the parameter reference lists every parameter with
+    its unit, range and default."""
+    import subprocess
+    import sys
+
+    from bplir_drake.params import parameter_reference
+
+    root = DOC.parents[1]
+    run = subprocess.run([sys.executable, "-m", "sphinx", "-W", "-q", "-b", "html",
+                          str(root / "docs"), str(tmp_path / "html")],
+                         capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr[-3000:]
+    page = (root / "docs" / "reference" / "parameters.md").read_text()
+    rows = parameter_reference()
+    assert len(rows) > 200
+    for r in rows:
+        assert f"| `{r['name']}` | {r['unit']} | {r['range']} |" in page, r
+    html = (tmp_path / "html" / "reference" / "parameters.html").read_text()
+    assert "supply_voltage" in html and "voltage_fraction" in html
+    assert (tmp_path / "html" / "cli.html").read_text().count("--hardware") >= 5

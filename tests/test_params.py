@@ -101,3 +101,35 @@ def test_any_mass_is_accepted_or_rejected_cleanly(m):
         assert not (m > 0 and math.isfinite(m))
     else:
         assert p.m1 > 0 and math.isfinite(p.m1)
+
+
+def test_every_parameter_says_what_it_means_in_a_line_or_two():
+    """Each parameter has a doc of its own, at most 300 characters, with no
+    tuning diary (no dates) in it."""
+    import re
+
+    from bplir_drake.params import parameter_reference
+
+    for r in parameter_reference():
+        name = f"{r['block']}.{r['name']}"
+        assert r["doc"], name
+        assert len(r["doc"]) <= 300, name
+        assert not re.search(r"\b20\d\d-\d\d-\d\d\b", r["doc"]), name
+
+
+def test_nothing_refers_to_files_outside_the_repository():
+    """The package, its tests, examples, benchmarks and docs are
+    self-contained: no reference to the developers' private notes."""
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    outside = ("SPEC" + ".md", "ENGINEERING" + ".md", "../" + "shared")
+    for folder in ("bplir_drake", "tests", "examples", "benchmarks", "docs", "scripts"):
+        for path in (root / folder).rglob("*"):
+            if path.suffix in (".py", ".md", ".toml") and "_build" not in path.parts:
+                text = path.read_text(encoding="utf-8")
+                for word in outside:
+                    assert word not in text, (path, word)
+    for name in ("README.md", "ARCHITECTURE.md", "CHANGELOG.md"):
+        for word in outside:
+            assert word not in (root / name).read_text(encoding="utf-8"), (name, word)

@@ -83,17 +83,17 @@ class SwingPlan(Result):
 
     @property
     def peak_voltage(self) -> float:
-        """Largest |winding voltage| of the plan (V)."""
+        """Largest absolute winding voltage of the plan (V)."""
         return float(np.max(np.abs(self.voltage)))
 
     @property
     def peak_torque(self) -> float:
-        """Largest |torque| of the plan (N m)."""
+        """Largest absolute torque of the plan (N m)."""
         return float(np.max(np.abs(self.torque)))
 
     @property
     def peak_power(self) -> float:
-        """Largest |power| of the plan (W)."""
+        """Largest absolute power of the plan (W)."""
         return float(np.max(np.abs(self.power)))
 
     @property

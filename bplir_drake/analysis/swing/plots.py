@@ -19,8 +19,8 @@ SWING_PANELS = (
     (0, 1, "rate [rad/s]", [("q1d", "C0", "q1'"), ("q2d", "C1", "q2'")]),
     (1, 0, "elbow torque [N m]", [("torque", "C3", "applied (motor)"),
                                   ("torque_cmd", "k:", "commanded")]),
-    (1, 1, "friction torque [N m]", [("f1", "C0", "f1 (gripper joint)"),
-                                     ("f2", "C1", "f2 (elbow)")]),
+    (1, 1, "motor voltage [V]", [("voltage", "C3", "winding voltage"),
+                                 ("back_emf", "C7--", "back-EMF")]),
     (2, 0, "free gripper [m]", [("gripper_x", "C2", "x"), ("gripper_y", "C4", "y")]),
     (2, 1, "energy [J]", [("energy", "k", "total"), ("kinetic", "C1", "kinetic"),
                           ("potential", "C0", "potential")]),
@@ -29,8 +29,9 @@ SWING_PANELS = (
 
 def plot_swing(result, axes=None, title=None):
     """Six panels (3 x 2 axes) in the style of Fig. 7.6: angles, rates,
-    applied torque, friction torques, free-gripper x/y, energy split; the
-    decision time marked.  Returns the figure."""
+    applied torque, the motor's winding voltage and back-EMF (with the
+    driver's limit), free-gripper x/y, energy split; the decision time
+    marked.  Returns the figure."""
     cols, d = log_table(result)
     c = {k: d[:, i] for i, k in enumerate(cols)}
     s = result.summary
@@ -44,8 +45,12 @@ def plot_swing(result, axes=None, title=None):
         if a.get_legend() is None:  # overlaid swings: the first one's legend
             a.legend(fontsize=7, ncol=2 if len(lines) > 3 else 1)
     lim = s["thresholds"]["torque_limit_Nm"]
+    vmax = result.params.motor.max_voltage
     for sign in (1, -1):
         ax[1, 0].axhline(sign * lim, color="grey", lw=0.6)
+        ax[1, 1].axhline(sign * vmax, color="grey", lw=0.6)
+    ax[1, 1].text(0.01, 0.90, f"driver limit \u00b1{vmax:.1f} V", transform=ax[1, 1].transAxes,
+                  va="top", fontsize=7, color="grey")
     ax[2, 0].axhline(0, color="k", lw=0.6)
     for a in ax[2]:
         a.set_xlabel("time [s]")

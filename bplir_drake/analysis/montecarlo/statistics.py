@@ -37,6 +37,16 @@ def percentiles(rows: list[dict], fields) -> dict:
     return pct
 
 
+def _version() -> str:
+    """The installed bplir-drake version."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("bplir-drake")
+    except PackageNotFoundError:   # pragma: no cover - running from a source tree
+        return "unknown"
+
+
 def summarize(study: Study, rows: list[dict]) -> dict:
     """The statistics of a study's rows: success rate over the samples that ran with its 95 %
     Wilson interval, outcome counts, failed and unsuccessful samples, percentiles of the
@@ -70,6 +80,10 @@ def summarize(study: Study, rows: list[dict]) -> dict:
         "uncertain": {d.name: d.as_dict() for d in study.distributions},
         "incline_deg": study.params.scenario.incline_deg,
         "controller": study.params.controller.preset,
+        "hardware": {"supply_voltage_V": study.params.motor.supply_voltage,
+                     "voltage_envelope": study.params.motor.envelope,
+                     "line_sensor_range_m": study.params.line_sensor.range},
+        "package_version": _version(),
     } | (_traverse_summary(study, ran) if study.line is not None else {})
 
 

@@ -61,6 +61,34 @@ def _with_hardware(params, args):
     return params.with_hardware(*names) if names else params
 
 
+#: figure formats every drawing command writes (``--format``)
+FIGURE_FORMATS = ("png", "pdf", "svg")
+
+
+def _dpi_value(text: str) -> int:
+    """``--dpi``'s value: a whole number in [30, 1200]."""
+    try:
+        dpi = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--dpi = '{text}' must be a whole number") from None
+    if not 30 <= dpi <= 1200:
+        raise argparse.ArgumentTypeError(f"--dpi = {dpi} is out of range; allowed [30, 1200]")
+    return dpi
+
+
+def _dpi(args) -> int:
+    """``--dpi``, checked (raster resolution; vector formats keep it for their images)."""
+    dpi = getattr(args, "dpi", None) or 150
+    _in_range("--dpi", dpi, 30, 1200)
+    return dpi
+
+
+def _save(args, fig, path) -> Path:
+    """Save ``fig`` at ``path`` with the suffix of ``--format`` and ``--dpi``."""
+    fmt = getattr(args, "format", None) or "png"
+    return save_figure(fig, Path(path).with_suffix("." + fmt), dpi=_dpi(args))
+
+
 def _emit(obj, as_json: bool, text_lines) -> None:
     """Print ``obj`` as strict JSON (NaN and infinities as null) or the text."""
     if as_json:
@@ -144,7 +172,7 @@ def cmd_model(args) -> int:
         "hanging_modes": [{"wn_rad_s": float(w), "zeta": float(z)} for w, z in zip(wn, zeta)],
         "torque_per_amp_Nm_A": params.motor.torque_per_amp,
         "envelope": env.summary(),
-        "files": {"envelope": str(save_figure(env.plot(), out_dir / "envelope.png"))},
+        "files": {"envelope": str(_save(args, env.plot(), out_dir / "envelope.png"))},
         "parameters": to_dict(params),
     }
     lines = [
@@ -175,7 +203,7 @@ def cmd_freeswing(args) -> int:
     out_dir = _out_dir(args.out)
     res = simulate_free_swing(params, q0, args.duration, elbow_torque=args.torque,
                               friction=not args.no_friction, log_period=0.005)
-    plot = save_figure(res.plot(), out_dir / "freeswing.png")
+    plot = _save(args, res.plot(), out_dir / "freeswing.png")
     summary = res.summary() | {"plot": str(plot), "friction": not args.no_friction,
                                "elbow_torque_Nm": args.torque}
     _write_json(out_dir / "freeswing.json", summary)
@@ -250,9 +278,10 @@ def cmd_estimate(args) -> int:
     if args.plot:
         fig = plot_estimate(res.t, res.x, res.gyro_integral,
                             truth=None if truth is None else truth[:, :2])
-        summary["plot"] = str(save_figure(fig, args.plot))
+        summary["plot"] = str(save_figure(fig, args.plot, dpi=_dpi(args)))
     if args.report:
-        summary["report"] = str(save_figure(plot_estimate_report(res, truth=truth), args.report))
+        summary["report"] = str(save_figure(plot_estimate_report(res, truth=truth), args.report,
+                                            dpi=_dpi(args)))
     _emit(summary, args.json, [
         f"estimated {len(res.t)} samples ({summary['duration_s']:.2f} s), "
         f"{res.skipped} isolated NaN rows skipped",
@@ -306,7 +335,7 @@ def cmd_observability(args) -> int:
     out = res.summary() | {"drake_is_observable_plant": plant_gyro_observability(params),
                            "scenario": {"q0": list(map(float, q0)), "duration_s": args.duration,
                                         "elbow_torque_Nm_after_1s": args.torque}}
-    out["plot"] = str(save_figure(res.plot(), out_dir / "observability.png"))
+    out["plot"] = str(_save(args, res.plot(), out_dir / "observability.png"))
     _write_json(out_dir / "observability.json", out)
     n_loss = sum(1 for e in res.events if e["rank_gyro"] < 4)
     _emit(out, args.json, [
@@ -331,7 +360,7 @@ def cmd_qft(args) -> int:
     res = qft_report(params, args.controller, family=args.family, plants=args.plants,
                      seed=args.seed, design=args.design, progress=_progress(args))
     report, ver, fam_plot = res.report, res.verification, res.family
-    figs = {name.split(".")[0]: save_figure(fig, out_dir / name)
+    figs = {name.split(".")[0]: _save(args, fig, out_dir / name)
             for name, fig in res.figures().items()}
     report["figures"] = {k: str(v) for k, v in figs.items()}
     _write_json(out_dir / "qft.json", report)
@@ -414,7 +443,7 @@ def cmd_swing(args) -> int:
         from .analysis.swing.compare import comparison_table, compare_presets, plot_comparison
 
         rows = compare_presets(params)
-        fig = save_figure(plot_comparison(rows), out_dir / "comparison.png")
+        fig = _save(args, plot_comparison(rows), out_dir / "comparison.png")
         table = comparison_table(rows)
         write_text_atomic(out_dir / "comparison.md", table + "\n")
         data = [{k: v for k, v in r.items() if k != "_result"} for r in rows]
@@ -423,7 +452,7 @@ def cmd_swing(args) -> int:
         return 0
     if replay_info is None:
         res = run_swing(params)
-    files = {"figure": str(save_figure(res.plot(), out_dir / "swing.png")),
+    files = {"figure": str(_save(args, res.plot(), out_dir / "swing.png")),
              "log_csv": str(write_log_csv(res, out_dir / "swing_log.csv"))}
     if not args.no_animation:
         files["animation"] = str(animate_swing(res, out_dir / "swing.gif"))
@@ -561,7 +590,7 @@ def cmd_montecarlo(args) -> int:
     out = _out_dir(args.out)
     summary = run_study(study, out, workers=args.workers or 0, dask=args.dask,
                         scheduler=args.scheduler, progress=_progress(args))
-    figs = ([str(save_figure(fig, out / name))
+    figs = ([str(_save(args, fig, out / name))
              for name, fig in StudyResult.load(out).figures().items()]
             if not args.no_plots else [])
     summary["files"] = {"results": str(out / RESULTS_FILE), "summary": str(out / "summary.json"),
@@ -620,7 +649,7 @@ def cmd_benchmark(args) -> int:
                            out=out)
     realistic = _realistic_studies(args, base, presets, out, run=True) \
         if base is not None else None
-    fig = save_figure(plot_benchmark(result), out / "benchmark.png")
+    fig = _save(args, plot_benchmark(result), out / "benchmark.png")
     table = benchmark_table(result)
     write_text_atomic(out / "benchmark.md", table + "\n")
     board = leaderboard(result, realistic)
@@ -673,7 +702,7 @@ def cmd_plan(args) -> int:
     out = _out_dir(args.out)
     # plan_swing validates the scenario, the power limit and the knots
     plan = plan_swing(params, power_limit=args.power, knots=args.knots, progress=_progress(args))
-    figure = save_figure(plot_plan(plan, params), out / "plan.png")
+    figure = _save(args, plot_plan(plan, params), out / "plan.png")
     summary = plan.summary() | {"figure": str(figure)}
     _write_json(out / "plan.json", summary)
     with atomic_path(out / "plan.csv") as tmp:
@@ -705,7 +734,7 @@ def cmd_calibrate(args) -> int:
     res = calibrate(params, log, fit, progress=_progress(args))
     summary = res.summary() | {
         "toml": str(write_calibrated_toml(res, out_dir / "calibrated.toml")),
-        "plot": str(save_figure(res.plot(), out_dir / "calibration.png"))}
+        "plot": str(_save(args, res.plot(), out_dir / "calibration.png"))}
     if args.deadband:
         summary["deadband"] = identify_deadband(res.params)
     if args.family:
@@ -759,8 +788,8 @@ def cmd_traverse(args) -> int:
                        "matches_recorded": matches}
     else:
         res = run_traverse(line, params, seed=args.seed or 0, progress=_progress(args))
-    files = {"figure_line": str(save_figure(res.plot(), out / "line.png")),
-             "figure_timeline": str(save_figure(plot_timeline(res), out / "timeline.png")),
+    files = {"figure_line": str(_save(args, res.plot(), out / "line.png")),
+             "figure_timeline": str(_save(args, plot_timeline(res), out / "timeline.png")),
              "manoeuvres_csv": str(write_rows_csv(res, out / "manoeuvres.csv"))}
     table = manoeuvre_table(res)
     write_text_atomic(out / "manoeuvres.md", table + "\n")
@@ -796,6 +825,10 @@ def build_parser() -> argparse.ArgumentParser:
         p.add_argument("--json", action="store_true", help="print JSON on stdout")
         if out:
             p.add_argument("--out", default=out, help=f"output directory (default {out})")
+            p.add_argument("--format", default="png", choices=FIGURE_FORMATS,
+                           help="figure format (default png)")
+            p.add_argument("--dpi", type=_dpi_value, default=150,
+                           help="figure resolution in dots per inch, 30-1200 (default 150)")
         p.set_defaults(func=func)
         return p
 

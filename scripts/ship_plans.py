@@ -50,15 +50,18 @@ def scenarios():
         for r in plan_route(line, base):
             for g, (a, b) in ((1, (r.rear, r.landing1)), (2, (r.hold, r.landing2))):
                 sp = swing_params(base, g, base.traverse.grip_spacing, line.chord(a, b)[1])
-                plans.append(lambda sp=sp: P.plan_swing(sp, end_depth=sp.path.plan_end_depth))
+                plans.append(lambda sp=sp: P.scenario_plan(sp))
     return plans, tracked
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--check", action="store_true", help="count, solve nothing")
+    ap.add_argument("--cache", default=None,
+                    help="solve into this (empty, or an earlier run's) directory")
     args = ap.parse_args(argv)
-    cache = Path(tempfile.mkdtemp(prefix="bplir-plans-"))
+    cache = Path(args.cache) if args.cache else Path(tempfile.mkdtemp(prefix="bplir-plans-"))
+    cache.mkdir(parents=True, exist_ok=True)
     os.environ["BPLIR_CACHE_DIR"] = str(cache)
     from bplir_drake.analysis.swing import plan as P
     from bplir_drake.analysis.swing.plan_cache import PACKAGED
@@ -80,7 +83,8 @@ def main(argv=None) -> int:
         shutil.copy2(f, PACKAGED / f.name)
     print(f"shipped {len(list(PACKAGED.glob('plan-*.npz')))} plans and "
           f"{len(list(PACKAGED.glob('gains-*.npz')))} gains in {PACKAGED}")
-    shutil.rmtree(cache, ignore_errors=True)
+    if not args.cache:
+        shutil.rmtree(cache, ignore_errors=True)
     return 0
 
 

@@ -52,7 +52,33 @@ def _load_params(args):
             params = load_toml(args.config)
     else:
         params = preset(args.preset or "dissertation")
-    return _with_hardware(params, args)
+    return _with_settings(_with_hardware(params, args), args)
+
+
+def _with_settings(params, args):
+    """``params`` with every ``--set block.field=value`` (a TOML value;
+    bare words are strings)."""
+    import tomllib
+
+    from .params import BLOCKS, ParameterError
+
+    for item in getattr(args, "set", None) or []:
+        key, sep, text = item.partition("=")
+        block, dot, name = key.strip().partition(".")
+        if not (sep and dot and block and name):
+            raise InputError(f"--set '{item}' must be block.field=value (e.g. plant.m2=1.6)")
+        if block not in BLOCKS:
+            raise ParameterError(f"--set {key}: unknown block '{block}'; allowed: "
+                                 + ", ".join(BLOCKS))
+        try:
+            value = tomllib.loads(f"v = {text.strip()}")["v"]
+        except tomllib.TOMLDecodeError:
+            value = text.strip()
+        base = getattr(params, block)
+        if base is None:   # true_plant / true_friction start from the nominal blocks
+            base = getattr(params, block.removeprefix("true_"))
+        params = params.with_(**{block: BLOCKS[block].from_dict({name: value}, base=base)})
+    return params
 
 
 def _with_hardware(params, args):
@@ -189,6 +215,37 @@ def cmd_model(args) -> int:
     ]
     _emit(out, args.json, lines)
     return 0
+
+
+# ------------------------------------------------------------------ params
+def cmd_params(args) -> int:
+    """``bplir params``: the parameter reference with the values in force."""
+    from .params import parameter_reference
+
+    params = _load_params(args)
+    rows = parameter_reference([args.block] if args.block else None)
+    for r in rows:
+        r["default"] = getattr(getattr(params, r["block"]), r["name"])
+    if args.json:
+        _emit({"parameters": [dict(r, value=r.pop("default")) for r in rows]}, True, [])
+        return 0
+    width = max(len(f"{r['block']}.{r['name']}") for r in rows)
+    def shown(v):
+        return f"{v:.6g}" if isinstance(v, float) else str(v)
+
+    lines = [f"{r['block'] + '.' + r['name']:<{width}}  {shown(r['default']):<12} "
+             f"{r['unit']:<10} {r['range']:<16} {r['doc']}" for r in rows]
+    _emit(None, False, lines)
+    return 0
+
+
+def _version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("bplir-drake")
+    except PackageNotFoundError:   # pragma: no cover - a source tree without metadata
+        return "unknown"
 
 
 # ------------------------------------------------------------------ freeswing
@@ -537,7 +594,7 @@ def _study(args):
         study = load_study(args.study)
         if args.preset or args.config:
             raise InputError("--study holds the parameters; drop --preset/--config")
-        study = dc.replace(study, params=_with_hardware(study.params, args))
+        study = dc.replace(study, params=_with_settings(_with_hardware(study.params, args), args))
     else:
         study = Study(params=_load_params(args))
     changes = {}
@@ -812,6 +869,7 @@ def cmd_traverse(args) -> int:
 def build_parser() -> argparse.ArgumentParser:
     """The ``bplir`` command line: one subcommand per job."""
     parser = _Parser(prog="bplir", description="Brachiating Power Line Inspection Robot tools")
+    parser.add_argument("--version", action="version", version=f"bplir {_version()}")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
 
     def command(name, func, help, out=None):
@@ -819,6 +877,9 @@ def build_parser() -> argparse.ArgumentParser:
         p = sub.add_parser(name, help=help)
         p.add_argument("--preset", default=None, help="parameter preset (dissertation, lab)")
         p.add_argument("--config", default=None, help="parameter TOML file")
+        p.add_argument("--set", action="append", default=[], metavar="BLOCK.FIELD=VALUE",
+                       help="set one parameter (repeatable), e.g. --set plant.m2=1.6; "
+                            "applied after --preset, --config and --hardware")
         p.add_argument("--hardware", default=None,
                        help="hardware added to the robot, comma-separated: line-sensor (the "
                             "jaw's line range sensor), 48v (a 48 V supply instead of 30 V)")
@@ -865,6 +926,10 @@ def build_parser() -> argparse.ArgumentParser:
                 "motor's torque-speed envelope with a swing's operating points", "out/model")
     shared(p, "incline")
     option(p, "--no-swing", bool, help="draw the envelope without a swing's operating points")
+
+    p = command("params", cmd_params, "every parameter: block, name, unit, range, default and "
+                "meaning (of the preset, config, hardware and --set given)")
+    p.add_argument("block", nargs="?", default=None, help="one block (plant, motor, ...)")
 
     p = command("freeswing", cmd_freeswing, "simulate a free swing (plant + friction)",
                 "out/freeswing")

@@ -533,8 +533,8 @@ def test_shipped_plans_serve_a_fresh_install(monkeypatch, tmp_path):
         for r in plan_route(line, base):
             for g, (a, b) in ((1, (r.rear, r.landing1)), (2, (r.hold, r.landing2))):
                 sp = swing_params(base, g, base.traverse.grip_spacing, line.chord(a, b)[1])
-                plan = P.plan_swing(sp, end_depth=sp.path.plan_end_depth)
-                assert plan.feasible
+                plan = P.scenario_plan(sp)    # as the traversal finds it
+                assert plan.feasible and plan.peak_voltage <= base.motor.max_voltage
                 seen.add((g, plan.incline_deg))
     assert len(seen) == 8
     assert not list(tmp_path.glob("plan-*.npz"))     # read in place, not copied

@@ -133,3 +133,29 @@ def test_nothing_refers_to_files_outside_the_repository():
     for name in ("README.md", "ARCHITECTURE.md", "CHANGELOG.md"):
         for word in outside:
             assert word not in (root / name).read_text(encoding="utf-8"), (name, word)
+
+
+def test_the_command_line_names_its_version_lists_and_sets_parameters(capsys):
+    """``bplir --version``; ``bplir params --json`` lists every parameter with
+    unit, range, value and meaning, the values in force after ``--hardware``
+    and ``--set``; a bad ``--set`` is one line, exit 2."""
+    import json
+
+    from bplir_drake.cli import main
+    from bplir_drake.params import parameter_reference
+
+    with pytest.raises(SystemExit) as ex:
+        main(["--version"])
+    assert ex.value.code == 0 and capsys.readouterr().out.startswith("bplir ")
+    assert main(["params", "--json", "--hardware", "48v", "--set", "plant.m2=1.6",
+                 "--set", "path.landing_law=aim"]) == 0
+    rows = {f"{r['block']}.{r['name']}": r for r in json.loads(capsys.readouterr().out)["parameters"]}
+    assert len(rows) == len(parameter_reference())
+    assert rows["plant.m2"]["value"] == 1.6 and rows["plant.m2"]["unit"] == "kg"
+    assert rows["motor.supply_voltage"]["value"] == 48.0
+    assert rows["path.landing_law"]["value"] == "aim"
+    assert rows["motor.resistance"]["range"] == "(0, inf)"
+    for bad, words in ((["--set", "plant.m2=-1"], "plant.m2 = -1 is out of range"),
+                       (["--set", "plant=1"], "must be block.field=value")):
+        assert main(["params", *bad]) == 2
+        assert words in capsys.readouterr().err

@@ -238,7 +238,8 @@ def plot_benchmark(result: dict, axes=None):
     """Scores by category and the outcome of every case (two axes); returns the figure."""
     from ..plotting import figure_axes, finish
     ctrls = list(result["scores"])
-    fig, (ax, ax2) = figure_axes(axes, 1, 2, figsize=(13, 4.8), gridspec_kw={"width_ratios": [2, 3]})
+    fig, (ax, ax2) = figure_axes(axes, 1, 2, figsize=(14, 6.2),
+                                 gridspec_kw={"width_ratios": [2, 3]})
     cats = result["categories"]
     x = np.arange(len(cats) + 1)
     w = 0.8 / max(1, len(ctrls))
@@ -247,17 +248,19 @@ def plot_benchmark(result: dict, axes=None):
         vals = [sc["categories"][k] for k in cats] + [sc["overall"]]
         ax.bar(x + (i - (len(ctrls) - 1) / 2) * w, vals, w, label=c)
     ax.set_xticks(x, list(cats) + ["overall"], rotation=30, ha="right")
-    ax.set_ylim(0, 1.05)
+    ax.set_ylim(0, 1.0)
     ax.set_ylabel("fraction of successful swings")
-    ax.legend()
+    # above the axes: the legend never covers a bar
+    ax.legend(loc="lower left", bbox_to_anchor=(0.0, 1.01), ncol=min(len(ctrls), 3),
+              frameon=False, fontsize=8)
     # per case: success fraction of each controller (rows) over cases (columns)
-    labels = [f"{c['category'][:6]}: {c['label']}" for c in result["cases"]]
+    labels = [f"{c['category']}: {c['label']}" for c in result["cases"]]
     grid = np.zeros((len(ctrls), len(labels)))
     for r in result["rows"]:
         grid[ctrls.index(r["controller"]), r["case"]] += r["success"] / result["repeats"]
     ax2.imshow(grid, aspect="auto", cmap="RdYlGn", vmin=0, vmax=1)
     ax2.set_yticks(range(len(ctrls)), ctrls)
     ax2.set_xticks(range(len(labels)), labels, rotation=90, fontsize=6)
-    ax2.set_title("success per case (green = all swings captured)")
+    ax2.set_title("success per case (green = all swings captured)", fontsize=9)
     return finish(fig, "Robustness benchmark "
                             f"({'quick' if result['quick'] else 'full'}, seed {result['seed']})")

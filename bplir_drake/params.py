@@ -381,6 +381,7 @@ class EstimatorParams(_Block):
     tuned_accel_noise: float = _positive(0.02156, "m/s^2", doc="accelerometer noise per sample the in-loop tuning assumes (Table 5.1); a standstill calibration measuring more widens R by the ratio")
     noise_tolerance: float = _p(1.2, "", 1, 100, doc="R is widened only when the measured noise exceeds the tuned one by more than this factor (500 samples measure it within 6 %)")
     inflate_nis: float = _p(0.0, "", 0, 1000, doc="covariance inflation: a tick whose normalised innovation squared exceeds this multiple of its expectation inflates the predicted covariance by the excess (0: never)")
+    loop_estimate_misalignment: bool = field(default=True, metadata=dict(doc="in-loop tuning: the swing's filter goes on estimating each accelerometer's misalignment in flight, from the standstill calibration's value"))
     loop_inflate_nis: float = _p(3.0, "", 0, 1000, doc="in-loop tuning: inflate_nis of the swing's filter (lets torque noise and heavy sensor noise move the estimate)")
     estimate_bias: bool = field(default=True, metadata=dict(doc="estimate a constant gyro bias per IMU (two extra states)"))
     bias_sigma0: float = _positive(0.05, "rad/s", doc="initial gyro-bias standard deviation")
@@ -441,7 +442,9 @@ class EstimatorParams(_Block):
         return replace(self, accel_process_sigma=self.loop_accel_process_sigma,
                        gyro_meas_sigma=self.loop_gyro_meas_sigma,
                        accel_meas_sigma=self.loop_accel_meas_sigma,
-                       integration=self.loop_integration, inflate_nis=self.loop_inflate_nis)
+                       integration=self.loop_integration, inflate_nis=self.loop_inflate_nis,
+                       estimate_misalignment=(self.estimate_misalignment
+                                              or self.loop_estimate_misalignment))
 
 
 #: the in-loop filter tuning with the trapezoid step (``EstimatorParams``

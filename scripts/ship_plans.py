@@ -44,7 +44,9 @@ def scenarios():
     quick = ([at(base, incline_deg=a) for a in (-10.0, 10.0)]
              + [at(base, grip_spacing=d) for d in (1.1, 1.15, 1.3)])
     tracked += quick + [swing_params(base, g, base.traverse.grip_spacing, 0.0) for g in (1, 2)]
-    plans += [lambda p=p: P.scenario_plan(p) for p in [at(base, grip_spacing=1.27)]]
+    q127 = at(base, grip_spacing=1.27)   # the warm start's test: its cold solve too
+    plans += [lambda: P.scenario_plan(q127),
+              lambda: P.plan_swing(q127, end_depth=q127.path.plan_end_depth, guess_duration=1.0)]
     for name in ("line_flat.toml", "line_span.toml"):
         line = load_line(ROOT / "examples" / name)
         for r in plan_route(line, base):

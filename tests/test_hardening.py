@@ -502,7 +502,7 @@ def test_shipped_plans_serve_a_fresh_install(monkeypatch, tmp_path):
     # on the line, the lines' 8, the quick benchmark's +-10 deg and 1.1 / 1.3 m swings,
     # custom_params.py's 1.15 m (at 1.1, 1.15 and 1.3 m also the solve started from the
     # 1.2 m plan, path.plan_warm_spacing), and the 1.27 m plans of the warm start's test
-    assert len(shipped) == 24
+    assert len(shipped) == 25
     monkeypatch.setenv("BPLIR_CACHE_DIR", str(tmp_path))
 
     def no_solve(*a, **k):

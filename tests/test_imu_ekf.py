@@ -269,16 +269,11 @@ def test_covariance_inflation_is_the_plain_update_on_the_inflated_prediction():
 
 
 def test_inflation_lands_the_quick_benchmarks_torque_noise():
-    """The quick benchmark's torque-noise cases on root seed 0 (3 N m and
-    another level; the inflation's 3 was chosen on these two cases and on
-    seed 1's, so this documents the choice rather than holding it out):
-    with Heun's step and its small process noise, inflation off, the 3 N m
-    case crashes (0.65 m/s); with ``loop_inflate_nis = 3``, the default
-    since 2026-11-24, both land (over 20 repeats of the 3 N m case, root
-    seeds 0-19: 18 captured against 14).  The swapped robot's traversal
-    swings keep it off (``traverse.swapped_inflate_nis``): with it the
-    realistic traversal study fell from 185 to 168 of 200 (README,
-    "Robustness benchmark")."""
+    """The quick benchmark's torque-noise cases on root seed 0 (where the
+    inflation's 3 was chosen, so this documents the choice): with inflation
+    off the 3 N m case crashes; with ``loop_inflate_nis = 3`` both land.  The
+    swapped robot's traversal swings keep it off
+    (``traverse.swapped_inflate_nis``)."""
     import tempfile
 
     from bplir_drake.analysis.montecarlo.benchmark import run_benchmark

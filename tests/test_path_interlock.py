@@ -139,17 +139,11 @@ def test_line_metrics(params):
 
 
 def test_latch_lift_rescues_a_swing_that_stops_just_short_of_the_line():
-    """Sample 1 of the default study (root seed 0), adaptive path: with the latched
-    line-seeking path aimed at the line itself, the swing turns with the
-    gripper just outside the band, falls back and meets the line at 0.86 m/s
-    (after 1.47 s).  Aiming it 10 mm above the line (the default
-    ``latch_lift``: a margin for the elbow's tracking error) turns it into a
-    capture at 0.38 m/s.  With the in-loop filter the latch was built with
-    (the trapezoid step; the default Heun-step filter of 2026-11-23 lands
-    this sample with and without the lift, at 0.26 and 0.30 m/s).  The
-    robot without the jaw's line sensor (with it, the default since
-    2026-11-24, the estimate's height is measured near the line and the
-    latch's margin matters less)."""
+    """Sample 1 of the default study (root seed 0), adaptive path, the
+    trapezoid filter the latch was built with: aimed at the line itself the
+    latched path turns with the gripper just outside the band and meets the
+    line at 0.86 m/s; aimed 10 mm above it (``latch_lift``, a margin for the
+    elbow's tracking error) the swing is captured at 0.38 m/s."""
     import dataclasses as dc
 
     from bplir_drake.analysis import montecarlo as mc

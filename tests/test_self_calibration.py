@@ -148,15 +148,11 @@ def test_a_log_at_rest_identifies_the_biases_and_nothing_else():
 
 
 def test_benchmark_targets_on_held_out_logs():
-    """``bench_estimation.py``'s measures on held-out logs 100-102 (Heun's
-    step and the 0.05 m/s^2 process noise were chosen on logs 0-17): angle
-    RMSE after 5 s against the encoders (which lead the IMU by 0-20 ms),
-    the causal filter within 1.3x of the gyro-integral floor and the
-    smoother within 1.0x in both angles; the smoother's own error (against
-    the true state at the sample times) below the filter's in every log and
-    angle (measured: 2.35/2.62 -> 1.80/2.05, 0.81/0.89 -> 0.34/0.66 and
-    2.39/3.33 -> 1.61/2.43 mrad), and the same against the encoders once
-    their lead, estimated from the log, is taken out."""
+    """``bench_estimation.py``'s measures on held-out logs 100-102: after 5 s
+    the causal filter within 1.3x and the smoother within 1.0x of the
+    gyro-integral floor against the encoders; the smoother's error below the
+    filter's in every log and angle, against the truth and against the
+    encoders once their estimated lead is taken out."""
     p = preset()
     est = dc.replace(p.estimator.self_calibrating().with_sensor_noise(p.imu),
                      bias_walk=0.002)   # the logs' drift

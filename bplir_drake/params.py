@@ -382,6 +382,7 @@ class EstimatorParams(_Block):
     noise_tolerance: float = _p(1.2, "", 1, 100, doc="R is widened only when the measured noise exceeds the tuned one by more than this factor (500 samples measure it within 6 %)")
     inflate_nis: float = _p(0.0, "", 0, 1000, doc="covariance inflation: a tick whose normalised innovation squared exceeds this multiple of its expectation inflates the predicted covariance by the excess (0: never)")
     loop_estimate_misalignment: bool = field(default=True, metadata=dict(doc="in-loop tuning: the swing's filter goes on estimating each accelerometer's misalignment in flight, from the standstill calibration's value"))
+    misalign_max_noise: float = _p(3.0, "", 1, 100, doc="misalignment states are held at the standstill calibration's values when it measures the IMUs noisier than this many times the tuned noise (their in-flight estimate then wanders)")
     loop_inflate_nis: float = _p(3.0, "", 0, 1000, doc="in-loop tuning: inflate_nis of the swing's filter (lets torque noise and heavy sensor noise move the estimate)")
     estimate_bias: bool = field(default=True, metadata=dict(doc="estimate a constant gyro bias per IMU (two extra states)"))
     bias_sigma0: float = _positive(0.05, "rad/s", doc="initial gyro-bias standard deviation")

@@ -296,3 +296,33 @@ def test_inflation_lands_the_quick_benchmarks_torque_noise():
             assert [r["label"] for r in miss] == ["3 N m"] and miss[0]["outcome"] == "crash"
             assert 0.6 < miss[0]["capture_speed_mps"] < 0.7
     assert scores == {3.0: 1.0, 0.0: 0.5}
+
+
+def test_misalignments_are_estimated_in_flight_unless_the_imus_are_very_noisy():
+    """The swing's filter estimates the accelerometers' misalignment in
+    flight from the standstill calibration's values; when the calibration
+    measured more than ``misalign_max_noise`` (3) times the tuned noise it
+    holds them there, taken as exact (their rows and columns of P zeroed)."""
+    import dataclasses as dc
+
+    from bplir_drake.params import EstimatorParams
+    from bplir_drake.systems.calibration import ImuCalibration
+    from bplir_drake.systems.ekf import KinematicEkf, misalign_held, state_layout
+
+    p = EstimatorParams().for_loop()
+    assert p.estimate_misalignment and p.misalign_max_noise == 3.0
+    assert not misalign_held(p, (0.0, 0.0))
+    assert not misalign_held(p, (2.9 * p.tuned_gyro_noise, 2.9 * p.tuned_accel_noise))
+    assert misalign_held(p, (0.0, 3.1 * p.tuned_accel_noise))
+    assert misalign_held(p, (3.1 * p.tuned_gyro_noise, 0.0))
+    sl = state_layout(p)[0]["misalign"]
+    for factor, held in ((1.5, False), (5.0, True)):
+        ekf = KinematicEkf(p, (0.1, -0.2, 0.0, 0.0))
+        ctx = ekf.CreateDefaultContext()
+        cal = ImuCalibration(misalign=(0.01, -0.02), noise=(factor * p.tuned_gyro_noise,
+                                                            factor * p.tuned_accel_noise))
+        ekf.set_calibration(ctx, cal)
+        n = ekf.n
+        P = ctx.get_discrete_state(0).get_value()[n:n + n * n].reshape(n, n)
+        assert (np.abs(P[sl]).max() == 0.0) == held
+    assert not misalign_held(dc.replace(p, misalign_max_noise=100.0), (0.1, 0.1))

@@ -90,35 +90,38 @@ def test_a_reading_moves_the_estimated_gap_by_the_kalman_share():
 
 
 def test_the_sensor_removes_the_landing_error_that_link_length_errors_leave():
-    """With the IMUs alone, the standstill calibration takes the pose the
-    robot believes (nominal lengths) for the true one: the misalignments
-    it removes carry the start pose's error, whose height error ``L`` at
-    the start (the nominal kinematics at the true pose) comes back at the
-    mirrored landing pose with the same sign, about twice over (slope 1.75
-    over 1000 swings of the realistic study, root seed 7, the IMUs alone).
-    Noise-free IMUs, default swing, seed 0: measured landing height errors
-    6.89 / -4.06 / 0.67 mm for L = 3.27 / -3.27 / 0.51 mm (the IMUs
-    alone, ``imu_only``); with the line sensor (noise-free readings, its
-    0.2 m range, the -18 mm shot) 0.07 / 0.21 / 0.18 mm."""
+    """With the IMUs alone the standstill calibration takes the pose the
+    robot believes (nominal lengths) for the true one; the misalignments it
+    removes carry the start pose's height error ``L`` back to the mirrored
+    landing, about twice over.  Estimating the misalignments in flight (the
+    default) takes part of it out; the line sensor takes all of it out.
+    Noise-free IMUs, seed 0, L = 3.27 / -3.27 / 0.51 mm: landing height
+    errors 6.86 / -4.11 / 0.63 mm without the in-flight estimate, 3.21 /
+    -0.34 / 0.72 mm with it, within 0.1 mm with the sensor."""
     import dataclasses as dc
 
     from bplir_drake.analysis.swing.run import run_swing
 
     p0 = preset()
-    for d1, d2, imu_alone in ((0.002, -0.002, 6.89e-3), (-0.002, 0.002, -4.06e-3),
-                              (0.002, 0.002, 0.67e-3)):
+    cases = ((0.002, -0.002, 6.86e-3, 3.21e-3), (-0.002, 0.002, -4.11e-3, -0.34e-3),
+             (0.002, 0.002, 0.63e-3, 0.72e-3))
+    for d1, d2, fixed, flight in cases:
         true = dc.replace(p0.plant, l1=p0.plant.l1 + d1, l2=p0.plant.l2 + d2)
         q = initial_configuration(1.2, true)
         L = -line_gap(q[0], q[0] + q[1], p0.plant.l1, p0.plant.l2, 0.0)[0]
         base = p0.with_(true_plant=true, imu=dc.replace(p0.imu, noise=False))
-        alone = run_swing(base.imu_only(), seed=0).summary
-        fused = run_swing(base.with_(line_sensor=LineSensorParams(range=0.1, sigma=0.0)),
-                          seed=0).summary
-        assert alone["outcome"] == fused["outcome"] == "captured"
-        assert alone["landing_height_error_m"] == pytest.approx(imu_alone, abs=0.02e-3)
-        assert abs(alone["landing_height_error_m"]) > abs(L)          # the start's error, grown
-        assert math.copysign(1, alone["landing_height_error_m"]) == math.copysign(1, L)
-        assert abs(fused["landing_height_error_m"]) < 0.3e-3
+        still = base.with_(estimator=dc.replace(base.estimator, loop_estimate_misalignment=False))
+        runs = [run_swing(q, seed=0).summary for q in (
+            still, base, base.with_hardware("line-sensor").with_(
+                line_sensor=LineSensorParams(range=0.2, sigma=0.0)))]
+        assert [r["outcome"] for r in runs] == ["captured"] * 3
+        errors = [r["landing_height_error_m"] for r in runs]
+        assert errors[0] == pytest.approx(fixed, abs=0.02e-3)
+        assert errors[1] == pytest.approx(flight, abs=0.02e-3)
+        if abs(L) > 1e-3:   # the start's error, grown, and the in-flight estimate's share of it
+            assert abs(errors[0]) > abs(L) and math.copysign(1, errors[0]) == math.copysign(1, L)
+            assert abs(errors[1]) < abs(errors[0])
+        assert abs(errors[2]) < 0.15e-3
 
 
 def test_the_standstill_calibration_measures_the_sensors_offset_on_the_line():

@@ -387,7 +387,7 @@ def ekf_predict(s: EkfState, u, p: EstimatorParams, *, with_jacobian: bool = Fal
 
 
 def ekf_update(s: EkfState, z, u, p: EstimatorParams, *, with_innovation: bool = False,
-               hold: bool = False):
+               hold: bool = False, hold_misalign: bool = False):
     """(5.29)-(5.31), Joseph form.  ``z`` and ``u`` are the sample corrected
     by the state's misalignment estimate (:func:`correct_sample`); with
     misalignment states the radial rows get their columns ``-mu_x`` (and
@@ -396,7 +396,8 @@ def ekf_update(s: EkfState, z, u, p: EstimatorParams, *, with_innovation: bool =
     updated (their gain rows zeroed: the Schmidt-Kalman filter; the Joseph
     form keeps the covariance right for any gain), as while the angles
     converge from a start far off, where a filter would otherwise explain
-    its angle error by biases and misalignments.  With ``p.inflate_nis``
+    its angle error by biases and misalignments; ``hold_misalign`` holds the
+    misalignment states alone.  With ``p.inflate_nis``
     a prediction whose innovation is too large for it is inflated first
     (:class:`~bplir_drake.params.EstimatorParams`).  With
     ``with_innovation`` returns ``(state, innovation, its covariance S
@@ -427,6 +428,8 @@ def ekf_update(s: EkfState, z, u, p: EstimatorParams, *, with_innovation: bool =
     held = _held_states(p) if hold else None
     if held is not None:   # Schmidt: considered, not updated, while the angles converge
         K[held] = 0.0
+    if hold_misalign and "misalign" in layout:
+        K[layout["misalign"]] = 0.0
     x = s.x + K @ nu
     IKH = _identity(len(s.x)) - K @ H
     P = IKH @ s.P @ IKH.T + K @ R @ K.T
@@ -459,6 +462,16 @@ def _held_states(p: EstimatorParams):
     return slice(4, n) if n > 4 else None
 
 
+def misalign_held(p: EstimatorParams, noise) -> bool:
+    """Whether the misalignment states are held at the calibration's values
+    (not estimated in flight): the standstill calibration measured the
+    gyros or the accelerometers (``noise`` = (gyro, accel) per sample)
+    noisier than ``p.misalign_max_noise`` times the tuned noise."""
+    gyro, accel = noise
+    k = p.misalign_max_noise
+    return bool(gyro > k * p.tuned_gyro_noise or accel > k * p.tuned_accel_noise)
+
+
 def correct_sample(sample, x, p: EstimatorParams) -> np.ndarray:
     """``sample`` with each accelerometer turned back by the state's
     misalignment estimate (unchanged without misalignment states)."""
@@ -475,7 +488,7 @@ def split_sample(sample):
 
 
 def ekf_step(s: EkfState, u_prev, sample, p: EstimatorParams, *, first: bool = False,
-             hold: bool = False):
+             hold: bool = False, hold_misalign: bool = False):
     """One filter period: predict with the previous input, update with the
     new sample.  ``u_prev`` holds the previous corrected accelerometer
     readings (mu_x1, mu_x2, mu_y1, mu_y2; the first two suffice without
@@ -487,7 +500,7 @@ def ekf_step(s: EkfState, u_prev, sample, p: EstimatorParams, *, first: bool = F
         u_prev = np.asarray(u_prev, dtype=float)
         radial = prediction_input(u_prev[2:4], z[2:4], p) if len(u_prev) > 2 else None
         s = ekf_predict(s, prediction_input(u_prev[:2], u, p), p, radial=radial)
-    return ekf_update(s, z, u, p, hold=hold), acc
+    return ekf_update(s, z, u, p, hold=hold, hold_misalign=hold_misalign), acc
 
 
 def prediction_input(u_prev, u, p: EstimatorParams) -> np.ndarray:
@@ -570,8 +583,10 @@ class KinematicEkf(LeafSystem):
         s, u_prev, first = self._unpack(context.get_discrete_state(self._state).get_value())
         calibration = context.get_abstract_parameter(self._calibration).get_value()
         sample = calibration.correct(self.imu_port.Eval(context))
-        s, u = ekf_step(s, u_prev, sample, context.get_abstract_parameter(self._tuned).get_value(),
-                        first=first, hold=context.get_time() < self.params.calibrate_after)
+        tuned = context.get_abstract_parameter(self._tuned).get_value()
+        s, u = ekf_step(s, u_prev, sample, tuned, first=first,
+                        hold=context.get_time() < self.params.calibrate_after,
+                        hold_misalign=misalign_held(self.params, calibration.noise))
         if self._line is not None:
             reading, valid = self.line_port.Eval(context)
             if valid > 0.5:
@@ -590,10 +605,18 @@ class KinematicEkf(LeafSystem):
         own.get_mutable_abstract_parameter(self._calibration).set_value(calibration)
         own.get_mutable_abstract_parameter(self._tuned).set_value(
             self.params.with_measured_noise(*calibration.noise))
+        state = own.get_mutable_discrete_state(self._state)
         if self._bias is not None:
-            state = own.get_mutable_discrete_state(self._state)
             state.SetAtIndex(self._bias.start, calibration.bias[0])
             state.SetAtIndex(self._bias.start + 1, calibration.bias[1])
+        sl = state_layout(self.params)[0].get("misalign")
+        if sl is not None and misalign_held(self.params, calibration.noise):
+            # held at the calibration's values, taken as exact: the filter of
+            # the angles is then the one without misalignment states
+            s, u, first = self._unpack(state.get_value())
+            s.P[sl, :] = 0.0
+            s.P[:, sl] = 0.0
+            state.SetFromVector(np.concatenate([s.x, s.P.ravel(), u, [1.0 if first else 0.0]]))
 
     def _out_abs(self, context, out):
         out.SetFromVector(self._post.Eval(context)[:4])

@@ -23,6 +23,7 @@ RESULTS = ROOT / "results"
 PAGE = ROOT / "docs" / "results" / "index.md"
 README = ROOT / "README.md"
 BEGIN, END = "<!-- results-table -->", "<!-- /results-table -->"
+HW_BEGIN, HW_END = "<!-- hardware-table -->", "<!-- /hardware-table -->"
 
 
 def manifest() -> list[dict]:
@@ -110,6 +111,9 @@ def page(items: list[dict]) -> str:
     for name, members in groups.items():
         info = desc.get(name, {})
         out += [f"## {info.get('title', name)}", "", info.get("text", ""), ""]
+        if name == "hardware":
+            out += ["Captured of 300 and the capture speed's p95 (m/s):", "",
+                    hardware_matrix(items), ""]
         kind = members[0].get("kind", "swing")
         rows = [swing_row(i) if kind == "swing" else traverse_row(i) for i in members]
         out += table(HEADERS[kind], rows) + [""]
@@ -134,11 +138,34 @@ def readme_table(items: list[dict]) -> str:
     return "\n".join(table(["what", "measured", "page"], rows))
 
 
+def hardware_matrix(items: list[dict]) -> str:
+    """Robot (supply, sensors) by line: captures and the capture speed's p95."""
+    cells: dict[str, dict[str, str]] = {}
+    lines: list[str] = []
+    for item in items:
+        if item["group"] != "hardware":
+            continue
+        line, robot = item["label"].split(", ", 1)
+        s = item["summary"]
+        if line not in lines:
+            lines.append(line)
+        cells.setdefault(robot, {})[line] = (
+            f"{s['successes']}/{s['samples']}, p95 {num(_p(s, 'capture_speed_mps', 'p95'), '{:.2f}')}")
+    rows = [[robot] + [c.get(line, "--") for line in lines] for robot, c in cells.items()]
+    return "\n".join(table(["robot"] + [f"{line} line" for line in lines], rows))
+
+
+def _replace(text: str, begin: str, end: str, body: str) -> str:
+    if begin not in text:
+        return text
+    head, rest = text.split(begin, 1)
+    _, tail = rest.split(end, 1)
+    return f"{head}{begin}\n{body}\n{end}{tail}"
+
+
 def readme_text(items: list[dict]) -> str:
-    text = README.read_text()
-    head, rest = text.split(BEGIN, 1)
-    _, tail = rest.split(END, 1)
-    return f"{head}{BEGIN}\n{readme_table(items)}\n{END}{tail}"
+    text = _replace(README.read_text(), BEGIN, END, readme_table(items))
+    return _replace(text, HW_BEGIN, HW_END, hardware_matrix(items))
 
 
 def main(argv=None) -> int:

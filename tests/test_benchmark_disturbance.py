@@ -131,20 +131,50 @@ def test_benchmark_refuses_a_realistic_directory_of_another_study_before_any_wor
 
 
 def test_the_default_on_the_quick_benchmark_held_out_seed_1(tmp_path):
-    """``bplir benchmark --quick --seed 1`` for the default controller (plan
-    tracking with the auto landing law, standstill calibration and its
-    noise widening).  Seed 1 is held out: the calibration default, the noise
-    widening and the landing laws were chosen looking at the realistic
-    study's root seed 0 and this benchmark's seed 0.  Measured on seed 1:
-    1.00 overall with the Heun-step filter (2026-11-23), every case
-    captured, IMU noise x10 included.  (With the trapezoid filter before
-    it: 0.94, the one miss IMU noise x10, a crash at 0.71 m/s; the aim law,
-    the default until 2026-11-23: 0.92, also missing m2 x0.8 at 0.50 m/s
-    and lc2 x1.2 at 0.54.)"""
+    """``bplir benchmark --quick --seed 1`` for the default robot and controller.
+    Seed 1 is held out: the calibration default, the noise widening and the
+    landing laws were chosen on the realistic study's root seeds 0 and 100
+    and this benchmark's seed 0.  Measured: every case captured but IMU
+    noise x10 (a crash at 1.16 m/s: with the IMUs alone the landing's height
+    estimate is then off by more than the capture band)."""
     from bplir_drake.analysis.montecarlo.benchmark import run_benchmark
     from bplir_drake.params import BplirParams
 
     res = run_benchmark(BplirParams(), ["qft"], quick=True, seed=1, workers=2, out=tmp_path)
     score = res["scores"]["qft"]
-    assert score["overall"] == 1.0 and score["swings"] == 28
-    assert [r["label"] for r in res["rows"] if not r["success"]] == []
+    assert score["overall"] == pytest.approx(17 / 18) and score["swings"] == 28
+    assert score["categories"]["sensor noise"] == 0.5
+    assert [r["label"] for r in res["rows"] if not r["success"]] == ["IMU noise x10"]
+
+
+def test_figures_are_vector_on_request_and_the_benchmark_legend_covers_no_bar(tmp_path, capsys):
+    """``bplir swing --format pdf`` and ``bplir benchmark --format svg`` write
+    vector figures; the benchmark figure's category labels are whole, inside
+    the figure, and its legend overlaps no bar."""
+    import json
+
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    from bplir_drake.analysis.montecarlo.benchmark import plot_benchmark
+
+    assert main(["swing", "--format", "pdf", "--no-animation", "--out", str(tmp_path / "s"),
+                 "--json"]) == 0
+    figure = json.loads(capsys.readouterr().out)["files"]["figure"]
+    assert figure.endswith("swing.pdf") and open(figure, "rb").read(5) == b"%PDF-"
+    assert main(["benchmark", "--quick", "--controllers", "qft", "--format", "svg",
+                 "--out", str(tmp_path / "b"), "--json"]) == 0
+    res = json.loads(capsys.readouterr().out)
+    svg = (tmp_path / "b" / "benchmark.svg").read_text()
+    assert svg.lstrip().startswith("<?xml") and "<svg" in svg
+    fig = plot_benchmark(res)
+    FigureCanvasAgg(fig).draw()
+    renderer = fig.canvas.get_renderer()
+    ax = fig.axes[0]
+    legend = ax.get_legend().get_window_extent(renderer)
+    assert not any(legend.overlaps(bar.get_window_extent(renderer)) for bar in ax.patches)
+    labels = [t.get_text() for t in ax.get_xticklabels()]
+    assert labels == list(res["categories"]) + ["overall"]
+    whole = fig.bbox
+    for text in ax.get_xticklabels() + fig.axes[1].get_xticklabels():
+        box = text.get_window_extent(renderer)
+        assert whole.x0 <= box.x0 and box.x1 <= whole.x1 and whole.y0 <= box.y0, text

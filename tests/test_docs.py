@@ -52,3 +52,17 @@ def test_the_documentation_site_builds_without_warnings(tmp_path):
     html = (tmp_path / "html" / "reference" / "parameters.html").read_text()
     assert "supply_voltage" in html and "voltage_fraction" in html
     assert (tmp_path / "html" / "cli.html").read_text().count("--hardware") >= 5
+
+
+def test_test_docstrings_say_what_they_check_in_a_few_lines():
+    """A test's docstring says what it checks and why, in at most 8 lines;
+    its history belongs to the changelog and git."""
+    import ast
+
+    for path in sorted((DOC.parents[1] / "tests").glob("*.py")):
+        tree = ast.parse(path.read_text())
+        for node in ast.walk(tree):
+            if isinstance(node, (ast.FunctionDef, ast.Module)):
+                doc = ast.get_docstring(node, clean=False)
+                assert not doc or len(doc.splitlines()) <= 8, (path.name,
+                                                               getattr(node, "name", ""))

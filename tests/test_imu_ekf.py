@@ -248,8 +248,10 @@ def test_heuns_step_in_the_loop_estimates_the_landing_rates_better():
 def test_covariance_inflation_is_the_plain_update_on_the_inflated_prediction():
     """``inflate_nis = k``: where a tick's NIS exceeds ``4 k`` the update is
     exactly the plain one (``inflate_nis = 0``) on the predicted covariance
-    times ``NIS / (4 k)``; below it, exactly the plain update."""
-    base = dc.replace(EstimatorParams().for_loop(), inflate_nis=0.0)
+    times ``NIS / (4 k)``; below it, exactly the plain update (the filter
+    without misalignment states, whose columns of H the update adds)."""
+    base = dc.replace(EstimatorParams(loop_estimate_misalignment=False).for_loop(),
+                      inflate_nis=0.0)
     p = dc.replace(base, inflate_nis=3.0)
     _, n = E.state_layout(p)
     s = E.EkfState(np.r_[0.3, 2.2, 1.0, -0.5, np.zeros(n - 4)], np.diag(np.full(n, 1e-4)))
@@ -270,10 +272,10 @@ def test_covariance_inflation_is_the_plain_update_on_the_inflated_prediction():
 
 def test_inflation_lands_the_quick_benchmarks_torque_noise():
     """The quick benchmark's torque-noise cases on root seed 0 (where the
-    inflation's 3 was chosen, so this documents the choice): with inflation
-    off the 3 N m case crashes; with ``loop_inflate_nis = 3`` both land.  The
-    swapped robot's traversal swings keep it off
-    (``traverse.swapped_inflate_nis``)."""
+    inflation's 3 was chosen): without the in-flight misalignment estimate,
+    inflation off crashes the 3 N m case (0.65 m/s) and ``loop_inflate_nis
+    = 3`` lands it (0.18); with it (the default) both land, the inflation
+    taking the 3 N m arrival from 0.47 to 0.34 m/s."""
     import tempfile
 
     from bplir_drake.analysis.montecarlo.benchmark import run_benchmark
@@ -281,21 +283,20 @@ def test_inflation_lands_the_quick_benchmarks_torque_noise():
 
     p = BplirParams()
     assert p.estimator.loop_inflate_nis == 3.0 and p.traverse.swapped_inflate_nis == 0.0
-    # the IMUs alone: with the jaw's line sensor (the default since
-    # 2026-11-24) both cases land with and without the inflation
-    p = p.imu_only()
-    scores = {}
-    for k in (3.0, 0.0):
-        q = p.with_(estimator=dc.replace(p.estimator, loop_inflate_nis=k))
-        with tempfile.TemporaryDirectory() as d:
-            res = run_benchmark(q, ["qft"], quick=True, seed=0, workers=1, out=d,
-                                categories=("torque noise",))
-        scores[k] = res["scores"]["qft"]["overall"]
-        if k == 0.0:
-            miss = [r for r in res["rows"] if not r["success"]]
-            assert [r["label"] for r in miss] == ["3 N m"] and miss[0]["outcome"] == "crash"
-            assert 0.6 < miss[0]["capture_speed_mps"] < 0.7
-    assert scores == {3.0: 1.0, 0.0: 0.5}
+    speeds = {}
+    for flight in (False, True):
+        for k in (3.0, 0.0):
+            q = p.with_(estimator=dc.replace(p.estimator, loop_inflate_nis=k,
+                                             loop_estimate_misalignment=flight))
+            with tempfile.TemporaryDirectory() as d:
+                res = run_benchmark(q, ["qft"], quick=True, seed=0, workers=1, out=d,
+                                    categories=("torque noise",))
+            row = {r["label"]: r for r in res["rows"]}["3 N m"]
+            speeds[flight, k] = (row["outcome"], row["capture_speed_mps"])
+    expected = {(False, 3.0): ("captured", 0.18), (False, 0.0): ("crash", 0.65),
+                (True, 3.0): ("captured", 0.335), (True, 0.0): ("captured", 0.47)}
+    for key, (outcome, speed) in expected.items():
+        assert speeds[key][0] == outcome and speeds[key][1] == pytest.approx(speed, abs=0.01)
 
 
 def test_misalignments_are_estimated_in_flight_unless_the_imus_are_very_noisy():

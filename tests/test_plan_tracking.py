@@ -126,14 +126,8 @@ def test_state_indexed_tracker_reads_no_clock(uphill):
 
 def test_clock_free_uphill_swing(uphill):
     """The same 20 degree swing with the plan indexed by the estimated state
-    (no clock), with the default landing law (shooting).  Measured, seeds
-    0-19: all 20 captured at 0.196-0.386 m/s after 1.238-1.258 s, within
-    1.3 cm of the grip (with the trapezoid filter before 2026-11-23:
-    0.276-0.464 m/s; before the delay probe 0.254-0.494 m/s; the aim
-    law: 0.33-0.47 m/s, 1.1 cm).  Without the
-    landing seeds 2, 6, 8, 10 and 15 crashed at 0.50-0.72 m/s (the arrival
-    timing is not corrected without along-track feedback; the landing reads
-    the arrival from link 1's rate instead)."""
+    (no clock), with the default landing: every one of seeds 0-19 captured
+    within the capture limits and near the grip."""
     p = uphill.with_(path=dc.replace(uphill.path, plan_indexing="state"))
     rows = [run_swing(p, seed=k).summary for k in range(20)]
     assert [k for k, s in enumerate(rows) if s["outcome"] != "captured"] == []
@@ -237,15 +231,11 @@ def test_the_shooting_landing_holds_no_shot_far_below_its_aim():
 
 
 def test_the_shot_is_solved_while_link_1_creeps():
-    """The estimate of sample 108 of the realistic study at -20 deg (root
-    seed 9, first run as held out; 1.125 m grip spacing) 40 ms before the
-    arrival: the gripper 5 cm below the line, rising on the elbow, link 1
-    creeping at 0.099 rad/s.  A shot exists: link 1 stops in 79.5 ms, and
-    the elbow decelerates at 7.6 rad/s^2 to put the gripper at the aim then.
-    With ``shoot_min_rate`` 0.1 rad/s (before 2026-11-24) no shot was
-    solved below that rate, and 3 cm below the aim the aim law took over
-    (the swing crashed at 0.60 m/s in the torque limit's chatter; with 0.02
-    it lands at 0.31 m/s; 5 of that run's 6 crashes were this hand-off)."""
+    """The estimate of sample 108 of the realistic study at -20 deg (root seed
+    9, 1.125 m) 40 ms before the arrival, with the line sensor's downhill
+    shot: link 1 creeping at 0.099 rad/s, the gripper 5 cm below the line.
+    A shot exists (link 1 stops in 79.5 ms); with ``shoot_min_rate`` 0.1
+    rad/s none was solved below that rate and the aim law took over."""
     from bplir_drake.systems.plan_tracker import ApexShot
 
     p = preset().with_hardware("line-sensor")

@@ -114,16 +114,10 @@ def test_the_reach_captures_on_the_back_swing_short_of_the_grip():
 
 @pytest.mark.parametrize("incline", [20.0, -20.0])
 def test_10_and_20_ms_of_delay_are_captured_on_the_grip_on_20_degree_lines(incline):
-    """The default controller on the +-20 deg lines (plan tracking assuming
-    the lab firmware's 10 ms of actuation delay,
-    ``path.plan_delay_compensation``; no reach), EKF in the loop, with 10
-    and 20 ms of actuation delay, seeds 0 and 1.  Measured: every case
-    captured; +20 deg (the auto law shoots) 0.33-0.40 m/s in 1.23-1.24 s
-    within 1.8 cm of the planned grip (the aim law: 0.33-0.44 m/s, within
-    1 cm), -20 deg (the auto law aims) 0.09-0.20 m/s in 1.29-1.30 s within
-    1 cm.  Not yet held (the
-    README's Status): m2, I2 or lc2 of the real robot off by 10 % -- at
-    +20 deg 1 of 6 captured (2 crashes, 3 timeouts), at -20 deg 2 of 6."""
+    """The default controller on the +-20 deg lines (plan tracking assuming the
+    lab firmware's 10 ms of actuation delay, ``path.plan_delay_compensation``),
+    EKF in the loop, with 10 and 20 ms of actuation delay, seeds 0 and 1:
+    every case captured near the planned grip."""
     from bplir_drake.analysis.swing.run import SwingRunner
 
     runner = SwingRunner()

@@ -238,7 +238,7 @@ def plot_benchmark(result: dict, axes=None):
     """Scores by category and the outcome of every case (two axes); returns the figure."""
     from ..plotting import figure_axes, finish
     ctrls = list(result["scores"])
-    fig, (ax, ax2) = figure_axes(axes, 1, 2, figsize=(14, 6.2),
+    fig, (ax, ax2) = figure_axes(axes, 1, 2, figsize=(14, 7.5),
                                  gridspec_kw={"width_ratios": [2, 3]})
     cats = result["categories"]
     x = np.arange(len(cats) + 1)

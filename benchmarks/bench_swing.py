@@ -213,7 +213,7 @@ def breakdown():
     wrap(gripper.GripperInterlock, "_update", "interlock")
     wrap(DiscreteCpflController, "_tick_law", "controller tick (incl. path, EKF)")
     wrap(motor.DriverLogic, "_update", "driver i2t")
-    # the default since 2026-11-23: plan tracking (its tick pulls the predictor's, which
+    # the default: plan tracking (its tick pulls the predictor's, which
     # pulls the EKF's), the delay predictor, the apex landing
     wrap(plan_tracker.PlanTracker, "_tick_law", "plan tracker tick (incl. predictor, EKF)")
     wrap(predictor.DelayPredictor, "_predict", "delay predictor (incl. EKF)")

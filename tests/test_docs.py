@@ -66,3 +66,34 @@ def test_test_docstrings_say_what_they_check_in_a_few_lines():
                 doc = ast.get_docstring(node, clean=False)
                 assert not doc or len(doc.splitlines()) <= 8, (path.name,
                                                                getattr(node, "name", ""))
+
+
+def test_the_results_pages_and_the_readme_table_match_the_stored_outputs():
+    """Every figure of the README's results tables and of docs/results is
+    what ``scripts/results_pages.py`` makes from the stored outputs in
+    ``results/``: regenerating changes nothing."""
+    import subprocess
+    import sys
+
+    root = DOC.parents[1]
+    run = subprocess.run([sys.executable, str(root / "scripts" / "results_pages.py"), "--check"],
+                         capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr
+    readme = (root / "README.md").read_text()
+    assert "| Realistic study, 0° line, default robot (1000 swings) |" in readme
+    assert "| 30 V, line sensor |" in readme
+
+
+def test_the_readme_is_a_front_door():
+    """At most 300 lines, nothing dated, the two quick-start commands, and
+    every local link pointing at a file of the repository."""
+    import re
+
+    root = DOC.parents[1]
+    text = (root / "README.md").read_text()
+    assert len(text.splitlines()) <= 300
+    assert not re.search(r"\b20\d\d-\d\d-\d\d\b", text)
+    assert ".venv/bin/bplir swing" in text and "<!-- test-command -->" in text
+    for target in re.findall(r"\]\(([^)#]+)(?:#[^)]*)?\)", text):
+        if "://" not in target and not target.startswith("docs/reference/"):
+            assert (root / target).exists(), target

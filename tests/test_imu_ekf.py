@@ -209,7 +209,7 @@ def test_gyro_scale_error_multiplies_the_rate_before_the_bias():
 
 
 def test_heuns_step_in_the_loop_estimates_the_landing_rates_better():
-    """The in-loop tuning since 2026-11-23 (Heun's step, process noise
+    """The in-loop tuning (Heun's step, process noise
     0.2 m/s^2, accelerometer noise 0.1) against the trapezoid tuning before
     it (``TRAPEZOID_LOOP_TUNING``: process noise 2.0, 0.05), both re-run
     over the IMU samples of the default swing (seeds 0-3; the tuning was

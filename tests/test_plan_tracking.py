@@ -140,10 +140,8 @@ def test_clock_free_uphill_swing(uphill):
 @pytest.mark.parametrize("incline", [20.0, -20.0])
 def test_quick_start_captures_on_a_20_degree_line_without_a_config(tmp_path, capsys, incline):
     """``bplir swing --incline +-20`` as a user types it: the default path
-    mode ("auto") tracks the shipped plan; captured on the planned grip
-    (seed 0, measured 2026-11-24: +20 deg at 0.218 m/s, -20 deg at 0.172 m/s
-    with the shot, 0.242 with the aim law before), within the motor's
-    ratings.  The
+    mode ("auto") tracks the shipped plan; captured on the planned grip,
+    within the motor's ratings.  The
     dissertation's controller keeps its path generator, which times out
     uphill and crashes downhill."""
     import json
@@ -205,7 +203,7 @@ def test_the_shooting_landing_holds_no_shot_far_below_its_aim():
     ``shoot_min_time`` there asked for 935 N m and crashed the swing at
     4.65 m/s.  Beyond ``shoot_hold_depth`` of the aim the aim law steers.
     (With ``shoot_min_rate`` 0.1 rad/s, as then; with 0.02, since
-    2026-11-24, a free shot is solved here: link 1 stops in 194 ms.)"""
+    a free shot is solved here: link 1 stops in 194 ms.)"""
     from bplir_drake.systems.plan_tracker import ApexShot
 
     p = preset()
@@ -257,7 +255,7 @@ def test_the_shooting_landing_gives_up_rather_than_chase_the_line():
     """The state of sample 770 of the realistic study (held-out root seed
     2, 0 deg, 18 ms of delay, shooting landing) 80 ms after link 1 stopped
     2.4 cm short of its aim: link 1 swings back at 0.47 rad/s.  The held
-    shot asks for 244 N m (264 with the -15 mm aim before 2026-11-24; the elbow then chased the line at the torque
+    shot asks for 244 N m (264 with the -15 mm aim; the elbow then chased the line at the torque
     limit and slid the gripper along it: a crash at 2.2 m/s); with
     ``shoot_give_up_rate`` the elbow is braked to rest instead (8 N m; the
     swing times out with the robot hanging), and a shot still rising (link

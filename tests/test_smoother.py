@@ -17,8 +17,8 @@ from bplir_drake.params import preset
 
 def consistent(p):
     """The in-loop filter with R = the simulated IMUs' noise and Q tuned on
-    seed 1, with the trapezoid step it was tuned with (the in-loop default
-    until 2026-11-23; with Heun's step, the default since, seed 3's mean
+    seed 1, with the trapezoid step it was tuned with (with Heun's step,
+    the in-loop default, seed 3's mean
     NIS is 3.876, a hair under its band: the smaller discretisation error
     leaves smaller innovations)."""
     return dc.replace(p.estimator.for_loop(), gyro_meas_sigma=p.imu.gyro_sigma,

@@ -42,13 +42,22 @@ def figure_axes(axes=None, nrows: int = 1, ncols: int = 1, *, figsize=(8, 6), **
     return flat[0].figure, flat.reshape(shape)
 
 
-def finish(fig, title: str | None = None):
-    """Title and tight layout for a figure :func:`figure_axes` made; a
-    caller's figure is left as it is.  Returns ``fig``."""
+def finish(fig, title: str | None = None, caption: str | None = None):
+    """Title, caption (the run's details, in small type under the axes; also
+    kept as ``fig.bplir_caption`` and written into the file's metadata by
+    :func:`save_figure`) and tight layout for a figure :func:`figure_axes`
+    made; a caller's figure is left as it is but keeps the caption as
+    metadata.  Returns ``fig``."""
+    if caption:
+        fig.bplir_caption = caption
     if fig in _MADE_HERE:
         if title:
             fig.suptitle(title)
-        fig.tight_layout()
+        if caption:
+            fig.text(0.005, 0.005, caption, fontsize=7, color="0.35", ha="left", va="bottom")
+            fig.tight_layout(rect=(0, 0.03, 1, 1))
+        else:
+            fig.tight_layout()
     return fig
 
 
@@ -56,6 +65,10 @@ def save_figure(fig, path, dpi: int = 110) -> Path:
     """Write ``fig`` to ``path`` (format from the suffix) atomically: a
     complete figure or none."""
     path = Path(path)
+    fmt = path.suffix.lstrip(".") or "png"
+    caption = getattr(fig, "bplir_caption", None)
+    key = {"png": "Description", "pdf": "Subject", "svg": "Description"}.get(fmt)
+    metadata = {key: caption} if caption and key else None
     with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=dpi, format=path.suffix.lstrip(".") or "png")
+        fig.savefig(tmp, dpi=dpi, format=fmt, metadata=metadata)
     return path

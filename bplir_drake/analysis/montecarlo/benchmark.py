@@ -262,5 +262,6 @@ def plot_benchmark(result: dict, axes=None):
     ax2.set_yticks(range(len(ctrls)), ctrls)
     ax2.set_xticks(range(len(labels)), labels, rotation=90, fontsize=6)
     ax2.set_title("success per case (green = all swings captured)", fontsize=9)
-    return finish(fig, "Robustness benchmark "
-                            f"({'quick' if result['quick'] else 'full'}, seed {result['seed']})")
+    return finish(fig, "Robustness benchmark",
+                  f"{'quick' if result['quick'] else 'full'} benchmark, root seed "
+                  f"{result['seed']}, {result['repeats']} swing(s) per case and controller")

@@ -20,6 +20,24 @@ OUTCOME_COLOURS = {"captured": "tab:green", "crash": "tab:red", "timeout": "tab:
                    "fault": "tab:purple", "error": "black"}
 
 
+def quantity_label(name: str) -> str:
+    """An axis label for a study's quantity ``block.field``: its meaning and
+    unit from the parameter metadata (the simulated robot's, for ``true_``
+    blocks)."""
+    from dataclasses import fields
+
+    from ...params import BLOCKS
+
+    block, _, field = name.partition(".")
+    cls = BLOCKS.get(block)
+    md = next((f.metadata for f in fields(cls) if f.name == field), {}) if cls else {}
+    doc = md.get("doc", "").split(" (")[0].split(";")[0] or field
+    owner = ("simulated robot: " if block.startswith("true_")
+             else "line sensor: " if block == "line_sensor" else "")
+    unit = md.get("unit", "")
+    return f"{owner}{doc}" + (f" [{unit}]" if unit else "")
+
+
 def _colour(rows):
     return [OUTCOME_COLOURS.get(r["outcome"], "grey") for r in rows]
 
@@ -36,8 +54,13 @@ def plot_success_vs_parameters(study: Study, rows: list[dict], axes=None):
     for ax, name in zip(axes.flat, names):
         x = np.array([r[name] for r in rows], dtype=float)
         ax.scatter(x, np.nan_to_num(speed, nan=0.0), s=8, c=_colour(rows), alpha=0.7)
-        ax.axhline(study.params.scenario.capture_speed, color="k", lw=0.8, ls="--")
-        ax.set_xlabel(name)
+        limit = study.params.scenario.capture_speed
+        ax.axhline(limit, color="k", lw=0.8, ls="--")
+        ax.annotate("capture speed limit", (0.01, limit), xycoords=("axes fraction", "data"),
+                    xytext=(0, 2), textcoords="offset points", fontsize=7)
+        top = np.nanmax(speed, initial=limit)
+        ax.set_ylim(0.0, max(1.35 * limit, 1.05 * top))
+        ax.set_xlabel(quantity_label(name), fontsize=8)
         ax.set_ylabel("capture speed [m/s]")
         ok = np.isfinite(x)
         if ok.sum() >= 4 and np.ptp(x[ok]) > 0:
@@ -46,12 +69,14 @@ def plot_success_vs_parameters(study: Study, rows: list[dict], axes=None):
             rate = [succ[ok][idx == i].mean() if np.any(idx == i) else np.nan for i in range(6)]
             ax2 = ax.twinx()
             ax2.step(edges[:-1], rate, where="post", color="tab:blue")
-            ax2.set_ylim(-0.05, 1.05)
+            ax2.set_ylim(-1.6, 1.05)   # the rate in the upper part, clear of the limit line
+            ax2.set_yticks([0.0, 0.5, 1.0])
             ax2.set_ylabel("success rate", color="tab:blue")
     for ax in list(axes.flat)[len(names):]:
         ax.axis("off")
-    return finish(fig, f"Monte Carlo: {len(rows)} samples, seed {study.seed} "
-                            "(green captured, red crash, orange timeout, black error)")
+    return finish(fig, "Capture speed and success rate against each drawn quantity",
+                  f"{len(rows)} samples, root seed {study.seed}; dots: green captured, red "
+                  "crash, orange timeout, black error; blue: success rate per sixth of the range")
 
 
 def plot_histograms(study: Study, rows: list[dict], axes=None):
@@ -69,7 +94,7 @@ def plot_histograms(study: Study, rows: list[dict], axes=None):
             ax.hist(v, bins=min(40, max(5, v.size // 5)), color="tab:blue", alpha=0.8)
         if limit is not None:
             ax.axvline(limit, color="tab:red", ls="--", label="limit")
-            ax.legend()
+            ax.legend(loc="upper right", fontsize=8)
         ax.set_xlabel(label)
         ax.set_ylabel("samples")
     return finish(fig, "Monte Carlo distributions")
@@ -84,15 +109,16 @@ def plot_influence(study: Study, rows: list[dict], axes=None):
     if len(ranked) >= 2:
         a, b = ranked[:2]
         ax.scatter([r[a] for r in rows], [r[b] for r in rows], c=_colour(rows), s=12)
-        ax.set_xlabel(f"{a} (|r| = {inf[a]:.2f})")
-        ax.set_ylabel(f"{b} (|r| = {inf[b]:.2f})")
+        ax.set_xlabel(f"{quantity_label(a)} (|r| = {inf[a]:.2f})")
+        ax.set_ylabel(f"{quantity_label(b)} (|r| = {inf[b]:.2f})")
     elif ranked:
         a = ranked[0]
         ax.scatter([r[a] for r in rows], [r["capture_speed_mps"] for r in rows],
                    c=_colour(rows), s=12)
-        ax.set_xlabel(a)
+        ax.set_xlabel(quantity_label(a))
         ax.set_ylabel("capture speed [m/s]")
-    return finish(fig, "The two most influential quantities")
+    return finish(fig, "The two most influential quantities",
+                  "green captured, red crash, orange timeout, black error")
 
 
 def study_figures(study: Study, rows: list[dict]) -> dict:

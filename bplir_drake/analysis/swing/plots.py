@@ -51,6 +51,8 @@ def plot_swing(result, axes=None, title=None):
         ax[1, 1].axhline(sign * vmax, color="grey", lw=0.6)
     ax[1, 1].text(0.01, 0.90, f"driver limit \u00b1{vmax:.1f} V", transform=ax[1, 1].transAxes,
                   va="top", fontsize=7, color="grey")
+    ax[1, 0].text(0.99, 0.90, f"torque limit \u00b1{lim:g} N m", transform=ax[1, 0].transAxes,
+                  va="top", ha="right", fontsize=7, color="grey")
     ax[2, 0].axhline(0, color="k", lw=0.6)
     for a in ax[2]:
         a.set_xlabel("time [s]")
@@ -58,10 +60,11 @@ def plot_swing(result, axes=None, title=None):
         a.grid(True, alpha=0.3)
         if math.isfinite(s["swing_time_s"]):
             a.axvline(s["swing_time_s"], color="C3", lw=0.6, ls="--")
-    title = title or (f"BPLIR swing: {s['outcome']} at {s['swing_time_s']:.2f} s, "
-                      f"{s['capture_speed_mps']:.2f} m/s (seed {s['seed']}, incline "
-                      f"{s['incline_deg']:g} deg, controller {s['controller']})")
-    return finish(fig, title)
+    caption = (f"{s['outcome']} at {s['swing_time_s']:.2f} s, {s['capture_speed_mps']:.2f} m/s; "
+               f"seed {s['seed']}, incline {s['incline_deg']:g} deg, grip spacing "
+               f"{s['grip_spacing_m']:g} m, controller {s['controller']}, supply "
+               f"{result.params.motor.supply_voltage:g} V; dashed red line: the interlock's decision")
+    return finish(fig, title or "BPLIR swing", caption)
 
 
 def animate_swing(result, path, fps: int = 25, max_frames: int = 120) -> Path:

@@ -57,6 +57,18 @@ def _is_plugin(spec) -> bool:
     return bool(module) and factory.isidentifier()
 
 
+def plugin_name(spec: str) -> str:
+    """A plug-in's own name from its ``module:factory`` spec: a file's stem
+    (``path/to/my_controller.py:make`` -> ``my_controller:make``), a module
+    as it is; a preset name unchanged."""
+    if not _is_plugin(spec):
+        return spec
+    module, factory = spec.rsplit(":", 1)
+    if module.endswith(".py") or "/" in module or "\\" in module:
+        module = Path(module).stem
+    return f"{module}:{factory}"
+
+
 def _range_text(md) -> str:
     lo, hi = md["lo"], md["hi"]
     left = "(" if md["lo_open"] or lo == -INF else "["
@@ -1073,5 +1085,5 @@ __all__ = [
     "BplirParams", "preset", "PRESETS", "HARDWARE_OPTIONS", "LINE_SENSOR_OPTION",
     "from_dict", "load_toml", "to_toml",
     "save_toml", "to_dict", "sigma_from_density", "DriveParams", "TraverseParams",
-    "swapped", "swapped_plant", "swapped_imu", "parameter_reference", "BLOCKS",
+    "swapped", "swapped_plant", "swapped_imu", "parameter_reference", "BLOCKS", "plugin_name",
 ]

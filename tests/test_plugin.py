@@ -138,7 +138,8 @@ def test_the_example_plugin_through_the_command_line(tmp_path, capsys, strict_js
     # seed 0 of the quick benchmark: the example never captures (measured)
     assert entry["controller"] == EXAMPLE and entry["overall"] == 0.0
     assert entry["capture_speed_median_mps"] is None and entry["peak_power_max_W"] < 220
-    assert f"`{EXAMPLE}`" in (tmp_path / "bench" / "leaderboard.md").read_text()
+    # the plug-in is named by its own name, not its path
+    assert "| `my_controller:make` |" in (tmp_path / "bench" / "leaderboard.md").read_text()
 
 
 # ----------------------------------------------------------- estimators
@@ -222,3 +223,17 @@ def test_a_broken_estimator_is_refused_naming_the_port(tmp_path, factory, messag
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("bplir: error: estimator plugin")
     assert message in err[0]
+
+
+def test_a_plugin_is_labelled_by_its_own_name():
+    """A plug-in's summary, caption and leaderboard name it by its file's
+    stem and factory, wherever the file lies; a module keeps its name."""
+    from bplir_drake.params import plugin_name
+
+    assert plugin_name("/abs/path/my_controller.py:make") == "my_controller:make"
+    assert plugin_name("examples/my_controller.py:make") == "my_controller:make"
+    assert plugin_name("mypkg.control:factory") == "mypkg.control:factory"
+    assert plugin_name("qft") == "qft"
+    r = run_swing(BplirParams().with_controller(EXAMPLE), seed=0)
+    assert r.summary["controller"] == "my_controller:make"
+    assert "controller my_controller:make" in r.plot().bplir_caption

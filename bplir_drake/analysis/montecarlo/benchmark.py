@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ...params import BplirParams, ParameterError
+from ...params import BplirParams, ParameterError, plugin_name
 from .executors import map_jobs
 from .sampling import apply_values, base_value, error_text, pinned
 
@@ -196,7 +196,8 @@ def leaderboard_table(board: list[dict]) -> str:
         + ["capture speed median (m/s)", "energy per swing (J)", "peak power max (W)"]
     lines = ["| " + " | ".join(head) + " |", "|" + " --- |" * len(head)]
     for i, e in enumerate(board, 1):
-        cells = [str(i), f"`{e['controller']}`", f"`{e.get('estimator', 'ekf')}`",
+        cells = [str(i), f"`{plugin_name(e['controller'])}`",
+                 f"`{plugin_name(e.get('estimator', 'ekf'))}`",
                  f"{e['overall']:.2f}"]
         if real:
             lo, hi = e.get("realistic_ci95", (None, None))
@@ -246,7 +247,7 @@ def plot_benchmark(result: dict, axes=None):
     for i, c in enumerate(ctrls):
         sc = result["scores"][c]
         vals = [sc["categories"][k] for k in cats] + [sc["overall"]]
-        ax.bar(x + (i - (len(ctrls) - 1) / 2) * w, vals, w, label=c)
+        ax.bar(x + (i - (len(ctrls) - 1) / 2) * w, vals, w, label=plugin_name(c))
     ax.set_xticks(x, list(cats) + ["overall"], rotation=30, ha="right")
     ax.set_ylim(0, 1.0)
     ax.set_ylabel("fraction of successful swings")
@@ -259,7 +260,7 @@ def plot_benchmark(result: dict, axes=None):
     for r in result["rows"]:
         grid[ctrls.index(r["controller"]), r["case"]] += r["success"] / result["repeats"]
     ax2.imshow(grid, aspect="auto", cmap="RdYlGn", vmin=0, vmax=1)
-    ax2.set_yticks(range(len(ctrls)), ctrls)
+    ax2.set_yticks(range(len(ctrls)), [plugin_name(c) for c in ctrls])
     ax2.set_xticks(range(len(labels)), labels, rotation=90, fontsize=6)
     ax2.set_title("success per case (green = all swings captured)", fontsize=9)
     return finish(fig, "Robustness benchmark",

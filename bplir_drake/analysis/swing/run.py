@@ -19,7 +19,7 @@ import numpy as np
 from ...io import atomic_path, dumps_strict
 
 from ...diagrams import build_swing, set_swing_sample, swing_geometry, swing_structure
-from ...params import BplirParams, to_dict
+from ...params import BplirParams, plugin_name, to_dict
 from ...simulate import Log, logs, make_simulator, run_until_outcome
 from ...systems.plant import gripper_position, gripper_velocity, kinetic_energy, potential_energy
 
@@ -264,7 +264,8 @@ def swing_summary(p: BplirParams, lg: dict[str, Log], status: dict, seed: int,
         "delay_identified_s": delay_id,
         "delay_fit_ratio": float(fit[-1, 1]) if len(fit) else math.nan,
         "estimator_in_loop": use_est,
-        "controller": p.controller.preset,
+        "controller": (plugin_name(p.controller.plugin) if p.controller.plugin
+                       else p.controller.preset),
         "path_mode": p.path.mode,
         "incline_deg": sc.incline_deg,
         "grip_spacing_m": sc.grip_spacing,

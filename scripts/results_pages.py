@@ -30,7 +30,8 @@ def manifest() -> list[dict]:
     """The stored outputs, in the manifest's order, each with its summary."""
     items = tomllib.loads((RESULTS / "manifest.toml").read_text())["output"]
     for item in items:
-        item["summary"] = json.loads((RESULTS / item["path"] / "summary.json").read_text())
+        name = item.get("file", "summary.json")
+        item["summary"] = json.loads((RESULTS / item["path"] / name).read_text())
     return items
 
 
@@ -83,6 +84,18 @@ def traverse_row(item: dict) -> list[str]:
             num(_p(s, "peak_voltage_V", "max"), "{:.1f}"), misses(s)]
 
 
+def benchmark_rows(item: dict) -> list[list[str]]:
+    """One row per controller of a stored benchmark: overall and per category."""
+    res = item["summary"]
+    return [[item["label"], plugin(c), f"{sc['overall']:.3f}"]
+            + [f"{sc['categories'][k]:.2f}" for k in res["categories"]]
+            for c, sc in res["scores"].items()]
+
+
+def plugin(name: str) -> str:
+    return name.rsplit("/", 1)[-1].replace(".py:", ":")
+
+
 HEADERS = {
     "swing": ["line", "root seed", "seeds", "captured", "Wilson 95 %",
               "capture speed p50 / p95 (m/s)", "peak voltage p95 / max (V)",
@@ -115,10 +128,15 @@ def page(items: list[dict]) -> str:
             out += ["Captured of 300 and the capture speed's p95 (m/s):", "",
                     hardware_matrix(items), ""]
         kind = members[0].get("kind", "swing")
-        rows = [swing_row(i) if kind == "swing" else traverse_row(i) for i in members]
-        out += table(HEADERS[kind], rows) + [""]
-        out += ["How each row was produced (version "
-                f"{members[0]['summary'].get('package_version', '?')}):", ""]
+        if kind == "benchmark":
+            cats = list(members[0]["summary"]["categories"])
+            rows = [r for i in members for r in benchmark_rows(i)]
+            out += table(["benchmark", "controller", "overall", *cats], rows) + [""]
+        else:
+            rows = [swing_row(i) if kind == "swing" else traverse_row(i) for i in members]
+            out += table(HEADERS[kind], rows) + [""]
+        version = members[0]["summary"].get("package_version", "0.2.0.dev0")
+        out += [f"How each row was produced (version {version}):", ""]
         out += [f"- {i['label']}: `{i['command']}`" for i in members] + [""]
     notes = RESULTS / "tuning_notes.json"
     if notes.exists():

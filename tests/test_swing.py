@@ -224,3 +224,37 @@ def test_default_robot_stays_within_the_driver_voltage():
         assert outcome == "captured", (incline, seed)
     # the uphill swing is the one that reaches the envelope
     assert max(r[2] for r in rows if r[0] == 20.0) > 27.0
+
+
+def test_the_swing_diagram_composes_in_a_users_builder_and_runs_with_a_plain_simulator():
+    """The swing diagram is a Drake system with named outputs; added to a
+    user's ``DiagramBuilder`` and run by a plain ``Simulator`` (the runner's
+    integrator settings) from its default context -- which holds the start
+    pose and the sample -- it is the project's runner's swing to 1e-12."""
+    from pydrake.systems.analysis import ResetIntegratorFromFlags, Simulator
+    from pydrake.systems.framework import DiagramBuilder
+    from pydrake.systems.primitives import LogVectorOutput
+
+    from bplir_drake.analysis.swing.run import SWING_ACCURACY, swing_diagram
+    from bplir_drake.diagrams.swing import SWING_PORTS
+    from bplir_drake.params import preset
+
+    params = preset()
+    built = swing_diagram(params, seed=3)
+    builder = DiagramBuilder()
+    swing = builder.AddSystem(built.diagram)
+    assert [swing.get_output_port(i).get_name()
+            for i in range(swing.num_output_ports())] == list(SWING_PORTS)
+    log = LogVectorOutput(swing.GetOutputPort("true_state"), builder, 0.005)
+    diagram = builder.Build()
+    sim = Simulator(diagram)
+    ResetIntegratorFromFlags(sim, "runge_kutta3", 0.01)
+    sim.get_mutable_integrator().set_target_accuracy(SWING_ACCURACY)
+    sim.AdvanceTo(params.scenario.max_time + 0.02)   # the interlock ends it at its decision
+    mine = log.FindLog(sim.get_context())
+    ref = run_swing(params, seed=3)
+    assert ref.summary["outcome"] == "captured"
+    t_ref, x_ref = ref.logs["state"].t, ref.logs["state"].data
+    assert sim.get_context().get_time() == pytest.approx(t_ref[-1], abs=1e-12)
+    n = min(len(t_ref), mine.sample_times().size)
+    np.testing.assert_allclose(mine.data().T[:n], x_ref[:n], rtol=0, atol=1e-12)

@@ -406,6 +406,23 @@ def add_swing_loggers(builder, params: BplirParams, robot: Robot, sampler, estim
     return loggers
 
 
+#: the output ports of a swing diagram (:func:`export_swing_ports`)
+SWING_PORTS = ("true_state", "estimate", "command", "torque", "voltage")
+
+
+def export_swing_ports(builder, robot: Robot, estimate_port, controller) -> None:
+    """The swing diagram's outputs: the simulated robot's ``true_state``
+    (q1, q2, q1d, q2d), the controller's ``estimate`` (the estimator's
+    state output), the ``command`` (N m, the controller's torque before the
+    actuation delay), the delivered ``torque`` (N m) and the winding
+    ``voltage`` (V)."""
+    builder.ExportOutput(robot.plant.get_state_output_port(), "true_state")
+    builder.ExportOutput(estimate_port, "estimate")
+    builder.ExportOutput(controller.GetOutputPort("torque"), "command")
+    builder.ExportOutput(robot.motor.GetOutputPort("torque"), "torque")
+    builder.ExportOutput(robot.motor.GetOutputPort("voltage"), "voltage")
+
+
 def build_swing(params: BplirParams, *, seed: int | None = None, use_estimator: bool | None = None,
                 log_period: float = 0.005, plan_gains=None, controller=None,
                 estimator=None) -> Built:
@@ -446,6 +463,10 @@ def build_swing(params: BplirParams, *, seed: int | None = None, use_estimator: 
     lock = add_interlock(builder, params, robot, estimate_port, line_geometry)
     loggers = add_swing_loggers(builder, params, robot, sampler, estimate_port, control,
                                 log_period)
+    export_swing_ports(builder, robot, estimate_port, control["controller"])
+    # the default context starts the swing: the plant at the start pose (the
+    # sample's friction, sensors, calibration and gusts are the built defaults)
+    robot.plant.SetDefaultPositions(np.asarray(q0, dtype=float))
     diagram = builder.Build()
     diagram.set_name("brachiation_swing")
     systems = {"friction": robot.friction, "motor": robot.motor, "imu": sampler,

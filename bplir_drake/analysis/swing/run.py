@@ -83,7 +83,13 @@ def swing_diagram(params: BplirParams, **kwargs):
     (``path.mode`` resolves to ``"plan"``, the default of the ``qft``
     preset): the plan and its gains come from the nominal model and the
     scenario only, from the disk cache or solved
-    (:func:`~.plan.tracking_plan`)."""
+    (:func:`~.plan.tracking_plan`).  The simulated friction is drawn from
+    the seed as :func:`run_swing` draws it, so the diagram's default
+    context is that swing: ``Simulator(built.diagram)`` with the runner's
+    integrator (error-controlled RK3 at ``SWING_ACCURACY``, steps of at most
+    10 ms) simulates it."""
+    seed = kwargs.get("seed")
+    params = draw_true_friction(params, params.scenario.seed if seed is None else int(seed))
     if kwargs.get("controller") is None and "plan_gains" not in kwargs:
         resolved = params.resolved()
         if resolved.path.mode == "plan":

@@ -531,6 +531,9 @@ def cmd_swing(args) -> int:
         f"peak torque {s['peak_torque_Nm']:.2f} N m, peak motor power "
         f"{s['peak_motor_power_W']:.1f} W (rating {s['motor_power_rating_W']:.0f} W), "
         f"max estimation error {s['max_estimation_error_rad']:.4f} rad, seed {s['seed']}",
+        f"motor: peak winding voltage {s['peak_voltage_V']:.1f} V of the driver's "
+        f"{s['max_voltage_V']:.1f} V ({s['supply_voltage_V']:g} V supply), "
+        f"{s['on_envelope_s']:.3f} s on the envelope, {s['electrical_energy_J']:.1f} J drawn",
         f"files in {out_dir}: " + ", ".join(Path(f).name for f in files.values())])
     return 0
 

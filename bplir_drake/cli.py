@@ -873,6 +873,8 @@ def build_parser() -> argparse.ArgumentParser:
     """The ``bplir`` command line: one subcommand per job."""
     parser = _Parser(prog="bplir", description="Brachiating Power Line Inspection Robot tools")
     parser.add_argument("--version", action="version", version=f"bplir {_version()}")
+    parser.add_argument("--debug", action="store_true",
+                        help="show the traceback of an unexpected fault")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
 
     def command(name, func, help, out=None):
@@ -1060,6 +1062,13 @@ def main(argv=None) -> int:
     except (ParameterError, InputError, LogError, QftError, CalibrationError) as exc:
         sys.stderr.write(f"bplir: error: {exc}\n")
         return 2
+    except OSError as exc:   # a full disk, a vanished directory: the path and the reason
+        if args.debug:
+            raise
+        where = f" {exc.filename}" if getattr(exc, "filename", None) else ""
+        sys.stderr.write(f"bplir: error: {args.command}: cannot write or read{where}: "
+                         f"{exc.strerror or exc}\n")
+        return 1
     except KeyboardInterrupt:
         if args.command == "montecarlo":
             sys.stderr.write(f"bplir: interrupted; the finished samples are kept in {args.out} "
@@ -1067,6 +1076,13 @@ def main(argv=None) -> int:
         else:  # every output is written atomically: none is left half-written
             sys.stderr.write("bplir: interrupted; no output file was left half-written\n")
         return 130
+    except Exception as exc:   # a fault inside: one line (the traceback with --debug)
+        if args.debug:
+            raise
+        text = " ".join(str(exc).split()) or "no message"
+        sys.stderr.write(f"bplir: error: {args.command} failed: {type(exc).__name__}: "
+                         f"{text[:400]}\n")
+        return 1
 
 
 if __name__ == "__main__":  # pragma: no cover

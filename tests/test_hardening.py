@@ -575,3 +575,33 @@ def test_shipped_gains_serve_the_tests_plans(monkeypatch, tmp_path):
         keys.add(plan_cache.plan_key(P.gains_inputs(p.plant, p.friction, plan)))
     shipped = {f.stem.split("-", 1)[1] for f in plan_cache.PACKAGED.glob("gains-*.npz")}
     assert shipped == keys and not list(tmp_path.glob("gains-*.npz"))
+
+
+def test_a_fault_inside_is_one_line_and_debug_shows_the_traceback(tmp_path, capsys):
+    """A plug-in whose output raises mid-swing: one line ``bplir: error:``
+    naming the command and the fault, exit 1, no traceback; with
+    ``--debug`` the exception itself."""
+    from bplir_drake.cli import main
+
+    plugin = tmp_path / "broken.py"
+    plugin.write_text(
+        "from pydrake.systems.framework import LeafSystem\n"
+        "class Broken(LeafSystem):\n"
+        "    def __init__(self):\n"
+        "        super().__init__()\n"
+        "        self.DeclareVectorInputPort('state', 4)\n"
+        "        self.DeclareVectorOutputPort('torque', 1, self.calc)\n"
+        "    def calc(self, context, out):\n"
+        "        if context.get_time() > 0.3:\n"
+        "            raise RuntimeError('the controller lost its mind')\n"
+        "        out.SetAtIndex(0, 0.0)\n"
+        "def make(params):\n"
+        "    return Broken()\n")
+    argv = ["swing", "--controller", f"{plugin}:make", "--no-animation", "--out",
+            str(tmp_path / "out")]
+    assert main(argv) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("bplir: error: swing failed:")
+    assert "the controller lost its mind" in err and "Traceback" not in err
+    with pytest.raises(RuntimeError, match="lost its mind"):
+        main(["--debug", *argv])

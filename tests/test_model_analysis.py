@@ -45,3 +45,19 @@ def test_linearization_without_friction_is_undamped(params):
     w2 = np.sort(np.linalg.eigvals(np.linalg.solve(M, Kg)).real)
     np.testing.assert_allclose(np.sort(np.abs(lin.eigenvalues.imag))[::2], np.sqrt(w2),
                                rtol=1e-8)
+
+
+def test_a_linearisation_is_a_named_python_control_state_space(params):
+    """``Linearization.statespace()``: python-control's ``StateSpace`` with the
+    state, input and output names, the same matrices and poles."""
+    import control
+
+    from bplir_drake.analysis.model.linearization import hanging_linearization
+
+    lin = hanging_linearization(params)
+    sys = lin.statespace()
+    assert sys.state_labels == ["q1", "q2", "q1d", "q2d"]
+    assert sys.input_labels == ["elbow_torque"] and sys.output_labels == sys.state_labels
+    np.testing.assert_array_equal(sys.A, lin.A)
+    np.testing.assert_allclose(np.sort_complex(control.poles(sys)),
+                               np.sort_complex(lin.eigenvalues), rtol=1e-9)

@@ -18,6 +18,22 @@ class Linearization:
     D: np.ndarray
     eigenvalues: np.ndarray
 
+    #: the state, input and output names of the plant with friction
+    STATES = ("q1", "q2", "q1d", "q2d")
+    INPUTS = ("elbow_torque",)
+
+    def statespace(self):
+        """The linearisation as a python-control ``StateSpace`` with named
+        states (q1, q2, q1d, q2d: rad, rad/s), input (the elbow torque, N m)
+        and outputs (the state).  A Taylor approximation away from an
+        equilibrium has an affine term (Drake's ``f0``), which a
+        ``StateSpace`` cannot hold: it describes deviations from the point."""
+        import control
+
+        return control.ss(self.A, self.B, self.C, self.D, states=list(self.STATES),
+                          inputs=list(self.INPUTS), outputs=list(self.STATES),
+                          name="plant_with_friction")
+
     def modes(self):
         """(natural frequency rad/s, damping ratio) of each eigenvalue."""
         lam = self.eigenvalues

@@ -258,3 +258,21 @@ def test_the_swing_diagram_composes_in_a_users_builder_and_runs_with_a_plain_sim
     assert sim.get_context().get_time() == pytest.approx(t_ref[-1], abs=1e-12)
     n = min(len(t_ref), mine.sample_times().size)
     np.testing.assert_allclose(mine.data().T[:n], x_ref[:n], rtol=0, atol=1e-12)
+
+
+def test_a_swing_draws_one_panel_on_one_axes(default_swing):
+    """``result.plot(ax)`` with one axes draws one panel (the angles by
+    default, or ``panel=``) with its limit labelled; a wrong panel is a
+    ValueError naming the allowed ones."""
+    from matplotlib.figure import Figure
+
+    fig = Figure()
+    ax = fig.subplots()
+    assert default_swing.plot(ax) is fig and ax.get_ylabel() == "angle [rad]"
+    fig = Figure()
+    ax = fig.subplots()
+    default_swing.plot(ax, panel="voltage")
+    assert ax.get_ylabel() == "motor voltage [V]"
+    assert any("driver limit" in t.get_text() for t in ax.texts)
+    with pytest.raises(ValueError, match="allowed: angles, rates"):
+        default_swing.plot(panel="wind")

@@ -27,44 +27,71 @@ SWING_PANELS = (
 )
 
 
-def plot_swing(result, axes=None, title=None):
+#: the panel names of :func:`plot_swing`, in the order of ``SWING_PANELS``
+PANEL_NAMES = ("angles", "rates", "torque", "voltage", "gripper", "energy")
+
+
+def _one_axes(axes) -> bool:
+    return axes is not None and np.asarray(axes, dtype=object).size == 1
+
+
+def plot_swing(result, axes=None, title=None, panel: str | None = None):
     """Six panels (3 x 2 axes) in the style of Fig. 7.6: angles, rates,
     applied torque, the motor's winding voltage and back-EMF (with the
     driver's limit), free-gripper x/y, energy split; the decision time
-    marked.  Returns the figure."""
+    marked.  Given one axes (or ``panel``), one panel: ``panel`` of
+    :data:`PANEL_NAMES` (default ``"angles"``).  Returns the figure."""
     cols, d = log_table(result)
     c = {k: d[:, i] for i, k in enumerate(cols)}
     s = result.summary
+    if panel is not None or _one_axes(axes):
+        name = panel or "angles"
+        if name not in PANEL_NAMES:
+            raise ValueError(f"panel = {name!r}; allowed: " + ", ".join(PANEL_NAMES))
+        fig, a = figure_axes(axes, 1, 1, figsize=(6, 3.6))
+        index = PANEL_NAMES.index(name)
+        _draw_panel(a, c, SWING_PANELS[index], result, index)
+        a.set_xlabel("time [s]")
+        return finish(fig, title)
     fig, ax = figure_axes(axes, 3, 2, figsize=(12, 9), sharex=True)
-    for row, col, ylabel, lines in SWING_PANELS:
-        a = ax[row, col]
-        for name, style, label in lines:
-            a.plot(c["t"], c[name], style, lw=0.8 if style.startswith("k") and name != "energy"
-                   else None, label=label)
-        a.set_ylabel(ylabel)
-        if a.get_legend() is None:  # overlaid swings: the first one's legend
-            a.legend(fontsize=7, ncol=2 if len(lines) > 3 else 1)
-    lim = s["thresholds"]["torque_limit_Nm"]
-    vmax = result.params.motor.max_voltage
-    for sign in (1, -1):
-        ax[1, 0].axhline(sign * lim, color="grey", lw=0.6)
-        ax[1, 1].axhline(sign * vmax, color="grey", lw=0.6)
-    ax[1, 1].text(0.01, 0.90, f"driver limit \u00b1{vmax:.1f} V", transform=ax[1, 1].transAxes,
-                  va="top", fontsize=7, color="grey")
-    ax[1, 0].text(0.99, 0.90, f"torque limit \u00b1{lim:g} N m", transform=ax[1, 0].transAxes,
-                  va="top", ha="right", fontsize=7, color="grey")
-    ax[2, 0].axhline(0, color="k", lw=0.6)
+    for k, (row, col, _, _) in enumerate(SWING_PANELS):
+        _draw_panel(ax[row, col], c, SWING_PANELS[k], result, k)
     for a in ax[2]:
         a.set_xlabel("time [s]")
-    for a in ax.flat:
-        a.grid(True, alpha=0.3)
-        if math.isfinite(s["swing_time_s"]):
-            a.axvline(s["swing_time_s"], color="C3", lw=0.6, ls="--")
     caption = (f"{s['outcome']} at {s['swing_time_s']:.2f} s, {s['capture_speed_mps']:.2f} m/s; "
                f"seed {s['seed']}, incline {s['incline_deg']:g} deg, grip spacing "
                f"{s['grip_spacing_m']:g} m, controller {s['controller']}, supply "
                f"{result.params.motor.supply_voltage:g} V; dashed red line: the interlock's decision")
     return finish(fig, title or "BPLIR swing", caption)
+
+
+def _draw_panel(a, c, spec, result, index):
+    """One panel of :func:`plot_swing` on the axes ``a``."""
+    s = result.summary
+    _, _, ylabel, lines = spec
+    for name, style, label in lines:
+        a.plot(c["t"], c[name], style, lw=0.8 if style.startswith("k") and name != "energy"
+               else None, label=label)
+    a.set_ylabel(ylabel)
+    if a.get_legend() is None:  # overlaid swings: the first one's legend
+        a.legend(fontsize=7, ncol=2 if len(lines) > 3 else 1)
+    if PANEL_NAMES[index] == "torque":
+        lim = s["thresholds"]["torque_limit_Nm"]
+        for sign in (1, -1):
+            a.axhline(sign * lim, color="grey", lw=0.6)
+        a.text(0.99, 0.90, f"torque limit \u00b1{lim:g} N m", transform=a.transAxes,
+               va="top", ha="right", fontsize=7, color="grey")
+    elif PANEL_NAMES[index] == "voltage":
+        vmax = result.params.motor.max_voltage
+        for sign in (1, -1):
+            a.axhline(sign * vmax, color="grey", lw=0.6)
+        a.text(0.01, 0.90, f"driver limit \u00b1{vmax:.1f} V", transform=a.transAxes,
+               va="top", fontsize=7, color="grey")
+    elif PANEL_NAMES[index] == "gripper":
+        a.axhline(0, color="k", lw=0.6)
+    a.grid(True, alpha=0.3)
+    if math.isfinite(s["swing_time_s"]):
+        a.axvline(s["swing_time_s"], color="C3", lw=0.6, ls="--")
 
 
 def animate_swing(result, path, fps: int = 25, max_frames: int = 120) -> Path:

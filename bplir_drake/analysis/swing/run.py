@@ -65,11 +65,13 @@ class SwingResult:
         """:meth:`to_dict` as strict JSON text (NaN and infinity as null)."""
         return dumps_strict(self.to_dict())
 
-    def plot(self, axes=None, title=None):
-        """Six panels (3 x 2 axes) in the style of Fig. 7.6; returns the figure."""
+    def plot(self, axes=None, title=None, panel=None):
+        """Six panels (3 x 2 axes) in the style of Fig. 7.6, or one panel on
+        one axes (``panel``: angles, rates, torque, voltage, gripper,
+        energy); returns the figure."""
         from .plots import plot_swing
 
-        return plot_swing(self, axes, title)
+        return plot_swing(self, axes, title, panel)
 
 
 #: integrator of a swing: error-controlled RK3 at this accuracy keeps the

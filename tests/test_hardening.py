@@ -605,3 +605,64 @@ def test_a_fault_inside_is_one_line_and_debug_shows_the_traceback(tmp_path, caps
     assert "the controller lost its mind" in err and "Traceback" not in err
     with pytest.raises(RuntimeError, match="lost its mind"):
         main(["--debug", *argv])
+
+
+def _tiny_plan():
+    from bplir_drake.analysis.swing.plan import SwingPlan
+
+    t = np.linspace(0.0, 1.0, 5)
+    return SwingPlan(t, np.zeros((5, 4)), np.zeros(5), np.zeros((5, 2)), True, True, "test",
+                     0.0, 20.0, 220.0, 1e-4)
+
+
+@pytest.mark.parametrize("damage", [b"", b"PK\x03\x04 truncated", b"not a zip file at all"])
+def test_a_damaged_cached_plan_is_moved_aside_and_solved_again(monkeypatch, tmp_path, damage):
+    """An empty, truncated or foreign ``plan-<key>.npz`` in the cache does not
+    stop the robot: it is moved aside (``.damaged``), the plan solved again
+    and stored."""
+    from bplir_drake.analysis.swing import plan_cache
+
+    monkeypatch.setenv("BPLIR_CACHE_DIR", str(tmp_path))
+    inputs = {"test": "damaged", "damage": damage.decode(errors="replace")}
+    path = plan_cache.plan_cache_path(inputs)
+    path.write_bytes(damage)
+    solves = []
+    plan = plan_cache.cached(inputs, lambda: solves.append(1) or _tiny_plan())
+    assert solves == [1] and plan.solver == "test"
+    assert path.with_suffix(".damaged").read_bytes() == damage
+    again = plan_cache.cached(inputs, lambda: solves.append(2) or _tiny_plan())
+    assert solves == [1] and np.array_equal(again.times, plan.times)   # stored, read back
+
+
+def test_the_shipped_plans_serve_whatever_state_the_cache_is_in(monkeypatch, tmp_path):
+    """With ``BPLIR_CACHE_DIR`` unusable (inside /proc, or read-only) the
+    shipped plans and gains are still read, never solved; a link planted at
+    a lock file is neither followed nor truncated."""
+    import os
+
+    from bplir_drake.analysis.swing import plan as P
+    from bplir_drake.analysis.swing import plan_cache
+    from bplir_drake.params import preset
+    from bplir_drake.systems import plan_tracker
+
+    def no_solve(*a, **k):
+        raise AssertionError("solved a shipped plan")
+
+    monkeypatch.setattr(P, "_solve_plan", no_solve)
+    monkeypatch.setattr(plan_tracker, "plan_gains", no_solve)
+    monkeypatch.setattr(P, "_GAINS", {})
+    readonly = tmp_path / "ro"
+    readonly.mkdir()
+    readonly.chmod(0o500)
+    for where in ("/proc/bplir-no-such/cache", str(readonly)):
+        monkeypatch.setenv("BPLIR_CACHE_DIR", where)
+        plan, gains = P.tracking_plan(preset())
+        assert plan.feasible and gains.K.get_number_of_segments() > 100
+    monkeypatch.setenv("BPLIR_CACHE_DIR", str(tmp_path / "cache"))
+    (tmp_path / "cache").mkdir()
+    victim = tmp_path / "victim.txt"
+    victim.write_text("keep me")
+    inputs = {"test": "link"}
+    os.symlink(victim, plan_cache.plan_cache_path(inputs).with_suffix(".lock"))
+    plan = plan_cache.cached(inputs, _tiny_plan)
+    assert plan.solver == "test" and victim.read_text() == "keep me"

@@ -152,37 +152,57 @@ def _load(path: Path):
 
 @contextlib.contextmanager
 def _locked(path: Path):
+    """An exclusive lock on ``path``'s ``.lock`` file, opened without
+    following a link (a link planted there is refused, never truncated)."""
     import fcntl
 
-    with open(path.with_suffix(".lock"), "w") as fh:
-        fcntl.flock(fh, fcntl.LOCK_EX)
+    fd = os.open(path.with_suffix(".lock"), os.O_WRONLY | os.O_CREAT | os.O_NOFOLLOW, 0o644)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX)
         try:
             yield
         finally:
-            fcntl.flock(fh, fcntl.LOCK_UN)
+            fcntl.flock(fd, fcntl.LOCK_UN)
+    finally:
+        os.close(fd)
+
+
+def _read(load, path: Path):
+    """``load(path)``, or None when the file is missing or damaged; a
+    damaged file in the cache is moved aside (``.damaged``) to be re-solved."""
+    if not path.exists():
+        return None
+    try:
+        return load(path)
+    except Exception:   # truncated, empty, not a zip, wrong fields: any damage
+        if path.parent != PACKAGED:
+            with contextlib.suppress(OSError):
+                os.replace(path, path.with_suffix(".damaged"))
+        return None
 
 
 def cached(inputs: dict, solve, kind: str = "plan"):
-    """The plan (``kind="gains"``: the tracking gains) for ``inputs``: from
-    the cache, or ``solve()`` once (stored)."""
+    """The plan (``kind="gains"``: the tracking gains) for ``inputs``: the
+    shipped one when the package has it (whatever state the cache is in),
+    else from the cache, else ``solve()`` once (stored when the cache is
+    usable; a damaged cache file is moved aside and re-solved)."""
     load, save = (_load, _save) if kind == "plan" else (load_gains, save_gains)
+    shipped = _read(load, packaged_plan_path(inputs, kind))
+    if shipped is not None:
+        return shipped
     path = plan_cache_path(inputs, kind)
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         lock = _locked(path)
         lock.__enter__()
-    except OSError:  # no usable cache directory
+    except OSError:  # no usable cache directory (or a link at the lock)
         return solve()
     try:
-        for candidate in (path, packaged_plan_path(inputs, kind)):
-            if candidate.exists():
-                try:
-                    return load(candidate)
-                except (OSError, ValueError, KeyError, TypeError):
-                    pass  # a damaged file: solve again and replace it
-        result = solve()
-        with contextlib.suppress(OSError):
-            save(result, path)
+        result = _read(load, path)
+        if result is None:
+            result = solve()
+            with contextlib.suppress(OSError):
+                save(result, path)
         return result
     finally:
         lock.__exit__(None, None, None)

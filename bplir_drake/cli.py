@@ -136,6 +136,8 @@ def _progress(args) -> bool:
 
 def _out_dir(path) -> Path:
     """The output directory, created and proven writable before any work."""
+    if not str(path).strip():
+        raise InputError("--out '' is empty; name an output directory")
     return check_output_dir(path, InputError)
 
 
@@ -255,6 +257,8 @@ def cmd_freeswing(args) -> int:
 
     params = _load_params(args)
     q0 = _floats(args.q0, 2, "--q0")
+    for name, q in zip(("--q0 Q1", "--q0 Q2"), q0):   # an angle, not any number
+        _in_range(name, q, -2 * math.pi, 2 * math.pi, unit="rad")
     _in_range("--duration", args.duration, 0.0, 600.0, lo_open=True, unit="s")
     _in_range("--torque", args.torque, -100.0, 100.0, unit="N m")
     out_dir = _out_dir(args.out)
@@ -787,10 +791,14 @@ def cmd_calibrate(args) -> int:
                                        read_calibration_csv,
                                        write_calibrated_toml)
 
+    fit = tuple(n.strip() for n in args.fit.split(",") if n.strip())
+    twice = sorted({n for n in fit if fit.count(n) > 1})
+    if twice:
+        raise InputError(f"--fit names {', '.join(twice)} more than once; name each "
+                         "parameter once")
     params = _load_params(args)
     out_dir = _out_dir(args.out)
     log = read_calibration_csv(args.log, params.motor.torque_per_amp)
-    fit = tuple(n.strip() for n in args.fit.split(",") if n.strip())
     res = calibrate(params, log, fit, progress=_progress(args))
     summary = res.summary() | {
         "toml": str(write_calibrated_toml(res, out_dir / "calibrated.toml")),

@@ -666,3 +666,21 @@ def test_the_shipped_plans_serve_whatever_state_the_cache_is_in(monkeypatch, tmp
     os.symlink(victim, plan_cache.plan_cache_path(inputs).with_suffix(".lock"))
     plan = plan_cache.cached(inputs, _tiny_plan)
     assert plan.solver == "test" and victim.read_text() == "keep me"
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["swing", "--out", ""], "--out '' is empty"),
+    (["freeswing", "--q0", "1e300,0", "--duration", "1"], "--q0 Q1 = 1e+300 rad is out of range"),
+    (["calibrate", "nolog.csv", "--fit", "fv1,fv1"], "--fit names fv1 more than once"),
+])
+def test_implausible_options_are_refused_before_any_work(argv, words, tmp_path, capsys,
+                                                         monkeypatch):
+    """An empty output directory, an angle of 1e300 rad, a parameter fitted
+    twice: one line, exit 2, nothing written."""
+    from bplir_drake.cli import main
+
+    monkeypatch.chdir(tmp_path)
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("bplir: error:") and words in err
+    assert list(tmp_path.iterdir()) == []

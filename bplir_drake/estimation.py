@@ -164,6 +164,13 @@ def read_imu_csv(path: str | Path) -> ImuLog:
     return ImuLog(data[:, 0], data[:, 1:], extra)
 
 
+#: the largest step between rows (in sampling periods) a log may have
+MAX_GAP = 5.0
+#: plausible readings: a gyro's (rad/s, 2000 deg/s is 35) and an
+#: accelerometer's (m/s^2, 16 g is 157) full scale, with margin
+MAX_RATE, MAX_ACCEL = 100.0, 500.0
+
+
 def check_log(t, samples, period: float) -> np.ndarray:
     """Validate arrays; returns the mask of rows whose update is skipped."""
     t = np.asarray(t, dtype=float)
@@ -187,6 +194,19 @@ def check_log(t, samples, period: float) -> np.ndarray:
                        f"{period:g} s by more than {PERIOD_TOLERANCE:.0%}; allowed "
                        f"[{period * (1 - PERIOD_TOLERANCE):g}, "
                        f"{period * (1 + PERIOD_TOLERANCE):g}] s")
+    if np.any(dt > MAX_GAP * period):
+        k = int(np.argmax(dt > MAX_GAP * period))
+        raise LogError(f"time jumps by {dt[k]:g} s at row {k + 2} (t = {t[k + 1]:g} s after "
+                       f"{t[k]:g} s); allowed at most {MAX_GAP:g} sampling periods "
+                       f"({MAX_GAP * period:g} s) between rows")
+    limits = np.array([MAX_RATE] * 2 + [MAX_ACCEL] * 4)
+    wild = np.abs(np.nan_to_num(samples)) > limits
+    if np.any(wild):
+        k, j = (int(v) for v in np.argwhere(wild)[0])
+        name = ("gyro1", "gyro2", "acc1_x", "acc1_y", "acc2_x", "acc2_y")[j]
+        raise LogError(f"row {k + 1} column {name}: {samples[k, j]:g} is not a plausible "
+                       f"reading; allowed [-{limits[j]:g}, {limits[j]:g}] "
+                       f"{'rad/s' if j < 2 else 'm/s^2'}")
     bad = ~np.all(np.isfinite(samples), axis=1)
     if bad[0]:
         raise LogError("the first sample has missing or non-finite readings")

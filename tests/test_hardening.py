@@ -684,3 +684,22 @@ def test_implausible_options_are_refused_before_any_work(argv, words, tmp_path, 
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and err.startswith("bplir: error:") and words in err
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("change, words", [
+    (lambda t, x: t.__setitem__(slice(50, None), t[50:] + 1e6), "time jumps by 1e+06 s at row 51"),
+    (lambda t, x: x.__setitem__((20, 0), 1e300), "row 21 column gyro1: 1e+300 is not a plausible"),
+    (lambda t, x: x.__setitem__((30, 3), -5e3), "row 31 column acc1_y: -5000 is not a plausible"),
+])
+def test_an_imu_log_with_a_time_jump_or_wild_readings_is_refused(change, words):
+    """A 1e6 s jump in the time column, or a reading beyond any IMU's range,
+    is a one-line LogError naming the row (not filtered as if it were
+    data)."""
+    from bplir_drake.estimation import LogError, check_log
+
+    t = np.arange(100) * 0.01
+    x = np.tile([0.0, 0.0, 0.0, 9.81, 0.0, 9.81], (100, 1))
+    check_log(t, x, 0.01)
+    change(t, x)
+    with pytest.raises(LogError, match=words.replace("+", r"\+")):
+        check_log(t, x, 0.01)

@@ -703,3 +703,17 @@ def test_an_imu_log_with_a_time_jump_or_wild_readings_is_refused(change, words):
     change(t, x)
     with pytest.raises(LogError, match=words.replace("+", r"\+")):
         check_log(t, x, 0.01)
+
+
+@pytest.mark.parametrize("span, sag", [(60.0, 1e-9), (2000.0, 1e-6)])
+def test_a_catenary_too_flat_to_be_a_conductor_is_refused(span, sag):
+    """A catenary whose sag is under 1e-4 of its span (no conductor is that
+    taut; a straight line is given by incline points) is a one-line
+    LineError naming the allowed range, not a solver's traceback."""
+    from bplir_drake.analysis.traverse.line import LineError, line_from_dict
+
+    data = {"length": 10.0, "start": 1.2, "catenary": {"span": span, "sag": sag}}
+    with pytest.raises(LineError, match=r"sag = .* is out of range; allowed \["):
+        line_from_dict(data)
+    data["catenary"]["sag"] = span * 2e-4   # the flattest allowed still solves
+    assert line_from_dict(data).length == 10.0

@@ -134,7 +134,9 @@ def _table(data, where: str, keys: tuple[str, ...]) -> dict:
 def _catenary(cat, where: str, length: float):
     _table(cat, f"{where}: [catenary]", ("span", "sag", "offset"))
     span = _number(cat, "span", f"{where} [catenary]", 0.0, 2000.0)
-    sag = _number(cat, "sag", f"{where} [catenary]", 0.0, span / 4)
+    # a physical conductor sags: at least 1e-4 of its span (flatter is a
+    # straight line, given by incline points), at most a quarter of it
+    sag = _number(cat, "sag", f"{where} [catenary]", span * 1e-4, span / 4, lo_open=False)
     offset = _number(cat, "offset", f"{where} [catenary]", 0.0, span, default=0.0, lo_open=False)
     # sag = a (cosh(span / 2a) - 1): solve for the catenary parameter a
     from scipy.optimize import brentq

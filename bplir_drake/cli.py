@@ -115,13 +115,20 @@ def _save(args, fig, path) -> Path:
     return save_figure(fig, Path(path).with_suffix("." + fmt), dpi=_dpi(args))
 
 
+#: where the command's own output goes: standard output as ``main`` found it
+#: (with ``--json`` everything else printed meanwhile -- a plug-in's
+#: chatter -- goes to standard error, so standard output stays JSON)
+_OUT = [None]
+
+
 def _emit(obj, as_json: bool, text_lines) -> None:
     """Print ``obj`` as strict JSON (NaN and infinities as null) or the text."""
+    out = _OUT[0] or sys.stdout
     if as_json:
-        print(dumps_strict(obj))
+        print(dumps_strict(obj), file=out)
     else:
         for line in text_lines:
-            print(line)
+            print(line, file=out)
 
 
 def _write_json(path, obj) -> str:
@@ -1063,10 +1070,16 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv=None) -> int:
     """Run the command line; returns the exit status (2 with a one-line ``bplir: error:`` on bad
     input)."""
+    import contextlib
+
     parser = build_parser()
     args = parser.parse_args(argv)
+    _OUT[0] = sys.stdout
+    quiet = contextlib.redirect_stdout(sys.stderr) if getattr(args, "json", False) \
+        else contextlib.nullcontext()
     try:
-        return args.func(args)
+        with quiet:
+            return args.func(args)
     except (ParameterError, InputError, LogError, QftError, CalibrationError) as exc:
         sys.stderr.write(f"bplir: error: {exc}\n")
         return 2
@@ -1091,6 +1104,8 @@ def main(argv=None) -> int:
         sys.stderr.write(f"bplir: error: {args.command} failed: {type(exc).__name__}: "
                          f"{text[:400]}\n")
         return 1
+    finally:
+        _OUT[0] = None
 
 
 if __name__ == "__main__":  # pragma: no cover

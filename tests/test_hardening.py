@@ -717,3 +717,44 @@ def test_a_catenary_too_flat_to_be_a_conductor_is_refused(span, sag):
         line_from_dict(data)
     data["catenary"]["sag"] = span * 2e-4   # the flattest allowed still solves
     assert line_from_dict(data).length == 10.0
+
+
+@pytest.mark.parametrize("source, words", [
+    ("import sys\nsys.exit(3)\ndef make(p):\n    return None\n", "cannot load"),
+    ("import sys\ndef make(p):\n    sys.exit(0)\n", "the factory raised SystemExit"),
+])
+def test_a_plugin_that_exits_is_one_line_naming_it(source, words, tmp_path, capsys):
+    """A plug-in module that calls ``sys.exit`` at import, or a factory that
+    does, cannot end the command silently: one line naming the plug-in,
+    exit 2."""
+    from bplir_drake.cli import main
+
+    plugin = tmp_path / "exits.py"
+    plugin.write_text(source)
+    assert main(["swing", "--controller", f"{plugin}:make", "--no-animation",
+                 "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "controller plugin" in err and words in err
+
+
+def test_a_chatty_plugin_leaves_json_output_json(tmp_path, capsys):
+    """A plug-in that prints while it flies: with ``--json`` its text goes to
+    standard error and standard output is still one JSON document."""
+    import json
+
+    from bplir_drake.cli import main
+
+    plugin = tmp_path / "chatty.py"
+    plugin.write_text(
+        "import importlib.util, pathlib\n"
+        "spec = importlib.util.spec_from_file_location('ex', pathlib.Path("
+        f"{str(Path(__file__).resolve().parents[1] / 'examples' / 'my_controller.py')!r}))\n"
+        "ex = importlib.util.module_from_spec(spec); spec.loader.exec_module(ex)\n"
+        "def make(p):\n"
+        "    print('hello from the plug-in')\n"
+        "    return ex.make(p)\n")
+    assert main(["swing", "--controller", f"{plugin}:make", "--no-animation", "--json",
+                 "--out", str(tmp_path / "out")]) == 0
+    captured = capsys.readouterr()
+    assert json.loads(captured.out)["controller"] == "chatty:make"
+    assert "hello from the plug-in" in captured.err

@@ -100,7 +100,7 @@ def load_factory(spec: str, kind: str = "controller"):
             module = importlib.import_module(module_name)
     except ParameterError:
         raise
-    except Exception as exc:  # noqa: BLE001 - a user's module may raise anything
+    except (Exception, SystemExit) as exc:  # noqa: BLE001 - a user's module may raise anything
         raise ParameterError(f"{kind} plugin {spec!r}: cannot load {module_name}: "
                              + _one_line(exc)) from None
     factory = getattr(module, name, None)
@@ -130,7 +130,7 @@ def make_plugin(params: BplirParams, kind: str = "controller", factory=None):
         system = make(nominal_only(params))
     except ParameterError:
         raise
-    except Exception as exc:  # noqa: BLE001
+    except (Exception, SystemExit) as exc:  # noqa: BLE001 - sys.exit() included
         raise ParameterError(f"{kind} plugin {spec!r}: the factory raised "
                              + _one_line(exc)) from None
     check_contract(system, contract, spec)

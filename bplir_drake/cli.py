@@ -115,6 +115,19 @@ def _save(args, fig, path) -> Path:
     return save_figure(fig, Path(path).with_suffix("." + fmt), dpi=_dpi(args))
 
 
+class Terminated(KeyboardInterrupt):
+    """SIGTERM or SIGHUP, handled like Ctrl-C (temporary files removed,
+    finished rows kept), with the exit status ``128 + signal``."""
+
+    def __init__(self, signum: int):
+        super().__init__(signum)
+        self.signum = signum
+
+
+def _terminate(signum, frame):
+    raise Terminated(signum)
+
+
 #: where the command's own output goes: standard output as ``main`` found it
 #: (with ``--json`` everything else printed meanwhile -- a plug-in's
 #: chatter -- goes to standard error, so standard output stays JSON)
@@ -1074,9 +1087,17 @@ def main(argv=None) -> int:
 
     parser = build_parser()
     args = parser.parse_args(argv)
+    import signal
+
     _OUT[0] = sys.stdout
     quiet = contextlib.redirect_stdout(sys.stderr) if getattr(args, "json", False) \
         else contextlib.nullcontext()
+    previous = {}
+    try:
+        for sig in (signal.SIGTERM, signal.SIGHUP):
+            previous[sig] = signal.signal(sig, _terminate)
+    except ValueError:   # not the main thread: leave the signals alone
+        pass
     try:
         with quiet:
             return args.func(args)
@@ -1090,13 +1111,16 @@ def main(argv=None) -> int:
         sys.stderr.write(f"bplir: error: {args.command}: cannot write or read{where}: "
                          f"{exc.strerror or exc}\n")
         return 1
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as exc:
+        code = 128 + exc.signum if isinstance(exc, Terminated) else 130
+        what = (f"terminated by {signal.Signals(exc.signum).name}"
+                if isinstance(exc, Terminated) else "interrupted")
         if args.command == "montecarlo":
-            sys.stderr.write(f"bplir: interrupted; the finished samples are kept in {args.out} "
+            sys.stderr.write(f"bplir: {what}; the finished samples are kept in {args.out} "
                              "(the same command resumes the study)\n")
         else:  # every output is written atomically: none is left half-written
-            sys.stderr.write("bplir: interrupted; no output file was left half-written\n")
-        return 130
+            sys.stderr.write(f"bplir: {what}; no output file was left half-written\n")
+        return code
     except Exception as exc:   # a fault inside: one line (the traceback with --debug)
         if args.debug:
             raise
@@ -1106,6 +1130,8 @@ def main(argv=None) -> int:
         return 1
     finally:
         _OUT[0] = None
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -779,3 +779,49 @@ def test_sigterm_and_sighup_end_a_swing_like_ctrl_c(sig, code, tmp_path):
     assert err.strip() == (f"bplir: terminated by {signal.Signals(sig).name}; no output file "
                            "was left half-written")
     assert not [p for p in out.iterdir() if p.name.startswith(".")]
+
+
+def test_kill_9_of_a_study_leaves_no_worker_running(tmp_path):
+    """``kill -9`` of a 2-worker study's parent: its pool workers die with it
+    (none is left orphaned under PID 1)."""
+    import os
+
+    out = tmp_path / "mc"
+    proc = subprocess.Popen([sys.executable, "-m", "bplir_drake.cli", "montecarlo", "-n", "40",
+                             "--workers", "2", "--no-plots", "--out", str(out)],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    results = out / "results.csv"
+    deadline = time.monotonic() + 240
+    while time.monotonic() < deadline and proc.poll() is None:
+        if results.exists() and len(results.read_text().splitlines()) >= 3:
+            break
+        time.sleep(0.05)
+
+    def children(pid):
+        kids = []
+        for entry in Path("/proc").iterdir():
+            if entry.name.isdigit():
+                try:
+                    fields = (entry / "stat").read_text().rsplit(")", 1)[1].split()
+                except OSError:
+                    continue
+                if int(fields[1]) == pid:
+                    kids.append(int(entry.name))
+        return kids
+
+    workers = children(proc.pid)
+    assert len(workers) >= 2
+    os.kill(proc.pid, signal.SIGKILL)
+    proc.wait(timeout=30)
+    def running(pid):
+        try:   # gone, or a zombie waiting for its (dead) parent's reaper
+            return (Path(f"/proc/{pid}") / "stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
+        except OSError:
+            return False
+
+    deadline = time.monotonic() + 20
+    alive = workers
+    while alive and time.monotonic() < deadline:
+        time.sleep(0.1)
+        alive = [w for w in workers if running(w)]
+    assert alive == []

@@ -12,6 +12,23 @@ SCHEDULER_TIMEOUT = 10.0
 
 # ------------------------------------------------------------ execution
 
+def _die_with_parent(parent: int) -> None:
+    """A pool worker's initializer: ask Linux to end this worker when its
+    parent dies (``PR_SET_PDEATHSIG``), so a ``kill -9`` of the study leaves
+    nothing running; elsewhere nothing happens.  If the parent died before
+    the request took effect, exit now."""
+    import ctypes
+    import signal
+
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(1, int(signal.SIGKILL), 0, 0, 0)   # 1: PR_SET_PDEATHSIG
+    except (OSError, AttributeError):   # not Linux
+        return
+    if os.getppid() != parent:
+        os._exit(1)
+
+
 def _pool_map(fn: Callable, args: list[tuple], workers: int) -> Iterable:
     """Yield fn(*a) as they finish, in a process pool (or inline).
 
@@ -26,7 +43,8 @@ def _pool_map(fn: Callable, args: list[tuple], workers: int) -> Iterable:
     from concurrent.futures import ProcessPoolExecutor, as_completed
 
     method = "fork" if "fork" in mp.get_all_start_methods() else "spawn"
-    ex = ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context(method))
+    ex = ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context(method),
+                             initializer=_die_with_parent, initargs=(os.getpid(),))
     futures = [ex.submit(fn, *a) for a in args]
     finished = False
     try:

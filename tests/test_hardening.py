@@ -825,3 +825,30 @@ def test_kill_9_of_a_study_leaves_no_worker_running(tmp_path):
         time.sleep(0.1)
         alive = [w for w in workers if running(w)]
     assert alive == []
+
+
+def test_a_second_study_into_the_same_directory_is_refused_with_the_holders_pid(tmp_path):
+    """Two ``bplir montecarlo`` runs into one directory: while the first
+    runs the second is one line naming the first's PID (exit 2), and the
+    first finishes with every row."""
+    import os
+
+    from bplir_drake.analysis import montecarlo as mc
+
+    out = tmp_path / "mc"
+    args = [sys.executable, "-m", "bplir_drake.cli", "montecarlo", "-n", "6", "--workers",
+            "1", "--no-plots", "--out", str(out)]
+    first = subprocess.Popen(args, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and not (out / ".lock").exists():
+        time.sleep(0.02)
+    time.sleep(0.3)
+    second = subprocess.run(args, capture_output=True, text=True, timeout=120)
+    assert first.wait(timeout=240) == 0
+    assert second.returncode == 2
+    assert second.stderr.strip() == (f"bplir: error: study directory {out} is in use by "
+                                     f"process {first.pid}; wait for it to finish or choose "
+                                     "another --out")
+    rows = mc.read_results(out / "results.csv")
+    assert sorted(r["index"] for r in rows) == list(range(6))
+    assert os.path.exists(out / ".lock")   # released with the process, kept as a file

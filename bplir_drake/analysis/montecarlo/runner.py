@@ -39,6 +39,7 @@ raises is recorded with its error and the study goes on.
 """
 from __future__ import annotations
 
+import contextlib
 import os
 import time
 from dataclasses import dataclass
@@ -72,11 +73,42 @@ def prepare_out(study: Study, out: Path) -> list[dict]:
     return read_results(out / RESULTS_FILE, columns(study))
 
 
+@contextlib.contextmanager
+def study_lock(out: Path):
+    """Hold the study directory ``out`` exclusively (its ``.lock``, opened
+    without following a link, records the holder's PID): a second run into
+    the same directory is refused with the holder's PID while the first
+    runs; the lock goes with the process, however it ends."""
+    import fcntl
+
+    out.mkdir(parents=True, exist_ok=True)
+    fd = os.open(out / ".lock", os.O_RDWR | os.O_CREAT | os.O_NOFOLLOW, 0o644)
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            holder = os.read(fd, 32).decode(errors="replace").strip() or "another process"
+            raise StudyError(f"study directory {out} is in use by process {holder}; wait for "
+                             "it to finish or choose another --out") from None
+        os.ftruncate(fd, 0)
+        os.write(fd, str(os.getpid()).encode())
+        yield
+    finally:
+        os.close(fd)
+
+
 def run_study(study: Study, out, *, workers: int = 0, dask: bool = False,
               scheduler: str | None = None, progress: bool = False) -> dict:
     """Run (or resume) ``study`` into directory ``out``; returns the summary
-    (also written to ``summary.json``).  Results: ``results.csv``."""
+    (also written to ``summary.json``).  Results: ``results.csv``.  The
+    directory is held exclusively while the study runs (:func:`study_lock`)."""
     out = Path(out)
+    with study_lock(out):
+        return _run_study(study, out, workers, dask, scheduler, progress)
+
+
+def _run_study(study: Study, out: Path, workers: int, dask: bool, scheduler, progress) -> dict:
+    """The body of :func:`run_study`, the directory held."""
     existing = prepare_out(study, out)  # finished rows are never deleted
     have = {r["index"] for r in existing}
     done = [r for r in existing if r["index"] < study.samples]

@@ -852,3 +852,26 @@ def test_a_second_study_into_the_same_directory_is_refused_with_the_holders_pid(
     rows = mc.read_results(out / "results.csv")
     assert sorted(r["index"] for r in rows) == list(range(6))
     assert os.path.exists(out / ".lock")   # released with the process, kept as a file
+
+
+def test_a_resumed_study_keeps_a_repeated_row_once_and_refuses_a_foreign_one(tmp_path):
+    """A row repeated in ``results.csv``: the resumed study keeps it once
+    (4 rows for 4 samples); a row edited to another seed is refused."""
+    from bplir_drake.analysis import montecarlo as mc
+
+    out = tmp_path / "mc"
+    study = mc.Study(samples=4, seed=0)
+    mc.run_study(study, out, workers=1)
+    lines = (out / "results.csv").read_text().splitlines()
+    (out / "results.csv").write_text("\n".join(lines + [lines[2]]) + "\n")
+    summary = mc.run_study(study, out, workers=1)
+    assert summary["samples"] == 4 and len(mc.read_results(out / "results.csv")) == 4
+    rows = mc.read_results(out / "results.csv")
+    header = (out / "results.csv").read_text().splitlines()[0].split(",")
+    seed_col = header.index("seed")
+    lines = (out / "results.csv").read_text().splitlines()
+    cells = lines[1].split(",")
+    cells[seed_col] = str(int(float(cells[seed_col])) + 1)
+    (out / "results.csv").write_text("\n".join([lines[0], ",".join(cells), *lines[2:]]) + "\n")
+    with pytest.raises(mc.StudyError, match=f"the row of sample {rows[0]['index']} has seed"):
+        mc.run_study(study, out, workers=1)

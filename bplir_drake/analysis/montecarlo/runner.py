@@ -70,7 +70,26 @@ def prepare_out(study: Study, out: Path) -> list[dict]:
     out.mkdir(parents=True, exist_ok=True)
     saved = out / STUDY_FILE
     save_study(study, saved)
-    return read_results(out / RESULTS_FILE, columns(study))
+    return checked_rows(study, read_results(out / RESULTS_FILE, columns(study)), out)
+
+
+def checked_rows(study: Study, rows: list[dict], out: Path) -> list[dict]:
+    """The finished rows of a resumed study: a row repeated word for word is
+    kept once; two different rows of one sample, or a row whose seed is not
+    its sample's (another study's), are refused naming the sample."""
+    by_index: dict[int, dict] = {}
+    for row in rows:
+        k = row["index"]
+        if k in by_index:
+            if by_index[k] != row:
+                raise StudyError(f"{out / RESULTS_FILE} holds two different rows of sample "
+                                 f"{k}; remove one (or the file) and run again")
+            continue
+        if 0 <= k < study.samples and row["seed"] != sample_params(study, k)[1]:
+            raise StudyError(f"{out / RESULTS_FILE}: the row of sample {k} has seed "
+                             f"{row['seed']}, not this study's; it belongs to another study")
+        by_index[k] = row
+    return list(by_index.values())
 
 
 @contextlib.contextmanager

@@ -875,3 +875,19 @@ def test_a_resumed_study_keeps_a_repeated_row_once_and_refuses_a_foreign_one(tmp
     (out / "results.csv").write_text("\n".join([lines[0], ",".join(cells), *lines[2:]]) + "\n")
     with pytest.raises(mc.StudyError, match=f"the row of sample {rows[0]['index']} has seed"):
         mc.run_study(study, out, workers=1)
+
+
+def test_any_kept_row_replays_after_a_smaller_rerun(tmp_path):
+    """A study run with 3 samples, then again with 2: sample 2's row is kept
+    and replays, matching its record."""
+    from bplir_drake.analysis import montecarlo as mc
+
+    out = tmp_path / "mc"
+    mc.run_study(mc.Study(samples=3, seed=0), out, workers=1)
+    mc.run_study(mc.Study(samples=2, seed=0), out, workers=1)
+    result, recorded = mc.replay(out, 2)
+    assert recorded is not None and recorded["index"] == 2
+    assert result.summary["capture_speed_mps"] == pytest.approx(recorded["capture_speed_mps"],
+                                                                abs=1e-12)
+    with pytest.raises(mc.StudyError, match="out of range"):
+        mc.replay(out, 3)

@@ -162,11 +162,16 @@ def replay(study_dir, index: int):
     if not (study_dir / STUDY_FILE).exists():
         raise StudyError(f"{study_dir} is not a study directory (no {STUDY_FILE})")
     study = load_study(study_dir / STUDY_FILE)
-    if isinstance(index, bool) or not isinstance(index, int) or not 0 <= index < study.samples:
-        raise StudyError(f"--sample {index} is out of range; allowed 0..{study.samples - 1}")
+    rows = read_results(study_dir / RESULTS_FILE) if (study_dir / RESULTS_FILE).exists() else []
+    kept = {r["index"] for r in rows}
+    if isinstance(index, bool) or not isinstance(index, int) or not (
+            0 <= index < study.samples or index in kept):
+        extra = f" or a kept row ({max(kept)} is the last)" if kept and max(kept) >= study.samples \
+            else ""
+        raise StudyError(f"--sample {index} is out of range; allowed 0..{study.samples - 1}"
+                         + extra)
     p, seed, _ = sample_params(study, index)
-    recorded = next((r for r in read_results(study_dir / RESULTS_FILE) if r["index"] == index),
-                    None)
+    recorded = next((r for r in rows if r["index"] == index), None)
     if study.line is not None:
         from .sampling import run_traverse_sample
 

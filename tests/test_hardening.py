@@ -891,3 +891,43 @@ def test_any_kept_row_replays_after_a_smaller_rerun(tmp_path):
                                                                 abs=1e-12)
     with pytest.raises(mc.StudyError, match="out of range"):
         mc.replay(out, 3)
+
+
+def _calibration_log(tmp_path, extra_header="", extra_cell=lambda k: "", q1d="0.0", tau=None,
+                     t_end=3.0):
+    lines = ["t,q1,q2,tau,q1d,q2d" + extra_header]
+    for k, t in enumerate(np.linspace(0.0, t_end, 301)):
+        torque = tau if tau is not None and k == 0 else "1.0"
+        rate = q1d if k == 0 else "0.0"
+        lines.append(f"{t},{0.3 * math.cos(2.7 * t)},{0.1 * math.sin(3 * t)},{torque},{rate},0.0"
+                     + extra_cell(k))
+    path = tmp_path / "log.csv"
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+@pytest.mark.parametrize("kw, words", [
+    ({"q1d": "nan"}, "log column q1d, q2d: nan is not plausible"),
+    ({"q1d": "1e300"}, "log column q1d, q2d: 1e+300 is not plausible"),
+    ({"tau": "1e300"}, "log column tau: 1e+300 is not plausible"),
+    ({"t_end": 1e5}, "log spans 100000 s; allowed at most 600 s"),
+])
+def test_a_calibration_log_with_implausible_values_is_refused(kw, words, tmp_path, capsys):
+    """NaN or 1e300 initial rates or torques, a log spanning 1e5 s: one line,
+    exit 2, before any simulation."""
+    from bplir_drake.cli import main
+
+    log = _calibration_log(tmp_path, **kw)
+    assert main(["calibrate", str(log), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and words in err
+
+
+def test_a_calibration_log_ignores_extra_columns_text_or_numbers(tmp_path):
+    """Extra columns -- a note in text -- are ignored, as the reader says."""
+    from bplir_drake.analysis.identification.calibration import read_calibration_csv
+
+    plain = read_calibration_csv(_calibration_log(tmp_path), 1.33)
+    noted = read_calibration_csv(_calibration_log(tmp_path, ",note", lambda k: ",ok"), 1.33)
+    np.testing.assert_array_equal(plain.q, noted.q)
+    np.testing.assert_array_equal(plain.tau, noted.tau)

@@ -77,14 +77,17 @@ def read_calibration_csv(path, torque_per_amp: float) -> CalibrationLog:
         need = missing + ([] if {"tau", "i_cmd"} & set(header) else ["tau or i_cmd"])
         raise CalibrationError(f"log {path} lacks column(s) {', '.join(need)}; required: "
                                "t,q1,q2 and tau (N m) or i_cmd (A)")
+    used = [h for h in ("t", "q1", "q2", "tau", "i_cmd", "q1d", "q2d") if h in header]
+    cols = [header.index(h) for h in used]   # other columns are ignored, text or numbers
     data = []
     for lineno, row in body:
         try:
-            data.append([float(c) for c in row])
-        except ValueError:
-            raise CalibrationError(f"log {path} line {lineno}: non-numeric cell") from None
-    data = np.array(data) if data else np.zeros((0, len(header)))
-    idx = {h: i for i, h in enumerate(header)}
+            data.append([float(row[i]) for i in cols])
+        except (ValueError, IndexError):
+            raise CalibrationError(f"log {path} line {lineno}: a non-numeric or missing cell "
+                                   f"in {', '.join(used)}") from None
+    data = np.array(data) if data else np.zeros((0, len(used)))
+    idx = {h: i for i, h in enumerate(used)}
     t = data[:, idx["t"]] if len(data) else np.zeros(0)
     q = data[:, [idx["q1"], idx["q2"]]] if len(data) else np.zeros((0, 2))
     tau = (data[:, idx["tau"]] if "tau" in idx else data[:, idx["i_cmd"]] * torque_per_amp) \
@@ -94,12 +97,30 @@ def read_calibration_csv(path, torque_per_amp: float) -> CalibrationLog:
     return check_calibration_log(t, q, tau, qd0)
 
 
+#: plausible values of a calibration log: the elbow torque (10x the motor's
+#: limit), the joint angles (a few turns), the initial rates, the span (s)
+MAX_LOG_TORQUE, MAX_LOG_ANGLE, MAX_LOG_RATE, MAX_LOG_DURATION = 200.0, 50.0, 100.0, 600.0
+
+
 def check_calibration_log(t, q, tau, qd0=None, *, min_duration: float = 2.0) -> CalibrationLog:
     """A :class:`CalibrationLog` from arrays, checked: at least 20 finite samples over
     ``min_duration`` seconds with increasing times."""
     t, q, tau = np.asarray(t, float), np.asarray(q, float), np.asarray(tau, float)
     if not (np.all(np.isfinite(t)) and np.all(np.isfinite(q)) and np.all(np.isfinite(tau))):
         raise CalibrationError("log has missing or non-finite values")
+    for name, values, limit, unit in (("tau", tau, MAX_LOG_TORQUE, "N m"),
+                                      ("q1, q2", q, MAX_LOG_ANGLE, "rad"),
+                                      ("q1d, q2d", np.zeros(2) if qd0 is None else qd0,
+                                       MAX_LOG_RATE, "rad/s")):
+        values = np.asarray(values, dtype=float)
+        if not np.all(np.isfinite(values)) or np.any(np.abs(values) > limit):
+            worst = values[np.argmax(np.where(np.isfinite(values), np.abs(values), np.inf))]
+            raise CalibrationError(f"log column {name}: {worst:g} is not plausible; allowed "
+                                   f"[-{limit:g}, {limit:g}] {unit}")
+    if t[-1] - t[0] > MAX_LOG_DURATION:
+        raise CalibrationError(f"log spans {t[-1] - t[0]:g} s; allowed at most "
+                               f"{MAX_LOG_DURATION:g} s (simulation-error fitting of a chaotic "
+                               "pendulum needs short logs)")
     if len(t) < 20 or t[-1] - t[0] < min_duration:
         dur = (t[-1] - t[0]) if len(t) else 0.0
         raise CalibrationError(f"log is too short: {len(t)} samples over {dur:.2f} s; need at "

@@ -1124,6 +1124,9 @@ def main(argv=None) -> int:
     except Exception as exc:   # a fault inside: one line (the traceback with --debug)
         if args.debug:
             raise
+        if "KeyboardInterrupt" in str(exc):   # Ctrl-C inside a C++ callback (SNOPT's)
+            sys.stderr.write("bplir: interrupted; no output file was left half-written\n")
+            return 130
         text = " ".join(str(exc).split()) or "no message"
         sys.stderr.write(f"bplir: error: {args.command} failed: {type(exc).__name__}: "
                          f"{text[:400]}\n")

@@ -931,3 +931,19 @@ def test_a_calibration_log_ignores_extra_columns_text_or_numbers(tmp_path):
     noted = read_calibration_csv(_calibration_log(tmp_path, ",note", lambda k: ",ok"), 1.33)
     np.testing.assert_array_equal(plain.q, noted.q)
     np.testing.assert_array_equal(plain.tau, noted.tau)
+
+
+def test_ctrl_c_inside_a_solver_callback_is_an_interrupt(monkeypatch, tmp_path, capsys):
+    """Ctrl-C while SNOPT runs reaches Python wrapped in a RuntimeError from
+    Drake's callback: still the interrupt's one line and exit 130."""
+    from bplir_drake.analysis.swing import plan as P
+    from bplir_drake.cli import main
+
+    def interrupted(*a, **k):
+        raise RuntimeError("Python callback raised: KeyboardInterrupt")
+
+    monkeypatch.setenv("BPLIR_CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.setattr(P, "_solve_plan", interrupted)
+    assert main(["plan", "--incline", "9", "--out", str(tmp_path / "out")]) == 130
+    assert capsys.readouterr().err == ("bplir: interrupted; no output file was left "
+                                       "half-written\n")

@@ -117,10 +117,6 @@ def check_calibration_log(t, q, tau, qd0=None, *, min_duration: float = 2.0) -> 
             worst = values[np.argmax(np.where(np.isfinite(values), np.abs(values), np.inf))]
             raise CalibrationError(f"log column {name}: {worst:g} is not plausible; allowed "
                                    f"[-{limit:g}, {limit:g}] {unit}")
-    if t[-1] - t[0] > MAX_LOG_DURATION:
-        raise CalibrationError(f"log spans {t[-1] - t[0]:g} s; allowed at most "
-                               f"{MAX_LOG_DURATION:g} s (simulation-error fitting of a chaotic "
-                               "pendulum needs short logs)")
     if len(t) < 20 or t[-1] - t[0] < min_duration:
         dur = (t[-1] - t[0]) if len(t) else 0.0
         raise CalibrationError(f"log is too short: {len(t)} samples over {dur:.2f} s; need at "
@@ -128,6 +124,10 @@ def check_calibration_log(t, q, tau, qd0=None, *, min_duration: float = 2.0) -> 
     if np.any(np.diff(t) <= 0):
         k = int(np.argmax(np.diff(t) <= 0))
         raise CalibrationError(f"time is not increasing at row {k + 2}")
+    if t[-1] - t[0] > MAX_LOG_DURATION:
+        raise CalibrationError(f"log spans {t[-1] - t[0]:g} s; allowed at most "
+                               f"{MAX_LOG_DURATION:g} s (simulation-error fitting of a chaotic "
+                               "pendulum needs short logs)")
     if np.ptp(q[:, 0]) < 0.05 and np.ptp(q[:, 1]) < 0.05:
         raise CalibrationError(f"no excitation: the joints move by only {np.ptp(q[:, 0]):.3g} and "
                                f"{np.ptp(q[:, 1]):.3g} rad; need a swing of at least 0.05 rad")

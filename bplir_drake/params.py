@@ -133,7 +133,13 @@ class _Block:
                         raise ParameterError(f"{cls._name}.{f.name} = {v!r} must be a list")
                     v = tuple(v)
                 if "lo" in f.metadata and isinstance(v, int) and not isinstance(v, bool):
-                    v = float(v)
+                    try:
+                        v = float(v)
+                    except OverflowError:   # a TOML integer of hundreds of digits
+                        raise ParameterError(
+                            f"{cls._name}.{f.name} = {str(v)[:12]}... ({len(str(v))} digits) "
+                            f"is not a finite number; allowed range "
+                            f"{_range_text(f.metadata)}") from None
                 expected = type(getattr(base, f.name))
                 if expected is bool and not isinstance(v, bool):
                     raise ParameterError(

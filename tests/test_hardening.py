@@ -947,3 +947,16 @@ def test_ctrl_c_inside_a_solver_callback_is_an_interrupt(monkeypatch, tmp_path, 
     assert main(["plan", "--incline", "9", "--out", str(tmp_path / "out")]) == 130
     assert capsys.readouterr().err == ("bplir: interrupted; no output file was left "
                                        "half-written\n")
+
+
+def test_a_number_of_hundreds_of_digits_in_a_config_is_bad_input(tmp_path, capsys):
+    """``[plant] m1 = 1`` followed by 400 zeros: one line naming the field and
+    its range, exit 2 (not an OverflowError)."""
+    from bplir_drake.cli import main
+
+    config = tmp_path / "big.toml"
+    config.write_text("[plant]\nm1 = 1" + "0" * 400 + "\n")
+    assert main(["swing", "--config", str(config), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "plant.m1 = 100000000000... (401 digits)" in err
+    assert "allowed range (0, inf)" in err

@@ -15,7 +15,7 @@ from .analysis.identification.calibration import CalibrationError
 from .analysis.control.errors import QftError
 from .analysis.plotting import save_figure
 from .estimation import LogError
-from .io import (atomic_path, check_output_dir, check_output_file, dumps_strict,
+from .io import (atomic_path, package_version, check_output_dir, check_output_file, dumps_strict,
                  write_json_atomic, write_text_atomic)
 from .params import ParameterError
 
@@ -259,15 +259,6 @@ def cmd_params(args) -> int:
              f"{r['unit']:<10} {r['range']:<16} {r['doc']}" for r in rows]
     _emit(None, False, lines)
     return 0
-
-
-def _version() -> str:
-    from importlib.metadata import PackageNotFoundError, version
-
-    try:
-        return version("bplir-drake")
-    except PackageNotFoundError:   # pragma: no cover - a source tree without metadata
-        return "unknown"
 
 
 # ------------------------------------------------------------------ freeswing
@@ -900,7 +891,7 @@ def cmd_traverse(args) -> int:
 def build_parser() -> argparse.ArgumentParser:
     """The ``bplir`` command line: one subcommand per job."""
     parser = _Parser(prog="bplir", description="Brachiating Power Line Inspection Robot tools")
-    parser.add_argument("--version", action="version", version=f"bplir {_version()}")
+    parser.add_argument("--version", action="version", version=f"bplir {package_version()}")
     parser.add_argument("--debug", action="store_true",
                         help="show the traceback of an unexpected fault")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)

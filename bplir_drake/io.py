@@ -142,3 +142,14 @@ def check_output_file(path, error=ValueError) -> Path:
     except OSError as exc:
         raise error(f"cannot write output file {path}: {exc.strerror or exc}") from None
     return path
+
+
+def package_version() -> str:
+    """The installed bplir-drake version (``"unknown"`` in a source tree
+    without package metadata)."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("bplir-drake")
+    except PackageNotFoundError:   # pragma: no cover - not installed
+        return "unknown"

@@ -36,7 +36,7 @@ from pydrake.systems.scalar_conversion import TemplateSystem
 
 from ..params import ControllerParams, FrictionParams, PlantParams
 from .friction import friction_torques
-from .motor import current_window
+from .motor import torque_window
 from .plant import bias_term, gravity_vector, mass_matrix
 from .schedule import declare_store, declare_tick_result
 
@@ -193,10 +193,7 @@ class _CpflLaw:
                           self.friction if self.ctrl.friction_compensation else None)
         limit = min(self.ctrl.torque_limit, avail) if avail > 0 else 0.0 * avail
         if self.motor is not None and self.motor.envelope and not self.continuous:
-            lo, hi = current_window(float(x[3]), self.motor)
-            kt = self.motor.torque_per_amp
-            lowest = max(-limit, kt * lo)
-            limit = (lowest, max(lowest, min(limit, kt * hi)))
+            limit = torque_window(float(x[3]), self.motor, i_limit=np.inf, torque_limit=limit)
         tau_hat, v, v_hat, e_t, tau0 = saturate_with_antiwindup(
             e, xK, K, a, b + a * v_ff, limit, self.ctrl.aw_gain)
         q = self.ctrl.torque_quantum

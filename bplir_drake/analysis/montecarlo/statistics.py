@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 
+from ...io import package_version
 from .study import Study
 
 # ------------------------------------------------------------ statistics
@@ -35,16 +36,6 @@ def percentiles(rows: list[dict], fields) -> dict:
         pct[f] = ({q: float(np.percentile(v, int(q[1:]))) for q in ("p5", "p50", "p95")}
                   | {"max": float(v.max())}) if v.size else {}
     return pct
-
-
-def _version() -> str:
-    """The installed bplir-drake version."""
-    from importlib.metadata import PackageNotFoundError, version
-
-    try:
-        return version("bplir-drake")
-    except PackageNotFoundError:   # pragma: no cover - running from a source tree
-        return "unknown"
 
 
 def summarize(study: Study, rows: list[dict]) -> dict:
@@ -83,7 +74,7 @@ def summarize(study: Study, rows: list[dict]) -> dict:
         "hardware": {"supply_voltage_V": study.params.motor.supply_voltage,
                      "voltage_envelope": study.params.motor.envelope,
                      "line_sensor_range_m": study.params.line_sensor.range},
-        "package_version": _version(),
+        "package_version": package_version(),
     } | (_traverse_summary(study, ran) if study.line is not None else {})
 
 

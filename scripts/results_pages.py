@@ -19,6 +19,7 @@ import tomllib
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))   # the package of this checkout (its plug-in names)
 RESULTS = ROOT / "results"
 PAGE = ROOT / "docs" / "results" / "index.md"
 README = ROOT / "README.md"
@@ -86,14 +87,12 @@ def traverse_row(item: dict) -> list[str]:
 
 def benchmark_rows(item: dict) -> list[list[str]]:
     """One row per controller of a stored benchmark: overall and per category."""
+    from bplir_drake.params import plugin_name
+
     res = item["summary"]
-    return [[item["label"], plugin(c), f"{sc['overall']:.3f}"]
+    return [[item["label"], plugin_name(c), f"{sc['overall']:.3f}"]
             + [f"{sc['categories'][k]:.2f}" for k in res["categories"]]
             for c, sc in res["scores"].items()]
-
-
-def plugin(name: str) -> str:
-    return name.rsplit("/", 1)[-1].replace(".py:", ":")
 
 
 HEADERS = {

@@ -294,6 +294,16 @@ def test_killed_study_resumes_to_the_identical_table(tmp_path):
     assert results.read_bytes() == (full / "results.csv").read_bytes()
 
 
+def _wait_for_rows(proc, results: Path, rows: int, timeout: float = 240.0) -> None:
+    """Wait until the study run by ``proc`` has written ``rows`` finished rows
+    to ``results`` (or it ended, or ``timeout`` s passed)."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline and proc.poll() is None:
+        if results.exists() and len(results.read_text().splitlines()) > rows:   # + header
+            return
+        time.sleep(0.02)
+
+
 def test_ctrl_c_on_a_two_worker_study_keeps_finished_rows(tmp_path):
     """Item 10: SIGINT to the parent of a 2-worker study ends it (exit 130,
     one line), keeps every finished row, and leaves no worker behind; the
@@ -307,11 +317,7 @@ def test_ctrl_c_on_a_two_worker_study_keeps_finished_rows(tmp_path):
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
                             preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     results = out / "results.csv"
-    deadline = time.monotonic() + 240
-    while time.monotonic() < deadline and proc.poll() is None:
-        if results.exists() and len(results.read_text().splitlines()) >= 6:
-            break
-        time.sleep(0.02)
+    _wait_for_rows(proc, results, 5)
     proc.send_signal(signal.SIGINT)
     err = proc.communicate(timeout=120)[1]
     assert proc.returncode == 130
@@ -790,12 +796,7 @@ def test_kill_9_of_a_study_leaves_no_worker_running(tmp_path):
     proc = subprocess.Popen([sys.executable, "-m", "bplir_drake.cli", "montecarlo", "-n", "40",
                              "--workers", "2", "--no-plots", "--out", str(out)],
                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    results = out / "results.csv"
-    deadline = time.monotonic() + 240
-    while time.monotonic() < deadline and proc.poll() is None:
-        if results.exists() and len(results.read_text().splitlines()) >= 3:
-            break
-        time.sleep(0.05)
+    _wait_for_rows(proc, out / "results.csv", 2)
 
     def children(pid):
         kids = []

@@ -571,6 +571,11 @@ class KinematicEkf(LeafSystem):
                                                             self._out_cov, dep)
         self.bias_port = self.DeclareVectorOutputPort("gyro_bias", 2, self._out_bias, dep)
 
+    @staticmethod
+    def _pack(s: EkfState, u, first: bool) -> np.ndarray:
+        """The packed discrete state of :meth:`_unpack`'s parts."""
+        return np.concatenate([s.x, s.P.ravel(), u, [1.0 if first else 0.0]])
+
     def _unpack(self, v):
         """(filter state, previous accelerometer input, first-sample flag) of
         the packed discrete state."""
@@ -591,7 +596,7 @@ class KinematicEkf(LeafSystem):
             reading, valid = self.line_port.Eval(context)
             if valid > 0.5:
                 s = ekf_gap_update(s, reading - calibration.line_offset, self._line)
-        return np.concatenate([s.x, s.P.ravel(), u, [0.0]])
+        return self._pack(s, u, False)
 
     def _store(self, context, discrete_state):
         discrete_state.get_mutable_vector(self._state).SetFromVector(self._post.Eval(context))
@@ -616,7 +621,7 @@ class KinematicEkf(LeafSystem):
             s, u, first = self._unpack(state.get_value())
             s.P[sl, :] = 0.0
             s.P[:, sl] = 0.0
-            state.SetFromVector(np.concatenate([s.x, s.P.ravel(), u, [1.0 if first else 0.0]]))
+            state.SetFromVector(self._pack(s, u, first))
 
     def _out_abs(self, context, out):
         out.SetFromVector(self._post.Eval(context)[:4])

@@ -6,7 +6,7 @@ no current, driver current limit (15 A, cut to 5 A continuous by the i^2 t
 interlock once 15 A has been held for 2.675 s), first-order current response
 (time constant <= 10 ms).  The delivered torque ``Kt*i`` depends only on the
 current state, so the motor has no direct feedthrough.  The current loop is a
-C++ ``LinearSystem`` driven by the target current, which changes only when the
+C++ symbolic system driven by the target current, which changes only when the
 command or the trip state does (:class:`MotorDriver`).
 
 The voltage envelope (Table 4.2): the driver can put at most
@@ -90,11 +90,6 @@ def torque_window(q2d: float, p: MotorParams, i_limit: float | None = None,
     lo_t = max(-t_lim, kt * max(lo, -i_lim))
     hi_t = min(t_lim, kt * min(hi, i_lim))
     return lo_t, max(lo_t, hi_t)
-
-
-def winding_voltage(current, q2d, p: MotorParams):
-    """The voltage across the winding (V): ``R i + Km N q2'``."""
-    return p.resistance * np.asarray(current) + back_emf(np.asarray(q2d), p)
 
 
 def no_load_speed(p: MotorParams, voltage: float | None = None) -> float:
@@ -240,11 +235,11 @@ def _electrics(p: MotorParams):
     u = MakeVectorVariable(5, "u")
     x = [Variable(n) for n in ("i_loop", "work", "electrical", "copper", "regenerated")]
     ip, kt = p.i_peak, p.torque_per_amp
-    emf = p.back_emf_constant * p.gear_ratio * u[4]
+    emf = back_emf(u[4], p)
     i = ip * x[0]
-    if p.envelope:
-        i = smin(smax(i, (-p.max_voltage - emf) / p.resistance),
-                 (p.max_voltage - emf) / p.resistance)
+    if p.envelope:   # the same window the controllers and the planner use, symbolic
+        lo, hi = current_window(u[4], p)
+        i = smin(smax(i, lo), hi)
     volt = p.resistance * i + emf
     mech = kt * i * u[4]
     elec = volt * i
@@ -317,7 +312,7 @@ def max_torque(p: MotorParams) -> float:
 
 
 __all__ = ["MotorDriver", "duty_cycle_to_current", "current_to_duty_cycle",
-           "back_emf", "current_window", "torque_window", "winding_voltage", "no_load_speed",
+           "back_emf", "current_window", "torque_window", "no_load_speed",
            "stall_torque", "envelope_curve", "ELECTRIC_OUTPUTS",
            "DriverLogic", "apply_deadband", "current_command", "interlock_budget", "max_torque",
            "i2t_trace", "i2t_after_rest", "rest_for"]

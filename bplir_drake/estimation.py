@@ -18,15 +18,14 @@ in ``EstimateResult.skipped``.
 """
 from __future__ import annotations
 
-import csv
 import math
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from .csvfile import numeric_columns
 from .io import atomic_path
-
 from .params import EstimatorParams
 from .systems.ekf import (EkfState, correct_sample, ekf_predict, ekf_update, initial_state,
                           prediction_input, split_sample, state_layout)
@@ -35,6 +34,8 @@ from .systems.imu import IMU_COLUMNS
 LOG_COLUMNS = ("t",) + IMU_COLUMNS
 EST_COLUMNS = ("t", "theta1", "theta2", "omega1", "omega2")
 PERIOD_TOLERANCE = 0.2
+#: rows of an estimate written at a time (memory for the text, not the log)
+WRITE_CHUNK = 50_000
 #: logs this long (samples) or longer show the filter's progress
 PROGRESS_MIN_SAMPLES = 20_000
 
@@ -96,72 +97,20 @@ class EstimateResult:
                 "consistent": bool(lo <= mean <= hi)}
 
 
-def csv_rows(path, what: str, error) -> tuple[list[str], list[tuple[int, list[str]]]]:
-    """(header, [(line number, cells)]) of a UTF-8 CSV file, blank lines
-    skipped; every row must have as many cells as the header, and no header
-    name may repeat.  Problems raise ``error`` with one line."""
-    import io
-
-    from .io import read_text
-
-    text = read_text(path, what, error)
-    try:
-        rows = list(csv.reader(io.StringIO(text, newline="")))
-    except csv.Error as exc:
-        raise error(f"{what} {path} is not valid CSV: {exc}") from None
-    if not rows:
-        raise error(f"{what} {path} is empty")
-    header = [h.strip() for h in rows[0]]
-    seen = set()
-    for h in header:
-        if h in seen:
-            raise error(f"{what} {path}: column '{h}' appears twice in the header")
-        seen.add(h)
-    body = []
-    for lineno, row in enumerate(rows[1:], start=2):
-        if not row or all(not c.strip() for c in row):
-            continue
-        if len(row) != len(header):
-            raise error(f"{what} {path} line {lineno} has {len(row)} cells, the header has "
-                        f"{len(header)}")
-        body.append((lineno, row))
-    return header, body
-
-
 def read_imu_csv(path: str | Path) -> ImuLog:
     """Read and check an IMU log; see the module docstring for the format.
-    Extra columns are kept when numeric and ignored otherwise."""
+    Extra columns are kept when numeric and ignored otherwise.  The file is
+    read as a stream: memory grows with the numbers kept, not the text."""
     path = Path(path)
-    header, body = csv_rows(path, "log", LogError)
-    missing = [c for c in LOG_COLUMNS if c not in header]
-    if missing:
-        raise LogError(f"log {path} lacks column(s) {', '.join(missing)}; required: "
-                       + ",".join(LOG_COLUMNS))
-    idx = {h: i for i, h in enumerate(header)}
-    required = [idx[c] for c in LOG_COLUMNS]
-    rows = []
-    for lineno, row in body:
-        vals = []
-        for name, i in zip(LOG_COLUMNS, required):
-            cell = row[i].strip()
-            try:
-                vals.append(float(cell) if cell else math.nan)
-            except ValueError:
-                raise LogError(f"log {path} line {lineno} column {name}: '{cell[:40]}' is not "
-                               "a number") from None
-        rows.append(vals)
-    if len(rows) < 2:
-        raise LogError(f"log {path} has {len(rows)} data row(s); need at least 2")
-    data = np.array(rows)
-    extra = {}
-    for h, i in idx.items():
-        if h in LOG_COLUMNS:
-            continue
-        try:
-            extra[h] = np.array([float(r[i]) if r[i].strip() else math.nan for _, r in body])
-        except ValueError:
-            continue  # a text column: ignored
-    return ImuLog(data[:, 0], data[:, 1:], extra)
+    cols, extra = numeric_columns(path, "log", LOG_COLUMNS, LogError)
+    n = len(cols["t"])
+    if n < 2:
+        raise LogError(f"log {path} has {n} data row(s); need at least 2")
+    t = np.frombuffer(cols.pop("t"), dtype=float)
+    samples = np.empty((n, len(IMU_COLUMNS)))
+    for j, name in enumerate(IMU_COLUMNS):
+        samples[:, j] = np.frombuffer(cols.pop(name), dtype=float)
+    return ImuLog(t, samples, {h: np.frombuffer(v, dtype=float) for h, v in extra.items()})
 
 
 #: the largest step between rows (in sampling periods) a log may have
@@ -200,14 +149,17 @@ def check_log(t, samples, period: float) -> np.ndarray:
                        f"{t[k]:g} s); allowed at most {MAX_GAP:g} sampling periods "
                        f"({MAX_GAP * period:g} s) between rows")
     limits = np.array([MAX_RATE] * 2 + [MAX_ACCEL] * 4)
-    wild = np.abs(np.nan_to_num(samples)) > limits
-    if np.any(wild):
-        k, j = (int(v) for v in np.argwhere(wild)[0])
-        name = ("gyro1", "gyro2", "acc1_x", "acc1_y", "acc2_x", "acc2_y")[j]
-        raise LogError(f"row {k + 1} column {name}: {samples[k, j]:g} is not a plausible "
-                       f"reading; allowed [-{limits[j]:g}, {limits[j]:g}] "
-                       f"{'rad/s' if j < 2 else 'm/s^2'}")
-    bad = ~np.all(np.isfinite(samples), axis=1)
+    bad = np.zeros(t.shape[0], dtype=bool)
+    for j in range(6):   # column by column: no copy of the whole log
+        col = samples[:, j]
+        with np.errstate(invalid="ignore"):
+            wild = np.abs(col) > limits[j]
+        if np.any(wild):
+            k = int(np.argmax(wild))
+            raise LogError(f"row {k + 1} column {IMU_COLUMNS[j]}: {col[k]:g} is not a "
+                           f"plausible reading; allowed [-{limits[j]:g}, {limits[j]:g}] "
+                           f"{'rad/s' if j < 2 else 'm/s^2'}")
+        bad |= ~np.isfinite(col)
     if bad[0]:
         raise LogError("the first sample has missing or non-finite readings")
     runs = bad[1:] & bad[:-1]
@@ -218,10 +170,11 @@ def check_log(t, samples, period: float) -> np.ndarray:
     return bad
 
 
-def gyro_integral(t, samples, theta0) -> np.ndarray:
-    """Baseline (5.41): angles from integrating the gyros from ``theta0``."""
+def gyro_integral(t, samples, theta0, bias=(0.0, 0.0)) -> np.ndarray:
+    """Baseline (5.41): angles from integrating the gyros, less ``bias``
+    (rad/s), from ``theta0``."""
     t = np.asarray(t, dtype=float)
-    g = np.nan_to_num(np.asarray(samples, dtype=float)[:, :2])
+    g = np.nan_to_num(np.asarray(samples, dtype=float)[:, :2] - np.asarray(bias)[:2])
     dt = np.diff(t, prepend=t[0])
     return np.asarray(theta0, dtype=float)[:2] + np.cumsum(g * dt[:, None], axis=0)
 
@@ -303,7 +256,8 @@ def estimate(t, samples, params: EstimatorParams, x0=(0.0, 0.0, 0.0, 0.0), *,
         if "bias" in layout:
             s.x[layout["bias"]] = bias0
     N = len(t)
-    xs, covs, full = np.zeros((N, 4)), np.zeros((N, n)), np.zeros((N, n))
+    # kept per sample: the state, its variances and the states past the four
+    xs, covs, more = np.zeros((N, 4)), np.zeros((N, n)), np.zeros((N, n - 4))
     nis = np.full(N, np.nan)
     # what the backward pass needs: priors, posteriors, transition Jacobians
     priors, posteriors, jacobians = [], [], []
@@ -334,28 +288,31 @@ def estimate(t, samples, params: EstimatorParams, x0=(0.0, 0.0, 0.0, 0.0), *,
             jacobians.append(A)
         xs[k] = s.x[:4]
         covs[k] = np.diag(s.P)
-        full[k] = s.x
+        more[k] = s.x[4:]
     bar.close()
 
-    def group(X, name):
-        return X[:, layout[name]] if name in layout else None
+    def group(X, name, first=4):
+        if name not in layout:
+            return None
+        cut = layout[name]
+        return X[:, cut.start - first:cut.stop - first]
 
-    base = gyro_integral(t, samples - np.concatenate([bias0, np.zeros(4)]), x0)
-    bias = group(full, "bias")
+    base = gyro_integral(t, samples, x0, bias0)
+    bias = group(more, "bias")
     result = EstimateResult(t, xs, covs, np.zeros((N, 2)) if bias is None else bias, base,
-                            int(skip.sum()), nis, misalignment=group(full, "misalign"),
-                            gyro_scale=group(full, "scale"),
-                            imu_position=group(full, "position"), layout=dict(layout))
+                            int(skip.sum()), nis, misalignment=group(more, "misalign"),
+                            gyro_scale=group(more, "scale"),
+                            imu_position=group(more, "position"), layout=dict(layout))
     if smooth:
         sm = rts_smooth(priors, posteriors, jacobians)
         X = np.array([e.x for e in sm])
         result.smoothed = X[:, :4]
         result.smoothed_cov_diag = np.array([np.diag(e.P) for e in sm])
-        bias = group(X, "bias")
+        bias = group(X, "bias", 0)
         result.smoothed_bias = np.zeros((N, 2)) if bias is None else bias
-        result.smoothed_misalignment = group(X, "misalign")
-        result.smoothed_gyro_scale = group(X, "scale")
-        result.smoothed_imu_position = group(X, "position")
+        result.smoothed_misalignment = group(X, "misalign", 0)
+        result.smoothed_gyro_scale = group(X, "scale", 0)
+        result.smoothed_imu_position = group(X, "position", 0)
     return result
 
 
@@ -395,9 +352,11 @@ def write_estimate_csv(result: EstimateResult, path: str | Path) -> Path:
                                                             "smooth_var_theta1",
                                                             "smooth_var_theta2"]
         parts += [result.smoothed, result.smoothed_bias, result.smoothed_cov_diag[:, :2]]
-    data = np.column_stack(parts)
-    with atomic_path(path) as tmp:
-        np.savetxt(tmp, data, delimiter=",", header=",".join(cols), comments="", fmt="%.9g")
+    with atomic_path(path) as tmp, open(tmp, "w") as f:
+        f.write(",".join(cols) + "\n")
+        for a in range(0, len(result.t), WRITE_CHUNK):   # a block of rows at a time
+            block = np.column_stack([p[a:a + WRITE_CHUNK] for p in parts])
+            np.savetxt(f, block, delimiter=",", fmt="%.9g")
     return path
 
 

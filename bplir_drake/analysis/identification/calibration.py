@@ -34,6 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ...csvfile import csv_rows
 from ...io import atomic_path
 
 from ...params import BplirParams
@@ -68,8 +69,6 @@ def read_calibration_csv(path, torque_per_amp: float) -> CalibrationLog:
     """A calibration CSV (t, q1, q2 and tau in N m or i_cmd in A, converted with
     ``torque_per_amp``) as a checked :class:`CalibrationLog`; a bad file raises
     :class:`CalibrationError`."""
-    from ...estimation import csv_rows
-
     path = Path(path)
     header, body = csv_rows(path, "log", CalibrationError)
     missing = [c for c in CALIBRATION_COLUMNS if c not in header]

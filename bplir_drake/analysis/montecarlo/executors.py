@@ -16,10 +16,16 @@ def _die_with_parent(parent: int) -> None:
     """A pool worker's initializer: ask Linux to end this worker when its
     parent dies (``PR_SET_PDEATHSIG``), so a ``kill -9`` of the study leaves
     nothing running; elsewhere nothing happens.  If the parent died before
-    the request took effect, exit now."""
+    the request took effect, exit now.  The parent's signal handlers are
+    undone: the parent alone answers Ctrl-C (a terminal sends it to the
+    whole group) and ends its workers with SIGTERM, which they obey
+    silently."""
     import ctypes
     import signal
 
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    for sig in (signal.SIGTERM, signal.SIGHUP):
+        signal.signal(sig, signal.SIG_DFL)
     try:
         libc = ctypes.CDLL(None, use_errno=True)
         libc.prctl(1, int(signal.SIGKILL), 0, 0, 0)   # 1: PR_SET_PDEATHSIG

@@ -508,6 +508,8 @@ def cmd_swing(args) -> int:
     replay_info = None
     replaying = args.replay is not None or args.sample is not None
     params = None if replaying else _swing_params(args)   # bad options: nothing written
+    if replaying:
+        _replay_check(args)
     out_dir = _out_dir(args.out)
     if replaying:
         res, replay_info = _replay(args)
@@ -570,21 +572,31 @@ def _same(a, b) -> bool:
     return a == b
 
 
-def _replay(args):
-    """Re-run one sample of a Monte Carlo study (``--replay DIR --sample K``)."""
-
-    from .analysis.montecarlo import RESULT_FIELDS, replay
-
+def _replay_check(args):
+    """Refuse a replay's options before anything is written."""
     if args.replay is None or args.sample is None:
         raise InputError("--replay STUDY_DIR and --sample K go together")
+    study = _study_of(args.replay)
+    plugins = {kind: getattr(study.params, kind).plugin for kind in ("controller", "estimator")}
     clash = [f"--{n.replace('_', '-')}" for n in ("preset", "config", "incline", "controller",
-                                                   "seed") if getattr(args, n) is not None]
+                                                   "estimator", "seed")
+             if getattr(args, n, None) is not None and getattr(args, n) != plugins.get(n)]
     clash += ["--true-state"] * args.true_state + ["--compare"] * args.compare
     if clash:
         raise InputError(f"--replay takes every parameter from the study; drop {clash[0]}")
-    if _study_of(args.replay).line is not None:
+    for kind, spec in plugins.items():   # code named by a file runs only when the user names it
+        if spec and getattr(args, kind, None) != spec:
+            raise InputError(f"study {args.replay} runs the plug-in {kind} {spec}; name it to "
+                             f"run it: --{kind} {spec}")
+    if study.line is not None:
         raise InputError(f"{args.replay} is a traversal study; replay it with bplir traverse "
                          "--replay")
+
+
+def _replay(args):
+    """Re-run one sample of a Monte Carlo study (``--replay DIR --sample K``)."""
+    from .analysis.montecarlo import RESULT_FIELDS, replay
+
     res, row = replay(args.replay, args.sample)
     matches = None
     if row is not None:
@@ -852,13 +864,14 @@ def cmd_traverse(args) -> int:
         if args.seed is not None:
             _in_range("--seed", args.seed, 0, 2 ** 32 - 1)
         line = load_line(args.line, max_incline_deg=params.traverse.max_incline_deg)
+    if args.replay is not None:
+        study = _study_of(args.replay)
+        if study.line is None:
+            raise InputError(f"{args.replay} is a swing study; replay it with bplir swing --replay")
     out = _out_dir(args.out)
     if args.replay is not None:
         from .analysis.montecarlo import replay
 
-        study = _study_of(args.replay)
-        if study.line is None:
-            raise InputError(f"{args.replay} is a swing study; replay it with bplir swing --replay")
         res, row = replay(args.replay, args.sample)
         fields = res.sample_fields()
         matches = None if row is None else row["error"] == "" and all(

@@ -734,6 +734,7 @@ class ScenarioParams(_Block):
     actuation_delay: float = _p(0.0, "s", 0, 0.2, doc="extra delay of the torque command (whole controller periods)")
     seed: int = field(default=0, metadata=dict(doc="seed of the swing's random draws (sensor noise, gusts, the simulated friction)", allowed="[0, 2^32)"))
     use_estimator: bool = field(default=True, metadata=dict(doc="the controller reads the EKF's estimate (false: the true state sampled at its tick)"))
+    wall_limit: float = _p(300.0, "s", 0, 86400, lo_open=True, doc="wall-clock time one swing may take before it is stopped as a fault (a hung plug-in); not physics")
 
     def _check(self):
         if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:

@@ -1,6 +1,9 @@
 """Running built diagrams: simulator set-up, initial state, log extraction."""
 from __future__ import annotations
 
+import contextlib
+import signal
+import threading
 from dataclasses import dataclass
 
 import numpy as np
@@ -10,6 +13,34 @@ from pydrake.systems.analysis import ResetIntegratorFromFlags
 
 class SimulationError(RuntimeError):
     """The integrator failed (step size underflow, NaN state ...)."""
+
+
+class WallClockLimit(SimulationError):
+    """A simulation ran longer in wall-clock time than it was allowed
+    (a hung plug-in, an integrator crawling)."""
+
+
+@contextlib.contextmanager
+def wall_clock_limit(seconds: float | None, what: str = "the simulation"):
+    """Raise :class:`WallClockLimit` inside the block once it has run
+    ``seconds`` of wall-clock time (SIGALRM; Python code -- a plug-in's
+    calc, a Drake callback -- is stopped where it runs).  Outside the main
+    thread, or with ``seconds`` None, nothing is limited."""
+    if not seconds or threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def on_alarm(signum, frame):
+        raise WallClockLimit(f"{what} ran past its wall-clock limit of {seconds:g} s "
+                             "(scenario.wall_limit; a hung controller or plug-in?)")
+
+    previous = signal.signal(signal.SIGALRM, on_alarm)
+    signal.setitimer(signal.ITIMER_REAL, seconds)
+    try:
+        yield
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0.0)
+        signal.signal(signal.SIGALRM, previous)
 
 
 @dataclass
@@ -72,12 +103,21 @@ def logs(built, sim) -> dict[str, Log]:
     return {name: Log.from_logger(lg, ctx) for name, lg in built.loggers.items()}
 
 
-def run_until_outcome(sim, built, max_time: float) -> str:
+def run_until_outcome(sim, built, max_time: float, wall_limit: float | None = None,
+                      what: str = "the swing") -> str:
     """Advance until the gripper interlock reports an outcome (its update
-    ends the simulation) or ``max_time`` (plus two interlock periods)."""
+    ends the simulation) or ``max_time`` (plus two interlock periods);
+    past ``wall_limit`` seconds of wall-clock time :class:`WallClockLimit`
+    is raised (naming ``what``)."""
     lock = built.systems["interlock"]
     try:
-        sim.AdvanceTo(max_time + 2 * lock.period)
+        with wall_clock_limit(wall_limit, what):
+            sim.AdvanceTo(max_time + 2 * lock.period)
+    except WallClockLimit:
+        raise
     except RuntimeError as exc:
-        raise SimulationError(f"simulation failed: {exc}") from None
+        if isinstance(exc.__context__, WallClockLimit):   # raised inside a C++ callback
+            raise exc.__context__ from None
+        t = sim.get_context().get_time()
+        raise SimulationError(f"{what} failed at t = {t:.4f} s: {exc}") from None
     return lock.outcome(sim.get_context())

@@ -22,6 +22,7 @@ from bplir_drake.estimation import LogError, read_imu_csv, write_imu_csv
 from bplir_drake.io import dumps_strict
 from bplir_drake.params import ParameterError, load_toml
 from conftest import parse_strict_json as strict_json
+from conftest import plugin_source
 
 
 def bplir_process(*argv, timeout=120):
@@ -593,19 +594,7 @@ def test_a_fault_inside_is_one_line_and_debug_shows_the_traceback(tmp_path, caps
     from bplir_drake.cli import main
 
     plugin = tmp_path / "broken.py"
-    plugin.write_text(
-        "from pydrake.systems.framework import LeafSystem\n"
-        "class Broken(LeafSystem):\n"
-        "    def __init__(self):\n"
-        "        super().__init__()\n"
-        "        self.DeclareVectorInputPort('state', 4)\n"
-        "        self.DeclareVectorOutputPort('torque', 1, self.calc)\n"
-        "    def calc(self, context, out):\n"
-        "        if context.get_time() > 0.3:\n"
-        "            raise RuntimeError('the controller lost its mind')\n"
-        "        out.SetAtIndex(0, 0.0)\n"
-        "def make(params):\n"
-        "    return Broken()\n")
+    plugin.write_text(plugin_source("raise RuntimeError('the controller lost its mind')"))
     argv = ["swing", "--controller", f"{plugin}:make", "--no-animation", "--out",
             str(tmp_path / "out")]
     assert main(argv) == 1

@@ -146,7 +146,7 @@ class SwingRunner:
         sim = make_simulator(built, built.q0, accuracy=accuracy, integrator=integrator,
                              set_context=set_context)
         h0 = driver.interlock_state(driver.GetMyContextFromRoot(sim.get_context()))
-        run_until_outcome(sim, built, sc.max_time)
+        run_until_outcome(sim, built, sc.max_time, sc.wall_limit, f"the swing of seed {seed}")
         # record the state at the moment the interlock decided
         built.diagram.ForcedPublish(sim.get_context())
         status = built.systems["interlock"].status(sim.get_context())

@@ -1,0 +1,91 @@
+"""Fuzzing the command line: any command with any of its options and any
+value -- empty, huge, NaN, negative, text, a missing file, a malformed
+``--set`` -- ends in a result or one ``bplir: error:`` line, never a
+traceback.  The work itself (a simulation, a plan solve, a study) is
+stopped where it would start: what is fuzzed is everything before it.
+The readers' own fuzz is in test_hardening.py."""
+import contextlib
+import io
+
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from bplir_drake import cli
+
+VALUES = ["", "0", "-1", "1", "2.5", "1e300", "-1e300", "nan", "inf", "-inf", "abc", "1,2",
+          "0,0,0,0", "nan,0", "1e300,0", "/nonexistent/file.toml", ".", "plan", "qft",
+          "dissertation", "shoot", "line-sensor", "48v,line-sensor", "nope:make",
+          "plant.m2=1.6", "plant.m2=nan", "plant.m2", "nosuch.field=1", "scenario.seed=-3",
+          "scenario.wall_limit=0", "motor.envelope=maybe", "estimator.period=1e-9", "fv1,fv1",
+          "png", "svg", "30", "1e-9", "x" * 300, "é", "--"]
+
+
+class Reached(BaseException):
+    """The command got past its checks to the work itself."""
+
+
+def _stop(*args, **kwargs):
+    raise Reached
+
+
+def _commands():
+    parser = cli.build_parser()
+    sub = next(a for a in parser._actions if a.__class__.__name__ == "_SubParsersAction")
+    table = {}
+    for name, p in sub.choices.items():
+        opts = [a for a in p._actions if a.option_strings and "-h" not in a.option_strings]
+        positional = [a for a in p._actions if not a.option_strings]
+        table[name] = ([(a.option_strings[-1], a.nargs == 0) for a in opts], len(positional))
+    return table
+
+
+COMMANDS = _commands()
+
+
+@st.composite
+def command_lines(draw):
+    name = draw(st.sampled_from(sorted(COMMANDS)))
+    options, positional = COMMANDS[name]
+    argv = [name] + [draw(st.sampled_from(VALUES)) for _ in range(positional)]
+    for opt, flag in draw(st.lists(st.sampled_from(options), max_size=5)):
+        argv += [opt] if flag else [opt, draw(st.sampled_from(VALUES))]
+    return argv
+
+
+@pytest.fixture
+def stopped_work(monkeypatch, tmp_path):
+    """Simulations, plan solves, studies and filters stop where they start;
+    outputs land in a temporary directory."""
+    from pydrake.systems.analysis import Simulator
+
+    from bplir_drake import estimation
+    from bplir_drake.analysis import montecarlo
+    from bplir_drake.analysis.swing import plan
+
+    monkeypatch.setattr(Simulator, "AdvanceTo", _stop)
+    monkeypatch.setattr(plan, "_solve_plan", _stop)
+    monkeypatch.setattr(montecarlo, "run_study", _stop)
+    monkeypatch.setattr(estimation, "estimate", _stop)
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("BPLIR_CACHE_DIR", str(tmp_path / "cache"))
+
+
+@settings(max_examples=250, deadline=None, derandomize=True,
+          suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
+@given(argv=command_lines())
+def test_no_command_line_ends_in_a_traceback(stopped_work, argv):
+    out, err = io.StringIO(), io.StringIO()
+    try:
+        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+            rc = cli.main(argv)
+    except Reached:
+        return
+    except SystemExit as exc:   # argparse's own refusal (or --help)
+        rc = exc.code
+    text = err.getvalue()
+    assert "Traceback" not in text, (argv, text)
+    if rc not in (0, None):
+        lines = text.strip().splitlines()
+        assert rc == 2 or rc == 1, (argv, rc, text)
+        assert len(lines) == 1 and lines[0].startswith("bplir: error: "), (argv, text)

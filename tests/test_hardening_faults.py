@@ -1,0 +1,171 @@
+"""Faults behind the front door, each through the console entry point in a
+process of its own: a full disk, a plug-in that answers NaN or hangs, a
+study directory that names code to run, the memory of a long log.  Every
+case ends in one line, the right exit status and no file half-written."""
+import resource
+import signal
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from conftest import plugin_source
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def run(*argv, limit_bytes=None, timeout=180):
+    """``python -m bplir_drake.cli ARGV``; with ``limit_bytes`` no file the
+    process writes may grow past it (a full disk: writes fail with an
+    OSError, as with ENOSPC)."""
+    def small_disk():
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+        resource.setrlimit(resource.RLIMIT_FSIZE, (limit_bytes, limit_bytes))
+
+    p = subprocess.run([sys.executable, "-m", "bplir_drake.cli", *map(str, argv)],
+                       capture_output=True, text=True, timeout=timeout,
+                       preexec_fn=small_disk if limit_bytes else None)
+    return p.returncode, p.stdout, p.stderr
+
+
+def one_line(err) -> str:
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in err, err
+    return lines[0]
+
+
+def hidden_files(where: Path) -> list[str]:
+    """Temporary files left behind (the study lock is kept on purpose)."""
+    return [p.name for p in where.rglob(".*") if p.name != ".lock"]
+
+
+def _imu_log(path, n=300):
+    from bplir_drake.estimation import write_imu_csv
+
+    s = np.zeros((n, 6))
+    s[:, 3] = s[:, 5] = 9.81
+    return write_imu_csv(np.arange(n) * 0.01, s, path)
+
+
+@pytest.mark.parametrize("argv, wrote", [
+    (["swing", "--no-animation", "--out", "{d}/swing"], "swing/swing.png"),
+    (["estimate", "{log}", "--out", "{d}/est.csv"], "est.csv"),
+    (["traverse", ROOT / "examples" / "line_flat.toml", "--no-animation", "--out", "{d}/trv"],
+     "trv/"),
+    (["montecarlo", "-n", "2", "--workers", "1", "--out", "{d}/mc"], "mc/"),
+])
+def test_a_full_disk_is_one_line_naming_the_file(argv, wrote, tmp_path):
+    """Row 7: outputs that cannot be written (no file may grow past 48 KiB):
+    one line naming the file the command was writing, exit 1, no temporary
+    file left."""
+    log = _imu_log(tmp_path / "imu.csv", 3000)   # an estimate of it is about 500 KiB
+    d = tmp_path / "full"
+    d.mkdir()
+    argv = [str(a).format(d=d, log=log) for a in argv]
+    rc, _, err = run(*argv, limit_bytes=48 * 1024)
+    line = one_line(err)
+    assert rc == 1, err
+    assert line.startswith(f"bplir: error: {argv[0]}: cannot write or read {d}/{wrote}")
+    assert line.endswith("File too large")
+    assert hidden_files(d) == []
+
+
+def test_a_plugin_answering_nan_names_the_swing_the_time_and_the_port(tmp_path):
+    """Row 5: a controller whose torque turns NaN at 0.3 s: one line naming
+    the swing (its seed), the time and the port, exit 1."""
+    plugin = tmp_path / "nan.py"
+    plugin.write_text(plugin_source("out.SetAtIndex(0, float('nan')); return"))
+    rc, _, err = run("swing", "--controller", f"{plugin}:make", "--no-animation",
+                     "--out", tmp_path / "out")
+    assert rc == 1
+    line = one_line(err)
+    assert line.startswith("bplir: error: swing failed: SimulationError: the swing of seed 0 "
+                           "failed at t = 0.30")
+    assert "NaN in the actuation input port" in line
+
+
+def test_a_hung_plugin_is_stopped_by_the_wall_clock_limit(tmp_path):
+    """A controller that never returns: the swing stops at the wall-clock
+    limit (one line naming it, exit 1); in a 2-worker study every sample
+    becomes an error row and the study finishes."""
+    plugin = tmp_path / "hang.py"
+    plugin.write_text(plugin_source("while True: time.sleep(0.01)"))
+    spec = f"{plugin}:make"
+    rc, _, err = run("swing", "--controller", spec, "--set", "scenario.wall_limit=1.5",
+                     "--no-animation", "--out", tmp_path / "out")
+    assert rc == 1
+    assert one_line(err) == ("bplir: error: swing failed: WallClockLimit: the swing of seed 0 "
+                             "ran past its wall-clock limit of 1.5 s (scenario.wall_limit; a "
+                             "hung controller or plug-in?)")
+    rc, out, err = run("montecarlo", "-n", "3", "--workers", "2", "--controller", spec,
+                       "--set", "scenario.wall_limit=1.5", "--no-plots", "--json",
+                       "--out", tmp_path / "mc")
+    from bplir_drake.analysis import montecarlo as mc
+
+    assert rc == 0, err
+    rows = mc.read_results(tmp_path / "mc" / "results.csv")
+    assert len(rows) == 3 and all("wall-clock limit of 1.5 s" in r["error"] for r in rows)
+
+
+def test_the_default_wall_clock_limit_is_far_beyond_an_honest_swing():
+    """No honest swing comes near the default limit: the default swing
+    takes a few seconds of wall-clock time, the limit is minutes."""
+    from bplir_drake.params import BplirParams
+
+    assert BplirParams().scenario.wall_limit >= 100 * 3.0
+
+
+def test_replaying_a_study_runs_its_plugin_only_when_the_user_names_it(tmp_path):
+    """A study directory names the plug-in file its samples ran; a replay
+    runs that code only when the command line names the same plug-in."""
+    spec = f"{ROOT / 'examples' / 'my_controller.py'}:make"
+    rc, _, err = run("montecarlo", "-n", "1", "--workers", "1", "--controller", spec,
+                     "--no-plots", "--out", tmp_path / "mc")
+    assert rc == 0, err
+    rc, _, err = run("swing", "--replay", tmp_path / "mc", "--sample", "0", "--no-animation",
+                     "--out", tmp_path / "r")
+    assert rc == 2 and one_line(err) == (f"bplir: error: study {tmp_path / 'mc'} runs the "
+                                         f"plug-in controller {spec}; name it to run it: "
+                                         f"--controller {spec}")
+    assert not (tmp_path / "r").exists()
+    rc, out, err = run("swing", "--replay", tmp_path / "mc", "--sample", "0", "--controller",
+                       spec, "--no-animation", "--out", tmp_path / "r")
+    assert rc == 0 and "matches the recorded result exactly" in out
+
+
+def test_outputs_are_not_left_private(tmp_path):
+    """Row 22's other half: outputs written through a temporary file get the
+    usual mode (0666 less the umask), not the temporary file's 0600."""
+    import os
+
+    from bplir_drake.io import write_text_atomic
+
+    umask = os.umask(0o022)
+    try:
+        path = write_text_atomic(tmp_path / "a.txt", "x")
+    finally:
+        os.umask(umask)
+    assert path.stat().st_mode & 0o777 == 0o644
+
+
+def test_reading_a_log_costs_its_numbers_not_its_text(tmp_path):
+    """A 300 000-row IMU log is read in a process whose resident memory grows
+    by less than 80 bytes per row (its seven numbers are 56 bytes; the text
+    is about 85).  The 3.3 M-row estimate is ``benchmarks/bench_long_log.py``."""
+    n = 300_000
+    log = tmp_path / "long.csv"
+    with open(log, "w") as f:
+        f.write("t,gyro1,gyro2,acc1_x,acc1_y,acc2_x,acc2_y\n")
+        rows = np.column_stack([np.arange(n) * 0.01, np.full((n, 6), 0.012345)])
+        np.savetxt(f, rows, delimiter=",", fmt="%.9g")
+    code = ("import resource, sys\n"
+            "from bplir_drake.estimation import read_imu_csv\n"
+            "before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss\n"
+            f"log = read_imu_csv({str(log)!r})\n"
+            "after = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss\n"
+            "print(len(log.t), (after - before) * 1024)\n")
+    rows_read, grown = map(int, subprocess.run([sys.executable, "-c", code], check=True,
+                                               capture_output=True, text=True).stdout.split())
+    assert rows_read == n
+    assert grown / n < 80, grown / n

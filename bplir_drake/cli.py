@@ -497,6 +497,7 @@ def _swing_params(args):
     from .diagrams import swing_geometry
 
     swing_geometry(params)  # validates grip spacing / incline for this robot
+    _check_plugin(params)   # a broken plug-in is refused before anything is written
     return params
 
 
@@ -820,8 +821,8 @@ def cmd_calibrate(args) -> int:
         raise InputError(f"--fit names {', '.join(twice)} more than once; name each "
                          "parameter once")
     params = _load_params(args)
-    out_dir = _out_dir(args.out)
     log = read_calibration_csv(args.log, params.motor.torque_per_amp)
+    out_dir = _out_dir(args.out)   # after the log's checks: a refusal writes nothing
     res = calibrate(params, log, fit, progress=_progress(args))
     summary = res.summary() | {
         "toml": str(write_calibrated_toml(res, out_dir / "calibrated.toml")),

@@ -44,6 +44,15 @@ def _positive(default, unit: str, *, doc: str = ""):
     return _p(default, unit, 0, lo_open=True, doc=doc)
 
 
+#: the longest link or sensor distance a two-link brachiator can have (m)
+MAX_LENGTH = 10.0
+
+
+def _length(default, *, doc: str = ""):
+    """A length of the robot (m) in (0, MAX_LENGTH]."""
+    return _p(default, "m", 0, MAX_LENGTH, lo_open=True, doc=doc)
+
+
 def _fraction(default, *, doc: str = ""):
     """A dimensionless field in (0, 1] (an efficiency, a share)."""
     return _p(default, "", 0, 1, lo_open=True, doc=doc)
@@ -164,10 +173,10 @@ class PlantParams(_Block):
     _name = "plant"
     m1: float = _positive(3.2287, "kg", doc="mass of link 1 (gripper-side link)")
     m2: float = _positive(1.5155, "kg", doc="mass of link 2 (free link)")
-    l1: float = _positive(0.9091, "m", doc="length of link 1 (pivot to elbow)")
-    l2: float = _positive(1.2451, "m", doc="length of link 2 (elbow to free gripper)")
-    lc1: float = _p(0.2167, "m", 0, doc="pivot to centre of mass of link 1")
-    lc2: float = _p(0.5459, "m", 0, doc="elbow to centre of mass of link 2")
+    l1: float = _length(0.9091, doc="length of link 1 (pivot to elbow)")
+    l2: float = _length(1.2451, doc="length of link 2 (elbow to free gripper)")
+    lc1: float = _p(0.2167, "m", 0, MAX_LENGTH, doc="pivot to centre of mass of link 1")
+    lc2: float = _p(0.5459, "m", 0, MAX_LENGTH, doc="elbow to centre of mass of link 2")
     I1: float = _positive(0.1539, "kg m^2", doc="inertia of link 1 about its CoM")
     I2: float = _positive(0.2191, "kg m^2", doc="inertia of link 2 about its CoM")
     g: float = _p(9.81, "m/s^2", 0, 30, lo_open=True, doc="gravitational acceleration")
@@ -296,8 +305,8 @@ class ImuParams(_Block):
     """
 
     _name = "imu"
-    r1: float = _positive(0.5, "m", doc="IMU 1 distance from the gripper joint along link 1")
-    r2: float = _positive(0.5, "m", doc="IMU 2 distance from the elbow along link 2")
+    r1: float = _length(0.5, doc="IMU 1 distance from the gripper joint along link 1")
+    r2: float = _length(0.5, doc="IMU 2 distance from the elbow along link 2")
     rate_hz: float = _p(100.0, "Hz", 1, 10000, doc="sampling rate (zero-order hold)")
     accel_sigma: float = _p(0.02156, "m/s^2", 0, doc="accelerometer white noise per sample (5.36)")
     gyro_sigma: float = _p(0.0166, "rad/s", 0, doc="gyro white noise per sample (5.37)")
@@ -373,9 +382,9 @@ class EstimatorParams(_Block):
                 raise ParameterError(f"estimator.{name} = '{getattr(self, name)}' is unknown; "
                                      "allowed: euler, trapezoid, heun")
 
-    r1: float = _positive(0.5, "m", doc="IMU 1 distance from joint 1 (filter geometry)")
-    r2: float = _positive(0.5, "m", doc="IMU 2 distance from the elbow")
-    l1: float = _positive(0.9091, "m", doc="link 1 length (filter geometry)")
+    r1: float = _length(0.5, doc="IMU 1 distance from joint 1 (filter geometry)")
+    r2: float = _length(0.5, doc="IMU 2 distance from the elbow")
+    l1: float = _length(0.9091, doc="link 1 length (filter geometry)")
     g: float = _p(9.81, "m/s^2", 0, 30, lo_open=True, doc="gravity used by the filter")
     period: float = _p(0.01, "s", 0, 1, lo_open=True, doc="filter period (100 Hz)")
     accel_process_sigma: float = _positive(0.427, "m/s^2", doc="(5.39) process noise on the accelerometer inputs")

@@ -169,3 +169,123 @@ def test_reading_a_log_costs_its_numbers_not_its_text(tmp_path):
                                                capture_output=True, text=True).stdout.split())
     assert rows_read == n
     assert grown / n < 80, grown / n
+
+
+# ------------------------------------------------ the issue's rows, as processes
+
+def _calibration_csv(path, q1d="0.0", tau="1.0", t_end=3.0, note=False):
+    lines = ["t,q1,q2,tau,q1d,q2d" + (",note" * note)]
+    for k, t in enumerate(np.linspace(0.0, t_end, 301)):
+        lines.append(f"{t},{0.3 * np.cos(2.7 * t)},{0.1 * np.sin(3 * t)},"
+                     f"{tau if k == 0 else '1.0'},{q1d if k == 0 else '0.0'},0.0"
+                     + (",ok" * note))
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def _wild_imu(path, row=20, col=0, value=1e300, jump=0.0):
+    from bplir_drake.estimation import write_imu_csv
+
+    t = np.arange(200) * 0.01
+    t[100:] += jump
+    s = np.tile([0.0, 0.0, 0.0, 9.81, 0.0, 9.81], (200, 1))
+    s[row, col] = value
+    return write_imu_csv(t, s, path)
+
+
+def _file(name, text):
+    def make(d):
+        (d / name).write_text(text)
+        return d / name
+    return make
+
+
+ROWS = {   # row: (files to make, argv, words of the one line)
+    1: ({"big": _file("big.toml", "[plant]\nm1 = 1" + "0" * 400 + "\n")},
+        ["swing", "--config", "{big}"], "plant.m1 = 100000000000... (401 digits)"),
+    2: ({"line": _file("flat.toml", 'length = 10.0\nstart = 1.2\n[catenary]\nspan = 60.0\n'
+                                    'sag = 1e-9\n')},
+        ["traverse", "{line}"], "sag = 1e-09 is out of range; allowed [0.006, 15]"),
+    3: ({"log": lambda d: _calibration_csv(d / "c.csv", q1d="nan")},
+        ["calibrate", "{log}"], "log column q1d, q2d: nan is not plausible"),
+    4: ({"log": lambda d: _calibration_csv(d / "c.csv", tau="1e300")},
+        ["calibrate", "{log}"], "log column tau: 1e+300 is not plausible"),
+    6: ({"plugin": _file("raise.py", plugin_source("raise RuntimeError('lost its mind')"))},
+        ["swing", "--controller", "{plugin}:make", "--no-animation"], "lost its mind"),
+    11: ({"log": lambda d: _wild_imu(d / "imu.csv")},
+         ["estimate", "{log}"], "row 21 column gyro1: 1e+300 is not a plausible reading"),
+    "11b": ({"log": lambda d: _wild_imu(d / "imu.csv", value=0.0)},
+            ["estimate", "{log}", "--l1", "1e300"], "estimator.l1 = 1e+300 is out of range"),
+    12: ({"log": lambda d: _wild_imu(d / "imu.csv", value=0.0, jump=1e6)},
+         ["estimate", "{log}"], "time jumps by 1e+06 s at row 101"),
+    13: ({}, ["freeswing", "--q0", "1e300,0", "--duration", "1"], "--q0 Q1 = 1e+300 rad"),
+    14: ({"log": lambda d: _calibration_csv(d / "c.csv")},
+         ["calibrate", "{log}", "--fit", "fv1,fv1"], "--fit names fv1 more than once"),
+    15: ({}, ["swing", "--out", ""], "--out '' is empty"),
+    16: ({"plugin": _file("exit.py", "import sys\ndef make(p):\n    sys.exit(0)\n")},
+         ["swing", "--controller", "{plugin}:make"], "the factory raised SystemExit"),
+    "16b": ({"plugin": _file("exit3.py", "import sys\nsys.exit(3)\n")},
+            ["swing", "--controller", "{plugin}:make"], "cannot load"),
+    19: ({"log": lambda d: _calibration_csv(d / "c.csv", t_end=1e5)},
+         ["calibrate", "{log}"], "log spans 100000 s; allowed at most 600 s"),
+}
+
+
+@pytest.mark.parametrize("row", list(ROWS), ids=str)
+def test_the_issues_rows_through_the_console_entry_point(row, tmp_path):
+    """Bad input and broken plug-ins from the hardening issue, each as the
+    user meets it: one line, exit 2 (bad input) or 1 (a fault inside), no
+    output directory left behind by a refusal, no process left running."""
+    makers, argv, words = ROWS[row]
+    made = {name: make(tmp_path) for name, make in makers.items()}
+    argv = [a.format(**made) for a in argv]
+    out = tmp_path / "out"
+    if "--out" not in argv:
+        argv += ["--out", str(out)]
+    rc, _, err = run(*argv, timeout=120)
+    line = one_line(err)
+    assert line.startswith("bplir: error: ") and words in line, line
+    assert rc == (1 if row == 6 else 2), err
+    if rc == 2:
+        assert not out.exists()
+
+
+def test_a_plan_solve_ends_at_ctrl_c_with_130(tmp_path):
+    """Row 8: Ctrl-C while a plan is solved from a cold cache: exit 130 and
+    the interrupt's one line (not a RuntimeError from the solver's
+    callback)."""
+    import os
+    import time
+
+    env = dict(os.environ, BPLIR_CACHE_DIR=str(tmp_path / "cache"))
+    proc = subprocess.Popen([sys.executable, "-m", "bplir_drake.cli", "plan", "--incline", "9",
+                             "--out", str(tmp_path / "out")], env=env, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    time.sleep(5.0)   # pydrake is loaded and SNOPT is iterating
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130, err
+    assert err.strip() == "bplir: interrupted; no output file was left half-written"
+    assert not list((tmp_path / "cache").glob("plan-*.npz"))
+
+
+def test_a_resumed_study_keeps_each_row_once_and_replays_any_kept_row(tmp_path):
+    """Rows 23 and 24 from the command line: a row repeated in
+    ``results.csv`` is kept once on resume; after a smaller rerun the
+    study's last kept row still replays, matching its record."""
+    from bplir_drake.analysis import montecarlo as mc
+
+    mcdir = tmp_path / "mc"
+    study = ["montecarlo", "-n", "3", "--workers", "1", "--no-plots", "--out", mcdir]
+    assert run(*study)[0] == 0
+    lines = (mcdir / "results.csv").read_text().splitlines()
+    (mcdir / "results.csv").write_text("\n".join(lines + [lines[2]]) + "\n")
+    rc, _, err = run(*study)
+    assert rc == 0, err
+    assert sorted(r["index"] for r in mc.read_results(mcdir / "results.csv")) == [0, 1, 2]
+    study[2] = "2"
+    assert run(*study)[0] == 0
+    rc, out, err = run("swing", "--replay", mcdir, "--sample", "2", "--no-animation",
+                       "--out", tmp_path / "r")
+    assert rc == 0 and "replay of sample 2" in out and "matches the recorded result" in out

@@ -32,7 +32,7 @@ def _parameters_page() -> str:
 
     lines = ["# Parameters", "",
              "Every parameter of the package, generated from the parameters' own "
-             "metadata (`bplir_drake/params.py`, the one source of truth).  Set them in "
+             "metadata (`bplir_drake/params/`, the one source of truth).  Set them in "
              "a TOML file (`--config FILE.toml`, a table per block) or from Python "
              "(`params.with_(block=dataclasses.replace(params.block, field=value))`).  "
              "`true_plant` and `true_friction` take the fields of `plant` and `friction` "

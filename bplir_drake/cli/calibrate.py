@@ -1,0 +1,50 @@
+"""``bplir calibrate``: fit the plant model to a logged run."""
+from __future__ import annotations
+
+from .common import InputError, _emit, _load_params, _out_dir, _progress, _save, _write_json
+from .options import command, option
+
+
+# ------------------------------------------------------------------ calibrate
+def cmd_calibrate(args) -> int:
+    """``bplir calibrate``: fit the model to a logged run."""
+    from ..analysis.identification.calibration import (calibrate, identify_deadband, identify_plant_family,
+                                       read_calibration_csv,
+                                       write_calibrated_toml)
+
+    fit = tuple(n.strip() for n in args.fit.split(",") if n.strip())
+    twice = sorted({n for n in fit if fit.count(n) > 1})
+    if twice:
+        raise InputError(f"--fit names {', '.join(twice)} more than once; name each "
+                         "parameter once")
+    params = _load_params(args)
+    log = read_calibration_csv(args.log, params.motor.torque_per_amp)
+    out_dir = _out_dir(args.out)   # after the log's checks: a refusal writes nothing
+    res = calibrate(params, log, fit, progress=_progress(args))
+    summary = res.summary() | {
+        "toml": str(write_calibrated_toml(res, out_dir / "calibrated.toml")),
+        "plot": str(_save(args, res.plot(), out_dir / "calibration.png"))}
+    if args.deadband:
+        summary["deadband"] = identify_deadband(res.params)
+    if args.family:
+        fam = identify_plant_family(res.params)
+        summary["plant_family"] = {"ranges": fam.ranges, "fits": fam.fits}
+    _write_json(out_dir / "calibration.json", summary)
+    lines = [f"RMSE {res.rmse_before:.4f} -> {res.rmse_after:.4f} rad after {res.nfev} simulations"]
+    lines += [f"  {n} = {v:.6g} +/- {se:.2g}" for n, v, se in
+              zip(res.names, res.values, res.std_errors)]
+    lines.append(f"calibrated parameters: {summary['toml']} (use with --config)")
+    _emit(summary, args.json, lines)
+    return 0
+
+
+def add_parser(sub) -> None:
+    """Declare ``bplir calibrate`` and its options."""
+    p = command(sub, "calibrate", cmd_calibrate, "fit the plant model to a logged run (4.5)",
+                "out/calibration")
+    p.add_argument("log", help="CSV with t,q1,q2 and tau (N m) or i_cmd (A)")
+    option(p, "--fit", None, "fv1,fv2,fc1,fc2",
+           "parameters to fit (fv1,fv2,fc1,fc2,I1,I2,lc1,lc2,m1,m2)")
+    option(p, "--deadband", bool, help="also identify the dead-band of the calibrated model (4.6)")
+    option(p, "--family", bool,
+           help="also identify the CPFL plant family of the calibrated model (4.7)")

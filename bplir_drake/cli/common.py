@@ -1,0 +1,217 @@
+"""What every command shares: loading parameters from options, checking option values, output locations, printing and saving."""
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from pathlib import Path
+from ..analysis.plotting import save_figure
+from ..io import check_output_dir, dumps_strict, write_json_atomic
+from ..params import ParameterError
+
+
+class InputError(ValueError):
+    """Bad user input that is not a parameter (malformed log, bad option value)."""
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message):  # one line, status 2
+        sys.stderr.write(f"bplir: error: {message}\n")
+        sys.exit(2)
+
+
+def _floats(text: str, n: int, name: str) -> list[float]:
+    try:
+        vals = [float(v) for v in text.split(",")]
+    except ValueError:
+        raise InputError(f"{name} = '{text}' must be {n} comma-separated numbers") from None
+    if len(vals) != n or not all(math.isfinite(v) for v in vals):
+        raise InputError(f"{name} = '{text}' must be {n} finite comma-separated numbers")
+    return vals
+
+
+def _load_params(args):
+    from ..params import load_toml, preset
+
+    if getattr(args, "config", None):
+        if args.preset:  # the file's tables override the named preset
+            from ..params import from_dict, read_toml
+
+            params = from_dict(read_toml(args.config) | {"preset": args.preset})
+        else:
+            params = load_toml(args.config)
+    else:
+        params = preset(args.preset or "dissertation")
+    return _with_settings(_with_hardware(params, args), args)
+
+
+def _with_settings(params, args):
+    """``params`` with every ``--set block.field=value`` (a TOML value;
+    bare words are strings)."""
+    import tomllib
+
+    from ..params import BLOCKS, ParameterError
+
+    for item in getattr(args, "set", None) or []:
+        key, sep, text = item.partition("=")
+        block, dot, name = key.strip().partition(".")
+        if not (sep and dot and block and name):
+            raise InputError(f"--set '{item}' must be block.field=value (e.g. plant.m2=1.6)")
+        if block not in BLOCKS:
+            raise ParameterError(f"--set {key}: unknown block '{block}'; allowed: "
+                                 + ", ".join(BLOCKS))
+        try:
+            value = tomllib.loads(f"v = {text.strip()}")["v"]
+        except tomllib.TOMLDecodeError:
+            value = text.strip()
+        base = getattr(params, block)
+        if base is None:   # true_plant / true_friction start from the nominal blocks
+            base = getattr(params, block.removeprefix("true_"))
+        params = params.with_(**{block: BLOCKS[block].from_dict({name: value}, base=base)})
+    return params
+
+
+def _with_hardware(params, args):
+    """``params`` with the ``--hardware`` options (comma-separated names)."""
+    names = [n.strip() for n in (getattr(args, "hardware", None) or "").split(",") if n.strip()]
+    return params.with_hardware(*names) if names else params
+
+
+#: figure formats every drawing command writes (``--format``)
+FIGURE_FORMATS = ("png", "pdf", "svg")
+
+
+def _dpi_value(text: str) -> int:
+    """``--dpi``'s value: a whole number in [30, 1200]."""
+    try:
+        dpi = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--dpi = '{text}' must be a whole number") from None
+    if not 30 <= dpi <= 1200:
+        raise argparse.ArgumentTypeError(f"--dpi = {dpi} is out of range; allowed [30, 1200]")
+    return dpi
+
+
+def _dpi(args) -> int:
+    """``--dpi``, checked (raster resolution; vector formats keep it for their images)."""
+    dpi = getattr(args, "dpi", None) or 150
+    _in_range("--dpi", dpi, 30, 1200)
+    return dpi
+
+
+def _save(args, fig, path) -> Path:
+    """Save ``fig`` at ``path`` with the suffix of ``--format`` and ``--dpi``."""
+    fmt = getattr(args, "format", None) or "png"
+    return save_figure(fig, Path(path).with_suffix("." + fmt), dpi=_dpi(args))
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM or SIGHUP, handled like Ctrl-C (temporary files removed,
+    finished rows kept), with the exit status ``128 + signal``."""
+
+    def __init__(self, signum: int):
+        super().__init__(signum)
+        self.signum = signum
+
+
+def _terminate(signum, frame):
+    raise Terminated(signum)
+
+
+#: where the command's own output goes: standard output as ``main`` found it
+#: (with ``--json`` everything else printed meanwhile -- a plug-in's
+#: chatter -- goes to standard error, so standard output stays JSON)
+_OUT = [None]
+
+
+def _emit(obj, as_json: bool, text_lines) -> None:
+    """Print ``obj`` as strict JSON (NaN and infinities as null) or the text."""
+    out = _OUT[0] or sys.stdout
+    if as_json:
+        print(dumps_strict(obj), file=out)
+    else:
+        for line in text_lines:
+            print(line, file=out)
+
+
+def _write_json(path, obj) -> str:
+    """Write ``obj`` as strict JSON, atomically; returns the path as text."""
+    return str(write_json_atomic(path, obj))
+
+
+def _progress(args) -> bool:
+    """Show progress bars: standard error is a terminal and ``--json`` is off."""
+    return not getattr(args, "json", False) and sys.stderr.isatty()
+
+
+def _out_dir(path) -> Path:
+    """The output directory, created and proven writable before any work."""
+    if not str(path).strip():
+        raise InputError("--out '' is empty; name an output directory")
+    return check_output_dir(path, InputError)
+
+
+def _in_range(name: str, value, lo: float, hi: float, *, lo_open: bool = False,
+              hi_open: bool = False, unit: str = "") -> None:
+    """Raise InputError unless ``lo <(=) value <(=) hi`` (finite)."""
+    ok = isinstance(value, (int, float)) and math.isfinite(value) and \
+        (value > lo if lo_open else value >= lo) and (value < hi if hi_open else value <= hi)
+    if not ok:
+        left, right = "(" if lo_open else "[", ")" if hi_open else "]"
+        u = f" {unit}" if unit else ""
+
+        def fmt(v):   # whole numbers in full (a seed's 4294967295, not 4.29497e+09)
+            return str(v) if isinstance(v, int) and not isinstance(v, bool) else f"{v:g}"
+
+        shown = fmt(value) if isinstance(value, (int, float)) else repr(value)
+        raise InputError(f"{name} = {shown}{u} is out of range; allowed "
+                         f"{left}{fmt(lo)}, {fmt(hi)}{right}{u}")
+
+
+# ------------------------------------------------------------------ swing
+def _with_path_mode(params, mode, law=None):
+    """``params`` with ``path.mode`` set from ``--path-mode`` and
+    ``path.landing_law`` from ``--landing-law`` (None: kept)."""
+    import dataclasses as dc
+
+    from ..params import LANDING_LAWS, PATH_MODES
+
+    if mode is not None:
+        if mode not in PATH_MODES:
+            raise InputError(f"--path-mode = '{mode}' is unknown; allowed: "
+                             + ", ".join(PATH_MODES))
+        params = params.with_(path=dc.replace(params.path, mode=mode))
+    if law is not None:
+        if law not in LANDING_LAWS:
+            raise InputError(f"--landing-law = '{law}' is unknown; allowed: "
+                             + ", ".join(LANDING_LAWS))
+        params = params.with_(path=dc.replace(params.path, landing_law=law))
+    return params
+
+
+def _study_of(study_dir):
+    """The study saved in a study directory (``StudyError`` when there is none)."""
+    from ..analysis.montecarlo import STUDY_FILE, StudyError, load_study
+
+    path = Path(study_dir) / STUDY_FILE
+    if not path.exists():
+        raise StudyError(f"{study_dir} is not a study directory (no {STUDY_FILE})")
+    return load_study(path)
+
+
+def _same(a, b) -> bool:
+    """Recorded and re-run values agree (NaN equals NaN)."""
+    if isinstance(a, float) and isinstance(b, float) and math.isnan(a) and math.isnan(b):
+        return True
+    return a == b
+
+
+# ------------------------------------------------------------------ montecarlo
+def _check_plugin(params) -> None:
+    """Build a plugged-in controller and estimator once, so a broken one
+    fails here with its one-line error instead of in every sample."""
+    from ..diagrams.plugin import make_plugin
+
+    for kind in ("controller", "estimator"):
+        if getattr(params, kind).plugin:
+            make_plugin(params, kind)

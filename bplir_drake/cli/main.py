@@ -1,0 +1,70 @@
+"""Running the command line: parse, call the command, and turn every
+failure into one line and an exit status (2 bad input, 1 a fault inside,
+130/143/129 interrupted or terminated)."""
+from __future__ import annotations
+
+import sys
+
+from ..analysis.control.errors import QftError
+from ..analysis.identification.calibration import CalibrationError
+from ..estimation import LogError
+from ..params import ParameterError
+from .common import _OUT, InputError, Terminated, _terminate
+from .parser import build_parser
+
+
+def main(argv=None) -> int:
+    """Run the command line; returns the exit status (2 with a one-line ``bplir: error:`` on bad
+    input)."""
+    import contextlib
+
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    import signal
+
+    _OUT[0] = sys.stdout
+    quiet = contextlib.redirect_stdout(sys.stderr) if getattr(args, "json", False) \
+        else contextlib.nullcontext()
+    previous = {}
+    try:
+        for sig in (signal.SIGTERM, signal.SIGHUP):
+            previous[sig] = signal.signal(sig, _terminate)
+    except ValueError:   # not the main thread: leave the signals alone
+        pass
+    try:
+        with quiet:
+            return args.func(args)
+    except (ParameterError, InputError, LogError, QftError, CalibrationError) as exc:
+        sys.stderr.write(f"bplir: error: {exc}\n")
+        return 2
+    except OSError as exc:   # a full disk, a vanished directory: the path and the reason
+        if args.debug:
+            raise
+        where = f" {exc.filename}" if getattr(exc, "filename", None) else ""
+        sys.stderr.write(f"bplir: error: {args.command}: cannot write or read{where}: "
+                         f"{exc.strerror or exc}\n")
+        return 1
+    except KeyboardInterrupt as exc:
+        code = 128 + exc.signum if isinstance(exc, Terminated) else 130
+        what = (f"terminated by {signal.Signals(exc.signum).name}"
+                if isinstance(exc, Terminated) else "interrupted")
+        if args.command == "montecarlo":
+            sys.stderr.write(f"bplir: {what}; the finished samples are kept in {args.out} "
+                             "(the same command resumes the study)\n")
+        else:  # every output is written atomically: none is left half-written
+            sys.stderr.write(f"bplir: {what}; no output file was left half-written\n")
+        return code
+    except Exception as exc:   # a fault inside: one line (the traceback with --debug)
+        if args.debug:
+            raise
+        if "KeyboardInterrupt" in str(exc):   # Ctrl-C inside a C++ callback (SNOPT's)
+            sys.stderr.write("bplir: interrupted; no output file was left half-written\n")
+            return 130
+        text = " ".join(str(exc).split()) or "no message"
+        sys.stderr.write(f"bplir: error: {args.command} failed: {type(exc).__name__}: "
+                         f"{text[:400]}\n")
+        return 1
+    finally:
+        _OUT[0] = None
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)

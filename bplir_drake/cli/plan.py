@@ -1,0 +1,48 @@
+"""``bplir plan``: a swing planned by trajectory optimisation."""
+from __future__ import annotations
+
+from ..io import atomic_path
+from .common import _emit, _load_params, _out_dir, _progress, _save, _write_json
+from .options import command, option, shared
+
+
+# ------------------------------------------------------------------ plan
+def cmd_plan(args) -> int:
+    """``bplir plan``: plan a swing by trajectory optimisation."""
+    import dataclasses as dc
+
+    import numpy as np
+
+    from ..analysis.swing.plan import plan_swing, plot_plan
+
+    params = _load_params(args)
+    if args.incline is not None:
+        params = params.with_(scenario=dc.replace(params.scenario, incline_deg=args.incline))
+    out = _out_dir(args.out)
+    # plan_swing validates the scenario, the power limit and the knots
+    plan = plan_swing(params, power_limit=args.power, knots=args.knots, progress=_progress(args))
+    figure = _save(args, plot_plan(plan, params), out / "plan.png")
+    summary = plan.summary() | {"figure": str(figure)}
+    _write_json(out / "plan.json", summary)
+    with atomic_path(out / "plan.csv") as tmp:
+        np.savetxt(tmp, np.c_[plan.times, plan.states, plan.torque],
+                   delimiter=",", header="t,q1,q2,q1d,q2d,tau", comments="")
+    verdict = "feasible" if plan.feasible else "NOT feasible"
+    _emit(summary, args.json, [
+        f"planned swing on a {plan.incline_deg:g} deg line: {verdict} "
+        f"(solver {plan.solver}, optimal: {plan.solved})",
+        f"  duration {plan.duration:.3f} s, peak torque {plan.peak_torque:.1f} N m, "
+        f"peak power {plan.peak_power:.0f} W (limit {plan.power_limit:g} W)",
+        f"  motor work {plan.energy_in:.1f} J, friction loss {plan.dissipated:.1f} J, "
+        f"link 1 reverses {plan.link1_reversals}x",
+        f"  wrote {out}/plan.png, plan.csv, plan.json"])
+    return 0 if plan.feasible else 1
+
+
+def add_parser(sub) -> None:
+    """Declare ``bplir plan`` and its options."""
+    p = command(sub, "plan", cmd_plan,
+                "plan a swing by trajectory optimisation (torque and power limits)", "out/plan")
+    shared(p, "incline")
+    option(p, "--power", float, None, "motor power limit in W (default: rating)")
+    option(p, "--knots", int, 41, "collocation knots")

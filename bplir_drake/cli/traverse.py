@@ -1,0 +1,81 @@
+"""``bplir traverse``: cross a stretch of line with obstacles."""
+from __future__ import annotations
+
+from pathlib import Path
+from ..io import write_text_atomic
+from .common import InputError, _emit, _in_range, _load_params, _out_dir, _progress, _same, _save, _study_of, _write_json
+from .options import command, option
+
+
+# ------------------------------------------------------------------ traverse
+def cmd_traverse(args) -> int:
+    """``bplir traverse``: cross a stretch of line with obstacles."""
+    from ..analysis.traverse.line import load_line
+    from ..analysis.traverse.plots import plot_timeline, traverse_replay_html
+    from ..analysis.traverse.run import (manoeuvre_table, run_traverse, totals_lines,
+                                        write_rows_csv)
+
+    replay_info = None
+    if args.replay is not None or args.sample is not None:
+        if args.replay is None or args.sample is None:
+            raise InputError("--replay STUDY_DIR and --sample K go together")
+        clash = [f"--{n}" for n in ("preset", "config", "seed") if getattr(args, n) is not None]
+        clash += ["LINE"] if args.line is not None else []
+        if clash:
+            raise InputError(f"--replay takes the line and every parameter from the study; "
+                             f"drop {clash[0]}")
+    elif args.line is None:
+        raise InputError("give a line file (LINE.toml) or --replay STUDY_DIR --sample K")
+    else:
+        params = _load_params(args)
+        if args.seed is not None:
+            _in_range("--seed", args.seed, 0, 2 ** 32 - 1)
+        line = load_line(args.line, max_incline_deg=params.traverse.max_incline_deg)
+    if args.replay is not None:
+        study = _study_of(args.replay)
+        if study.line is None:
+            raise InputError(f"{args.replay} is a swing study; replay it with bplir swing --replay")
+    out = _out_dir(args.out)
+    if args.replay is not None:
+        from ..analysis.montecarlo import replay
+
+        res, row = replay(args.replay, args.sample)
+        fields = res.sample_fields()
+        matches = None if row is None else row["error"] == "" and all(
+            _same(row[k], fields[k]) for k in study.result_fields)
+        replay_info = {"study": str(args.replay), "sample": args.sample,
+                       "matches_recorded": matches}
+    else:
+        res = run_traverse(line, params, seed=args.seed or 0, progress=_progress(args))
+    files = {"figure_line": str(_save(args, res.plot(), out / "line.png")),
+             "figure_timeline": str(_save(args, plot_timeline(res), out / "timeline.png")),
+             "manoeuvres_csv": str(write_rows_csv(res, out / "manoeuvres.csv"))}
+    table = manoeuvre_table(res)
+    write_text_atomic(out / "manoeuvres.md", table + "\n")
+    files["manoeuvres_md"] = str(out / "manoeuvres.md")
+    if not args.no_animation:
+        files["replay_html"] = str(traverse_replay_html(res, out / "traverse.html"))
+    data = res.to_dict() | {"files": files} | ({"replay": replay_info} if replay_info else {})
+    _write_json(out / "traverse.json", data)
+    replay_line = ([f"replay of sample {replay_info['sample']} of {replay_info['study']}: "
+                    + {True: "matches the recorded result exactly",
+                       False: "DIFFERS from the recorded result",
+                       None: "no recorded result to compare"}[replay_info["matches_recorded"]]]
+                   if replay_info else [])
+    _emit(data, args.json, replay_line + [table, ""] + totals_lines(res) + [
+        f"files in {out}: " + ", ".join(Path(f).name for f in files.values())])
+    return 0 if res.success else 1
+
+
+def add_parser(sub) -> None:
+    """Declare ``bplir traverse`` and its options."""
+    p = command(sub, "traverse", cmd_traverse, "cross a stretch of line, brachiating past every "
+                "obstacle (exit 1 when the traversal fails)", "out/traverse")
+    p.add_argument("line", nargs="?", default=None,
+                   help="line file (TOML): length, incline or catenary, obstacles")
+    option(p, "--seed", int, None, "seed of the robot's friction draw and of every swing's "
+           "sensor noise and disturbances")
+    option(p, "--no-animation", bool, help="skip traverse.html (the Meshcat replay)")
+    option(p, "--replay", None, None, "re-run one sample of a traversal study (with --sample)",
+           metavar="STUDY_DIR")
+    option(p, "--sample", int, None, "sample index to replay", metavar="K")

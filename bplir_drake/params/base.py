@@ -1,0 +1,148 @@
+"""The machinery of parameter blocks: a field with its unit, range and one-line meaning, range checks, and the frozen block every parameter table is."""
+from __future__ import annotations
+
+import math
+from dataclasses import field, fields, replace
+from pathlib import Path
+from typing import Any
+
+
+INF = math.inf
+
+
+class ParameterError(ValueError):
+    """A parameter, preset or parameter file is invalid (one-line message)."""
+
+
+def _p(default, unit: str, lo: float = -INF, hi: float = INF, *, lo_open=False,
+       hi_open=False, doc: str = ""):
+    """A numeric field with unit and allowed range ``[lo, hi]`` (or open)."""
+    return field(default=default, metadata=dict(unit=unit, lo=lo, hi=hi,
+                                                lo_open=lo_open, hi_open=hi_open,
+                                                doc=doc))
+
+
+def _positive(default, unit: str, *, doc: str = ""):
+    """A numeric field that must be > 0 (a length, mass, period, ...)."""
+    return _p(default, unit, 0, lo_open=True, doc=doc)
+
+
+#: the longest link or sensor distance a two-link brachiator can have (m)
+MAX_LENGTH = 10.0
+
+
+def _length(default, *, doc: str = ""):
+    """A length of the robot (m) in (0, MAX_LENGTH]."""
+    return _p(default, "m", 0, MAX_LENGTH, lo_open=True, doc=doc)
+
+
+def _fraction(default, *, doc: str = ""):
+    """A dimensionless field in (0, 1] (an efficiency, a share)."""
+    return _p(default, "", 0, 1, lo_open=True, doc=doc)
+
+
+def _is_plugin(spec) -> bool:
+    """``spec`` has the form ``module:factory`` (the module may be a path)."""
+    if not isinstance(spec, str) or ":" not in spec:
+        return False
+    module, factory = spec.rsplit(":", 1)
+    return bool(module) and factory.isidentifier()
+
+
+def plugin_name(spec: str) -> str:
+    """A plug-in's own name from its ``module:factory`` spec: a file's stem
+    (``path/to/my_controller.py:make`` -> ``my_controller:make``), a module
+    as it is; a preset name unchanged."""
+    if not _is_plugin(spec):
+        return spec
+    module, factory = spec.rsplit(":", 1)
+    if module.endswith(".py") or "/" in module or "\\" in module:
+        module = Path(module).stem
+    return f"{module}:{factory}"
+
+
+def _range_text(md) -> str:
+    lo, hi = md["lo"], md["hi"]
+    left = "(" if md["lo_open"] or lo == -INF else "["
+    right = ")" if md["hi_open"] or hi == INF else "]"
+    unit = f" {md['unit']}" if md["unit"] else ""
+    return f"{left}{lo:g}, {hi:g}{right}{unit}"
+
+
+def _validate_block(block, name: str) -> None:
+    for f in fields(block):
+        md = f.metadata
+        value = getattr(block, f.name)
+        if "lo" not in md:
+            continue
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise ParameterError(
+                f"{name}.{f.name} = {value!r} is not a number; allowed range "
+                f"{_range_text(md)}")
+        if not math.isfinite(value):
+            raise ParameterError(
+                f"{name}.{f.name} = {value} is not finite; allowed range "
+                f"{_range_text(md)}")
+        lo, hi = md["lo"], md["hi"]
+        bad_lo = value <= lo if md["lo_open"] else value < lo
+        bad_hi = value >= hi if md["hi_open"] else value > hi
+        if bad_lo or bad_hi:
+            raise ParameterError(
+                f"{name}.{f.name} = {value:g} is out of range; allowed "
+                f"{_range_text(md)}")
+
+
+class _Block:
+    """Mixin: validation on construction, conversion to/from dicts."""
+
+    _name = "block"
+
+    def __post_init__(self):
+        _validate_block(self, self._name)
+        self._check()
+
+    def _check(self) -> None:  # cross-field checks
+        pass
+
+    def as_dict(self) -> dict[str, Any]:
+        return {f.name: getattr(self, f.name) for f in fields(self)}
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any], base=None):
+        base = base if base is not None else cls()
+        known = {f.name for f in fields(cls)}
+        for key in data:
+            if key not in known:
+                raise ParameterError(
+                    f"unknown parameter '{cls._name}.{key}'; allowed: "
+                    + ", ".join(sorted(known)))
+        values = {}
+        for f in fields(cls):
+            if f.name in data:
+                v = data[f.name]
+                if isinstance(getattr(base, f.name), tuple):
+                    if not isinstance(v, list):
+                        raise ParameterError(f"{cls._name}.{f.name} = {v!r} must be a list")
+                    v = tuple(v)
+                if "lo" in f.metadata and isinstance(v, int) and not isinstance(v, bool):
+                    try:
+                        v = float(v)
+                    except OverflowError:   # a TOML integer of hundreds of digits
+                        raise ParameterError(
+                            f"{cls._name}.{f.name} = {str(v)[:12]}... ({len(str(v))} digits) "
+                            f"is not a finite number; allowed range "
+                            f"{_range_text(f.metadata)}") from None
+                expected = type(getattr(base, f.name))
+                if expected is bool and not isinstance(v, bool):
+                    raise ParameterError(
+                        f"{cls._name}.{f.name} = {v!r} must be true or false")
+                if expected is str and not isinstance(v, str):
+                    raise ParameterError(
+                        f"{cls._name}.{f.name} = {v!r} must be a string")
+                values[f.name] = v
+        return replace(base, **values)
+
+    def describe(self) -> list[tuple[str, Any, str, str]]:
+        """(name, value, unit, doc) rows for documentation and reports."""
+        return [(f.name, getattr(self, f.name), f.metadata.get("unit", ""),
+                 f.metadata.get("doc", "")) for f in fields(self)]

@@ -1,0 +1,97 @@
+"""Parameters in and out of files: TOML and plain dictionaries, with one-line errors naming the table and field."""
+from __future__ import annotations
+
+import tomllib
+from dataclasses import fields, replace
+from pathlib import Path
+from typing import Any
+from .base import ParameterError
+from .model import BLOCKS, BplirParams, preset
+
+
+# ---------------------------------------------------------------- TOML
+def from_dict(data: dict[str, Any], base: BplirParams | None = None) -> BplirParams:
+    """Build parameters from a nested dict (as read from TOML).
+
+    A top-level ``preset = "name"`` selects the base; every table overrides
+    fields of the block of the same name.
+    """
+    if not isinstance(data, dict):
+        raise ParameterError("parameter data must be a table of tables")
+    data = dict(data)
+    name = data.pop("preset", None)
+    if name is not None and not isinstance(name, str):
+        raise ParameterError(f"preset = {name!r} must be a string naming a preset")
+    params = preset(name) if name else (base or preset("dissertation"))
+    updates: dict[str, Any] = {}
+    for key, table in data.items():
+        if key not in BLOCKS:
+            raise ParameterError(
+                f"unknown parameter table '[{key}]'; allowed: " + ", ".join(BLOCKS))
+        if not isinstance(table, dict):
+            raise ParameterError(f"'{key}' must be a table ([{key}]), got {table!r}")
+        cls = BLOCKS[key]
+        if key.startswith("true_"):
+            current = getattr(params, key) or getattr(params, key[len("true_"):])
+        else:
+            current = getattr(params, key)
+        try:
+            updates[key] = cls.from_dict(table, base=current)
+        except ParameterError as exc:  # name the table the user wrote ([true_plant] ...)
+            if key != cls._name:
+                raise ParameterError(str(exc).replace(f"{cls._name}.", f"{key}.")) from None
+            raise
+        except TypeError as exc:  # pragma: no cover - defensive
+            raise ParameterError(f"[{key}]: {exc}") from None
+    try:
+        return replace(params, **updates)
+    except TypeError as exc:  # pragma: no cover - defensive
+        raise ParameterError(str(exc)) from None
+
+
+def read_toml(path: str | Path, what: str = "parameter file", error=ParameterError) -> dict:
+    """A TOML file as a dict; unreadable, binary, non-UTF-8 or malformed files
+    raise ``error`` with a one-line message naming the file (a UTF-8 BOM is
+    accepted)."""
+    from ..io import read_text
+
+    path = Path(path)
+    text = read_text(path, what, error)
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise error(f"malformed TOML in {path}: {exc}") from None
+
+
+def load_toml(path: str | Path) -> BplirParams:
+    """Read a parameter file; errors name the file and the problem."""
+    return from_dict(read_toml(path))
+
+
+def to_dict(params: BplirParams) -> dict[str, Any]:
+    """The parameters as a dict of tables (a TOML document)."""
+    out: dict[str, Any] = {"preset": params.preset_name}
+    for key in BLOCKS:
+        block = getattr(params, key)
+        if block is not None:
+            out[key] = block.as_dict()
+    return out
+
+
+def to_toml(params: BplirParams) -> str:
+    """The parameters as TOML text."""
+    import tomli_w
+
+    return tomli_w.dumps(to_dict(params))
+
+
+def save_toml(params: BplirParams, path: str | Path) -> None:
+    """Write the parameters as TOML at ``path`` (atomic)."""
+    from ..io import write_text_atomic
+
+    write_text_atomic(path, to_toml(params))
+
+
+def as_jsonable(params: BplirParams) -> dict[str, Any]:
+    """The parameters as JSON-ready data (= :func:`to_dict`)."""
+    return to_dict(params)

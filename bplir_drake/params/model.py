@@ -1,0 +1,208 @@
+"""The whole parameter set (BplirParams), the swapped robot, the presets and the parameter reference the docs are generated from."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field, fields, replace
+from typing import Any
+from .base import ParameterError, _is_plugin, _range_text
+from .robot import FrictionParams, MotorParams, PlantParams
+from .sensing import EstimatorParams, ImuParams, LineSensorParams
+from .control import ControllerParams, HARDWARE_OPTIONS, IMU_ONLY_TUNING, LINE_SENSOR_OPTION, PathParams
+from .scenario import DriveParams, ScenarioParams, TraverseParams
+
+
+@dataclass(frozen=True)
+class BplirParams:
+    """Everything one run needs.  ``plant``/``friction`` are the nominal
+    model; ``true_plant``/``true_friction`` (optional) are the simulated robot."""
+
+    plant: PlantParams = field(default_factory=PlantParams)
+    friction: FrictionParams = field(default_factory=FrictionParams)
+    motor: MotorParams = field(default_factory=MotorParams)
+    imu: ImuParams = field(default_factory=ImuParams)
+    estimator: EstimatorParams = field(default_factory=EstimatorParams)
+    controller: ControllerParams = field(default_factory=ControllerParams)
+    path: PathParams = field(default_factory=PathParams)
+    scenario: ScenarioParams = field(default_factory=ScenarioParams)
+    drive: DriveParams = field(default_factory=DriveParams)
+    traverse: TraverseParams = field(default_factory=TraverseParams)
+    line_sensor: LineSensorParams = field(default_factory=LineSensorParams)
+    true_plant: PlantParams | None = None
+    true_friction: FrictionParams | None = None
+    preset_name: str = "dissertation"
+
+    def __post_init__(self):
+        if (self.imu.r1 > (self.true_plant or self.plant).l1
+                or self.imu.r2 > (self.true_plant or self.plant).l2):
+            p = self.true_plant or self.plant
+            raise ParameterError(
+                f"imu.r1 = {self.imu.r1:g} m / imu.r2 = {self.imu.r2:g} m must lie on "
+                f"the links; allowed (0, {p.l1:g}] / (0, {p.l2:g}] m")
+        if self.estimator.r1 > self.estimator.l1:
+            raise ParameterError(
+                f"estimator.r1 = {self.estimator.r1:g} m exceeds estimator.l1 = "
+                f"{self.estimator.l1:g} m; allowed (0, l1]")
+
+    @property
+    def simulated_plant(self) -> PlantParams:
+        """The plant the simulator uses: ``true_plant`` or the nominal one."""
+        return self.true_plant if self.true_plant is not None else self.plant
+
+    @property
+    def simulated_friction(self) -> FrictionParams:
+        """The friction the simulator uses: ``true_friction`` or the nominal one."""
+        return self.true_friction if self.true_friction is not None else self.friction
+
+    def with_(self, **blocks) -> "BplirParams":
+        """A copy with whole blocks replaced."""
+        return replace(self, **blocks)
+
+    def resolved(self) -> "BplirParams":
+        """A copy whose ``path.mode`` is concrete (:meth:`PathParams.resolved`)."""
+        path = self.path.resolved(self.scenario.incline_deg, self.controller)
+        return self if path is self.path else replace(self, path=path)
+
+    def with_controller(self, name: str) -> "BplirParams":
+        """The controller preset ``name``; the ``lab`` firmware also brings its
+        own path (``path.mode = "lab"``), the others keep the path block.  A
+        ``module:factory`` name plugs in a user's controller
+        (``controller.plugin``; the preset's parameters stay as they are)."""
+        if _is_plugin(name):
+            return replace(self, controller=replace(self.controller, plugin=name))
+        path = replace(self.path, mode="lab") if name == "lab" else self.path
+        # the published robots sense the line with their IMUs alone
+        sensor = self.line_sensor if name == "qft" else replace(self.line_sensor, range=0.0)
+        return replace(self, controller=ControllerParams.preset_named(name), path=path,
+                       line_sensor=sensor)
+
+    def imu_only(self) -> "BplirParams":
+        """The robot without the jaw's line sensor (``line_sensor.range = 0``:
+        the IMUs alone), with the shooting landing's aim of that robot
+        (:data:`IMU_ONLY_TUNING`)."""
+        return replace(self, line_sensor=replace(self.line_sensor, range=0.0),
+                       path=replace(self.path, **IMU_ONLY_TUNING))
+
+    def with_hardware(self, *names: str) -> "BplirParams":
+        """The robot with the named hardware options (:data:`HARDWARE_OPTIONS`):
+        ``"line-sensor"`` (the jaw's line range sensor and the landing's aim
+        with it, :data:`LINE_SENSOR_OPTION`), ``"48v"`` (a 48 V supply)."""
+        p = self
+        for name in names:
+            if name == "line-sensor":
+                o = LINE_SENSOR_OPTION
+                p = replace(p, line_sensor=replace(p.line_sensor, range=o["range"]),
+                            path=replace(p.path, **{k: v for k, v in o.items() if k != "range"}))
+            elif name == "48v":
+                p = replace(p, motor=replace(p.motor, supply_voltage=48.0))
+            else:
+                raise ParameterError(f"unknown hardware option '{name}'; allowed: "
+                                     + ", ".join(HARDWARE_OPTIONS))
+        return p
+
+    def with_estimator(self, spec: str) -> "BplirParams":
+        """A user's estimator ``"module:factory"`` in the swing
+        (``estimator.plugin``) instead of the EKF; ``""`` restores the EKF."""
+        return replace(self, estimator=replace(self.estimator, plugin=spec))
+
+
+def swapped_plant(p: PlantParams) -> PlantParams:
+    """The plant seen from the other gripper: link 2 becomes the holding link
+    and link 1 the swinging one.  Lengths, masses and inertias trade places;
+    each centre of mass is measured from the other end of its link
+    (``lc1' = l2 - lc2``, ``lc2' = l1 - lc1``)."""
+    return replace(p, m1=p.m2, m2=p.m1, l1=p.l2, l2=p.l1, lc1=p.l2 - p.lc2,
+                   lc2=p.l1 - p.lc1, I1=p.I2, I2=p.I1)
+
+
+def swapped_imu(imu: ImuParams, plant: PlantParams) -> ImuParams:
+    """The IMUs seen from the other gripper: IMU 2 (on link 2, ``r2`` from the
+    elbow) is the new IMU 1 at ``l2 - r2`` from the new holding gripper, IMU 1
+    the new IMU 2 at ``l1 - r1`` from the elbow; each error follows its IMU
+    (a misalignment is an angle in the link's frame, which turns by pi with
+    the link's direction and keeps its value)."""
+    return replace(imu, r1=plant.l2 - imu.r2, r2=plant.l1 - imu.r1,
+                   gyro_bias1=imu.gyro_bias2, gyro_bias2=imu.gyro_bias1,
+                   misalign1=imu.misalign2, misalign2=imu.misalign1,
+                   accel_scale1=imu.accel_scale2, accel_scale2=imu.accel_scale1,
+                   gyro_scale1=imu.gyro_scale2, gyro_scale2=imu.gyro_scale1)
+
+
+def swapped(params: BplirParams) -> BplirParams:
+    """The robot holding with the gripper of link 2 (every second swing of a
+    traversal), derived from ``params``: the nominal and the simulated plant
+    swapped (:func:`swapped_plant`), the simulated IMUs moved with their links
+    (:func:`swapped_imu`, true link lengths), the estimator's geometry from the
+    nominal model (``l1' = l2``, ``r1' = l2 - r2``, ``r2' = l1 - r1``).
+    Friction stays: both wrists are the same joint hardware.  ``swapped``
+    twice gives ``params`` back when the estimator's ``l1`` is the nominal
+    link length (the dissertation preset; the lab firmware's 0.8 m is not)."""
+    nominal, true = params.plant, params.true_plant
+    est = params.estimator
+    return replace(
+        params, plant=swapped_plant(nominal),
+        true_plant=None if true is None else swapped_plant(true),
+        imu=swapped_imu(params.imu, params.simulated_plant),
+        estimator=replace(est, l1=nominal.l2, r1=nominal.l2 - est.r2, r2=est.l1 - est.r1))
+
+
+def parameter_reference(blocks=None) -> list[dict[str, Any]]:
+    """One row per parameter of the default set (``blocks``: the block names
+    to list, default all but the simulated robot's copies): block, name,
+    unit, allowed range, default and one-line meaning."""
+    base = BplirParams()
+    names = blocks or [b for b in BLOCKS if not b.startswith("true_")]
+    rows = []
+    for block in names:
+        if block not in BLOCKS or block.startswith("true_"):
+            raise ParameterError(f"unknown parameter block '{block}'; allowed: "
+                                 + ", ".join(b for b in BLOCKS if not b.startswith("true_")))
+        value = getattr(base, block)
+        for f in fields(value):
+            md = f.metadata
+            default = getattr(value, f.name)
+            if "lo" in md:
+                allowed = _range_text(dict(md, unit=""))
+            elif isinstance(default, bool):
+                allowed = "true, false"
+            else:
+                allowed = md.get("allowed", "")
+            rows.append({"block": block, "name": f.name, "unit": md.get("unit", ""),
+                         "range": allowed, "default": default, "doc": md.get("doc", "")})
+    return rows
+
+
+BLOCKS = {
+    "plant": PlantParams, "friction": FrictionParams, "motor": MotorParams,
+    "imu": ImuParams, "estimator": EstimatorParams, "controller": ControllerParams,
+    "path": PathParams, "scenario": ScenarioParams, "drive": DriveParams,
+    "traverse": TraverseParams, "line_sensor": LineSensorParams,
+    "true_plant": PlantParams, "true_friction": FrictionParams,
+}
+
+
+# ---------------------------------------------------------------- presets
+def _dissertation() -> BplirParams:
+    return BplirParams(preset_name="dissertation")
+
+
+def _lab() -> BplirParams:
+    """The lab prototype: the estimator geometry of the firmware (r1 = r2 =
+    0.5 m, l1 = 0.8 m while the calibrated link is 0.9091 m) and the firmware
+    controller (the lab firmware of the dissertation's robot)."""
+    return BplirParams(
+        estimator=EstimatorParams(r1=0.5, r2=0.5, l1=0.8),
+        controller=ControllerParams.preset_named("lab"),
+        line_sensor=LineSensorParams(range=0.0),
+        preset_name="lab",
+    )
+
+
+PRESETS = {"dissertation": _dissertation, "lab": _lab}
+
+
+def preset(name: str = "dissertation") -> BplirParams:
+    """A named parameter set: ``dissertation`` (Table 4.3) or ``lab``."""
+    try:
+        return PRESETS[name]()
+    except KeyError:
+        raise ParameterError(
+            f"unknown preset '{name}'; allowed: " + ", ".join(PRESETS)) from None

@@ -1,0 +1,95 @@
+"""What one swing and one traversal face: the line's geometry, success thresholds, disturbances and seeds; the wrist-wheel drive and the traversal's settings."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from .base import ParameterError, _Block, _fraction, _p, _positive
+from .control import LANDING_LAWS
+
+
+# ---------------------------------------------------------------- scenario
+@dataclass(frozen=True)
+class ScenarioParams(_Block):
+    """One swing: geometry of the line, thresholds of success, noise seeds."""
+
+    _name = "scenario"
+    grip_spacing: float = _positive(1.2, "m", doc="distance D between the grippers on the line")
+    incline_deg: float = _p(0.0, "deg", -90, 90, lo_open=True, hi_open=True,
+                            doc="line incline (positive: rising in the direction of travel)")
+    max_time: float = _p(3.0, "s", 0, 60, lo_open=True, doc="timeout of one swing")
+    capture_distance: float = _positive(0.02, "m", doc="gripper-to-line distance that counts as arrival")
+    capture_speed: float = _positive(0.5, "m/s", doc="largest gripper speed at arrival (faster is a crash)")
+    min_travel_fraction: float = _p(0.8, "", 0, 2, lo_open=True, doc="arrival must be at least this fraction of D along the line")
+    friction_uncertainty: float = _p(0.2, "", 0, 0.99, doc="simulated friction drawn within +/- this fraction of nominal")
+    wind_torque1: float = _p(0.0, "N m", -20, 20, doc="constant external torque on joint 1 (wind)")
+    wind_torque2: float = _p(0.0, "N m", -20, 20, doc="constant external torque on joint 2 (wind)")
+    gust_torque: float = _p(0.0, "N m", 0, 20, doc="peak torque of random gusts on each joint")
+    gust_rate: float = _p(0.0, "1/s", 0, 100, doc="mean number of gusts per second (Poisson)")
+    gust_duration: float = _p(0.1, "s", 0, 1, lo_open=True, doc="duration of one gust")
+    torque_noise: float = _p(0.0, "N m", 0, 20, doc="white noise on the applied elbow torque (per controller period)")
+    actuation_delay: float = _p(0.0, "s", 0, 0.2, doc="extra delay of the torque command (whole controller periods)")
+    seed: int = field(default=0, metadata=dict(doc="seed of the swing's random draws (sensor noise, gusts, the simulated friction)", allowed="[0, 2^32)"))
+    use_estimator: bool = field(default=True, metadata=dict(doc="the controller reads the EKF's estimate (false: the true state sampled at its tick)"))
+    wall_limit: float = _p(300.0, "s", 0, 86400, lo_open=True, doc="wall-clock time one swing may take before it is stopped as a fault (a hung plug-in); not physics")
+
+    def _check(self):
+        if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
+            raise ParameterError(
+                f"scenario.seed = {self.seed!r} must be a whole number >= 0")
+
+
+# ---------------------------------------------------------------- traversal
+TRAVERSE_SWING_MODES = ("plan", "params")
+
+
+@dataclass(frozen=True)
+class DriveParams(_Block):
+    """The wrist-wheel drive that rides the line between obstacles (ours: the
+    dissertation names the wheels, chapter 1, but gives no drive data).  A
+    trapezoidal speed profile within the speed, acceleration and power limits;
+    rolling resistance and the climb are paid at ``efficiency``, nothing is
+    recovered downhill."""
+
+    _name = "drive"
+    max_speed: float = _p(0.3, "m/s", 0, 2, lo_open=True, doc="riding speed limit")
+    max_accel: float = _p(0.2, "m/s^2", 0, 5, lo_open=True, doc="riding acceleration limit")
+    rolling_resistance: float = _p(0.02, "", 0, 0.5, doc="rolling resistance coefficient of the wheels on the conductor")
+    efficiency: float = _fraction(0.6, doc="electrical-to-mechanical efficiency of the wheel drive")
+    power_limit: float = _positive(60.0, "W", doc="largest electrical power of the wheel drive (limits the speed uphill)")
+    standby_power: float = _p(5.0, "W", 0, 200, doc="electronics (IMUs, controller, radio) at all times")
+    adjust_speed: float = _p(0.05, "m/s", 0, 1, lo_open=True, doc="speed of one wheel setting the grip spacing while the other gripper clamps")
+
+
+@dataclass(frozen=True)
+class TraverseParams(_Block):
+    """Crossing a stretch of line (``bplir traverse``): the grip spacing every
+    swing is set up at, the margins the planner keeps to obstacles, how swings
+    are controlled and when the robot rests for the driver's i^2 t budget."""
+
+    _name = "traverse"
+    grip_spacing: float = _p(1.2, "m", 0.5, 2.0, doc="grip spacing every swing is set up at (the swing lands about this far ahead of the holding gripper)")
+    clearance: float = _p(0.05, "m", 0, 1, doc="gap kept between a clasped gripper and an obstacle")
+    gripper_width: float = _p(0.08, "m", 0, 0.5, doc="length of line a clasped gripper covers")
+    landing_tolerance: float = _p(0.08, "m", 0, 1, doc="planned landings lie at least this much further from obstacles (the swing's landing error)")
+    swing_mode: str = field(default="plan", metadata=dict(doc="how traversal swings are steered: plan (plan tracking) or the path generator (adaptive)", allowed="plan, adaptive"))
+    plan_end_depth: float = _p(0.013, "m", 0, 0.02, doc="swing_mode 'plan': the planned swing comes to rest this far below the line (path.plan_end_depth of every traversal swing)")
+    # swing_mode 'plan': the single swing's apex landing and delay compensation
+    # (path.landing_*, path.plan_delay_compensation) on every traversal swing
+    landing: bool = field(default=True, metadata=dict(doc="traversal swings end with the single swing's landing law"))
+    swapped_landing_margin: float = _p(0.0, "m", 0, 0.1, doc="path.landing_margin of the swings holding with gripper 2")
+    swapped_landing_law: str = field(default="shoot", metadata=dict(doc="path.landing_law of the swings holding with gripper 2 (the swapped robot)", allowed="auto, shoot, aim"))
+    swapped_shoot_min_time: float = _p(0.06, "s", 0.02, 0.5, doc="path.shoot_min_time of the swings holding with gripper 2")
+    swapped_shoot_height: float = _p(-0.015, "m", -0.02, 0, doc="path.shoot_height of the swings holding with gripper 2")
+    swapped_line_range: float = _p(0.0, "m", 0, 1, doc="the largest line_sensor.range of the swings holding with gripper 2 (0: they estimate with the IMUs alone)")
+    swapped_inflate_nis: float = _p(0.0, "", 0, 1000, doc="estimator.loop_inflate_nis of the swings holding with gripper 2 (0: no inflation; its large landing corrections read as model error)")
+    landing_learning: float = _p(0.5, "", 0, 1, doc="each swing aims this share of the mean landing height error of the earlier captures holding with the same gripper higher (0: no learning)")
+    rest: bool = field(default=True, metadata=dict(doc="rest before a swing until the driver's i^2 t state allows the planned swing"))
+    i2t_margin: float = _p(0.2, "", 0, 0.9, doc="share of the driver's i^2 t budget a swing may not use: the planner rests until the planned swing keeps this share free")
+    max_incline_deg: float = _p(25.0, "deg", 0, 60, doc="steepest line incline accepted in a line file")
+
+    def _check(self):
+        if self.swapped_landing_law not in LANDING_LAWS:
+            raise ParameterError(f"traverse.swapped_landing_law = '{self.swapped_landing_law}' "
+                                 "is unknown; allowed: " + ", ".join(LANDING_LAWS))
+        if self.swing_mode not in TRAVERSE_SWING_MODES:
+            raise ParameterError(f"traverse.swing_mode = '{self.swing_mode}' is unknown; "
+                                 "allowed: " + ", ".join(TRAVERSE_SWING_MODES))

@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from .csvfile import numeric_columns
-from .io import atomic_path
+from .io import Result, atomic_path
 from .params import EstimatorParams
 from .systems.ekf import (EkfState, correct_sample, ekf_predict, ekf_update, initial_state,
                           prediction_input, split_sample, state_layout)
@@ -54,7 +54,7 @@ class ImuLog:
 
 
 @dataclass
-class EstimateResult:
+class EstimateResult(Result):
     """The filter over a log: times (s), absolute estimate (N, 4), covariance diagonal, gyro-bias
     estimate (rad/s), the gyro-integral baseline (5.41), skipped rows."""
     t: np.ndarray
@@ -82,6 +82,16 @@ class EstimateResult:
     smoothed_imu_position: np.ndarray | None = None
     #: where each state sits in ``cov_diag`` (:func:`~bplir_drake.systems.ekf.state_layout`)
     layout: dict | None = None
+
+    def summary(self) -> dict:
+        """Samples, span, skipped updates, the final estimate and gyro bias,
+        the NIS check (and the smoother's start) as JSON-ready numbers."""
+        out = {"samples": int(len(self.t)), "duration_s": float(self.t[-1] - self.t[0]),
+               "skipped_updates": self.skipped, "final_estimate": self.x[-1].tolist(),
+               "final_gyro_bias": self.gyro_bias[-1].tolist(), "nis": self.nis_check()}
+        if self.smoothed is not None:
+            out["smoothed_start"] = self.smoothed[0].tolist()
+        return out
 
     def nis_check(self, confidence: float = 0.95) -> dict:
         """The mean NIS against its two-sided ``confidence`` band: for a
@@ -291,29 +301,37 @@ def estimate(t, samples, params: EstimatorParams, x0=(0.0, 0.0, 0.0, 0.0), *,
         more[k] = s.x[4:]
     bar.close()
 
-    def group(X, name, first=4):
-        if name not in layout:
-            return None
-        cut = layout[name]
-        return X[:, cut.start - first:cut.stop - first]
-
     base = gyro_integral(t, samples, x0, bias0)
-    bias = group(more, "bias")
+    bias = _columns(more, layout, "bias")
     result = EstimateResult(t, xs, covs, np.zeros((N, 2)) if bias is None else bias, base,
-                            int(skip.sum()), nis, misalignment=group(more, "misalign"),
-                            gyro_scale=group(more, "scale"),
-                            imu_position=group(more, "position"), layout=dict(layout))
+                            int(skip.sum()), nis,
+                            misalignment=_columns(more, layout, "misalign"),
+                            gyro_scale=_columns(more, layout, "scale"),
+                            imu_position=_columns(more, layout, "position"), layout=dict(layout))
     if smooth:
-        sm = rts_smooth(priors, posteriors, jacobians)
-        X = np.array([e.x for e in sm])
-        result.smoothed = X[:, :4]
-        result.smoothed_cov_diag = np.array([np.diag(e.P) for e in sm])
-        bias = group(X, "bias", 0)
-        result.smoothed_bias = np.zeros((N, 2)) if bias is None else bias
-        result.smoothed_misalignment = group(X, "misalign", 0)
-        result.smoothed_gyro_scale = group(X, "scale", 0)
-        result.smoothed_imu_position = group(X, "position", 0)
+        _attach_smoothed(result, rts_smooth(priors, posteriors, jacobians), layout)
     return result
+
+
+def _columns(X, layout: dict, name: str, first: int = 4):
+    """The columns of state group ``name`` in ``X`` (whose column 0 is state
+    ``first``); None when the filter has no such group."""
+    if name not in layout:
+        return None
+    cut = layout[name]
+    return X[:, cut.start - first:cut.stop - first]
+
+
+def _attach_smoothed(result: EstimateResult, smoothed: list, layout: dict) -> None:
+    """Put the smoother's states, variances and calibration states on ``result``."""
+    X = np.array([e.x for e in smoothed])
+    result.smoothed = X[:, :4]
+    result.smoothed_cov_diag = np.array([np.diag(e.P) for e in smoothed])
+    bias = _columns(X, layout, "bias", 0)
+    result.smoothed_bias = np.zeros((len(X), 2)) if bias is None else bias
+    result.smoothed_misalignment = _columns(X, layout, "misalign", 0)
+    result.smoothed_gyro_scale = _columns(X, layout, "scale", 0)
+    result.smoothed_imu_position = _columns(X, layout, "position", 0)
 
 
 def rts_smooth(priors, posteriors, jacobians) -> list[EkfState]:

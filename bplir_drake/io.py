@@ -156,3 +156,29 @@ def package_version() -> str:
         return version("bplir-drake")
     except PackageNotFoundError:   # pragma: no cover - not installed
         return "unknown"
+
+
+# ------------------------------------------------------------------ results
+class Result:
+    """What every result object offers (like python-control's response
+    objects): a dataclass of computed data with ``summary()`` (JSON-ready
+    numbers), ``to_dict()`` (what the command line writes), ``to_json()``
+    (strict JSON) and ``plot(axes=None)`` (draws, returns the figure).
+    Mixin of the result dataclasses: ``to_dict`` from ``summary()``,
+    ``to_json``; subclasses define ``summary`` and ``plot``."""
+
+    def summary(self) -> dict:  # pragma: no cover - defined by every result
+        """The JSON-ready numbers of this result."""
+        raise NotImplementedError
+
+    def to_dict(self) -> dict:
+        """The JSON-ready summary of this result."""
+        return self.summary()
+
+    def to_json(self) -> str:
+        """:meth:`to_dict` as strict JSON text (NaN and infinity as null)."""
+        return dumps_strict(self.to_dict())
+
+    def plot(self, axes=None):  # pragma: no cover - defined by every result
+        """Draw this result on ``axes`` (new figure when None); returns the figure."""
+        raise NotImplementedError

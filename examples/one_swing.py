@@ -1,6 +1,6 @@
 """Run one swing and print its summary (copy and adapt)."""
 from bplir_drake.analysis.swing.run import run_swing
-from bplir_drake.analysis.plotting import save_figure
+from bplir_drake.plotting import save_figure
 from bplir_drake.params import preset
 
 params = preset("dissertation")

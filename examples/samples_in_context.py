@@ -7,7 +7,7 @@ diagram once and writes each sample into a fresh context.
 from matplotlib.figure import Figure
 
 from bplir_drake.analysis.montecarlo import Distribution, Study, sample_params
-from bplir_drake.analysis.plotting import save_figure
+from bplir_drake.plotting import save_figure
 from bplir_drake.analysis.swing import SwingRunner
 from bplir_drake.params import preset
 

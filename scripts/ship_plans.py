@@ -26,7 +26,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 def scenarios():
     """(plans to solve, plans whose gains ship) as callables returning a plan."""
-    from bplir_drake.analysis.swing import plan as P
+    from bplir_drake.diagrams import plan as P
     from bplir_drake.analysis.traverse.line import load_line
     from bplir_drake.analysis.traverse.route import plan_route
     from bplir_drake.analysis.traverse.run import swing_params
@@ -65,8 +65,8 @@ def main(argv=None) -> int:
     cache = Path(args.cache) if args.cache else Path(tempfile.mkdtemp(prefix="bplir-plans-"))
     cache.mkdir(parents=True, exist_ok=True)
     os.environ["BPLIR_CACHE_DIR"] = str(cache)
-    from bplir_drake.analysis.swing import plan as P
-    from bplir_drake.analysis.swing.plan_cache import PACKAGED
+    from bplir_drake.diagrams import plan as P
+    from bplir_drake.diagrams.plan_cache import PACKAGED
 
     plans, tracked = scenarios()
     if args.check:

@@ -4,6 +4,8 @@ errors and noise seed, wind and gusts), and running it through a reused
 diagram gives exactly what a freshly built diagram gives."""
 from dataclasses import replace
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -47,9 +49,8 @@ def test_three_samples_through_one_diagram_equal_three_fresh_builds():
 
 def test_a_structural_change_is_refused_and_rebuilt():
     p = BplirParams()
-    with pytest.raises(ValueError, match="swing_diagram"):   # the default tracks a plan
-        build_swing(p, seed=0)
     built = swing_diagram(p, seed=0)
+    assert build_swing(p, seed=0).structure == built.structure   # gains fetched by either
     ctx = built.diagram.CreateDefaultContext()
     other = p.with_(scenario=replace(p.scenario, grip_spacing=1.3))   # a shipped plan
     assert swing_structure(other, True) != built.structure
@@ -69,7 +70,7 @@ def test_results_plot_on_the_callers_axes_and_serialise(tmp_path):
     from matplotlib.figure import Figure
 
     from bplir_drake.analysis.model.freeswing import simulate_free_swing
-    from bplir_drake.analysis.plotting import save_figure
+    from bplir_drake.plotting import save_figure
 
     res = simulate_free_swing(BplirParams(), (0.5, 0.2), 1.0)
     own = res.plot()
@@ -114,15 +115,16 @@ def test_every_public_definition_has_a_docstring():
 
 
 # what each layer may import from the package (ARCHITECTURE.md): imports only go down
-LAYERS = {"io": set(), "progress": set(), "csvfile": {"io"}, "params": {"io"},
+LAYERS = {"io": set(), "progress": set(), "csvfile": {"io"}, "plotting": {"io"},
+          "params": {"io"},
           "systems": {"params", "io"},
-          "diagrams": {"params", "io", "systems"},
+          "diagrams": {"params", "io", "progress", "plotting", "systems"},
           "simulate": {"params", "io", "systems"},
           "estimation": {"params", "io", "csvfile", "progress", "systems"},
-          "analysis": {"params", "io", "csvfile", "progress", "systems", "diagrams", "simulate",
-                       "estimation"},
-          "cli": {"params", "io", "csvfile", "progress", "systems", "diagrams", "simulate",
-                  "estimation", "analysis"}}
+          "analysis": {"params", "io", "csvfile", "progress", "plotting", "systems", "diagrams",
+                       "simulate", "estimation"},
+          "cli": {"params", "io", "csvfile", "progress", "plotting", "systems", "diagrams",
+                  "simulate", "estimation", "analysis"}}
 
 
 def test_imports_only_go_down_the_layers():
@@ -144,3 +146,108 @@ def test_imports_only_go_down_the_layers():
                 if top and top != layer and top not in LAYERS[layer]:
                     wrong.append(f"{rel}:{n.lineno} imports {'.'.join(target)}")
     assert not wrong, "\n".join(wrong)
+
+
+def test_the_default_robot_builds_and_swings_without_the_analysis_package():
+    """``build_swing(BplirParams())`` in a fresh interpreter: the plan's gains
+    come from the layer below analysis, the default context is the swing,
+    and a plain ``Simulator`` flies it to a capture -- with no module of
+    ``bplir_drake.analysis`` ever imported."""
+    import subprocess
+    import sys
+
+    code = (
+        "import sys\n"
+        "from pydrake.systems.analysis import Simulator\n"
+        "from bplir_drake.diagrams import build_swing\n"
+        "from bplir_drake.params import BplirParams\n"
+        "built = build_swing(BplirParams())\n"
+        "sim = Simulator(built.diagram)\n"
+        "sim.get_mutable_integrator().set_maximum_step_size(0.01)\n"
+        "sim.AdvanceTo(BplirParams().scenario.max_time + 0.02)\n"
+        "lock = built.systems['interlock']\n"
+        "print(lock.outcome(sim.get_context()))\n"
+        "print(sorted(m for m in sys.modules if m.startswith('bplir_drake.analysis')))\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout.splitlines()
+    assert out == ["captured", "[]"]
+
+
+def _import_graph() -> dict[str, set[str]]:
+    """Every module of the package and the package modules it imports
+    (relative imports, function-local ones included), by dotted name."""
+    import ast
+
+    pkg_root = Path(__file__).resolve().parents[1] / "bplir_drake"
+    names = {}
+    for path in pkg_root.rglob("*.py"):
+        parts = ("bplir_drake",) + path.relative_to(pkg_root).with_suffix("").parts
+        names[".".join(parts[:-1] if parts[-1] == "__init__" else parts)] = (path, parts)
+    graph = {}
+    for name, (path, parts) in names.items():
+        package = list(parts[:-1])
+        edges = set()
+        for n in ast.walk(ast.parse(path.read_text())):
+            if not (isinstance(n, ast.ImportFrom) and n.level):
+                continue
+            base = package[:len(package) - (n.level - 1)]
+            target = base + (n.module.split(".") if n.module else [])
+            for alias in n.names:   # "from . import x" may name a module
+                sub = ".".join(target + [alias.name])
+                edges.add(sub if sub in names else ".".join(target))
+        graph[name] = {e for e in edges if e in names and e != name}
+    return graph
+
+
+def test_no_import_circle_between_modules():
+    """No module imports, directly or through others, a module that imports
+    it -- function-local imports included (a circle hidden by a local import
+    still ties the two modules together)."""
+    graph = _import_graph()
+    index, low, stack, on, circles = {}, {}, [], set(), []
+
+    def visit(v):   # Tarjan's strongly connected components
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on.add(v)
+        for w in graph[v]:
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            comp = []
+            while True:
+                w = stack.pop()
+                on.discard(w)
+                comp.append(w)
+                if w == v:
+                    break
+            if len(comp) > 1:
+                circles.append(sorted(comp))
+
+    import sys
+    sys.setrecursionlimit(10000)
+    for v in graph:
+        if v not in index:
+            visit(v)
+    assert not circles, circles
+
+
+def test_modules_and_functions_stay_small():
+    """No module of the package over 450 lines, no function over 80."""
+    import ast
+
+    root = Path(__file__).resolve().parents[1] / "bplir_drake"
+    big = []
+    for path in root.rglob("*.py"):
+        text = path.read_text()
+        if len(text.splitlines()) > 450:
+            big.append(f"{path.relative_to(root)}: {len(text.splitlines())} lines")
+        for n in ast.walk(ast.parse(text)):
+            if isinstance(n, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                size = n.end_lineno - n.lineno + 1
+                if size > 80:
+                    big.append(f"{path.relative_to(root)}:{n.lineno} {n.name}: {size} lines")
+    assert not big, "\n".join(big)

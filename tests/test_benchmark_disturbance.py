@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from bplir_drake.analysis.plotting import save_figure
+from bplir_drake.plotting import save_figure
 from bplir_drake.cli import main
 from bplir_drake.systems.disturbance import CommandDelay, disturbance_schedule
 

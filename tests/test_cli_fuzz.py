@@ -61,7 +61,7 @@ def stopped_work(monkeypatch, tmp_path):
 
     from bplir_drake import estimation
     from bplir_drake.analysis import montecarlo
-    from bplir_drake.analysis.swing import plan
+    from bplir_drake.diagrams import plan
 
     monkeypatch.setattr(Simulator, "AdvanceTo", _stop)
     monkeypatch.setattr(plan, "_solve_plan", _stop)

@@ -9,8 +9,9 @@ from pydrake.systems.primitives import ConstantVectorSource
 
 from bplir_drake.params import PlantParams, ScenarioParams
 from bplir_drake.systems.gripper import OUTCOMES, GripperInterlock, LineGeometry, line_metrics
-from bplir_drake.systems.path import (PathGenerator, PathGeometry, path_q2, predict_rate_squared,
+from bplir_drake.systems.path import (PathGeometry, path_q2, predict_rate_squared,
                                       q2_line_seeking)
+from bplir_drake.systems.path_generator import PathGenerator
 from bplir_drake.systems.plant import gripper_position, initial_configuration
 
 

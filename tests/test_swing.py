@@ -6,7 +6,7 @@ from concurrent.futures import ProcessPoolExecutor
 import numpy as np
 import pytest
 
-from bplir_drake.analysis.plotting import save_figure
+from bplir_drake.plotting import save_figure
 from bplir_drake.analysis.swing.run import run_swing
 from bplir_drake.cli import main
 

@@ -1,4 +1,4 @@
-"""Trajectory-optimised swing plans (analysis/swing/plan.py, `bplir plan`):
+"""Trajectory-optimised swing plans (diagrams/plan.py, `bplir plan`):
 is the 20 degree uphill swing feasible within the motor's 220 W rating?"""
 import dataclasses as dc
 import json
@@ -9,8 +9,8 @@ import pytest
 
 matplotlib.use("Agg")
 
-from bplir_drake.analysis.plotting import save_figure  # noqa: E402
-from bplir_drake.analysis.swing.plan import plan_swing  # noqa: E402
+from bplir_drake.plotting import save_figure  # noqa: E402
+from bplir_drake.diagrams.plan import plan_swing  # noqa: E402
 from bplir_drake.cli import main  # noqa: E402
 from bplir_drake.diagrams import swing_geometry  # noqa: E402
 from bplir_drake.params import BplirParams  # noqa: E402

@@ -460,7 +460,7 @@ def test_the_rest_planner_budgets_the_landing_at_the_torque_limit():
     within the shooting landing's 30 cm of the line; the delay probe's
     torques on the first eight ticks; without a landing the plan's and the
     probe's alone."""
-    from bplir_drake.analysis.swing.plan import tracking_plan
+    from bplir_drake.diagrams.plan import tracking_plan
     from bplir_drake.analysis.traverse.run import budgeted_currents, swing_params
     from bplir_drake.systems.delay_id import probe_torques
     from bplir_drake.systems.motor import max_torque

@@ -5,7 +5,7 @@ import argparse
 import math
 import sys
 from pathlib import Path
-from ..analysis.plotting import save_figure
+from ..plotting import save_figure
 from ..io import check_output_dir, dumps_strict, write_json_atomic
 from ..params import ParameterError
 

@@ -1,7 +1,7 @@
 """``bplir estimate``: the kinematic EKF over an IMU log."""
 from __future__ import annotations
 
-from ..analysis.plotting import save_figure
+from ..plotting import save_figure
 from ..io import check_output_file
 from .common import InputError, _dpi, _emit, _floats, _in_range, _load_params, _progress
 from .options import command, option
@@ -39,14 +39,7 @@ def cmd_estimate(args) -> int:
     log = read_imu_csv(args.log)
     res = estimate(log.t, log.samples, est, x0, calibrate_window=args.calibrate,
                    progress=_progress(args), smooth=args.smooth)
-    summary = {"samples": int(len(res.t)), "duration_s": float(res.t[-1] - res.t[0]),
-               "skipped_updates": res.skipped,
-               "final_estimate": res.x[-1].tolist(),
-               "final_gyro_bias": res.gyro_bias[-1].tolist(),
-               "nis": res.nis_check(),
-               "geometry": {"r1": est.r1, "r2": est.r2, "l1": est.l1}}
-    if args.smooth:
-        summary["smoothed_start"] = res.smoothed[0].tolist()
+    summary = res.summary() | {"geometry": {"r1": est.r1, "r2": est.r2, "l1": est.l1}}
     calibration = []
     if args.self_calibrate:
         from ..analysis.estimation.observability import calibration_identifiability
@@ -55,20 +48,8 @@ def cmd_estimate(args) -> int:
         summary["self_calibration"] = calibration
     if args.out:
         summary["estimate_csv"] = str(write_estimate_csv(res, args.out))
-    truth = _logged_truth(log)
-    if truth is not None:   # encoders in the log: line their clock up with the IMU's
-        from ..analysis.estimation.study import angle_rmse
-        from ..estimation import aligned_truth, encoder_lead
-
-        lead = encoder_lead(log.t, truth, log.samples)
-        summary["encoder_lead_s"] = lead
-        if lead is not None:
-            truth = aligned_truth(log.t, truth, lead)
-            summary["angle_rmse_rad"] = angle_rmse(res.t, res.x[:, :2], truth[:, :2],
-                                                   after=0.0).tolist()
-            if args.smooth:
-                summary["smoothed_angle_rmse_rad"] = angle_rmse(
-                    res.t, res.smoothed[:, :2], truth[:, :2], after=0.0).tolist()
+    truth, compared = _encoder_comparison(log, res)
+    summary |= compared
     if args.plot:
         fig = plot_estimate(res.t, res.x, res.gyro_integral,
                             truth=None if truth is None else truth[:, :2])
@@ -97,6 +78,27 @@ def cmd_estimate(args) -> int:
            if summary.get("encoder_lead_s") is not None else [])
         + [f"{k}: {summary[k]}" for k in ("estimate_csv", "plot", "report") if k in summary])
     return 0
+
+
+def _encoder_comparison(log, res):
+    """(encoder angles on the IMU's clock or None, their lead and the angle
+    RMSE of the estimate and of the smoother) when the log has encoders."""
+    truth = _logged_truth(log)
+    if truth is None:
+        return None, {}
+    from ..analysis.estimation.study import angle_rmse
+    from ..estimation import aligned_truth, encoder_lead
+
+    lead = encoder_lead(log.t, truth, log.samples)   # line the two clocks up
+    out = {"encoder_lead_s": lead}
+    if lead is not None:
+        truth = aligned_truth(log.t, truth, lead)
+        out["angle_rmse_rad"] = angle_rmse(res.t, res.x[:, :2], truth[:, :2],
+                                           after=0.0).tolist()
+        if res.smoothed is not None:
+            out["smoothed_angle_rmse_rad"] = angle_rmse(res.t, res.smoothed[:, :2],
+                                                        truth[:, :2], after=0.0).tolist()
+    return truth, out
 
 
 def _logged_truth(log):

@@ -13,7 +13,7 @@ def cmd_plan(args) -> int:
 
     import numpy as np
 
-    from ..analysis.swing.plan import plan_swing, plot_plan
+    from ..diagrams.plan import plan_swing, plot_plan
 
     params = _load_params(args)
     if args.incline is not None:

@@ -52,6 +52,8 @@ from ..systems.motor import MotorDriver
 from ..systems.plant import INERTIAL_FIELDS, absolute_from_relative, set_inertial_parameters
 from ..systems.schedule import TickLogger
 from .parts import Built, add_imus, add_plant_with_friction, sampled
+from .swing_controller import (  # noqa: F401 (re-exported)
+    add_swing_controller)
 
 #: the parameter fields a context carries (:func:`set_swing_sample`), by
 #: block (the disturbance fields only when the built swing has disturbances)
@@ -228,120 +230,6 @@ def add_sensing(builder, params: BplirParams, robot: Robot, q0, seed: int, estim
     return sampler, ekf, ekf.GetOutputPort("estimate_relative")
 
 
-def add_swing_controller(builder, params: BplirParams, state_port, robot: Robot, path_geometry,
-                         plan_gains=None, controller=None, imu_port=None,
-                         q0=None) -> dict[str, Any]:
-    """The swing controller, reading ``state_port`` (the estimate or the
-    sampled true state): a user's (``controller``, a factory, or
-    ``controller.plugin``: :mod:`.plugin`) as ``{"controller": system}``;
-    by ``path.mode``,
-    ``{"controller": PlanTracker}`` for
-    ``"plan"`` (Drake's finite-horizon LQR along a planned swing,
-    ``plan_gains``), else ``{"path": PathGenerator, "controller":
-    CpflController}``, both reading the state predicted over
-    ``controller.delay_compensation`` (a :class:`DelayPredictor`, also
-    returned) when that is set; the plan tracker over
-    ``path.plan_delay_compensation`` when it is not (the lab firmware's
-    10 ms by default), indexing the plan as much later.  With
-    ``path.plan_delay_probe`` (and ``imu_port``, the IMU samples, and
-    ``q0``, the start pose the robot believes, :func:`believed_start`) the
-    plan tracker probes the delay and a
-    :class:`~bplir_drake.systems.delay_id.DelayIdentifier` (also returned,
-    ``"delay_id"``) identifies it; the tracker and the predictor then
-    compensate the identified delay.  Every system uses the nominal
-    model."""
-    T = params.controller.period
-    if controller is not None or params.controller.plugin:
-        from .plugin import make_plugin
-
-        ctrl = builder.AddNamedSystem("controller", make_plugin(params, "controller", controller))
-        builder.Connect(state_port, ctrl.GetInputPort("state"))
-        if ctrl.HasInputPort("torque_available"):
-            builder.Connect(robot.motor.GetOutputPort("available"),
-                            ctrl.GetInputPort("torque_available"))
-        return {"controller": ctrl}
-    assumed = params.controller.delay_compensation
-    if params.path.mode == "plan" and not assumed:
-        assumed = params.path.plan_delay_compensation
-    steps = delay_steps(assumed, T)
-    pp = params.path
-    probe = planned_probe(pp, params.controller) if imu_port is not None else ()
-    identify = bool(probe)
-    predictor = identifier = None
-    size = steps   # the predictor's ticks (with identification: the most it may need)
-    if identify:
-        from ..systems.delay_id import DelayIdentifier
-
-        size = max(delay_steps(pp.plan_delay_max, T), 1)
-        identifier = builder.AddNamedSystem("delay_id", DelayIdentifier(
-            q0, params.plant, params.friction, params.motor, T,
-            params.controller.compute_latency, size, min(steps, size),
-            int(round(pp.plan_delay_window)), pp.plan_delay_min_ratio))
-        builder.Connect(imu_port, identifier.imu_port)
-    if size:
-        from ..systems.predictor import DelayPredictor
-
-        predictor = builder.AddNamedSystem("predictor", DelayPredictor(
-            params.plant, params.friction, T, size, adaptive=identify))
-        if identify:
-            builder.Connect(identifier.GetOutputPort("delay_steps"), predictor.steps_port)
-        builder.Connect(state_port, predictor.estimate_port)
-        state_port = predictor.predicted_port
-    if params.path.mode == "plan":
-        from ..systems.plan_tracker import (ApexShot, Landing, PlanTracker, Reach,
-                                            resolved_landing)
-
-        if plan_gains is None:
-            raise ValueError("path.mode = 'plan' (the qft preset's default) needs the tracking "
-                             "gains of a planned swing: plan_gains=tracking_plan(params)[1] "
-                             "(bplir_drake.analysis.swing.plan), or build with "
-                             "bplir_drake.analysis.swing.swing_diagram(params)")
-        law = pp.landing_law
-        if law == "auto":   # resolved on the plan's own samples (the breaks of x0), as
-            # the traversal's current budget resolves it: the two cannot disagree
-            law, pp = resolved_landing(params.plant, path_geometry.alpha,
-                                       plan_gains.x0.vector_values(
-                                           plan_gains.x0.get_segment_times()).T, pp)
-        reach = None   # the terminal law: the apex landing, the reach or none
-        if pp.landing_lead > 0 and law == "shoot":
-            reach = ApexShot.from_params(params.plant, params.friction, path_geometry.alpha, pp)
-        elif pp.landing_lead > 0:
-            reach = Landing.from_params(params.plant, path_geometry.alpha, pp)
-        elif pp.reach_speed > 0:
-            reach = Reach.from_params(params.plant, path_geometry.alpha, pp)
-        tracker = builder.AddNamedSystem("plan_tracker", PlanTracker(
-            plan_gains, params.controller.torque_limit, T, indexing=pp.plan_indexing,
-            reach=reach, lead=steps * T, probe=probe, adaptive_lead=identify,
-            motor=params.motor))
-        builder.Connect(state_port, tracker.get_input_port(0))
-        out = {"controller": tracker}
-        if identifier is not None:
-            builder.Connect(identifier.GetOutputPort("delay_steps"), tracker.steps_port)
-            builder.Connect(tracker.GetOutputPort("torque"), identifier.command_port)
-            out["delay_id"] = identifier
-        if predictor is not None:
-            builder.Connect(tracker.GetOutputPort("torque"), predictor.command_port)
-            out["predictor"] = predictor
-        return out
-    from ..systems.path import PathGenerator
-
-    fv1 = params.friction.fv1 if params.path.predict_friction else 0.0
-    path = builder.AddNamedSystem("path", PathGenerator(params.plant, params.path, path_geometry,
-                                                        T, fv1))
-    builder.Connect(state_port, path.get_input_port(0))
-    ctrl = builder.AddNamedSystem("controller", CpflController(
-        params.plant, params.controller, params.friction, use_prefilter=False,
-        motor=params.motor))
-    builder.Connect(state_port, ctrl.GetInputPort("state"))
-    builder.Connect(path.GetOutputPort("reference"), ctrl.GetInputPort("reference"))
-    builder.Connect(path.GetOutputPort("feedforward"), ctrl.GetInputPort("feedforward"))
-    builder.Connect(robot.motor.GetOutputPort("available"), ctrl.GetInputPort("torque_available"))
-    if predictor is not None:
-        builder.Connect(ctrl.GetOutputPort("torque"), predictor.command_port)
-        return {"predictor": predictor, "path": path, "controller": ctrl}
-    return {"path": path, "controller": ctrl}
-
-
 def add_actuation(builder, params: BplirParams, command, motor) -> None:
     """The command's way to the driver: the scenario's actuation delay (whole
     ticks, :class:`CommandDelay`) and the controller's compute latency (a C++
@@ -432,7 +320,8 @@ def build_swing(params: BplirParams, *, seed: int | None = None, use_estimator: 
     disturbances; with ``use_estimator=False`` the controller reads the true
     state sampled at its tick instead of the estimate; ``plan_gains`` are
     the tracking gains of a planned swing for ``path.mode = "plan"``
-    (:func:`bplir_drake.analysis.swing.plan.tracking_plan`).
+    (default: those of :func:`bplir_drake.diagrams.plan.tracking_plan`,
+    from the nominal model and the scenario).
     ``controller`` / ``estimator``: your own (:mod:`.plugin`), a factory
     ``factory(nominal params) -> System`` or a ``"module:factory"`` spec,
     instead of the parameters' ones.  The returned
@@ -446,6 +335,10 @@ def build_swing(params: BplirParams, *, seed: int | None = None, use_estimator: 
     if controller is not None and params.path.mode == "auto":   # a user's controller
         params = params.with_(path=replace(params.path, mode="adaptive"))
     params = params.resolved()   # path.mode "auto" made concrete
+    if plan_gains is None and controller is None and params.path.mode == "plan":
+        from .plan import tracking_plan   # lazy: solving or reading plans needs SNOPT and disk
+
+        plan_gains = tracking_plan(params)[1]   # the nominal model and the scenario only
     sc = params.scenario
     seed = sc.seed if seed is None else seed
     use_est = sc.use_estimator if use_estimator is None else use_estimator

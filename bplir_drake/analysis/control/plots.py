@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..plotting import figure_axes, finish
+from ...plotting import figure_axes, finish
 
 
 def _nichols_xy(values):

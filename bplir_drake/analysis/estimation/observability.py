@@ -21,7 +21,7 @@ import numpy as np
 
 from ...params import EstimatorParams
 from ...systems.ekf import jacobians, kinematic_f, kinematic_h
-from ..results import Result
+from ...io import Result
 
 DEFAULT_THRESHOLD = 1e-3
 

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..plotting import figure_axes, finish
+from ...plotting import figure_axes, finish
 
 
 def plot_estimate(t, estimate, gyro_integral, axes=None, *, truth=None, title="Kinematic EKF"):

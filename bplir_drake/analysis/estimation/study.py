@@ -14,7 +14,7 @@ from ...estimation import gyro_integral
 from ...params import BplirParams
 from ...simulate import logs, make_simulator, run
 from ...systems.plant import absolute_from_relative
-from ..results import Result
+from ...io import Result
 
 #: the default scenario of 5.5: free response, actuation, knock
 DEFAULT_TORQUE = ((0.0, 3.0, 3.6), (0.0, 3.0, 0.0))

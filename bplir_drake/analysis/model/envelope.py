@@ -16,7 +16,7 @@ import numpy as np
 
 from ...params import BplirParams
 from ...systems.motor import envelope_curve, no_load_speed
-from ..results import Result
+from ...io import Result
 
 
 @dataclass

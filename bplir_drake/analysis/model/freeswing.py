@@ -9,7 +9,7 @@ from ...diagrams import build_free_swing
 from ...params import BplirParams
 from ...simulate import logs, make_simulator, run
 from .energy import energy, energy_rate_from_forces
-from ..results import Result
+from ...io import Result
 
 
 @dataclass

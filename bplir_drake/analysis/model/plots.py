@@ -1,7 +1,7 @@
 """Plots of the model analyses."""
 from __future__ import annotations
 
-from ..plotting import figure_axes, finish
+from ...plotting import figure_axes, finish
 
 
 def plot_free_swing(result, axes=None):

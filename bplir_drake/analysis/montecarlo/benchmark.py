@@ -237,7 +237,7 @@ def benchmark_table(result: dict) -> str:
 
 def plot_benchmark(result: dict, axes=None):
     """Scores by category and the outcome of every case (two axes); returns the figure."""
-    from ..plotting import figure_axes, finish
+    from ...plotting import figure_axes, finish
     ctrls = list(result["scores"])
     fig, (ax, ax2) = figure_axes(axes, 1, 2, figsize=(14, 7.5),
                                  gridspec_kw={"width_ratios": [2, 3]})

@@ -14,7 +14,7 @@ import numpy as np
 
 from .statistics import influence
 from .study import Study
-from ..plotting import figure_axes, finish
+from ...plotting import figure_axes, finish
 
 OUTCOME_COLOURS = {"captured": "tab:green", "crash": "tab:red", "timeout": "tab:orange",
                    "fault": "tab:purple", "error": "black"}

@@ -46,7 +46,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ...io import write_json_atomic
-from ..results import Result
+from ...io import Result
 from .executors import map_jobs
 from .sampling import run_sample, sample_params
 from .statistics import summarize

@@ -46,7 +46,7 @@ def comparison_table(rows) -> str:
 
 def plot_comparison(rows, axes=None):
     """Elbow angle, torque and gripper path of every run (three axes); returns the figure."""
-    from ..plotting import figure_axes, finish
+    from ...plotting import figure_axes, finish
     fig, ax = figure_axes(axes, 1, 3, figsize=(15, 4.5))
     for r in rows:
         st = r["_result"].logs["state"]

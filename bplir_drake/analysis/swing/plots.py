@@ -7,8 +7,8 @@ from pathlib import Path
 import numpy as np
 
 from ...io import atomic_path
-from ..plotting import figure_axes, finish
-from .run import log_table
+from ...plotting import figure_axes, finish
+from .logs import log_table
 
 
 #: the panels of :func:`plot_swing`: (row, column, y label, [(log column,

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..plotting import figure_axes, finish
+from ...plotting import figure_axes, finish
 
 #: colour of each gripper's grips
 GRIPPER_COLOURS = {1: "C0", 2: "C1"}

@@ -33,195 +33,15 @@ from ...params import BplirParams, swapped
 from ...systems.drive import ride
 from ...systems.motor import i2t_after_rest, i2t_trace, interlock_budget, rest_for
 from ...systems.plant import initial_configuration, swapped_state, target_configuration
-from ..results import Result
+from ...io import Result
 from .line import Line
 from .route import hold_position, plan_route
-
-#: traversal outcomes: passed, or the first thing that went wrong
-OUTCOMES = ("passed", "swing crash", "swing timeout", "swing fault", "landed on obstacle",
-            "driver trip", "error")
-
-ROW_FIELDS = ("index", "kind", "obstacle", "holding_gripper", "robot", "t_start_s", "duration_s",
-              "hold_m", "from_m", "to_m", "incline_deg", "outcome", "capture_speed_mps",
-              "capture_impulse_Ns", "effective_mass_kg", "peak_torque_Nm", "peak_power_W",
-              "peak_voltage_V", "energy_J", "i2t_start_A2s", "i2t_end_A2s", "landing_bias_m",
-              "landing_height_error_m", "seed")
-
-
-@dataclass
-class Segment:
-    """The motion of one manoeuvre for the figures and the animation: times
-    (s, traversal clock), joint angles of the original robot (n x 2, rad),
-    the pose of gripper 1 (n x 3: x, y, 0), elbow torque (N m), current (A),
-    i^2 t (A^2 s)."""
-
-    t: np.ndarray
-    q: np.ndarray
-    base: np.ndarray
-    torque: np.ndarray
-    current: np.ndarray
-    i2t: np.ndarray
-
-
-@dataclass
-class TraverseResult(Result):
-    """One traversal: ``rows`` (one dict per manoeuvre, :data:`ROW_FIELDS`),
-    ``totals``, the line, the parameters and seed, and the motion
-    ``segments`` (for figures and the replay)."""
-
-    line: Line
-    params: BplirParams
-    seed: int
-    rows: list
-    totals: dict
-    segments: list = field(default_factory=list)
-    clamps: list = field(default_factory=list)   # (gripper, s, t_on, t_off): clamped in place
-    holds: list = field(default_factory=list)    # (gripper, t_closed, t_opened): on the line
-
-    @property
-    def success(self) -> bool:
-        """Every obstacle passed, no driver trip, no fall."""
-        return self.totals["outcome"] == "passed"
-
-    def sample_fields(self) -> dict:
-        """The fields a traversal study keeps per sample: the totals, the
-        worst swing's figures under the swing fields' names (``capture_speed_mps``:
-        the fastest capture; ``swing_time_s``, ``energy_in_J``: all swings)."""
-        t = self.totals
-        return t | {"swing_time_s": t["swing_time_s"], "energy_in_J": t["energy_swing_J"]}
-
-    def summary(self) -> dict:
-        """Totals and the per-manoeuvre table (JSON-ready)."""
-        return {"totals": self.totals, "manoeuvres": self.rows,
-                "holds": [{"gripper": g, "closed_s": t_on, "opened_s": t_off}
-                          for g, t_on, t_off in self.holds],
-                "clamps": [{"gripper": g, "at_m": at, "from_s": t_on, "to_s": t_off}
-                           for g, at, t_on, t_off in self.clamps],
-                "line": self.line.data, "seed": self.seed}
-
-    def timeline(self) -> dict:
-        """The whole traversal's motion concatenated: ``t``, ``q``, ``base``,
-        ``torque``, ``current``, ``i2t`` arrays."""
-        keys = ("t", "q", "base", "torque", "current", "i2t")
-        out = {k: np.concatenate([getattr(s, k) for s in self.segments]) for k in keys}
-        # link 1 turns over while gripper 1 swings (it hangs below the elbow
-        # at the bottom of the swing): continuous angles, not wrapped ones
-        out["q"] = np.unwrap(out["q"], axis=0)
-        return out
-
-    def plot(self, axes=None):
-        """The line with its obstacles and every grip (one axis)."""
-        from .plots import plot_line_grips
-
-        return plot_line_grips(self, axes)
-
-
-def swing_params(params: BplirParams, holding: int, spacing: float,
-                 incline: float) -> BplirParams:
-    """The parameters of a traversal swing holding with gripper ``holding``
-    (1: the robot as given, 2: :func:`~bplir_drake.params.swapped`) on a line
-    inclined by ``incline`` (rad) with the grips ``spacing`` apart.  The
-    incline is rounded to 0.1 deg and the spacing to 1 mm (the planned swings
-    of a line are then a few, cached; 0.05 deg is 1 mm over a grip spacing).
-    With ``traverse.landing`` (the default) the swing lands as a single
-    swing does (the apex landing, the delay probe and its compensation),
-    the swapped robot by ``traverse.swapped_landing_law`` (its fallback
-    aiming at ``traverse.swapped_landing_margin``, its shot aimed at
-    ``traverse.swapped_shoot_height`` and held from
-    ``traverse.swapped_shoot_min_time``, its filter's covariance inflation
-    ``traverse.swapped_inflate_nis``, its line sensor's range at most
-    ``traverse.swapped_line_range``)."""
-    p = params if holding == 1 else swapped(params)
-    sc = dc.replace(p.scenario, grip_spacing=round(float(spacing), 3),
-                    incline_deg=round(math.degrees(incline), 1))
-    p = p.with_(scenario=sc)
-    tp = params.traverse
-    if tp.swing_mode == "plan":
-        # plan tracking without the terminal reach (it lands wherever the
-        # gripper first moves slowly, sliding along the line if it must, where
-        # a traversal has to land on the planned grip between obstacles: with
-        # it, seed 0 of examples/line_span.toml landed on a spacer)
-        path = dc.replace(p.path, mode="plan", reach_speed=0.0, plan_end_depth=tp.plan_end_depth)
-        if not tp.landing:   # plan tracking alone, as traversals were first built
-            path = dc.replace(path, landing_lead=0.0, plan_delay_compensation=0.0,
-                              plan_delay_probe=0.0)
-        elif holding == 2:
-            path = dc.replace(path, landing_margin=tp.swapped_landing_margin,
-                              landing_law=tp.swapped_landing_law,
-                              shoot_min_time=tp.swapped_shoot_min_time,
-                              shoot_height=tp.swapped_shoot_height)
-            p = p.with_(estimator=dc.replace(p.estimator,
-                                             loop_inflate_nis=tp.swapped_inflate_nis),
-                        line_sensor=dc.replace(p.line_sensor, range=min(
-                            p.line_sensor.range, tp.swapped_line_range)))
-        p = p.with_(path=path)
-    return p
-
-
-def learnt_landing(p: BplirParams, errors) -> BplirParams:
-    """``p`` with ``path.landing_bias`` set to ``traverse.landing_learning``
-    times the mean of ``errors``: the landing height errors (m, swing summary
-    ``landing_height_error_m``) of the earlier captures of the robot
-    holding with the same gripper, which the robot measured itself at each
-    arrival.  Unchanged without earlier captures, with learning off or
-    without the terminal landing."""
-    tp = p.traverse
-    errors = [e for e in errors if math.isfinite(e)]
-    if tp.landing_learning <= 0.0 or not errors or tp.swing_mode != "plan" or not tp.landing:
-        return p
-    bias = min(0.02, max(-0.02, tp.landing_learning * float(np.mean(errors))))
-    return p.with_(path=dc.replace(p.path, landing_bias=bias))
-
-
-def budgeted_currents(plan, p: BplirParams) -> np.ndarray:
-    """The currents (A, one per driver period) the rest planner budgets for
-    the planned swing ``plan`` of ``p``: the plan's, and from the moment the
-    planned gripper comes within the terminal law's take-over depth of the
-    line (in the plan's second half) to its end, the current of the torque
-    limit.  The terminal law's feedback is not planned, and the swapped
-    robot's runs at the limit there (README, "Traversal Monte Carlo").  The
-    delay probe (``path.plan_delay_probe``) adds its torques to the first
-    ticks."""
-    from ...systems.delay_id import planned_probe
-    from ...systems.motor import max_torque
-    from ...systems.plan_tracker import height_rates, landing_law
-
-    motor, path = p.motor, p.path
-    t = np.arange(int(plan.duration / motor.driver_period) + 1) * motor.driver_period
-    tq = np.interp(t, plan.times, plan.torque)
-    probe = planned_probe(path, p.controller)   # on the plan tracker's first ticks
-    ticks = np.floor(t / p.controller.period + 1e-9).astype(int)
-    tq = tq + np.array([probe[k] if k < len(probe) else 0.0 for k in ticks])
-    tq = np.abs(tq)
-    if path.landing_lead > 0:
-        alpha = math.radians(p.scenario.incline_deg)
-        law = landing_law(p.plant, alpha, plan.states, path)
-        depth = path.shoot_depth if law == "shoot" else path.landing_depth
-        h = np.array([height_rates(p.plant, alpha, x)[0] for x in plan.states])
-        near = (plan.times >= 0.5 * plan.duration) & (h > -depth)
-        if near.any():
-            tq[t >= plan.times[np.argmax(near)]] = min(max_torque(motor),
-                                                       p.controller.torque_limit)
-    return tq / motor.torque_per_amp
-
-
-def capture_impulse(q, v, p) -> tuple[float, float]:
-    """(impulse N s, effective mass kg) the arriving gripper and the line take
-    to stop the gripper moving at joint rates ``v`` in pose ``q``: with
-    both grippers pinned the robot stops, so the impulse is ``Lambda v_g``,
-    ``Lambda = J^-T M J^-1`` the robot's inertia seen at the gripper."""
-    from ...systems.plant import gripper_velocity, mass_matrix
-
-    # the gripper's Jacobian, column by column from its velocity
-    J = np.column_stack([gripper_velocity(q, e, p.l1, p.l2) for e in ((1.0, 0.0), (0.0, 1.0))])
-    M = np.array(mass_matrix(q, p), dtype=float)
-    vg = J @ np.asarray(v, dtype=float)
-    Jinv = np.linalg.inv(J)
-    Lam = Jinv.T @ M @ Jinv
-    P = Lam @ vg
-    speed = float(np.linalg.norm(vg))
-    impulse = float(np.linalg.norm(P))
-    return impulse, (impulse / speed if speed > 0 else math.nan)
+from .swing_setup import (  # noqa: F401 (re-exported)
+    swing_params, learnt_landing, budgeted_currents, capture_impulse)
+from .result import (  # noqa: F401 (re-exported)
+    OUTCOMES, ROW_FIELDS, Segment, TraverseResult)
+from .tables import (  # noqa: F401 (re-exported)
+    TABLE_COLUMNS, _cell, manoeuvre_table, totals_lines, write_rows_csv)
 
 
 class _Traversal:
@@ -343,20 +163,12 @@ class _Traversal:
                   i2t_end_A2s=self.h, outcome="done")
         self.t += duration
 
-    def swing(self, obstacle: str) -> bool:
-        """The rear gripper swings past the front one; True when it landed clear."""
-        from ..swing.plan import tracking_plan
+    def _rest_before(self, p, obstacle: str) -> None:
+        """Rest before a swing when the planned swing would eat into the i^2 t
+        margin (nominal plan only), then calibrate the IMUs standing still."""
+        from ...diagrams.plan import tracking_plan
 
         tp = self.params.traverse
-        hold_g = self.front_gripper
-        swing_g = 3 - hold_g
-        hold, start = self.front, self.rear
-        spacing, _ = self.line.chord(start, hold)
-        target = hold + tp.grip_spacing
-        _, inc = self.line.chord(start, min(target, self.line.length))
-        p = learnt_landing(swing_params(self.params, hold_g, spacing, inc),
-                           self.landing_errors[hold_g])
-        # rest first when the planned swing would eat into the i^2 t margin
         # the standstill calibration of the IMUs (estimator.standstill_samples)
         # holds still on the line before the swing: it counts as rest too
         motor = self.params.motor
@@ -370,16 +182,14 @@ class _Traversal:
             need = self.h / motor.i_cont ** 2
         self.rest(need - calib, obstacle)
         self.rest(calib, obstacle, kind="calibrate")
-        seed = int(np.random.SeedSequence([self.seed, self.swings]).generate_state(
-            1, dtype=np.uint32)[0])
-        self.swings += 1
-        res = self.runners[hold_g].run(p, seed=seed, driver_state=(self.h, self.tripped))
-        s = res.summary
+
+    def _record_motion(self, res, p, hold: float, hold_g: int):
+        """Add a swing's motion (in the original robot's angles), current and
+        i^2 t trace to the figures' segments and its energy to the totals;
+        (times, electrical energy J, standby energy J, duration s)."""
         st = res.logs["state"]
         sim_p = p.simulated_plant
-        x_end = st.data[-1]
-        impulse, m_eff = (capture_impulse(x_end[:2], x_end[2:], sim_p) if s["success"]
-                          else (math.nan, math.nan))
+        motor = self.params.motor
         # motion for the figures: back to the original robot's angles, gripper 1's pose
         hb = self._base(hold)
         t = self.t + st.t
@@ -406,6 +216,31 @@ class _Traversal:
         standby = self.params.drive.standby_power * duration
         self.energy["swing"] += elec
         self.energy["standby"] += standby
+        return t, elec, standby, duration
+
+    def swing(self, obstacle: str) -> bool:
+        """The rear gripper swings past the front one; True when it landed clear."""
+        tp = self.params.traverse
+        hold_g = self.front_gripper
+        swing_g = 3 - hold_g
+        hold, start = self.front, self.rear
+        spacing, _ = self.line.chord(start, hold)
+        target = hold + tp.grip_spacing
+        _, inc = self.line.chord(start, min(target, self.line.length))
+        p = learnt_landing(swing_params(self.params, hold_g, spacing, inc),
+                           self.landing_errors[hold_g])
+        self._rest_before(p, obstacle)
+        seed = int(np.random.SeedSequence([self.seed, self.swings]).generate_state(
+            1, dtype=np.uint32)[0])
+        self.swings += 1
+        res = self.runners[hold_g].run(p, seed=seed, driver_state=(self.h, self.tripped))
+        s = res.summary
+        st = res.logs["state"]
+        sim_p = p.simulated_plant
+        x_end = st.data[-1]
+        impulse, m_eff = (capture_impulse(x_end[:2], x_end[2:], sim_p) if s["success"]
+                          else (math.nan, math.nan))
+        t, elec, standby, duration = self._record_motion(res, p, hold, hold_g)
         h0 = self.h
         self.h, self.tripped = s["i2t_end_A2s"], s["driver_tripped_end"]
         self.est_err = float(np.nanmax([self.est_err, s["max_estimation_error_rad"]]))
@@ -538,69 +373,4 @@ __all__ = ["TraverseResult", "run_traverse", "swing_params", "budgeted_currents"
 
 # ----------------------------------------------------------- tables
 
-#: columns of the per-manoeuvre table: (row key, header, format), the
-#: landing's figures in mm (rows hold metres)
-TABLE_COLUMNS = (
-    ("index", "#", "{}"), ("kind", "manoeuvre", "{}"), ("obstacle", "obstacle", "{}"),
-    ("holding_gripper", "holds", "{}"), ("from_m", "from [m]", "{:.3f}"),
-    ("to_m", "to [m]", "{:.3f}"), ("incline_deg", "incline [deg]", "{:.1f}"),
-    ("outcome", "outcome", "{}"), ("duration_s", "time [s]", "{:.2f}"),
-    ("capture_speed_mps", "capture [m/s]", "{:.3f}"),
-    ("landing_bias_m", "aim raised [mm]", "mm"),
-    ("landing_height_error_m", "height error [mm]", "mm"),
-    ("capture_impulse_Ns", "impulse [N s]", "{:.2f}"),
-    ("peak_torque_Nm", "peak torque [N m]", "{:.1f}"), ("peak_power_W", "peak power [W]", "{:.0f}"),
-    ("peak_voltage_V", "peak voltage [V]", "{:.1f}"),
-    ("energy_J", "energy [J]", "{:.1f}"), ("i2t_end_A2s", "i2t after [A2 s]", "{:.0f}"),
-)
 
-
-def _cell(value, fmt: str) -> str:
-    if isinstance(value, float) and not math.isfinite(value):
-        return "--"
-    if value == "":
-        return ""
-    if fmt == "mm":
-        return f"{1e3 * value:+.1f}"
-    return fmt.format(value)
-
-
-def manoeuvre_table(result: TraverseResult) -> str:
-    """The per-manoeuvre table as Markdown (``--`` where a figure does not apply)."""
-    head = "| " + " | ".join(h for _, h, _ in TABLE_COLUMNS) + " |"
-    rule = "|" + "---|" * len(TABLE_COLUMNS)
-    body = ["| " + " | ".join(_cell(r[k], f) for k, _, f in TABLE_COLUMNS) + " |"
-            for r in result.rows]
-    return "\n".join([head, rule] + body)
-
-
-def totals_lines(result: TraverseResult) -> list[str]:
-    """The totals as text lines."""
-    t = result.totals
-    return [
-        f"{t['outcome']}: {t['obstacles_passed']}/{t['obstacles']} obstacles passed in "
-        f"{t['swings']} swings, {t['distance_m']:.2f} m in {t['time_s']:.1f} s "
-        f"({t['speed_m_per_min']:.1f} m/min; riding {t['ride_time_s']:.1f} s, swinging "
-        f"{t['swing_time_s']:.1f} s, resting {t['rest_time_s']:.1f} s, IMU calibration "
-        f"{t['calibration_time_s']:.1f} s)",
-        f"energy {t['energy_J']:.0f} J ({t['energy_per_m_J']:.1f} J/m): riding "
-        f"{t['energy_ride_J']:.1f} J, swinging {t['energy_swing_J']:.1f} J, electronics "
-        f"{t['energy_standby_J']:.1f} J; peak capture impulse {t['peak_capture_impulse_Ns']:.2f} "
-        f"N s; peak i2t {t['peak_i2t_A2s']:.0f} of {t['i2t_budget_A2s']:.0f} A2 s; seed "
-        f"{t['seed']}",
-    ]
-
-
-def write_rows_csv(result: TraverseResult, path):
-    """The per-manoeuvre rows as CSV at ``path`` (atomic)."""
-    import csv
-    import io as _io
-
-    from ...io import write_text_atomic
-
-    buf = _io.StringIO()
-    w = csv.DictWriter(buf, fieldnames=list(ROW_FIELDS))
-    w.writeheader()
-    for r in result.rows:
-        w.writerow({k: r[k] for k in ROW_FIELDS})
-    return write_text_atomic(path, buf.getvalue())

@@ -37,8 +37,10 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ...params import BplirParams, ParameterError
-from ..results import Result
+from ..params import BplirParams, ParameterError
+from ..io import Result
+from .plan_plot import (  # noqa: F401 (re-exported)
+    plot_plan)
 
 #: smallest Coulomb smoothing velocity the planner uses (rad/s)
 PLAN_FRICTION_SMOOTHING = 0.2
@@ -143,7 +145,7 @@ def plan_model(params: BplirParams):
     """(model, friction): the nominal plant with its friction (Coulomb
     smoothing widened to ``PLAN_FRICTION_SMOOTHING``) as a diagram with the
     elbow torque as input and the state as output."""
-    from ...diagrams import build_plant_with_friction
+    from .open_loop import build_plant_with_friction
 
     friction = replace(params.friction, b=max(params.friction.b, PLAN_FRICTION_SMOOTHING))
     return build_plant_with_friction(params.with_(friction=friction), nominal=True).diagram, \
@@ -171,7 +173,7 @@ def plan_swing(params: BplirParams, *, power_limit: float | None = None, knots: 
     keyed by every input the planner reads; a solve takes about a
     minute).  ``progress``: count SNOPT's evaluations on standard error
     while it solves."""
-    from ...systems.plant import initial_configuration
+    from ..systems.plant import initial_configuration
 
     if not 5 <= knots <= 400:
         raise ParameterError(f"knots = {knots} is out of range; allowed [5, 400]")
@@ -205,9 +207,9 @@ def plan_swing(params: BplirParams, *, power_limit: float | None = None, knots: 
 
     if not cache:
         return solve()
-    from .plan_cache import cached
+    from .plan_cache import cached   # lazy: the cache is read only when a plan is asked for
 
-    return cached(inputs, solve)
+    return cached(inputs, solve, make=SwingPlan)
 
 
 def plan_envelope(params: BplirParams) -> dict | None:
@@ -259,7 +261,7 @@ def _solve_plan(params, q0, qT, tau_max, power, tmax, knots, time_weight, guess_
     from pydrake.all import (DirectCollocation, PiecewisePolynomial, SnoptSolver, Solve,
                              SolverOptions)
 
-    from ...systems.friction import friction_torques
+    from ..systems.friction import friction_torques
 
     system, friction = plan_model(params)
     dircol = DirectCollocation(system, system.CreateDefaultContext(), num_time_samples=knots,
@@ -293,7 +295,7 @@ def _solve_plan(params, q0, qT, tau_max, power, tmax, knots, time_weight, guess_
     options = SolverOptions()
     snopt = SnoptSolver().solver_id()
     options.SetOption(snopt, "Major iterations limit", int(iterations))
-    from ...progress import progress_bar
+    from ..progress import progress_bar
 
     with progress_bar(progress, desc="plan (SNOPT)", unit="evaluations") as bar:
         if progress:  # Drake calls it at every evaluation of the costs and constraints
@@ -383,7 +385,7 @@ def gains_inputs(plant, friction, plan: SwingPlan) -> dict:
     """Every input of the tracking gains of ``plan``: the nominal model
     (plant, friction), the LQR weights (:class:`TrackerWeights`, as
     :func:`plan_gains` uses them) and the plan's samples (by digest)."""
-    from ...systems.plan_tracker import TrackerWeights
+    from ..systems.plan_tracker import TrackerWeights
 
     digest = hashlib.sha256(b"".join(np.ascontiguousarray(a, dtype=float).tobytes()
                                      for a in (plan.times, plan.states, plan.torque)))
@@ -397,8 +399,8 @@ def tracking_gains(plant, friction, plan: SwingPlan, cache: bool = True):
     """Finite-horizon LQR gains along ``plan`` on the nominal model (plant,
     friction): kept in this process per input, and with ``cache`` on disk
     (:mod:`.plan_cache`, keyed by :func:`gains_inputs`)."""
-    from ...params import BplirParams as _P
-    from ...systems.plan_tracker import plan_gains
+    from ..params import BplirParams as _P
+    from ..systems.plan_tracker import plan_gains
 
     inputs = gains_inputs(plant, friction, plan)
 
@@ -420,7 +422,7 @@ def planned_target(params: BplirParams, end_depth: float = 0.0) -> np.ndarray:
     """The mirror target (7.1) of the nominal robot, turned about the pivot
     so that the free gripper rests ``end_depth`` below the line at the same
     distance along it."""
-    from ...systems.plant import initial_configuration
+    from ..systems.plant import initial_configuration
 
     sc = params.scenario
     D = sc.grip_spacing
@@ -428,38 +430,3 @@ def planned_target(params: BplirParams, end_depth: float = 0.0) -> np.ndarray:
     return np.array([-q[0] + math.radians(sc.incline_deg) - math.atan2(end_depth, D), -q[1]])
 
 
-def plot_plan(plan: SwingPlan, params: BplirParams, axes=None):
-    """Figure of a plan: joint angles, torque and power with the limits, and
-    the robot drawn at a few instants on the line (three axes)."""
-    from matplotlib import colormaps
-
-    from ...systems.plant import elbow_position, gripper_position
-    from ..plotting import figure_axes, finish
-
-    fig, ax = figure_axes(axes, 1, 3, figsize=(15, 4.2))
-    t, X = plan.times, plan.states
-    ax[0].plot(t, X[:, 0], label="q1")
-    ax[0].plot(t, X[:, 1], label="q2")
-    ax[0].set(xlabel="t (s)", ylabel="angle (rad)", title="planned joint angles")
-    ax[0].legend()
-    ax[1].plot(t, plan.torque, label="torque (N m)")
-    ax[1].plot(t, plan.power / 10.0, label="power / 10 (W)")
-    for lim, style in ((plan.torque_limit, "k--"), (plan.power_limit / 10.0, "r:")):
-        ax[1].axhline(lim, color=style[0], ls=style[1:])
-        ax[1].axhline(-lim, color=style[0], ls=style[1:])
-    ax[1].set(xlabel="t (s)", title=f"peak {plan.peak_torque:.1f} N m, {plan.peak_power:.0f} W")
-    ax[1].legend()
-    alpha = math.radians(plan.incline_deg)
-    D = params.scenario.grip_spacing
-    ax[2].plot([-1.3 * D * math.cos(alpha), 1.3 * D * math.cos(alpha)],
-               [-1.3 * D * math.sin(alpha), 1.3 * D * math.sin(alpha)], "k-", lw=2)
-    p = params.plant
-    for k, i in enumerate(np.linspace(0, len(t) - 1, 9).astype(int)):
-        e = np.asarray(elbow_position(X[i, :2], p.l1))
-        g = np.asarray(gripper_position(X[i, :2], p.l1, p.l2))
-        c = colormaps["viridis"](k / 8)
-        ax[2].plot([0, e[0], g[0]], [0, e[1], g[1]], "-o", color=c, ms=3)
-    ax[2].set_aspect("equal")
-    ax[2].set(title=f"{plan.incline_deg:g} deg line, {plan.duration:.2f} s, "
-                    f"link 1 reverses {plan.link1_reversals}x")
-    return finish(fig)

@@ -4,7 +4,7 @@ input the planner (or the LQR) reads.
 A DirectCollocation solve of a swing takes about a minute; a Monte Carlo
 study, the tests and ``bplir swing`` with ``path.mode = "plan"`` need the same
 few plans again and again.  :func:`cached` stores a
-:class:`~bplir_drake.analysis.swing.plan.SwingPlan` as ``plan-<key>.npz`` in
+:class:`~bplir_drake.diagrams.plan.SwingPlan` as ``plan-<key>.npz`` in
 the cache directory (``$BPLIR_CACHE_DIR``, default ``~/.cache/bplir-drake``),
 where ``key`` is the SHA-256 of the planner's inputs (nominal model,
 scenario geometry, limits, solver settings), the Drake version and
@@ -62,7 +62,7 @@ def plan_cache_path(inputs: dict, kind: str = "plan") -> Path:
 
 #: plans shipped with the package (read-only; same file names and keys as
 #: the cache, so they are used only for exactly these inputs and this Drake)
-PACKAGED = Path(__file__).resolve().parents[2] / "data" / "plans"
+PACKAGED = Path(__file__).resolve().parents[1] / "data" / "plans"
 
 
 def packaged_plan_path(inputs: dict, kind: str = "plan") -> Path:
@@ -105,7 +105,7 @@ def polynomial_from_arrays(breaks, coefficients):
 
 def _write_npz(path: Path, arrays: dict) -> None:
     """``arrays`` as ``.npz`` at ``path``, atomically (:func:`~bplir_drake.io.atomic_path`)."""
-    from ...io import atomic_path
+    from ..io import atomic_path
 
     with atomic_path(path) as tmp, open(tmp, "wb") as fh:
         np.savez(fh, **arrays)
@@ -129,7 +129,7 @@ def save_gains(gains, path: Path) -> None:
 
 def load_gains(path: Path):
     """The :class:`~bplir_drake.systems.plan_tracker.TrackingGains` of :func:`save_gains`."""
-    from ...systems.plan_tracker import TrackingGains
+    from ..systems.plan_tracker import TrackingGains
 
     with np.load(path, allow_pickle=False) as data:
         return TrackingGains(**{name: polynomial_from_arrays(data[f"{name}_breaks"],
@@ -141,13 +141,14 @@ def load_gains(path: Path):
 GAIN_FIELDS = ("K", "x0", "u0", "k0")
 
 
-def _load(path: Path):
-    from .plan import SwingPlan
-
-    with np.load(path, allow_pickle=False) as data:
-        meta = json.loads(str(data["meta"]))
-        arrays = {k: np.array(data[k]) for k in data.files if k != "meta"}
-    return SwingPlan(**arrays, **meta)
+def _loader(make):
+    """A reader of :func:`_save`'s files building the plan with ``make(**fields)``."""
+    def load(path: Path):
+        with np.load(path, allow_pickle=False) as data:
+            meta = json.loads(str(data["meta"]))
+            arrays = {k: np.array(data[k]) for k in data.files if k != "meta"}
+        return make(**arrays, **meta)
+    return load
 
 
 @contextlib.contextmanager
@@ -181,12 +182,16 @@ def _read(load, path: Path):
         return None
 
 
-def cached(inputs: dict, solve, kind: str = "plan"):
+def cached(inputs: dict, solve, kind: str = "plan", make=None):
     """The plan (``kind="gains"``: the tracking gains) for ``inputs``: the
     shipped one when the package has it (whatever state the cache is in),
     else from the cache, else ``solve()`` once (stored when the cache is
-    usable; a damaged cache file is moved aside and re-solved)."""
-    load, save = (_load, _save) if kind == "plan" else (load_gains, save_gains)
+    usable; a damaged cache file is moved aside and re-solved).  A plan is
+    rebuilt from its file by ``make(**fields)`` (the plan's class,
+    :class:`~bplir_drake.diagrams.plan.SwingPlan`)."""
+    if kind == "plan" and make is None:
+        raise TypeError("cached(kind='plan') needs make=, the plan's class")
+    load, save = (_loader(make), _save) if kind == "plan" else (load_gains, save_gains)
     shipped = _read(load, packaged_plan_path(inputs, kind))
     if shipped is not None:
         return shipped

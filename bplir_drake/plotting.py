@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..io import atomic_path
+from .io import atomic_path
 
 
 _MADE_HERE: "weakref.WeakSet" = weakref.WeakSet()  # figures a plot function made itself

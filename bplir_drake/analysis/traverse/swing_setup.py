@@ -1,0 +1,115 @@
+"""How each swing of a traversal is set up: its parameters (incline, spacing, orientation, landing), what earlier swings taught the landing, the driver's current budget and the catch's impulse."""
+from __future__ import annotations
+
+import dataclasses as dc
+import math
+import numpy as np
+from ...params import BplirParams, swapped
+
+
+def swing_params(params: BplirParams, holding: int, spacing: float,
+                 incline: float) -> BplirParams:
+    """The parameters of a traversal swing holding with gripper ``holding``
+    (1: the robot as given, 2: :func:`~bplir_drake.params.swapped`) on a line
+    inclined by ``incline`` (rad) with the grips ``spacing`` apart.  The
+    incline is rounded to 0.1 deg and the spacing to 1 mm (the planned swings
+    of a line are then a few, cached; 0.05 deg is 1 mm over a grip spacing).
+    With ``traverse.landing`` (the default) the swing lands as a single
+    swing does (the apex landing, the delay probe and its compensation),
+    the swapped robot by ``traverse.swapped_landing_law`` (its fallback
+    aiming at ``traverse.swapped_landing_margin``, its shot aimed at
+    ``traverse.swapped_shoot_height`` and held from
+    ``traverse.swapped_shoot_min_time``, its filter's covariance inflation
+    ``traverse.swapped_inflate_nis``, its line sensor's range at most
+    ``traverse.swapped_line_range``)."""
+    p = params if holding == 1 else swapped(params)
+    sc = dc.replace(p.scenario, grip_spacing=round(float(spacing), 3),
+                    incline_deg=round(math.degrees(incline), 1))
+    p = p.with_(scenario=sc)
+    tp = params.traverse
+    if tp.swing_mode == "plan":
+        # plan tracking without the terminal reach (it lands wherever the
+        # gripper first moves slowly, sliding along the line if it must, where
+        # a traversal has to land on the planned grip between obstacles: with
+        # it, seed 0 of examples/line_span.toml landed on a spacer)
+        path = dc.replace(p.path, mode="plan", reach_speed=0.0, plan_end_depth=tp.plan_end_depth)
+        if not tp.landing:   # plan tracking alone, as traversals were first built
+            path = dc.replace(path, landing_lead=0.0, plan_delay_compensation=0.0,
+                              plan_delay_probe=0.0)
+        elif holding == 2:
+            path = dc.replace(path, landing_margin=tp.swapped_landing_margin,
+                              landing_law=tp.swapped_landing_law,
+                              shoot_min_time=tp.swapped_shoot_min_time,
+                              shoot_height=tp.swapped_shoot_height)
+            p = p.with_(estimator=dc.replace(p.estimator,
+                                             loop_inflate_nis=tp.swapped_inflate_nis),
+                        line_sensor=dc.replace(p.line_sensor, range=min(
+                            p.line_sensor.range, tp.swapped_line_range)))
+        p = p.with_(path=path)
+    return p
+
+
+def learnt_landing(p: BplirParams, errors) -> BplirParams:
+    """``p`` with ``path.landing_bias`` set to ``traverse.landing_learning``
+    times the mean of ``errors``: the landing height errors (m, swing summary
+    ``landing_height_error_m``) of the earlier captures of the robot
+    holding with the same gripper, which the robot measured itself at each
+    arrival.  Unchanged without earlier captures, with learning off or
+    without the terminal landing."""
+    tp = p.traverse
+    errors = [e for e in errors if math.isfinite(e)]
+    if tp.landing_learning <= 0.0 or not errors or tp.swing_mode != "plan" or not tp.landing:
+        return p
+    bias = min(0.02, max(-0.02, tp.landing_learning * float(np.mean(errors))))
+    return p.with_(path=dc.replace(p.path, landing_bias=bias))
+
+
+def budgeted_currents(plan, p: BplirParams) -> np.ndarray:
+    """The currents (A, one per driver period) the rest planner budgets for
+    the planned swing ``plan`` of ``p``: the plan's, and from the moment the
+    planned gripper comes within the terminal law's take-over depth of the
+    line (in the plan's second half) to its end, the current of the torque
+    limit.  The terminal law's feedback is not planned, and the swapped
+    robot's runs at the limit there (README, "Traversal Monte Carlo").  The
+    delay probe (``path.plan_delay_probe``) adds its torques to the first
+    ticks."""
+    from ...systems.delay_id import planned_probe
+    from ...systems.motor import max_torque
+    from ...systems.plan_tracker import height_rates, landing_law
+
+    motor, path = p.motor, p.path
+    t = np.arange(int(plan.duration / motor.driver_period) + 1) * motor.driver_period
+    tq = np.interp(t, plan.times, plan.torque)
+    probe = planned_probe(path, p.controller)   # on the plan tracker's first ticks
+    ticks = np.floor(t / p.controller.period + 1e-9).astype(int)
+    tq = tq + np.array([probe[k] if k < len(probe) else 0.0 for k in ticks])
+    tq = np.abs(tq)
+    if path.landing_lead > 0:
+        alpha = math.radians(p.scenario.incline_deg)
+        law = landing_law(p.plant, alpha, plan.states, path)
+        depth = path.shoot_depth if law == "shoot" else path.landing_depth
+        h = np.array([height_rates(p.plant, alpha, x)[0] for x in plan.states])
+        near = (plan.times >= 0.5 * plan.duration) & (h > -depth)
+        if near.any():
+            tq[t >= plan.times[np.argmax(near)]] = min(max_torque(motor),
+                                                       p.controller.torque_limit)
+    return tq / motor.torque_per_amp
+
+
+def capture_impulse(q, v, p) -> tuple[float, float]:
+    """(impulse N s, effective mass kg) the arriving gripper and the line take
+    to stop the gripper moving at joint rates ``v`` in pose ``q``: with
+    both grippers pinned the robot stops, so the impulse is ``Lambda v_g``,
+    ``Lambda = J^-T M J^-1`` the robot's inertia seen at the gripper."""
+    from ...systems.plant import gripper_velocity, mass_matrix
+
+    # the gripper's Jacobian, column by column from its velocity
+    J = np.column_stack([gripper_velocity(q, e, p.l1, p.l2) for e in ((1.0, 0.0), (0.0, 1.0))])
+    M = np.array(mass_matrix(q, p), dtype=float)
+    vg = J @ np.asarray(v, dtype=float)
+    Jinv = np.linalg.inv(J)
+    Lam = Jinv.T @ M @ Jinv
+    P = Lam @ vg
+    speed = float(np.linalg.norm(vg))
+    impulse = float(np.linalg.norm(P))
+    return impulse, (impulse / speed if speed > 0 else math.nan)

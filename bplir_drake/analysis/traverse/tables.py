@@ -1,0 +1,73 @@
+"""A traversal's tables: the manoeuvre table, the totals and the per-swing rows as CSV."""
+from __future__ import annotations
+
+import math
+from .result import ROW_FIELDS, TraverseResult
+
+
+#: columns of the per-manoeuvre table: (row key, header, format), the
+#: landing's figures in mm (rows hold metres)
+TABLE_COLUMNS = (
+    ("index", "#", "{}"), ("kind", "manoeuvre", "{}"), ("obstacle", "obstacle", "{}"),
+    ("holding_gripper", "holds", "{}"), ("from_m", "from [m]", "{:.3f}"),
+    ("to_m", "to [m]", "{:.3f}"), ("incline_deg", "incline [deg]", "{:.1f}"),
+    ("outcome", "outcome", "{}"), ("duration_s", "time [s]", "{:.2f}"),
+    ("capture_speed_mps", "capture [m/s]", "{:.3f}"),
+    ("landing_bias_m", "aim raised [mm]", "mm"),
+    ("landing_height_error_m", "height error [mm]", "mm"),
+    ("capture_impulse_Ns", "impulse [N s]", "{:.2f}"),
+    ("peak_torque_Nm", "peak torque [N m]", "{:.1f}"), ("peak_power_W", "peak power [W]", "{:.0f}"),
+    ("peak_voltage_V", "peak voltage [V]", "{:.1f}"),
+    ("energy_J", "energy [J]", "{:.1f}"), ("i2t_end_A2s", "i2t after [A2 s]", "{:.0f}"),
+)
+
+
+def _cell(value, fmt: str) -> str:
+    if isinstance(value, float) and not math.isfinite(value):
+        return "--"
+    if value == "":
+        return ""
+    if fmt == "mm":
+        return f"{1e3 * value:+.1f}"
+    return fmt.format(value)
+
+
+def manoeuvre_table(result: TraverseResult) -> str:
+    """The per-manoeuvre table as Markdown (``--`` where a figure does not apply)."""
+    head = "| " + " | ".join(h for _, h, _ in TABLE_COLUMNS) + " |"
+    rule = "|" + "---|" * len(TABLE_COLUMNS)
+    body = ["| " + " | ".join(_cell(r[k], f) for k, _, f in TABLE_COLUMNS) + " |"
+            for r in result.rows]
+    return "\n".join([head, rule] + body)
+
+
+def totals_lines(result: TraverseResult) -> list[str]:
+    """The totals as text lines."""
+    t = result.totals
+    return [
+        f"{t['outcome']}: {t['obstacles_passed']}/{t['obstacles']} obstacles passed in "
+        f"{t['swings']} swings, {t['distance_m']:.2f} m in {t['time_s']:.1f} s "
+        f"({t['speed_m_per_min']:.1f} m/min; riding {t['ride_time_s']:.1f} s, swinging "
+        f"{t['swing_time_s']:.1f} s, resting {t['rest_time_s']:.1f} s, IMU calibration "
+        f"{t['calibration_time_s']:.1f} s)",
+        f"energy {t['energy_J']:.0f} J ({t['energy_per_m_J']:.1f} J/m): riding "
+        f"{t['energy_ride_J']:.1f} J, swinging {t['energy_swing_J']:.1f} J, electronics "
+        f"{t['energy_standby_J']:.1f} J; peak capture impulse {t['peak_capture_impulse_Ns']:.2f} "
+        f"N s; peak i2t {t['peak_i2t_A2s']:.0f} of {t['i2t_budget_A2s']:.0f} A2 s; seed "
+        f"{t['seed']}",
+    ]
+
+
+def write_rows_csv(result: TraverseResult, path):
+    """The per-manoeuvre rows as CSV at ``path`` (atomic)."""
+    import csv
+    import io as _io
+
+    from ...io import write_text_atomic
+
+    buf = _io.StringIO()
+    w = csv.DictWriter(buf, fieldnames=list(ROW_FIELDS))
+    w.writeheader()
+    for r in result.rows:
+        w.writerow({k: r[k] for k in ROW_FIELDS})
+    return write_text_atomic(path, buf.getvalue())

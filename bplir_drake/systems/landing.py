@@ -1,0 +1,406 @@
+"""The landing laws of plan tracking: reaching for the line, the aim landing and the apex shot, the line servo that holds the gripper on it, and the choice among them."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields, replace
+import numpy as np
+from .plant import bias_term, gravity_vector, mass_matrix
+
+
+class _LineServo:
+    """What the terminal laws share: built from the ``path`` block's fields
+    named ``<prefix>_<field>``, and the gripper's distance to the line."""
+
+    _prefix = ""
+
+    @classmethod
+    def from_params(cls, plant, alpha: float, path):
+        """The law of ``path`` (:class:`~bplir_drake.params.PathParams`, its
+        ``<prefix>_*`` fields) on the nominal ``plant`` for a line inclined
+        by ``alpha`` (rad)."""
+        names = [f.name for f in fields(cls) if f.name not in ("plant", "alpha")]
+        return cls(plant, alpha, **{n: getattr(path, f"{cls._prefix}_{n}") for n in names})
+
+    def height(self, x) -> float:
+        """The gripper's distance to the line (m, negative below it)."""
+        return height_rates(self.plant, self.alpha, x)[0]
+
+
+@dataclass(frozen=True)
+class Reach(_LineServo):
+    """The terminal reach: once the gripper is ``depth`` from the line in
+    the plan's second half (or the plan has ended), the elbow servoes the
+    gripper's distance to the line ``h`` instead of tracking the plan.
+
+    Persistent torque errors (wind, wrong inertia) change the swing's
+    energy, and a clock-indexed plan that ends at rest just inside the
+    capture band then either falls short or arrives fast.  The reach makes
+    the last centimetres a feedback task: ``h'`` follows the profile
+    ``sqrt(speed^2 + 2 brake |aim - h|)`` toward ``aim`` (``lift``; while the
+    gripper slides along the line faster than ``tangent`` the aim is
+    ``hold``, outside the band, so that it enters the band slowly in both
+    directions).  The elbow torque comes from partial feedback linearisation
+    of the output ``h`` on the nominal model (``h'' = rate_gain (h'_cmd -
+    h')``, link 1 passive), clipped by the tracker."""
+
+    plant: object
+    alpha: float
+    speed: float
+    depth: float
+    lift: float
+    brake: float
+    tangent: float
+    hold: float
+    rate_gain: float
+    _prefix = "reach"
+
+    def takes_over(self, x) -> bool:
+        """Whether the reach takes over (in the plan's final forward swing)."""
+        return self.height(x) > -self.depth
+
+    def torque(self, x) -> float:
+        """The elbow torque of the reach at the relative state ``x``."""
+        p = self.plant
+        h, hd, along = height_rates(p, self.alpha, x)
+        aim = self.hold if self.tangent > 0 and abs(along) > self.tangent else self.lift
+        e = aim - h
+        hd_cmd = np.sign(e) * np.sqrt(self.speed ** 2 * (e > 0) + 2.0 * self.brake * abs(e))
+        return height_torque(p, self.alpha, x, self.rate_gain * (hd_cmd - hd))
+
+
+@dataclass(frozen=True)
+class Landing(_LineServo):
+    """The apex landing: in the plan's last forward swing of link 1, once
+    the gripper is ``depth`` from the line or link 1 has slowed below
+    ``take_rate`` while decelerating, the elbow places the gripper so that
+    it reaches the line when link 1 comes to rest, wherever that is.
+
+    A wrong model or a steady wind changes the swing's energy; link 1 then
+    turns back before or after the plan's end, and a plan followed by the
+    clock is below the line there (a timeout) or still fast (a crash).  The
+    landing reads the energy left from link 1's rate instead: the gripper's
+    aimed distance to the line is ``h* = -margin - lead q1'`` (never above
+    the line), so it rises as link 1 slows and is ``margin`` below the line,
+    inside the capture band, when link 1 stops.  ``h`` follows ``h*`` by
+    ``h'_cmd = lead a + gain (h* - h)`` (``lead a``: the rate of ``h*`` with
+    link 1 decelerating at ``a``, its deceleration on the nominal model with
+    the elbow held), through a partial feedback linearisation of ``h``
+    (``h'' = rate_gain (h'_cmd - h')``, link 1 passive, nominal model)."""
+
+    plant: object
+    alpha: float
+    lead: float
+    depth: float
+    margin: float
+    take_rate: float
+    gain: float
+    rate_gain: float
+    min_decel: float
+    _prefix = "landing"
+
+    @classmethod
+    def from_params(cls, plant, alpha: float, path):
+        """The law of ``path`` (its ``landing_*`` fields), its margin less
+        ``path.landing_bias`` (never above the line)."""
+        law = super().from_params(plant, alpha, path)
+        return replace(law, margin=max(0.0, law.margin - path.landing_bias))
+
+    def deceleration(self, x) -> float:
+        """Link 1's deceleration ``b1 / M11`` on the nominal model with the
+        elbow held (rad/s^2; negative while gravity speeds it up)."""
+        q, v = np.asarray(x[:2], dtype=float), np.asarray(x[2:4], dtype=float)
+        b = bias_term(q, v, self.plant) + gravity_vector(q, self.plant)
+        return float(b[0] / mass_matrix(q, self.plant)[0, 0])
+
+    def takes_over(self, x) -> bool:
+        """Whether the landing takes over (asked in the plan's last forward
+        swing of link 1 only)."""
+        return self.height(x) > -self.depth or (
+            self.deceleration(x) >= self.min_decel and 0.0 <= x[2] < self.take_rate)
+
+    def aim(self, x) -> tuple[float, float]:
+        """(h*, its rate): the aimed distance of the gripper to the line (m)
+        and how fast it rises (m/s)."""
+        aim = -self.margin - self.lead * float(x[2])
+        if aim >= 0.0:
+            return 0.0, 0.0
+        return aim, self.lead * max(self.deceleration(x), 0.0)
+
+    def torque(self, x) -> float:
+        """The elbow torque of the landing at the relative state ``x``."""
+        h, hd, _ = height_rates(self.plant, self.alpha, x)
+        aim, rate = self.aim(x)
+        hd_cmd = rate + self.gain * (aim - h)
+        return height_torque(self.plant, self.alpha, x, self.rate_gain * (hd_cmd - hd))
+
+
+@dataclass(frozen=True)
+class ApexShot:
+    """The shooting landing: from ``depth`` below the line, every tick it
+    solves on the nominal model (with its friction) for the time ``T`` at
+    which link 1 stops and the elbow angle ``q2f`` that puts the gripper
+    ``height`` from the line then (negative: inside the capture band), the
+    elbow following the quartic from its present angle and rate to ``q2f``
+    at rest with zero acceleration (Newton on ``(T, q2f)``, link 1
+    passive), and commands the quartic's first acceleration through the
+    elbow's computed torque.  With less than ``min_time`` to go, or link 1
+    slower than ``min_rate``, ``T`` is held at ``min_time`` and only
+    ``q2f`` is solved for, if the gripper is within ``hold_depth`` of the
+    aimed height (a held shot far below it asks for absurd accelerations).
+    Where no solution is found it falls back to the apex landing
+    ``landing``.
+
+    It corrects the swing's energy while the elbow still has leverage on
+    the gripper's height: the swapped robot's swinging link points almost
+    straight up at the end, where its elbow moves the gripper along the
+    line rather than up, and the aim law lags (README, "Traversal Monte
+    Carlo")."""
+
+    landing: Landing
+    friction: object
+    height: float
+    depth: float
+    min_time: float
+    min_rate: float
+    hold_depth: float = 0.03
+    give_up_rate: float = 0.0
+    steps: int = 12
+
+    @classmethod
+    def from_params(cls, plant, friction, alpha: float, path):
+        """The law of ``path`` (its ``shoot_*`` fields, the aim raised by
+        ``landing_bias``; the fallback from its ``landing_*`` fields) on the
+        nominal ``plant`` and ``friction``."""
+        height = min(0.0, path.shoot_height + path.landing_bias)
+        return cls(Landing.from_params(plant, alpha, path), friction, height,
+                   path.shoot_depth, path.shoot_min_time, path.shoot_min_rate,
+                   path.shoot_hold_depth, path.shoot_give_up_rate)
+
+    def takes_over(self, x) -> bool:
+        """Whether the law takes over (asked in the plan's last forward
+        swing of link 1 only): ``depth`` from the line, or the landing's
+        rule."""
+        return self.landing.height(x) > -self.depth or self.landing.takes_over(x)
+
+    def __post_init__(self):
+        # the nominal model's constants, folded once (the law runs every tick)
+        p, fr = self.landing.plant, self.friction
+        a = p.I2 + p.m2 * p.lc2 ** 2
+        drag = fr.drag_coefficients() if fr.enabled else (0.0, 0.0)
+        object.__setattr__(self, "_constants", dict(
+            a=a, m11=p.m1 * p.lc1 ** 2 + p.I1 + p.m2 * p.l1 ** 2 + a,
+            k12=p.m2 * p.l1 * p.lc2, g1=(p.m1 * p.lc1 + p.m2 * p.l1) * p.g,
+            g12=p.m2 * p.lc2 * p.g, on=fr.enabled, fv=(fr.fv1, fr.fv2),
+            fc=(fr.fc1, fr.fc2), b=fr.b, drag=drag))
+
+    def _model(self):
+        return self._constants
+
+    @staticmethod
+    def _friction(c, i: int, v: float) -> float:
+        if not c["on"]:
+            return 0.0
+        return (c["fv"][i] * v + c["fc"][i] * (2.0 / math.pi) * math.atan(v / c["b"])
+                + c["drag"][i] * v * abs(v))
+
+    def _link1_accel(self, c, q1, q2, v1, v2, a2) -> float:
+        """Link 1's acceleration (passive joint) with the elbow accelerating
+        at ``a2``, on the nominal model."""
+        c2, s2 = math.cos(q2), math.sin(q2)
+        m12, m11 = c["a"] + c["k12"] * c2, c["m11"] + 2.0 * c["k12"] * c2
+        bias = -c["k12"] * s2 * (2.0 * v1 * v2 + v2 * v2)
+        grav = c["g1"] * math.sin(q1) + c["g12"] * math.sin(q1 + q2)
+        return -(m12 * a2 + bias + grav + self._friction(c, 0, v1)) / m11
+
+    def _shoot(self, c, x, T: float, q2f: float):
+        """(link 1's rate at ``T``, the gripper's distance to the line then
+        less ``height``; the elbow's acceleration now) of the quartic to
+        ``q2f``: ``q2 + v2 t + k2 t^2 + k3 t^3 + k4 t^4`` at rest with zero
+        acceleration at ``T`` (closed form)."""
+        q1, q2, v1, v2 = x
+        d, vT = q2f - q2 - v2 * T, v2 * T
+        k2 = (6.0 * d + 3.0 * vT) / T ** 2
+        k3 = -(8.0 * d + 5.0 * vT) / T ** 3
+        k4 = (3.0 * d + 2.0 * vT) / T ** 4
+
+        # _link1_accel and _friction inlined (the same arithmetic, in the same
+        # order: this runs ~50 times per shot, several shots per tick), the
+        # quartic's terms evaluated once per distinct time of the RK4 stages
+        a, k12, m11c, g1, g12 = c["a"], c["k12"], c["m11"], c["g1"], c["g12"]
+        on, fv, fc, b, drag = c["on"], c["fv"][0], c["fc"][0], c["b"], c["drag"][0]
+        cos, sin, atan, pi = math.cos, math.sin, math.atan, math.pi
+
+        def elbow(t):   # the quartic's angle, rate, acceleration and inertia terms at t
+            q2t = q2 + v2 * t + k2 * t * t + k3 * t ** 3 + k4 * t ** 4
+            v2t = v2 + 2 * k2 * t + 3 * k3 * t * t + 4 * k4 * t ** 3
+            a2t = 2 * k2 + 6 * k3 * t + 12 * k4 * t * t
+            c2, s2 = cos(q2t), sin(q2t)
+            return q2t, v2t, a2t, s2, a + k12 * c2, m11c + 2.0 * k12 * c2
+
+        def accel(e, q, w):   # link 1's acceleration with the elbow at e
+            q2t, v2t, a2t, s2, m12, m11 = e
+            bias = -k12 * s2 * (2.0 * w * v2t + v2t * v2t)
+            grav = g1 * sin(q) + g12 * sin(q + q2t)
+            fr = (fv * w + fc * (2.0 / pi) * atan(w / b) + drag * w * abs(w)) if on else 0.0
+            return -(m12 * a2t + bias + grav + fr) / m11
+
+        dt = T / self.steps
+        h2, h6 = dt / 2, dt / 6
+        t = 0.0
+        e0 = elbow(t)
+        for _ in range(self.steps):   # RK4 on link 1
+            em, e1 = elbow(t + h2), elbow(t + dt)
+            d1 = accel(e0, q1, v1)
+            w2 = v1 + h2 * d1
+            d2 = accel(em, q1 + h2 * v1, w2)
+            w3 = v1 + h2 * d2
+            d3 = accel(em, q1 + h2 * w2, w3)
+            w4 = v1 + dt * d3
+            d4 = accel(e1, q1 + dt * w3, w4)
+            q1 += h6 * (v1 + 2 * w2 + 2 * w3 + w4)
+            v1 += h6 * (d1 + 2 * d2 + 2 * d3 + d4)
+            t += dt
+            e0 = e1
+        p, s = self.landing.plant, q1 - self.landing.alpha
+        h = -p.l1 * math.cos(s) - p.l2 * math.cos(s + q2f)
+        return np.array([v1, h - self.height]), 2.0 * k2
+
+    def solve(self, x):
+        """(the elbow's acceleration now, ``T``) or None: Newton on
+        ``(T, q2f)``, from link 1 stopping at its present deceleration."""
+        c = self._model()
+        if x[2] > self.min_rate:
+            decel = max(self.landing.deceleration(x), 2.0)
+            T, q2f = min(0.5, max(0.03, x[2] / decel)), float(x[1])
+            shot = None   # the shot at (T, q2f) once it converged
+            for _ in range(8):
+                r, acc = self._shoot(c, x, T, q2f)
+                if abs(r[0]) < 1e-3 and abs(r[1]) < 1e-4:
+                    shot = r, acc
+                    break
+                J = np.column_stack([(self._shoot(c, x, T + 1e-4, q2f)[0] - r) / 1e-4,
+                                     (self._shoot(c, x, T, q2f + 1e-4)[0] - r) / 1e-4])
+                try:
+                    dT, dq = np.linalg.solve(J, -r)
+                except np.linalg.LinAlgError:
+                    break
+                T += min(0.5 * T, max(-0.5 * T, dT))
+                q2f += min(0.3, max(-0.3, dq))
+                if not 0.015 <= T <= 0.8:
+                    break
+            if 0.015 <= T <= 0.8:
+                r, acc = shot or self._shoot(c, x, T, q2f)
+                if abs(r[0]) <= 0.05 and abs(r[1]) <= 0.005 and T >= self.min_time:
+                    return acc, T
+        if self.landing.height(x) < self.height - self.hold_depth:
+            return None   # no shot, and far from the aim: link 1 stopped early
+        T, q2f = self.min_time, float(x[1])   # the last moments: T held, q2f only
+        for _ in range(8):
+            r, acc = self._shoot(c, x, T, q2f)
+            if abs(r[1]) < 1e-5:
+                break
+            slope = (self._shoot(c, x, T, q2f + 1e-4)[0][1] - r[1]) / 1e-4
+            if abs(slope) < 1e-6:
+                return None
+            q2f += min(0.3, max(-0.3, -r[1] / slope))
+        else:
+            r, acc = self._shoot(c, x, T, q2f)
+        return (acc, T) if abs(r[1]) < 0.002 else None
+
+    def gives_up(self, x) -> bool:
+        """Whether the shot has missed: link 1 swings back faster than
+        ``give_up_rate`` with the gripper still below the aimed height.
+        Chasing the line then slides the gripper along it as link 1 falls
+        back (crashes at 1-2 m/s); giving up leaves a timeout, the robot
+        still hanging from its holding gripper (0: never gives up)."""
+        return (self.give_up_rate > 0.0 and x[2] < -self.give_up_rate
+                and self.landing.height(x) < self.height)
+
+    def torque(self, x) -> float:
+        """The elbow torque at the relative state ``x``: the computed torque
+        of the solved elbow acceleration (the landing's where none; the
+        elbow braked to rest once the shot :meth:`gives_up`)."""
+        x = [float(v) for v in x]
+        c, (q1, q2, v1, v2) = self._model(), x
+        if self.gives_up(x):
+            a2 = -self.landing.rate_gain * v2
+        else:
+            sol = self.solve(x)
+            if sol is None:
+                return self.landing.torque(x)
+            a2 = sol[0]
+        a1 = self._link1_accel(c, q1, q2, v1, v2, a2)
+        m12 = c["a"] + c["k12"] * np.cos(q2)
+        return float(m12 * a1 + c["a"] * a2 + c["k12"] * np.sin(q2) * v1 * v1
+                     + c["g12"] * np.sin(q1 + q2) + self._friction(c, 1, v2))
+
+
+def link1_share(p, alpha: float, states, depth: float) -> float:
+    """The share of the planned gripper's rise rate that link 1's rotation
+    makes (the rest: the elbow's) at the last moment the gripper of the
+    planned swing (``states``, relative, in time order) is ``depth`` below
+    a line inclined by ``alpha``: 1 where link 1 carries the gripper to the
+    line, 0 where the elbow lifts it."""
+    states = np.asarray(states, dtype=float)
+    below = np.flatnonzero([height_rates(p, alpha, x)[0] < -depth for x in states])
+    x = states[int(below[-1]) if below.size else 0]
+    total = height_rates(p, alpha, x)[1]
+    by_link1 = height_rates(p, alpha, (*x[:3], 0.0))[1]   # the elbow held
+    return by_link1 / total if abs(total) > 1e-9 else 0.0
+
+
+def resolved_landing(p, alpha: float, states, path):
+    """(law, path): ``path.landing_law`` with ``"auto"`` resolved on the
+    planned swing (``states``, relative, in time order), and ``path`` with
+    the shot's hold time and aim of that swing.  Where link 1 makes at least
+    ``path.shoot_link1_share`` of the gripper's rise when it comes within
+    ``path.shoot_depth`` of the line, the shot held from
+    ``path.shoot_min_time``; where the elbow lifts the gripper (the end of
+    the -20 degree plan: link 1 creeps while the elbow stops the gripper
+    at the line, and a short hold asks for the torque limit both ways), the
+    shot held from ``path.shoot_lift_min_time`` and aimed at
+    ``path.shoot_lift_height``, or the aim law if ``shoot_lift_min_time``
+    is 0 (the default, the robot without the line sensor)."""
+    if path.landing_law != "auto":
+        return path.landing_law, path
+    if link1_share(p, alpha, states, path.shoot_depth) >= path.shoot_link1_share:
+        return "shoot", path
+    if path.shoot_lift_min_time > 0:
+        return "shoot", replace(path, shoot_min_time=path.shoot_lift_min_time,
+                                shoot_height=path.shoot_lift_height)
+    return "aim", path
+
+
+def landing_law(p, alpha: float, states, path) -> str:
+    """The law of :func:`resolved_landing`: ``"aim"`` or ``"shoot"``."""
+    return resolved_landing(p, alpha, states, path)[0]
+
+
+def height_rates(p, alpha: float, x) -> tuple[float, float, float]:
+    """(h, h', along): the gripper's distance to a line inclined by
+    ``alpha`` (negative below it), its rate and the gripper's speed along
+    the line at the relative state ``x`` of the plant ``p``."""
+    q, v = x[:2], x[2:4]
+    s = q[0] - alpha
+    th = s + q[1]
+    h = -p.l1 * np.cos(s) - p.l2 * np.cos(th)
+    hd = (p.l1 * np.sin(s) + p.l2 * np.sin(th)) * v[0] + p.l2 * np.sin(th) * v[1]
+    along = (p.l1 * np.cos(s) + p.l2 * np.cos(th)) * v[0] + p.l2 * np.cos(th) * v[1]
+    return float(h), float(hd), float(along)
+
+
+def height_torque(p, alpha: float, x, hdd: float) -> float:
+    """The elbow torque that gives the gripper's distance to the line the
+    acceleration ``hdd`` with link 1 passive, by partial feedback
+    linearisation on the plant ``p`` (friction left out)."""
+    q, v = x[:2], x[2:4]
+    s = q[0] - alpha
+    th = s + q[1]
+    J = np.array([p.l1 * np.sin(s) + p.l2 * np.sin(th), p.l2 * np.sin(th)])  # dh/dq
+    jdv = p.l1 * np.cos(s) * v[0] ** 2 + p.l2 * np.cos(th) * (v[0] + v[1]) ** 2
+    M = mass_matrix(q, p)
+    b = bias_term(q, v, p) + gravity_vector(q, p)
+    # h'' = J q'' + J' q' with q1'' = -(M12 q2'' + b1) / M11 (link 1 passive)
+    q2dd = (hdd + J[0] * b[0] / M[0, 0] - jdv) / (J[1] - J[0] * M[0, 1] / M[0, 0])
+    q1dd = -(M[0, 1] * q2dd + b[0]) / M[0, 0]
+    return float(M[1, 0] * q1dd + M[1, 1] * q2dd + b[1])

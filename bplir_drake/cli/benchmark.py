@@ -16,7 +16,7 @@ def cmd_benchmark(args) -> int:
 
     params = _load_params(args)
     if args.estimator:
-        params = params.with_estimator(args.estimator)
+        params = params.with_estimator(args.estimator, args.estimator_arg)
     presets = [c.strip() for c in args.controllers.split(",") if c.strip()]
     if not presets or any(c not in CONTROLLER_PRESETS and not _is_plugin(c) for c in presets):
         bad = next((c for c in presets if c not in CONTROLLER_PRESETS), args.controllers)
@@ -36,7 +36,7 @@ def cmd_benchmark(args) -> int:
         _in_range("--realistic-samples", args.realistic_samples, 1, 1_000_000)
         base = load_study(args.realistic).with_(samples=args.realistic_samples, seed=args.seed)
         if args.estimator:
-            base = base.with_(params=base.params.with_estimator(args.estimator))
+            base = base.with_(params=base.params.with_estimator(args.estimator, args.estimator_arg))
         _realistic_studies(args, base, presets, out, run=False)  # resumable or refused now
     result = run_benchmark(params, presets, quick=args.quick, workers=args.workers or 0,
                            seed=args.seed, progress=_progress(args),

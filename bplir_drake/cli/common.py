@@ -215,3 +215,11 @@ def _check_plugin(params) -> None:
     for kind in ("controller", "estimator"):
         if getattr(params, kind).plugin:
             make_plugin(params, kind)
+
+
+def _plugin_args_need_a_plugin(args) -> None:
+    """``--controller-arg`` / ``--estimator-arg`` only with a plug-in named."""
+    for kind in ("controller", "estimator"):
+        if getattr(args, f"{kind}_arg", None) and not getattr(args, kind, None):
+            raise InputError(f"--{kind}-arg needs --{kind} naming your plug-in "
+                             f"(module:factory or a registered name)")

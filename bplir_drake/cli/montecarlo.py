@@ -1,7 +1,7 @@
 """``bplir montecarlo``: a Monte Carlo robustness study."""
 from __future__ import annotations
 
-from .common import InputError, _check_plugin, _emit, _in_range, _load_params, _out_dir, _progress, _save, _with_hardware, _with_path_mode, _with_settings, _write_json
+from .common import _plugin_args_need_a_plugin, InputError, _check_plugin, _emit, _in_range, _load_params, _out_dir, _progress, _save, _with_hardware, _with_path_mode, _with_settings, _write_json
 from .options import command, option, shared
 
 
@@ -28,10 +28,11 @@ def _study(args):
         p = study.params
         study = study.with_(params=p.with_(scenario=dc.replace(p.scenario,
                                                                incline_deg=args.incline)))
+    _plugin_args_need_a_plugin(args)
     if args.controller:
-        study = study.with_(params=study.params.with_controller(args.controller))
+        study = study.with_(params=study.params.with_controller(args.controller, args.controller_arg))
     if args.estimator:
-        study = study.with_(params=study.params.with_estimator(args.estimator))
+        study = study.with_(params=study.params.with_estimator(args.estimator, args.estimator_arg))
     study = study.with_(params=_with_path_mode(study.params, getattr(args, "path_mode", None),
                                                getattr(args, "landing_law", None)))
     if args.true_state:

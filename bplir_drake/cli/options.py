@@ -54,3 +54,7 @@ def shared(p, *names):
                          "aim where the elbow lifts it)")}
     for n in names:
         option(p, *table[n])
+        if n in ("controller", "estimator"):   # arguments of a plug-in's factory
+            p.add_argument(f"--{n}-arg", action="append", default=[], metavar="KEY=VALUE",
+                           help=f"keyword argument of your {n} plug-in's factory "
+                                "(repeatable): a number, true/false or text")

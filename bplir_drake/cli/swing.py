@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from pathlib import Path
 from ..io import write_text_atomic
-from .common import InputError, _check_plugin, _emit, _load_params, _out_dir, _same, _save, _study_of, _with_path_mode, _write_json
+from .common import _plugin_args_need_a_plugin, InputError, _check_plugin, _emit, _load_params, _out_dir, _same, _save, _study_of, _with_path_mode, _write_json
 from .options import command, option, shared
 
 
@@ -24,10 +24,11 @@ def _swing_params(args):
     except TypeError as exc:  # pragma: no cover - defensive
         raise InputError(str(exc)) from None
     params = params.with_(scenario=sc)
+    _plugin_args_need_a_plugin(args)
     if args.controller:
-        params = params.with_controller(args.controller)
+        params = params.with_controller(args.controller, args.controller_arg)
     if args.estimator:
-        params = params.with_estimator(args.estimator)
+        params = params.with_estimator(args.estimator, args.estimator_arg)
     params = _with_path_mode(params, getattr(args, "path_mode", None),
                              getattr(args, "landing_law", None))
     from ..diagrams import swing_geometry

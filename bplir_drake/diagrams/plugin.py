@@ -56,7 +56,7 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..params import BplirParams, ParameterError
+from ..params import BplirParams, ParameterError, plugin_arguments, registered_plugins
 
 
 @dataclass(frozen=True)
@@ -83,6 +83,12 @@ CONTRACTS = {c.kind: c for c in (CONTROLLER, ESTIMATOR)}
 def load_factory(spec: str, kind: str = "controller"):
     """The function ``spec = "module:factory"`` names (one-line
     ``ParameterError`` when it cannot be loaded)."""
+    if ":" not in spec:   # a registered name: its entry point's module:factory
+        target = registered_plugins(kind).get(spec)
+        if target is None:
+            raise ParameterError(f"{kind} plugin {spec!r} is not registered; registered: "
+                                 + (", ".join(sorted(registered_plugins(kind))) or "none"))
+        spec = target
     module_name, name = spec.rsplit(":", 1)
     try:
         if module_name.endswith(".py"):
@@ -125,9 +131,10 @@ def make_plugin(params: BplirParams, kind: str = "controller", factory=None):
     contract = CONTRACTS[kind]
     spec = getattr(params, kind).plugin if factory is None else getattr(
         factory, "__qualname__", repr(factory))
+    kwargs = plugin_arguments(getattr(params, kind).plugin_args)
     try:
         make = load_factory(spec, kind) if factory is None else factory
-        system = make(nominal_only(params))
+        system = make(nominal_only(params), **kwargs)
     except ParameterError:
         raise
     except (Exception, SystemExit) as exc:  # noqa: BLE001 - sys.exit() included

@@ -27,6 +27,9 @@ from .base import (  # noqa: F401
     _fraction,
     _is_plugin,
     plugin_name,
+    PLUGIN_GROUPS,
+    registered_plugins,
+    plugin_arguments,
     _range_text,
     _validate_block,
     _Block)

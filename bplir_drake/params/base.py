@@ -41,19 +41,61 @@ def _fraction(default, *, doc: str = ""):
     return _p(default, "", 0, 1, lo_open=True, doc=doc)
 
 
+#: the entry-point groups under which installed packages register plug-ins
+PLUGIN_GROUPS = {"controller": "bplir_drake.controllers", "estimator": "bplir_drake.estimators"}
+
+
+def registered_plugins(kind: str | None = None) -> dict[str, str]:
+    """The plug-ins installed packages register (entry points in
+    :data:`PLUGIN_GROUPS`): name -> ``module:factory``, of one ``kind``
+    (``"controller"``, ``"estimator"``) or of both."""
+    from importlib.metadata import entry_points
+
+    kinds = PLUGIN_GROUPS if kind is None else {kind: PLUGIN_GROUPS[kind]}
+    return {ep.name: ep.value for group in kinds.values() for ep in entry_points(group=group)}
+
+
 def _is_plugin(spec) -> bool:
-    """``spec`` has the form ``module:factory`` (the module may be a path)."""
-    if not isinstance(spec, str) or ":" not in spec:
+    """``spec`` has the form ``module:factory`` (the module may be a path) or
+    is the name of a registered plug-in (:func:`registered_plugins`)."""
+    if not isinstance(spec, str) or not spec:
         return False
+    if ":" not in spec:
+        return spec in registered_plugins()
     module, factory = spec.rsplit(":", 1)
     return bool(module) and factory.isidentifier()
+
+
+def plugin_arguments(args) -> dict:
+    """``("key=value", ...)`` as keyword arguments of a plug-in's factory:
+    each value read as a whole number, a number, true/false or else text.
+    A malformed entry raises :class:`ParameterError`."""
+    out = {}
+    if not isinstance(args, (tuple, list)):
+        raise ParameterError(f"plug-in arguments {args!r} must be a list of 'key=value'")
+    for item in args:
+        key, sep, text = str(item).partition("=")
+        if not sep or not key.strip().isidentifier():
+            raise ParameterError(f"plug-in argument {item!r} must be key=value with key a "
+                                 "Python name")
+        text = text.strip()
+        value: Any = {"true": True, "false": False}.get(text.lower(), text)
+        if value is text:
+            for kind in (int, float):
+                try:
+                    value = kind(text)
+                    break
+                except ValueError:
+                    continue
+        out[key.strip()] = value
+    return out
 
 
 def plugin_name(spec: str) -> str:
     """A plug-in's own name from its ``module:factory`` spec: a file's stem
     (``path/to/my_controller.py:make`` -> ``my_controller:make``), a module
     as it is; a preset name unchanged."""
-    if not _is_plugin(spec):
+    if not _is_plugin(spec) or ":" not in spec:   # a preset or a registered name
         return spec
     module, factory = spec.rsplit(":", 1)
     if module.endswith(".py") or "/" in module or "\\" in module:

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, fields, replace
-from .base import ParameterError, _Block, _fraction, _is_plugin, _p, _positive
+from .base import ParameterError, _Block, _fraction, _is_plugin, plugin_arguments, _p, _positive
 
 
 #: the in-loop filter tuning with the trapezoid step (``EstimatorParams``
@@ -71,7 +71,8 @@ class ControllerParams(_Block):
     delay_compensation: float = _p(0.0, "s", 0, 0.1, doc="actuation delay the CPFL controller assumes (whole periods): it acts on the state predicted this far ahead (0: none)")
     friction_compensation: bool = field(default=False, metadata=dict(doc="CPFL includes the nominal friction in its feedback linearisation"))
     sign_correct: bool = field(default=True, metadata=dict(doc="negate a K of negative gain (the published K = -216 matches the measured plant's sign, see errata)"))
-    plugin: str = field(default="", metadata=dict(doc="module:factory of your own controller ('' : the preset's)", allowed="module:factory or ''"))
+    plugin: str = field(default="", metadata=dict(doc="module:factory (or registered name) of your own controller ('' : the preset's)", allowed="module:factory, a registered name or ''"))
+    plugin_args: tuple = field(default=(), metadata=dict(doc="keyword arguments of the plug-in's factory, each 'key=value' (numbers, true/false or text)"))
     k_num: tuple = field(default=(), metadata=dict(doc="outer-loop K numerator, highest power first (empty: the preset's design)"))
     k_den: tuple = field(default=(), metadata=dict(doc="outer-loop K denominator, highest power first"))
     f_num: tuple = field(default=(), metadata=dict(doc="prefilter F numerator, highest power first"))
@@ -81,7 +82,11 @@ class ControllerParams(_Block):
         if not isinstance(self.plugin, str) or (self.plugin and not _is_plugin(self.plugin)):
             raise ParameterError(
                 f"controller.plugin = {self.plugin!r} must be 'module:factory' (a module "
-                "name or a .py file, a colon, a function returning a Drake system)")
+                "name or a .py file, a colon, a function returning a Drake system) or the "
+                "name of a registered plug-in")
+        plugin_arguments(self.plugin_args)
+        if self.plugin_args and not self.plugin:
+            raise ParameterError(f"controller.plugin_args are given without controller.plugin")
         if self.preset not in CONTROLLER_PRESETS:
             raise ParameterError(
                 f"controller.preset = '{self.preset}' is unknown; allowed: "

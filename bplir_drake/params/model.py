@@ -6,7 +6,7 @@ from typing import Any
 from .base import ParameterError, _is_plugin, _range_text
 from .robot import FrictionParams, MotorParams, PlantParams
 from .sensing import EstimatorParams, ImuParams, LineSensorParams
-from .control import ControllerParams, HARDWARE_OPTIONS, IMU_ONLY_TUNING, LINE_SENSOR_OPTION, PathParams
+from .control import CONTROLLER_PRESETS, ControllerParams, HARDWARE_OPTIONS, IMU_ONLY_TUNING, LINE_SENSOR_OPTION, PathParams
 from .scenario import DriveParams, ScenarioParams, TraverseParams
 
 
@@ -61,13 +61,16 @@ class BplirParams:
         path = self.path.resolved(self.scenario.incline_deg, self.controller)
         return self if path is self.path else replace(self, path=path)
 
-    def with_controller(self, name: str) -> "BplirParams":
+    def with_controller(self, name: str, args=()) -> "BplirParams":
         """The controller preset ``name``; the ``lab`` firmware also brings its
         own path (``path.mode = "lab"``), the others keep the path block.  A
-        ``module:factory`` name plugs in a user's controller
-        (``controller.plugin``; the preset's parameters stay as they are)."""
-        if _is_plugin(name):
-            return replace(self, controller=replace(self.controller, plugin=name))
+        ``module:factory`` name, or a registered plug-in's name, plugs in a
+        user's controller (``controller.plugin``, its factory called with the
+        keyword arguments ``args``, ``"key=value"`` each; the preset's
+        parameters stay as they are)."""
+        if name not in CONTROLLER_PRESETS and _is_plugin(name):
+            return replace(self, controller=replace(self.controller, plugin=name,
+                                                    plugin_args=tuple(args)))
         path = replace(self.path, mode="lab") if name == "lab" else self.path
         # the published robots sense the line with their IMUs alone
         sensor = self.line_sensor if name == "qft" else replace(self.line_sensor, range=0.0)
@@ -98,10 +101,12 @@ class BplirParams:
                                      + ", ".join(HARDWARE_OPTIONS))
         return p
 
-    def with_estimator(self, spec: str) -> "BplirParams":
-        """A user's estimator ``"module:factory"`` in the swing
-        (``estimator.plugin``) instead of the EKF; ``""`` restores the EKF."""
-        return replace(self, estimator=replace(self.estimator, plugin=spec))
+    def with_estimator(self, spec: str, args=()) -> "BplirParams":
+        """A user's estimator ``"module:factory"`` (or a registered name) in the
+        swing (``estimator.plugin``, its factory called with the keyword
+        arguments ``args``) instead of the EKF; ``""`` restores the EKF."""
+        return replace(self, estimator=replace(self.estimator, plugin=spec,
+                                               plugin_args=tuple(args) if spec else ()))
 
 
 def swapped_plant(p: PlantParams) -> PlantParams:

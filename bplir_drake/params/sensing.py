@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
-from .base import ParameterError, _Block, _is_plugin, _length, _p, _positive
+from .base import ParameterError, _Block, _is_plugin, plugin_arguments, _length, _p, _positive
 
 
 # ---------------------------------------------------------------- IMU
@@ -90,7 +90,11 @@ class EstimatorParams(_Block):
         if not isinstance(self.plugin, str) or (self.plugin and not _is_plugin(self.plugin)):
             raise ParameterError(
                 f"estimator.plugin = {self.plugin!r} must be 'module:factory' (a module "
-                "name or a .py file, a colon, a function returning a Drake system)")
+                "name or a .py file, a colon, a function returning a Drake system) or the "
+                "name of a registered plug-in")
+        plugin_arguments(self.plugin_args)
+        if self.plugin_args and not self.plugin:
+            raise ParameterError(f"estimator.plugin_args are given without estimator.plugin")
         for name in ("integration", "loop_integration"):
             if getattr(self, name) not in ("euler", "trapezoid", "heun"):
                 raise ParameterError(f"estimator.{name} = '{getattr(self, name)}' is unknown; "
@@ -139,7 +143,8 @@ class EstimatorParams(_Block):
     imu_position_sigma0: float = _positive(0.02, "m", doc="initial standard deviation of each IMU's distance along its link (self-calibration states; they start at r1, r2)")
     imu_position_walk: float = _positive(1e-5, "m/sqrt(s)", doc="IMU-distance random walk")
     datasheet_process_sigma: float = _positive(0.05, "m/s^2", doc="process noise on the accelerometer inputs when R is the IMUs' own noise (with_sensor_noise; NIS-consistent on the estimation benchmark)")
-    plugin: str = field(default="", metadata=dict(doc="module:factory of your own estimator, used in a swing instead of the EKF ('' : the EKF)", allowed="module:factory or ''"))
+    plugin: str = field(default="", metadata=dict(doc="module:factory (or registered name) of your own estimator, used in a swing instead of the EKF ('' : the EKF)", allowed="module:factory, a registered name or ''"))
+    plugin_args: tuple = field(default=(), metadata=dict(doc="keyword arguments of the plug-in's factory, each 'key=value' (numbers, true/false or text)"))
 
     def self_calibrating(self) -> "EstimatorParams":
         """The same filter with the self-calibration states (accelerometer

@@ -6,10 +6,12 @@
 * :mod:`.compare` -- the controller presets on one scenario;
 * the plans and their tracking gains live one layer down, in
   :mod:`bplir_drake.diagrams.plan` (cached by :mod:`bplir_drake.diagrams.plan_cache`);
+* :mod:`.summary` -- :class:`~.summary.SwingSummary`, the typed summary;
 * :mod:`.plots` -- plots and animation of a swing result.
 """
 from .run import (SWING_ACCURACY, SWING_INTEGRATOR, SwingResult, SwingRunner, run_swing,
                   swing_diagram)
+from .summary import SwingSummary
 
-__all__ = ["SWING_ACCURACY", "SWING_INTEGRATOR", "SwingResult", "SwingRunner", "run_swing",
-           "swing_diagram"]
+__all__ = ["SWING_ACCURACY", "SWING_INTEGRATOR", "SwingResult", "SwingRunner", "SwingSummary",
+           "run_swing", "swing_diagram"]

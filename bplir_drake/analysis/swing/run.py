@@ -24,6 +24,7 @@ from ...simulate import Log, logs, make_simulator, run_until_outcome
 from ...systems.plant import gripper_position, gripper_velocity, kinetic_energy, potential_energy
 from .logs import (  # noqa: F401 (re-exported)
     LOG_COLUMNS, log_table, motor_columns, write_log_csv, gripper_speed)
+from .summary import SwingSummary
 
 
 def draw_true_friction(params: BplirParams, seed: int) -> BplirParams:
@@ -43,14 +44,15 @@ def draw_true_friction(params: BplirParams, seed: int) -> BplirParams:
 class SwingResult:
     """One simulated swing.
 
-    ``summary``: the outcome and its figures (keys with units: outcome,
-    success, swing_time_s, capture_speed_mps, capture_distance_m,
-    peak_torque_Nm, peak_motor_power_W, energy_in_J, thresholds, seed, ...);
+    ``summary``: the outcome and its figures, a typed
+    :class:`~.summary.SwingSummary` (``summary.capture_speed_mps``; units in
+    ``SwingSummary.units()``) that reads like the dict of ``summary.json``
+    too (``summary["capture_speed_mps"]``);
     ``logs``: the logged signals by name (``state``, ``torque``, ``power``,
     ``estimate``, ``reference``, ``imu``, ...); ``params``: the parameters
     it ran with (the simulated friction drawn)."""
 
-    summary: dict
+    summary: SwingSummary
     logs: dict[str, Log]
     params: BplirParams
 
@@ -153,10 +155,10 @@ class SwingRunner:
         built.diagram.ForcedPublish(sim.get_context())
         status = built.systems["interlock"].status(sim.get_context())
         lg = logs(built, sim)
-        summary = swing_summary(p, lg, status, seed, use_est)
         h, tripped = driver.interlock_state(driver.GetMyContextFromRoot(sim.get_context()))
-        summary.update({"i2t_start_A2s": h0[0], "i2t_end_A2s": h, "driver_tripped_end": tripped,
-                        "driver_tripped": bool(h0[1] or np.any(lg["tripped"].data > 0.5))})
+        summary = SwingSummary(**swing_summary(p, lg, status, seed, use_est),
+                               i2t_start_A2s=h0[0], i2t_end_A2s=h, driver_tripped_end=tripped,
+                               driver_tripped=bool(h0[1] or np.any(lg["tripped"].data > 0.5)))
         return SwingResult(summary, lg, p)
 
 
@@ -296,6 +298,6 @@ def swing_summary(p: BplirParams, lg: dict[str, Log], status: dict, seed: int,
 
 def summary_with_params(result: SwingResult) -> dict:
     """The swing's summary with the parameters it ran with."""
-    return result.summary | {"parameters": to_dict(result.params)}
+    return result.summary.to_dict() | {"parameters": to_dict(result.params)}
 
 

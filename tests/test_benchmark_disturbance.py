@@ -59,7 +59,7 @@ def test_command_delay_shifts_by_whole_periods():
 def test_benchmark_scores_actuation_delay(tmp_path, params):
     from bplir_drake.analysis.montecarlo.benchmark import benchmark_table, plot_benchmark, run_benchmark
 
-    res = run_benchmark(params, ["qft", "dissertation"], quick=True, categories=("delay",),
+    res = run_benchmark(params, ["plan", "cpfl-qft"], quick=True, categories=("delay",),
                         workers=2, out=tmp_path)
     rows = {(r["controller"], r["label"]): r for r in res["rows"]}
     # the default (the delay probed, identified and compensated) lands both
@@ -67,22 +67,22 @@ def test_benchmark_scores_actuation_delay(tmp_path, params):
     # has no delay compensation and crashes far above the 0.5 m/s limit
     # (13 and 12 m/s: the loop is past its delay margin)
     for label, (lo, hi) in (("10 ms", (0.24, 0.28)), ("30 ms", (0.23, 0.28))):
-        assert rows["qft", label]["outcome"] == "captured"
-        assert lo < rows["qft", label]["capture_speed_mps"] < hi
-        assert rows["dissertation", label]["outcome"] == "crash"
-        assert rows["dissertation", label]["capture_speed_mps"] > 5
-    assert res["scores"]["qft"] == {"categories": {"delay": 1.0}, "overall": 1.0, "swings": 2}
-    assert res["scores"]["dissertation"]["categories"] == {"delay": 0.0}
+        assert rows["plan", label]["outcome"] == "captured"
+        assert lo < rows["plan", label]["capture_speed_mps"] < hi
+        assert rows["cpfl-qft", label]["outcome"] == "crash"
+        assert rows["cpfl-qft", label]["capture_speed_mps"] > 5
+    assert res["scores"]["plan"] == {"categories": {"delay": 1.0}, "overall": 1.0, "swings": 2}
+    assert res["scores"]["cpfl-qft"]["categories"] == {"delay": 0.0}
     assert "| delay | 1.00 | 0.00 |" in benchmark_table(res)
     assert save_figure(plot_benchmark(res), tmp_path / "b.png").stat().st_size > 20_000
     assert (tmp_path / "benchmark_cases.csv").read_text().count("\n") == 5
 
 
 def test_benchmark_rejects_unknown_controller(tmp_path, capsys):
-    assert main(["benchmark", "--quick", "--controllers", "qft,pid", "--out", str(tmp_path)]) == 2
+    assert main(["benchmark", "--quick", "--controllers", "plan,pid", "--out", str(tmp_path)]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "--controllers: 'pid' is not a controller; allowed" in err
-    assert "qft, dissertation, lab" in err
+    assert "plan, cpfl-qft, lab" in err
 
 
 @pytest.mark.parametrize("extra, message", [
@@ -120,10 +120,10 @@ def test_benchmark_refuses_a_realistic_directory_of_another_study_before_any_wor
 
     monkeypatch.setattr(B, "run_benchmark", no_work)
     monkeypatch.chdir(Path(__file__).resolve().parents[1])
-    other = tmp_path / "realistic" / "qft"
+    other = tmp_path / "realistic" / "plan"
     other.mkdir(parents=True)
     save_study(Study(params=BplirParams(), samples=3, seed=5), other / STUDY_FILE)
-    assert main(["benchmark", "--quick", "--controllers", "qft", "--realistic",
+    assert main(["benchmark", "--quick", "--controllers", "plan", "--realistic",
                  "examples/study_realistic.toml", "--realistic-samples", "2",
                  "--out", str(tmp_path)]) == 2
     err = capsys.readouterr().err
@@ -140,8 +140,8 @@ def test_the_default_on_the_quick_benchmark_held_out_seed_1(tmp_path):
     from bplir_drake.analysis.montecarlo.benchmark import run_benchmark
     from bplir_drake.params import BplirParams
 
-    res = run_benchmark(BplirParams(), ["qft"], quick=True, seed=1, workers=2, out=tmp_path)
-    score = res["scores"]["qft"]
+    res = run_benchmark(BplirParams(), ["plan"], quick=True, seed=1, workers=2, out=tmp_path)
+    score = res["scores"]["plan"]
     assert score["overall"] == pytest.approx(17 / 18) and score["swings"] == 28
     assert score["categories"]["sensor noise"] == 0.5
     assert [r["label"] for r in res["rows"] if not r["success"]] == ["IMU noise x10"]
@@ -161,7 +161,7 @@ def test_figures_are_vector_on_request_and_the_benchmark_legend_covers_no_bar(tm
                  "--json"]) == 0
     figure = json.loads(capsys.readouterr().out)["files"]["figure"]
     assert figure.endswith("swing.pdf") and open(figure, "rb").read(5) == b"%PDF-"
-    assert main(["benchmark", "--quick", "--controllers", "qft", "--format", "svg",
+    assert main(["benchmark", "--quick", "--controllers", "plan", "--format", "svg",
                  "--out", str(tmp_path / "b"), "--json"]) == 0
     res = json.loads(capsys.readouterr().out)
     svg = (tmp_path / "b" / "benchmark.svg").read_text()

@@ -68,7 +68,7 @@ def test_controller_uses_nominal_parameters_only(params):
 
 def test_published_design_on_dissertation_family():
     fam = Q.dissertation_family(td=None)
-    d = ControllerParams.preset_named("dissertation").design
+    d = ControllerParams.preset_named("cpfl-qft").design
     K, F = control.tf(d["k_num"], d["k_den"]), control.tf(d["f_num"], d["f_den"])
     dc_ = [float(np.real(control.dcgain(F * control.feedback(p.tf * K, 1)))) for p in fam.plants]
     assert 0.9 <= min(dc_) and max(dc_) <= 1.1           # the DC band holds: 0.908..1.088
@@ -207,7 +207,7 @@ def test_continuous_controller_converts_to_autodiff(params):
     assert np.abs(tau_ad.derivatives()).max() > 0.1   # depends on the state
 
 
-@pytest.mark.parametrize("design", ["qft", "dissertation", "lab"])
+@pytest.mark.parametrize("design", ["plan", "cpfl-qft", "lab"])
 def test_controller_realisation_equals_python_control(design):
     """The controller's state-space realisation (written out in numpy so a
     swing does not import python-control) equals python-control's

@@ -157,7 +157,7 @@ def test_every_option_has_a_range(tmp_path, argv, words):
     assert not out.exists()
 
 
-@pytest.mark.parametrize("controllers", [",", "foo", "qft,nope"])
+@pytest.mark.parametrize("controllers", [",", "foo", "plan,nope"])
 def test_benchmark_controllers_checked_before_any_output(tmp_path, controllers):
     """Items 8 and 12: no empty output directory is left behind."""
     out = tmp_path / "bench"
@@ -356,7 +356,7 @@ def test_every_json_output_is_strict(tmp_path):
     runs = [("model",), ("freeswing", "--duration", "1", "--out", tmp_path / "fs"),
             ("estimate", log),
             ("observability", "--duration", "1", "--out", tmp_path / "ob"),
-            ("swing", "--incline", "20", "--controller", "dissertation", "--no-animation",
+            ("swing", "--incline", "20", "--controller", "cpfl-qft", "--no-animation",
              "--out", tmp_path / "sw"),
             ("montecarlo", "-n", "2", "--workers", "1", "--no-plots", "--out", tmp_path / "mc")]
     for argv in runs:

@@ -289,7 +289,7 @@ def test_inflation_lands_the_quick_benchmarks_torque_noise():
             q = p.with_(estimator=dc.replace(p.estimator, loop_inflate_nis=k,
                                              loop_estimate_misalignment=flight))
             with tempfile.TemporaryDirectory() as d:
-                res = run_benchmark(q, ["qft"], quick=True, seed=0, workers=1, out=d,
+                res = run_benchmark(q, ["plan"], quick=True, seed=0, workers=1, out=d,
                                     categories=("torque noise",))
             row = {r["label"]: r for r in res["rows"]}["3 N m"]
             speeds[flight, k] = (row["outcome"], row["capture_speed_mps"])

@@ -183,8 +183,8 @@ def test_the_presets_and_the_swapped_robot_choose_their_sensing():
     s = p.with_hardware("line-sensor")
     assert (s.line_sensor.range, s.path.shoot_height, s.path.shoot_min_time,
             s.path.shoot_lift_min_time) == tuple(LINE_SENSOR_OPTION.values())
-    assert s.with_controller("dissertation").line_sensor.range == 0.0
-    assert s.with_controller("qft").line_sensor.range == 0.2
+    assert s.with_controller("cpfl-qft").line_sensor.range == 0.0
+    assert s.with_controller("plan").line_sensor.range == 0.2
     assert s.imu_only() == p
     assert p.with_hardware("48v").motor.supply_voltage == 48.0
     with pytest.raises(ParameterError, match="unknown hardware option 'solar'"):

@@ -41,7 +41,7 @@ def test_lab_preset_geometry():
     (P.ImuParams, {"misalign1": 1.0}, ["imu.misalign1"]),
     (P.ScenarioParams, {"incline_deg": 90.0}, ["scenario.incline_deg", "90"]),
     (P.ScenarioParams, {"seed": -3}, ["scenario.seed"]),
-    (P.ControllerParams, {"preset": "pid"}, ["controller.preset", "qft"]),
+    (P.ControllerParams, {"preset": "pid"}, ["controller.preset", "plan"]),
     (P.PathParams, {"landing_law": "lqr"}, ["path.landing_law", "aim, shoot"]),
     (P.TraverseParams, {"swapped_landing_law": "x"}, ["traverse.swapped_landing_law", "shoot"]),
 ])
@@ -159,3 +159,23 @@ def test_the_command_line_names_its_version_lists_and_sets_parameters(capsys):
                        (["--set", "plant=1"], "must be block.field=value")):
         assert main(["params", *bad]) == 2
         assert words in capsys.readouterr().err
+
+
+def test_former_controller_preset_names_are_accepted_with_a_notice(tmp_path):
+    """``qft`` and ``dissertation`` (the former names of ``plan`` and
+    ``cpfl-qft``) still load, from Python with a FutureWarning and from the
+    command line with one ``bplir: note:`` line."""
+    import subprocess
+    import sys
+
+    with pytest.warns(FutureWarning, match="'qft' is now called 'plan'"):
+        assert P.ControllerParams(preset="qft").preset == "plan"
+    with pytest.warns(FutureWarning, match="'dissertation' is now called 'cpfl-qft'"):
+        assert P.BplirParams().with_controller("dissertation").controller.preset == "cpfl-qft"
+    config = tmp_path / "old.toml"
+    config.write_text("[controller]\npreset = 'qft'\n")
+    p = subprocess.run([sys.executable, "-m", "bplir_drake.cli", "params", "controller",
+                        "--config", str(config), "--json"], capture_output=True, text=True)
+    assert p.returncode == 0
+    assert p.stderr == "bplir: note: controller preset 'qft' is now called 'plan'\n"
+    assert '"plan"' in p.stdout

@@ -154,7 +154,7 @@ def test_quick_start_captures_on_a_20_degree_line_without_a_config(tmp_path, cap
     assert s["outcome"] == "captured" and s["path_mode"] == "plan"
     assert abs(s["landing_error_m"]) < 0.02
     assert s["capture_speed_mps"] <= 0.5 and s["peak_motor_power_W"] < 220.0
-    main(argv + ["--controller", "dissertation", "--out", str(tmp_path / "b")])
+    main(argv + ["--controller", "cpfl-qft", "--out", str(tmp_path / "b")])
     d = json.loads(capsys.readouterr().out)
     assert d["path_mode"] == "adaptive" and d["outcome"] == ("timeout" if incline > 0 else "crash")
 

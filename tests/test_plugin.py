@@ -204,10 +204,10 @@ def test_the_example_estimator_through_the_command_line(tmp_path, capsys):
 def test_the_benchmark_names_the_estimator(tmp_path):
     from bplir_drake.analysis.montecarlo.benchmark import leaderboard, run_benchmark
 
-    result = run_benchmark(BplirParams().with_estimator(EXAMPLE_EST), ["qft"], quick=True,
+    result = run_benchmark(BplirParams().with_estimator(EXAMPLE_EST), ["plan"], quick=True,
                            workers=1, categories=["sensor noise"])
     (entry,) = leaderboard(result)
-    assert entry["estimator"] == EXAMPLE_EST and result["scores"]["qft"]["swings"] == 2
+    assert entry["estimator"] == EXAMPLE_EST and result["scores"]["plan"]["swings"] == 2
 
 
 @pytest.mark.parametrize("factory, message", [
@@ -233,7 +233,7 @@ def test_a_plugin_is_labelled_by_its_own_name():
     assert plugin_name("/abs/path/my_controller.py:make") == "my_controller:make"
     assert plugin_name("examples/my_controller.py:make") == "my_controller:make"
     assert plugin_name("mypkg.control:factory") == "mypkg.control:factory"
-    assert plugin_name("qft") == "qft"
+    assert plugin_name("plan") == "plan"
     r = run_swing(BplirParams().with_controller(EXAMPLE), seed=0)
     assert r.summary["controller"] == "my_controller:make"
     assert "controller my_controller:make" in r.plot().bplir_caption

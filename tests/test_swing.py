@@ -151,16 +151,16 @@ def test_compare_presets_and_examples(tmp_path, monkeypatch, params, capsys):
 
     rows = compare_presets(params)
     by = {r["variant"]: r for r in rows}
-    assert by["qft (EKF)"]["outcome"] == "captured"
-    assert by["qft (true state)"]["outcome"] == "captured"
+    assert by["plan (EKF)"]["outcome"] == "captured"
+    assert by["plan (true state)"]["outcome"] == "captured"
     # measured (seed 0): the default's peak is its delay probe's (13.69 N m)
     # on the estimate and on the true state; the path generator brakes the
     # elbow at the 19.9 N m the peak current gives; the published K crashes
     # (2.6 m/s); the lab firmware's law runs out of voltage and times out
-    assert by["qft (EKF)"]["peak_torque_Nm"] < 14 and by["qft (true state)"]["peak_torque_Nm"] < 14
-    assert by["qft, path generator (EKF)"]["outcome"] == "captured"
-    assert by["qft, path generator (EKF)"]["peak_torque_Nm"] > 19
-    assert by["dissertation K=-216, F (EKF)"]["outcome"] == "crash"
+    assert by["plan (EKF)"]["peak_torque_Nm"] < 14 and by["plan (true state)"]["peak_torque_Nm"] < 14
+    assert by["plan's QFT loop, path generator (EKF)"]["outcome"] == "captured"
+    assert by["plan's QFT loop, path generator (EKF)"]["peak_torque_Nm"] > 19
+    assert by["cpfl-qft K=-216, F (EKF)"]["outcome"] == "crash"
     assert by["lab firmware (EKF)"]["outcome"] == "timeout"
     assert by["lab firmware (EKF)"]["peak_motor_power_W"] > 220   # beyond the rating
     assert comparison_table(rows).count("\n") == len(rows) + 1

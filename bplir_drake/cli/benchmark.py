@@ -12,12 +12,12 @@ def cmd_benchmark(args) -> int:
     from ..analysis.montecarlo.benchmark import (benchmark_table, leaderboard, leaderboard_table,
                                                 plot_benchmark, run_benchmark)
 
-    from ..params import CONTROLLER_PRESETS, _is_plugin
+    from ..params import CONTROLLER_PRESETS, _is_plugin, current_preset_name
 
     params = _load_params(args)
     if args.estimator:
         params = params.with_estimator(args.estimator, args.estimator_arg)
-    presets = [c.strip() for c in args.controllers.split(",") if c.strip()]
+    presets = [current_preset_name(c.strip()) for c in args.controllers.split(",") if c.strip()]
     if not presets or any(c not in CONTROLLER_PRESETS and not _is_plugin(c) for c in presets):
         bad = next((c for c in presets if c not in CONTROLLER_PRESETS), args.controllers)
         raise InputError(f"--controllers: '{bad}' is not a controller; allowed a "
@@ -86,7 +86,7 @@ def add_parser(sub) -> None:
     p = command(sub, "benchmark", cmd_benchmark, "robustness benchmark of the controller presets",
                 "out/benchmark")
     option(p, "--quick", bool, help="fewer cases (about a minute)")
-    option(p, "--controllers", None, "qft,dissertation,lab",
+    option(p, "--controllers", None, "plan,cpfl-qft,lab",
            "controllers to score: presets and module:factory plugins")
     shared(p, "workers", "estimator")
     option(p, "--seed", int, 0, "root seed of the benchmark")

@@ -4,6 +4,7 @@ failure into one line and an exit status (2 bad input, 1 a fault inside,
 from __future__ import annotations
 
 import sys
+import warnings
 
 from ..analysis.control.errors import QftError
 from ..analysis.identification.calibration import CalibrationError
@@ -11,6 +12,11 @@ from ..estimation import LogError
 from ..params import ParameterError
 from .common import _OUT, InputError, Terminated, _terminate
 from .parser import build_parser
+
+
+def _note(message, category, filename, lineno, file=None, line=None) -> None:
+    """A warning as one line on standard error (a renamed preset, ...)."""
+    sys.stderr.write(f"bplir: note: {message}\n")
 
 
 def main(argv=None) -> int:
@@ -23,6 +29,8 @@ def main(argv=None) -> int:
     import signal
 
     _OUT[0] = sys.stdout
+    shown = warnings.showwarning
+    warnings.showwarning = _note
     quiet = contextlib.redirect_stdout(sys.stderr) if getattr(args, "json", False) \
         else contextlib.nullcontext()
     previous = {}
@@ -66,5 +74,6 @@ def main(argv=None) -> int:
         return 1
     finally:
         _OUT[0] = None
+        warnings.showwarning = shown
         for sig, handler in previous.items():
             signal.signal(sig, handler)

@@ -35,10 +35,10 @@ def shared(p, *names):
     """Options several subcommands share, by name."""
     table = {"incline": ("--incline", float, None, "line incline in degrees"),
              "controller": ("--controller", None, None,
-                            "controller preset (qft, dissertation, lab) or your own, "
+                            "controller preset (plan, cpfl-qft, lab) or your own, "
                             "module:factory (a module or .py file)"),
              "preset": ("--controller", None, None,
-                        "controller preset (qft, dissertation, lab)"),
+                        "controller preset (plan, cpfl-qft, lab)"),
              "estimator": ("--estimator", None, None,
                            "your own estimator instead of the EKF, module:factory "
                            "(a module or .py file)"),

@@ -48,6 +48,8 @@ from .control import (  # noqa: F401
     LINE_SENSOR_OPTION,
     HARDWARE_OPTIONS,
     CONTROLLER_PRESETS,
+    RENAMED_PRESETS,
+    current_preset_name,
     OUTER_LOOP_DESIGNS,
     ControllerParams,
     PATH_MODES,

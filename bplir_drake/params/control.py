@@ -33,23 +33,44 @@ HARDWARE_OPTIONS = {
 
 
 # ---------------------------------------------------------------- controller
-CONTROLLER_PRESETS = ("qft", "dissertation", "lab")
+#: the controller presets, named for what they are: ``plan`` tracks a swing
+#: planned by trajectory optimisation (time-varying LQR) and lands with its
+#: landing law; ``cpfl-qft`` is the dissertation's CPFL inner loop with the
+#: published QFT outer loop (6.23)-(6.24) and the path generator; ``lab``
+#: is the lab firmware's proportional law
+CONTROLLER_PRESETS = ("plan", "cpfl-qft", "lab")
+#: former preset names, still accepted (with a one-line notice)
+RENAMED_PRESETS = {"qft": "plan", "dissertation": "cpfl-qft"}
+
+
+def current_preset_name(name):
+    """The preset's current name; a former one (:data:`RENAMED_PRESETS`) is
+    accepted with a one-line ``FutureWarning``."""
+    if isinstance(name, str) and name in RENAMED_PRESETS:
+        import warnings
+
+        warnings.warn(f"controller preset '{name}' is now called '{RENAMED_PRESETS[name]}'",
+                      FutureWarning, stacklevel=4)
+        return RENAMED_PRESETS[name]
+    return name
 
 
 #: Outer-loop designs as continuous-time transfer functions (numerator,
 #: denominator coefficients, highest power first) of ``K(s)`` acting on
-#: ``e = F(r) - y`` and of the prefilter ``F(s)``.  ``dissertation`` is
+#: ``e = F(r) - y`` and of the prefilter ``F(s)``.  ``cpfl-qft`` is
 #: (6.23)-(6.24) as published (for the measured family (4.16), whose sign
 #: is negative); ``lab`` is the firmware's proportional law (sign corrected
-#: for the simulated plant q2'' = v, see docs/errata.md); ``qft`` is designed for
-#: the plant family of the simulated CPFL loop by :mod:`bplir_drake.analysis.control.qft`
-#: (``bplir qft --family diagram`` re-verifies it).
+#: for the simulated plant q2'' = v, see docs/errata.md); ``plan`` carries,
+#: for when its swing is steered by the path generator, a QFT design for
+#: the plant family of the simulated CPFL loop by
+#: :mod:`bplir_drake.analysis.control.qft` (``bplir qft --family diagram``
+#: re-verifies it).
 OUTER_LOOP_DESIGNS = {
-    "dissertation": {"k_num": (-216.0,), "k_den": (1.0,),
+    "cpfl-qft": {"k_num": (-216.0,), "k_den": (1.0,),
                      "f_num": (10.61,), "f_den": (1.0, 8.616)},
     "lab": {"k_num": (95.0,), "k_den": (1.0,), "f_num": (1.0,), "f_den": (1.0,)},
     # design_qft on diagram_family(seed=0, 60 plants); verified on seed 1
-    "qft": {"k_num": (18.25195, 159.3015, 46.14857), "k_den": (0.004000074, 1.0, 0.0),
+    "plan": {"k_num": (18.25195, 159.3015, 46.14857), "k_den": (0.004000074, 1.0, 0.0),
             "f_num": (860.6985,), "f_den": (1.0, 117.9063, 868.9110)},
 }
 
@@ -61,7 +82,7 @@ class ControllerParams(_Block):
     ``f_den`` override it."""
 
     _name = "controller"
-    preset: str = field(default="qft", metadata=dict(doc="the controller preset: qft (plan tracking with its landing), dissertation (CPFL + QFT + path generator), lab (the lab firmware)", allowed="qft, dissertation, lab"))
+    preset: str = field(default="plan", metadata=dict(doc="the controller preset: plan (plan tracking with its landing), cpfl-qft (the dissertation's CPFL + QFT + path generator), lab (the lab firmware); former names qft, dissertation", allowed="plan, cpfl-qft, lab"))
     period: float = _p(0.01, "s", 0, 1, lo_open=True, doc="controller sample time Ts")
     torque_limit: float = _positive(20.0, "N m", doc="saturation in the controller")
     aw_gain: float = _p(100.0, "", 0, doc="anti-windup gain X >> 1 (Fig. 6.7); 0 disables")
@@ -77,6 +98,10 @@ class ControllerParams(_Block):
     k_den: tuple = field(default=(), metadata=dict(doc="outer-loop K denominator, highest power first"))
     f_num: tuple = field(default=(), metadata=dict(doc="prefilter F numerator, highest power first"))
     f_den: tuple = field(default=(), metadata=dict(doc="prefilter F denominator, highest power first"))
+
+    def __post_init__(self):
+        object.__setattr__(self, "preset", current_preset_name(self.preset))
+        super().__post_init__()
 
     def _check(self):
         if not isinstance(self.plugin, str) or (self.plugin and not _is_plugin(self.plugin)):
@@ -127,6 +152,7 @@ class ControllerParams(_Block):
     @classmethod
     def preset_named(cls, name: str, **overrides) -> "ControllerParams":
         """Controller parameters of a named preset (with its firmware quirks)."""
+        name = current_preset_name(name)
         if name not in CONTROLLER_PRESETS:
             raise ParameterError(
                 f"unknown controller preset '{name}'; allowed: " + ", ".join(CONTROLLER_PRESETS)
@@ -158,7 +184,7 @@ LANDING_LAWS = ("aim", "shoot", "auto")
 class PathParams(_Block):
     """Online path generator (chapter 7).  ``mode``: ``auto`` (the default:
     ``plan`` on an inclined line, ``adaptive`` on a horizontal one, for the
-    project's ``qft`` controller; the ``dissertation`` preset and plug-in
+    project's ``plan`` controller; the ``cpfl-qft`` preset and plug-in
     controllers keep ``adaptive``; see :meth:`resolved`), ``adaptive`` (RTS +
     blend to line seeking with the adaptive blend end), ``rts`` (the RTS path
     with the blend (7.20)-(7.21) at its printed end, no adaptation),
@@ -169,7 +195,7 @@ class PathParams(_Block):
     :mod:`bplir_drake.systems.plan_tracker`)."""
 
     _name = "path"
-    mode: str = field(default="auto", metadata=dict(doc="how the swing is steered: auto (plan for the qft preset, adaptive otherwise), plan, adaptive, rts, lab", allowed="auto, plan, adaptive, rts, lab"))
+    mode: str = field(default="auto", metadata=dict(doc="how the swing is steered: auto (plan for the plan preset, adaptive otherwise), plan, adaptive, rts, lab", allowed="auto, plan, adaptive, rts, lab"))
     blend_exponent: float = _p(2.0, "", 1, 10, doc="exponent n of the blend weight F = (s/s_e)^n (7.20)")
     arrival_rate: float = _p(0.45, "rad/s", 0, 2, lo_open=True, doc="link-1 rate aimed for where the gripper enters the capture band")
     adapt_window: float = _p(0.3, "", 0, 1, doc="s_e adapts from s > -adapt_window * s_f ...")
@@ -229,7 +255,7 @@ class PathParams(_Block):
 
     def resolved(self, incline_deg: float, controller: "ControllerParams") -> "PathParams":
         """The path block with ``mode = "auto"`` made concrete: ``plan`` (plan
-        tracking with the apex landing) for the ``qft`` preset without a
+        tracking with the apex landing) for the ``plan`` preset without a
         plug-in on every line, else ``adaptive`` (the dissertation's path
         generator).  The adaptive path fails the nominal swing on a 5 deg
         line (it cannot pump or shed the energy; the plan can), and on the
@@ -238,7 +264,7 @@ class PathParams(_Block):
         against 20 of 100 for the adaptive path on root seed 0; README)."""
         if self.mode != "auto":
             return self
-        plan = controller.preset == "qft" and not controller.plugin
+        plan = controller.preset == "plan" and not controller.plugin
         return replace(self, mode="plan" if plan else "adaptive")
 
     def _check(self):

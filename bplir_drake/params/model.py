@@ -6,7 +6,7 @@ from typing import Any
 from .base import ParameterError, _is_plugin, _range_text
 from .robot import FrictionParams, MotorParams, PlantParams
 from .sensing import EstimatorParams, ImuParams, LineSensorParams
-from .control import CONTROLLER_PRESETS, ControllerParams, HARDWARE_OPTIONS, IMU_ONLY_TUNING, LINE_SENSOR_OPTION, PathParams
+from .control import CONTROLLER_PRESETS, ControllerParams, current_preset_name, HARDWARE_OPTIONS, IMU_ONLY_TUNING, LINE_SENSOR_OPTION, PathParams
 from .scenario import DriveParams, ScenarioParams, TraverseParams
 
 
@@ -68,12 +68,13 @@ class BplirParams:
         user's controller (``controller.plugin``, its factory called with the
         keyword arguments ``args``, ``"key=value"`` each; the preset's
         parameters stay as they are)."""
+        name = current_preset_name(name)
         if name not in CONTROLLER_PRESETS and _is_plugin(name):
             return replace(self, controller=replace(self.controller, plugin=name,
                                                     plugin_args=tuple(args)))
         path = replace(self.path, mode="lab") if name == "lab" else self.path
         # the published robots sense the line with their IMUs alone
-        sensor = self.line_sensor if name == "qft" else replace(self.line_sensor, range=0.0)
+        sensor = self.line_sensor if name == "plan" else replace(self.line_sensor, range=0.0)
         return replace(self, controller=ControllerParams.preset_named(name), path=path,
                        line_sensor=sensor)
 

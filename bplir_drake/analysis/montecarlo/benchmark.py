@@ -115,7 +115,7 @@ def _run_case(params: BplirParams, job: dict) -> dict:
     return row
 
 
-def run_benchmark(params: BplirParams, controllers=("qft", "dissertation", "lab"), *,
+def run_benchmark(params: BplirParams, controllers=("plan", "cpfl-qft", "lab"), *,
                   quick: bool = False, repeats: int | None = None, seed: int = 0,
                   workers: int = 0, progress: bool = False, out=None,
                   categories=CATEGORIES) -> dict:

@@ -8,11 +8,11 @@ from ...params import BplirParams
 from .run import run_swing
 
 #: (label, controller preset, path mode, estimator in the loop); "auto" is
-#: the default (plan tracking with the apex landing for ``qft``)
-VARIANTS = (("qft (EKF)", "qft", "auto", True),
-            ("qft (true state)", "qft", "auto", False),
-            ("qft, path generator (EKF)", "qft", "adaptive", True),
-            ("dissertation K=-216, F (EKF)", "dissertation", "adaptive", True),
+#: the default (plan tracking with the apex landing for ``plan``)
+VARIANTS = (("plan (EKF)", "plan", "auto", True),
+            ("plan (true state)", "plan", "auto", False),
+            ("plan's QFT loop, path generator (EKF)", "plan", "adaptive", True),
+            ("cpfl-qft K=-216, F (EKF)", "cpfl-qft", "adaptive", True),
             ("lab firmware (EKF)", "lab", "lab", True))
 
 COLUMNS = ("outcome", "swing_time_s", "capture_speed_mps", "peak_torque_Nm",

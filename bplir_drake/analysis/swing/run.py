@@ -86,7 +86,7 @@ SWING_INTEGRATOR, SWING_ACCURACY = "runge_kutta3", 1e-4
 def swing_diagram(params: BplirParams, **kwargs):
     """:func:`~bplir_drake.diagrams.build_swing` (the same keyword arguments)
     with the tracking gains of the planned swing when ``params`` track one
-    (``path.mode`` resolves to ``"plan"``, the default of the ``qft``
+    (``path.mode`` resolves to ``"plan"``, the default of the ``plan``
     preset): the plan and its gains come from the nominal model and the
     scenario only, from the disk cache or solved
     (:func:`~.plan.tracking_plan`).  The simulated friction is drawn from

@@ -513,8 +513,9 @@ def test_shipped_plans_serve_a_fresh_install(monkeypatch, tmp_path):
     # +-20 deg (the quick start), 0 deg (the default, the landing's tests), 20 deg resting
     # on the line, the lines' 8, the quick benchmark's +-10 deg and 1.1 / 1.3 m swings,
     # custom_params.py's 1.15 m (at 1.1, 1.15 and 1.3 m also the solve started from the
-    # 1.2 m plan, path.plan_warm_spacing), and the 1.27 m plans of the warm start's test
-    assert len(shipped) == 25
+    # 1.2 m plan, path.plan_warm_spacing), the 1.27 m plans of the warm start's test and
+    # the default swing with a 1.6 kg link 2 (the documented --set plant.m2=1.6)
+    assert len(shipped) == 26
     monkeypatch.setenv("BPLIR_CACHE_DIR", str(tmp_path))
 
     def no_solve(*a, **k):
@@ -578,8 +579,9 @@ def test_shipped_gains_serve_the_tests_plans(monkeypatch, tmp_path):
     base = preset()
     down = up.with_(scenario=dc.replace(up.scenario, incline_deg=-20.0))
     flat = base.with_(path=dc.replace(base.path, mode="plan"))
-    cases = [up, down, flat] + [swing_params(base, g, base.traverse.grip_spacing, 0.0)
-                                for g in (1, 2)] + _quick_benchmark_swings()
+    heavy = base.with_(plant=dc.replace(base.plant, m2=1.6))   # --set plant.m2=1.6
+    cases = [up, down, flat, heavy] + [swing_params(base, g, base.traverse.grip_spacing, 0.0)
+                                       for g in (1, 2)] + _quick_benchmark_swings()
     keys = set()
     for p in cases:
         plan, gains = P.tracking_plan(p)

@@ -179,3 +179,58 @@ def test_former_controller_preset_names_are_accepted_with_a_notice(tmp_path):
     assert p.returncode == 0
     assert p.stderr == "bplir: note: controller preset 'qft' is now called 'plan'\n"
     assert '"plan"' in p.stdout
+
+
+def test_the_console_script_versions_lists_sets_and_passes_plugin_arguments(tmp_path):
+    """Through the installed ``bplir`` console script itself: ``--version``,
+    ``params --json``, a swing with ``--set plant.m2=1.6`` (the swing ran
+    with it) and a plug-in given an argument (it flew with it)."""
+    import json
+    import shutil
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    exe = shutil.which("bplir", path=str(Path(sys.executable).parent)) or shutil.which("bplir")
+    assert exe, "the bplir console script is installed with the package"
+
+    def bplir(*argv):
+        p = subprocess.run([exe, *map(str, argv)], capture_output=True, text=True, timeout=300)
+        assert p.returncode == 0, p.stderr
+        return p.stdout
+
+    assert bplir("--version").startswith("bplir ")
+    rows = json.loads(bplir("params", "--json"))["parameters"]
+    assert {"block", "name", "unit", "range", "value", "doc"} <= set(rows[0])
+    swing = json.loads(bplir("swing", "--set", "plant.m2=1.6", "--no-animation", "--json",
+                             "--out", tmp_path / "s"))
+    saved = json.loads((tmp_path / "s" / "summary.json").read_text())
+    assert swing["outcome"] in ("captured", "crash", "short", "fall", "timeout")
+    assert saved["parameters"]["plant"]["m2"] == 1.6
+    plugin = tmp_path / "hold.py"
+    plugin.write_text(
+        "from pydrake.systems.framework import LeafSystem\n"
+        "class Hold(LeafSystem):\n"
+        "    def __init__(self, torque):\n"
+        "        super().__init__()\n"
+        "        self.DeclareVectorInputPort('state', 4)\n"
+        "        self.DeclareVectorOutputPort('torque', 1, lambda c, o: o.SetAtIndex(0, torque))\n"
+        "def make(params, torque=0.0):\n"
+        "    return Hold(torque)\n")
+    held = json.loads(bplir("swing", "--controller", f"{plugin}:make", "--controller-arg",
+                            "torque=1.25", "--no-animation", "--json", "--out", tmp_path / "p"))
+    assert held["controller"] == "hold:make" and abs(held["peak_torque_Nm"] - 1.25) < 1e-9
+
+
+def test_counts_are_whole_numbers():
+    """Counts (samples, ticks) are integers: a file's ``500.0`` is read as 500,
+    ``12.5`` ticks is one line naming the field and its range."""
+    import dataclasses as dc
+
+    est = dc.replace(P.EstimatorParams(), standstill_samples=500.0)
+    assert est.standstill_samples == 500 and type(est.standstill_samples) is int
+    assert type(P.BplirParams().path.plan_delay_window) is int
+    assert type(P.preset("lab").controller.delay_samples) is int
+    with pytest.raises(P.ParameterError, match=r"path.plan_delay_window = 12.5 is not a whole "
+                                               r"number; allowed whole numbers in \[8, 50\]"):
+        dc.replace(P.PathParams(), plan_delay_window=12.5)

@@ -184,7 +184,7 @@ def standstill_calibration(params: BplirParams, q0, seed: int) -> ImuCalibration
     line sensor, as many of its readings there, whose mean is its offset
     (:func:`~bplir_drake.systems.line_sensor.standstill_readings`).  No
     calibration (identity) with 0 samples."""
-    n = int(round(params.estimator.standstill_samples))
+    n = params.estimator.standstill_samples
     if n < 2:
         return ImuCalibration()
     theta = absolute_from_relative(np.asarray(q0[:2], dtype=float))

@@ -93,7 +93,7 @@ def _add_delay_compensation(builder, params, state_port, imu_port, q0) -> DelayC
         comp.identifier = builder.AddNamedSystem("delay_id", DelayIdentifier(
             q0, params.plant, params.friction, params.motor, T,
             params.controller.compute_latency, size, min(steps, size),
-            int(round(pp.plan_delay_window)), pp.plan_delay_min_ratio))
+            pp.plan_delay_window, pp.plan_delay_min_ratio))
         builder.Connect(imu_port, comp.identifier.imu_port)
     if size:
         from ..systems.predictor import DelayPredictor

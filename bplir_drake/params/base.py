@@ -15,11 +15,18 @@ class ParameterError(ValueError):
 
 
 def _p(default, unit: str, lo: float = -INF, hi: float = INF, *, lo_open=False,
-       hi_open=False, doc: str = ""):
-    """A numeric field with unit and allowed range ``[lo, hi]`` (or open)."""
+       hi_open=False, doc: str = "", integer: bool = False):
+    """A numeric field with unit and allowed range ``[lo, hi]`` (or open);
+    ``integer``: a whole number."""
     return field(default=default, metadata=dict(unit=unit, lo=lo, hi=hi,
                                                 lo_open=lo_open, hi_open=hi_open,
-                                                doc=doc))
+                                                doc=doc, integer=integer))
+
+
+def _count(default: int, unit: str, lo: float = 0, hi: float = INF, *, doc: str = ""):
+    """A whole number (samples, ticks) in ``[lo, hi]``; a float with no
+    fraction (``500.0`` from a file) is taken as the whole number."""
+    return _p(default, unit, lo, hi, doc=doc, integer=True)
 
 
 def _positive(default, unit: str, *, doc: str = ""):
@@ -125,6 +132,11 @@ def _validate_block(block, name: str) -> None:
             raise ParameterError(
                 f"{name}.{f.name} = {value} is not finite; allowed range "
                 f"{_range_text(md)}")
+        if md.get("integer"):
+            if value != int(value):
+                raise ParameterError(f"{name}.{f.name} = {value:g} is not a whole number; "
+                                     f"allowed whole numbers in {_range_text(md)}")
+            object.__setattr__(block, f.name, int(value))
         lo, hi = md["lo"], md["hi"]
         bad_lo = value <= lo if md["lo_open"] else value < lo
         bad_hi = value >= hi if md["hi_open"] else value > hi

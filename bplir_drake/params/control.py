@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, fields, replace
-from .base import ParameterError, _Block, _fraction, _is_plugin, plugin_arguments, _p, _positive
+from .base import ParameterError, _Block, _count, _fraction, _is_plugin, plugin_arguments, _p, _positive
 
 
 #: the in-loop filter tuning with the trapezoid step (``EstimatorParams``
@@ -86,7 +86,7 @@ class ControllerParams(_Block):
     period: float = _p(0.01, "s", 0, 1, lo_open=True, doc="controller sample time Ts")
     torque_limit: float = _positive(20.0, "N m", doc="saturation in the controller")
     aw_gain: float = _p(100.0, "", 0, doc="anti-windup gain X >> 1 (Fig. 6.7); 0 disables")
-    delay_samples: float = _p(0.0, "samples", 0, 1, doc="command applied this many samples late (0 or 1)")
+    delay_samples: int = _count(0, "samples", 0, 1, doc="command applied this many samples late (0 or 1)")
     torque_quantum: float = _p(0.0, "N m", 0, 5, doc="truncate the torque to multiples of this (firmware: 1)")
     compute_latency: float = _p(3e-4, "s", 0, 0.01, doc="time from the IMU sample to the command reaching the driver (< period)")
     delay_compensation: float = _p(0.0, "s", 0, 0.1, doc="actuation delay the CPFL controller assumes (whole periods): it acts on the state predicted this far ahead (0: none)")
@@ -120,9 +120,6 @@ class ControllerParams(_Block):
             raise ParameterError(
                 f"controller.compute_latency = {self.compute_latency:g} s must be shorter "
                 f"than controller.period = {self.period:g} s; allowed [0, period)")
-        if self.delay_samples not in (0.0, 1.0):
-            raise ParameterError(
-                f"controller.delay_samples = {self.delay_samples:g} must be 0 or 1")
         for name in ("k_num", "k_den", "f_num", "f_den"):
             v = getattr(self, name)
             if not isinstance(v, (tuple, list)) or not all(
@@ -157,7 +154,7 @@ class ControllerParams(_Block):
             raise ParameterError(
                 f"unknown controller preset '{name}'; allowed: " + ", ".join(CONTROLLER_PRESETS)
                 + ", or module:factory (your own controller)")
-        extra = {"lab": dict(aw_gain=0.0, delay_samples=1.0, torque_quantum=1.0)}.get(name, {})
+        extra = {"lab": dict(aw_gain=0.0, delay_samples=1, torque_quantum=1.0)}.get(name, {})
         return cls(preset=name, **(extra | overrides))
 
     @property
@@ -250,7 +247,7 @@ class PathParams(_Block):
     plan_delay_compensation: float = _p(0.01, "s", 0, 0.1, doc="mode 'plan': actuation delay the tracker assumes until it has identified one (whole periods; the lab firmware's 10 ms)")
     plan_delay_probe: float = _p(10.0, "N m", 0, 20, doc="mode 'plan': amplitude of the delay probe, two opposite doublets on the first eight commands whose gyro echo identifies the delay (0: none)")
     plan_delay_max: float = _p(0.03, "s", 0.01, 0.1, doc="mode 'plan' with plan_delay_probe: the longest actuation delay the identification considers (whole periods)")
-    plan_delay_window: float = _p(12, "ticks", 8, 50, doc="mode 'plan' with plan_delay_probe: the ticks of gyro samples the identification fits (12: 120 ms from the release)")
+    plan_delay_window: int = _count(12, "ticks", 8, 50, doc="mode 'plan' with plan_delay_probe: the ticks of gyro samples the identification fits (12: 120 ms from the release)")
     plan_delay_min_ratio: float = _p(1.25, "", 1, 100, doc="mode 'plan': the identified delay is used only if the runner-up candidate fits the gyros this many times worse")
 
     def resolved(self, incline_deg: float, controller: "ControllerParams") -> "PathParams":
@@ -280,9 +277,6 @@ class PathParams(_Block):
         if 0.0 < self.shoot_lift_min_time < 0.02:
             raise ParameterError(f"path.shoot_lift_min_time = {self.shoot_lift_min_time:g} s is "
                                  "out of range; allowed 0 (the aim law) or [0.02, 0.5] s")
-        if self.plan_delay_window != round(self.plan_delay_window):
-            raise ParameterError(f"path.plan_delay_window = {self.plan_delay_window:g} ticks "
-                                 "is not a whole number; allowed: 8 .. 50")
         if self.landing_lead > 0 and self.reach_speed > 0:
             raise ParameterError(f"path.landing_lead = {self.landing_lead:g} m s/rad and "
                                  f"path.reach_speed = {self.reach_speed:g} m/s are both set; "

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
-from .base import ParameterError, _Block, _is_plugin, plugin_arguments, _length, _p, _positive
+from .base import ParameterError, _Block, _count, _is_plugin, plugin_arguments, _length, _p, _positive
 
 
 # ---------------------------------------------------------------- IMU
@@ -121,7 +121,7 @@ class EstimatorParams(_Block):
     start_angle_sigma: float = _positive(0.02, "rad", doc="initial angle sd when a swing starts at rest on the line, about the pose the robot believes it is in")
     start_rate_sigma: float = _positive(0.05, "rad/s", doc="initial rate sd at a swing start (at rest)")
     start_bias_sigma: float = _positive(0.002, "rad/s", doc="gyro-bias sd at a swing start (calibrated while held on the line)")
-    standstill_samples: float = _p(500, "samples", 0, 100000, doc="IMU samples averaged at rest on the line before a swing to calibrate gyro biases and misalignments (0: none, the dissertation's filter; 500 = 5 s)")
+    standstill_samples: int = _count(500, "samples", 0, 100000, doc="IMU samples averaged at rest on the line before a swing to calibrate gyro biases and misalignments (0: none, the dissertation's filter; 500 = 5 s)")
     tuned_gyro_noise: float = _positive(0.0166, "rad/s", doc="gyro noise per sample the in-loop tuning assumes (Table 5.1); a standstill calibration measuring more widens R by the ratio")
     tuned_accel_noise: float = _positive(0.02156, "m/s^2", doc="accelerometer noise per sample the in-loop tuning assumes (Table 5.1); a standstill calibration measuring more widens R by the ratio")
     noise_tolerance: float = _p(1.2, "", 1, 100, doc="R is widened only when the measured noise exceeds the tuned one by more than this factor (500 samples measure it within 6 %)")

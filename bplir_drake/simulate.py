@@ -43,12 +43,43 @@ def wall_clock_limit(seconds: float | None, what: str = "the simulation"):
         signal.signal(signal.SIGALRM, previous)
 
 
+#: the names of the signals in the logs of the package's diagrams (a log
+#: not named here calls its columns ``x[i]``)
+SIGNAL_NAMES = {
+    "state": ("q1", "q2", "q1d", "q2d"), "estimate": ("q1", "q2", "q1d", "q2d"),
+    "torque": ("torque",), "power": ("power",), "current": ("current",),
+    "voltage": ("voltage",), "electrical_power": ("electrical_power",),
+    "tripped": ("tripped",), "friction": ("f1", "f2"), "command": ("torque_command",),
+    "imu": ("gyro1", "gyro2", "acc1_x", "acc1_y", "acc2_x", "acc2_y"),
+    "reference": ("q2_ref",), "delay_fit": ("delay_steps", "fit_ratio"), "v": ("v",),
+    "blend_end": ("blend_end", "blend_floor")}
+
+
 @dataclass
 class Log:
-    """A logged signal: ``t`` (N,) and ``data`` (N, n)."""
+    """A logged signal: times ``t`` (N,) and ``data`` (N, n) -- one row per
+    sample, the transpose of Drake's ``VectorLog.data()`` -- with its
+    columns' ``names``."""
 
     t: np.ndarray
     data: np.ndarray
+    names: tuple[str, ...] = ()
+
+    def __post_init__(self):
+        if not self.names:
+            n = self.data.shape[1] if self.data.ndim == 2 else 1
+            self.names = tuple(f"x[{i}]" for i in range(n))
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        """One named signal, (N,)."""
+        if name not in self.names:
+            raise KeyError(f"no signal '{name}' in this log; it has {', '.join(self.names)}")
+        return self.data[:, self.names.index(name)]
+
+    def to_columns(self) -> dict[str, np.ndarray]:
+        """``{"t": ..., name: ...}``: a table's columns, e.g. for
+        ``pandas.DataFrame(log.to_columns())``."""
+        return {"t": self.t} | {n: self.data[:, i] for i, n in enumerate(self.names)}
 
     def at(self, t) -> np.ndarray:
         """The signal linearly interpolated at times ``t``: (len(t), n)."""
@@ -56,12 +87,12 @@ class Log:
                                 for i in range(self.data.shape[1])])
 
     @classmethod
-    def from_logger(cls, logger, context) -> "Log":
+    def from_logger(cls, logger, context, names=()) -> "Log":
         """The log of a Drake logger (or TickLogger) in ``context``."""
         if hasattr(logger, "arrays"):  # TickLogger
-            return cls(*logger.arrays(context))
+            return cls(*logger.arrays(context), names=tuple(names))
         log = logger.FindLog(context)
-        return cls(np.array(log.sample_times()), np.array(log.data()).T)
+        return cls(np.array(log.sample_times()), np.array(log.data()).T, tuple(names))
 
 
 def make_simulator(built, q0, v0=(0.0, 0.0), *, accuracy: float = 1e-6,
@@ -100,7 +131,8 @@ def run(sim, duration: float) -> None:
 def logs(built, sim) -> dict[str, Log]:
     """Every logger of ``built`` in the simulator's context, by name."""
     ctx = sim.get_context()
-    return {name: Log.from_logger(lg, ctx) for name, lg in built.loggers.items()}
+    return {name: Log.from_logger(lg, ctx, SIGNAL_NAMES.get(name, ()))
+            for name, lg in built.loggers.items()}
 
 
 def run_until_outcome(sim, built, max_time: float, wall_limit: float | None = None,

@@ -276,3 +276,18 @@ def test_a_swing_draws_one_panel_on_one_axes(default_swing):
     assert any("driver limit" in t.get_text() for t in ax.texts)
     with pytest.raises(ValueError, match="allowed: angles, rates"):
         default_swing.plot(panel="wind")
+
+
+def test_a_swings_logs_name_their_signals(default_swing):
+    """Every log names its columns (one row per sample: Drake's VectorLog
+    transposed); a named signal is its column, ``to_columns`` a table's
+    columns with the times first; an unknown name says what the log has."""
+    state = default_swing.logs["state"]
+    assert state.names == ("q1", "q2", "q1d", "q2d") and state.data.shape == (len(state.t), 4)
+    np.testing.assert_array_equal(state["q2"], state.data[:, 1])
+    cols = default_swing.logs["imu"].to_columns()
+    assert list(cols) == ["t", "gyro1", "gyro2", "acc1_x", "acc1_y", "acc2_x", "acc2_y"]
+    assert all(len(v) == len(cols["t"]) for v in cols.values())
+    with pytest.raises(KeyError, match="it has torque"):
+        default_swing.logs["torque"]["current"]
+    assert all(len(log.names) == log.data.shape[1] for log in default_swing.logs.values())

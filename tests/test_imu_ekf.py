@@ -323,7 +323,6 @@ def test_misalignments_are_estimated_in_flight_unless_the_imus_are_very_noisy():
         cal = ImuCalibration(misalign=(0.01, -0.02), noise=(factor * p.tuned_gyro_noise,
                                                             factor * p.tuned_accel_noise))
         ekf.set_calibration(ctx, cal)
-        n = ekf.n
-        P = ctx.get_discrete_state(0).get_value()[n:n + n * n].reshape(n, n)
+        P = ekf.filter_state(ctx)[0].P
         assert (np.abs(P[sl]).max() == 0.0) == held
     assert not misalign_held(dc.replace(p, misalign_max_noise=100.0), (0.1, 0.1))

@@ -219,10 +219,12 @@ class DiscreteCpflController(_CpflLaw, LeafSystem):
                  motor=None):
         LeafSystem.__init__(self)
         self._setup(plant, ctrl, friction, False, use_prefilter, motor)
-        n = self.nF + self.nK
-        # [xF (nF), xK (nK), command of the previous tick (for delay_samples = 1)]:
-        # _split() names the filter states
-        self._xd = self.DeclareDiscreteState(n + 1)
+        # the discrete state, one named group each: the prefilter's state xF,
+        # the outer loop's xK and the command of the previous tick (applied
+        # now with delay_samples = 1)
+        self._xF = self.DeclareDiscreteState(self.nF)
+        self._xK = self.DeclareDiscreteState(self.nK)
+        self._previous = self.DeclareDiscreteState(1)
         self._tick = declare_tick_result(
             self, self._tick_law, {self.xd_ticket(), self.all_input_ports_ticket()})
         declare_store(self, ctrl.period, self._store)
@@ -233,18 +235,22 @@ class DiscreteCpflController(_CpflLaw, LeafSystem):
                                                              self._result(2), dep)
 
     def _tick_law(self, context):
-        """(applied torque, v, unsaturated torque, next filter state)."""
-        s = context.get_discrete_state(self._xd).get_value()
-        n = self.nF + self.nK
-        xF, xK = self._split(s[:n])
+        """(applied torque, v, unsaturated torque, next (xF, xK, command))."""
+        state = context.get_discrete_state()
+        xF = state.get_vector(self._xF).CopyToVector()
+        xK = state.get_vector(self._xK).CopyToVector()
         r, e_t, tau_hat, v, tau0 = self._law(context, xF, xK)
         xF = self.F.A @ xF + self.F.B[:, 0] * r
         xK = self.K.A @ xK + self.K.B[:, 0] * e_t
-        applied = s[n] if self.ctrl.delay_samples else tau_hat
-        return applied, v, tau0, np.concatenate([xF, xK, [tau_hat]])
+        applied = state.get_vector(self._previous).GetAtIndex(0) if self.ctrl.delay_samples \
+            else tau_hat
+        return applied, v, tau0, (xF, xK, tau_hat)
 
     def _store(self, context, discrete_state):
-        discrete_state.get_mutable_vector(self._xd).SetFromVector(self._tick.Eval(context)[3])
+        xF, xK, command = self._tick.Eval(context)[3]
+        discrete_state.get_mutable_vector(self._xF).SetFromVector(xF)
+        discrete_state.get_mutable_vector(self._xK).SetFromVector(xK)
+        discrete_state.get_mutable_vector(self._previous).SetAtIndex(0, command)
 
     def _result(self, index):
         def calc(context, out):

@@ -242,10 +242,13 @@ class KinematicEkf(LeafSystem):
         self._line = tuple(float(v) for v in line) if line is not None else None
         self.line_port = (self.DeclareVectorInputPort("line_gap", 2)
                           if line is not None else None)
-        # [x (n), P (n*n), previous corrected accelerometer readings (4),
-        # first-sample flag]: _unpack()
-        packed = np.concatenate([init.x, init.P.ravel(), np.zeros(4), [1.0]])
-        self._state = self.DeclareDiscreteState(packed)
+        # the discrete state, one named group each: the filter's state x (n),
+        # its covariance P (n x n, row by row), the previous corrected
+        # accelerometer readings (4) and the first-sample flag
+        self._x = self.DeclareDiscreteState(init.x)
+        self._P = self.DeclareDiscreteState(init.P.ravel())
+        self._u = self.DeclareDiscreteState(np.zeros(4))
+        self._first = self.DeclareDiscreteState([1.0])
         # the standstill calibration: samples are corrected before the update,
         # and the filter's R widened to the noise it measured
         self._calibration = self.DeclareAbstractParameter(AbstractValue.Make(calibration))
@@ -262,21 +265,20 @@ class KinematicEkf(LeafSystem):
                                                             self._out_cov, dep)
         self.bias_port = self.DeclareVectorOutputPort("gyro_bias", 2, self._out_bias, dep)
 
-    @staticmethod
-    def _pack(s: EkfState, u, first: bool) -> np.ndarray:
-        """The packed discrete state of :meth:`_unpack`'s parts."""
-        return np.concatenate([s.x, s.P.ravel(), u, [1.0 if first else 0.0]])
-
-    def _unpack(self, v):
-        """(filter state, previous accelerometer input, first-sample flag) of
-        the packed discrete state."""
+    def filter_state(self, context):
+        """The stored discrete state, by name: (filter state ``EkfState(x, P)``,
+        previous accelerometer input, first-sample flag) in ``context`` (this
+        system's)."""
         n = self.n
-        return (EkfState(v[:n].copy(), v[n:n + n * n].reshape(n, n).copy()),
-                v[n + n * n:n + n * n + 4], v[-1] > 0.5)
+        state = context.get_discrete_state()
+        return (EkfState(state.get_vector(self._x).CopyToVector(),
+                         state.get_vector(self._P).CopyToVector().reshape(n, n)),
+                state.get_vector(self._u).CopyToVector(),
+                state.get_vector(self._first).GetAtIndex(0) > 0.5)
 
     def _posterior(self, context):
-        """The packed filter state after this tick's sample."""
-        s, u_prev, first = self._unpack(context.get_discrete_state(self._state).get_value())
+        """(filter state, accelerometer input) after this tick's sample."""
+        s, u_prev, first = self.filter_state(context)
         calibration = context.get_abstract_parameter(self._calibration).get_value()
         sample = calibration.correct(self.imu_port.Eval(context))
         tuned = context.get_abstract_parameter(self._tuned).get_value()
@@ -287,10 +289,14 @@ class KinematicEkf(LeafSystem):
             reading, valid = self.line_port.Eval(context)
             if valid > 0.5:
                 s = ekf_gap_update(s, reading - calibration.line_offset, self._line)
-        return self._pack(s, u, False)
+        return s, u
 
     def _store(self, context, discrete_state):
-        discrete_state.get_mutable_vector(self._state).SetFromVector(self._post.Eval(context))
+        s, u = self._post.Eval(context)
+        discrete_state.get_mutable_vector(self._x).SetFromVector(s.x)
+        discrete_state.get_mutable_vector(self._P).SetFromVector(s.P.ravel())
+        discrete_state.get_mutable_vector(self._u).SetFromVector(u)
+        discrete_state.get_mutable_vector(self._first).SetAtIndex(0, 0.0)
 
     def set_calibration(self, context, calibration: ImuCalibration) -> None:
         """Use ``calibration`` in ``context`` (root, before the run): its
@@ -301,30 +307,30 @@ class KinematicEkf(LeafSystem):
         own.get_mutable_abstract_parameter(self._calibration).set_value(calibration)
         own.get_mutable_abstract_parameter(self._tuned).set_value(
             self.params.with_measured_noise(*calibration.noise))
-        state = own.get_mutable_discrete_state(self._state)
+        x = own.get_mutable_discrete_state(self._x)
         if self._bias is not None:
-            state.SetAtIndex(self._bias.start, calibration.bias[0])
-            state.SetAtIndex(self._bias.start + 1, calibration.bias[1])
+            x.SetAtIndex(self._bias.start, calibration.bias[0])
+            x.SetAtIndex(self._bias.start + 1, calibration.bias[1])
         sl = state_layout(self.params)[0].get("misalign")
         if sl is not None and misalign_held(self.params, calibration.noise):
             # held at the calibration's values, taken as exact: the filter of
             # the angles is then the one without misalignment states
-            s, u, first = self._unpack(state.get_value())
-            s.P[sl, :] = 0.0
-            s.P[:, sl] = 0.0
-            state.SetFromVector(self._pack(s, u, first))
+            P = own.get_mutable_discrete_state(self._P)
+            cov = P.CopyToVector().reshape(self.n, self.n)
+            cov[sl, :] = 0.0
+            cov[:, sl] = 0.0
+            P.SetFromVector(cov.ravel())
 
     def _out_abs(self, context, out):
-        out.SetFromVector(self._post.Eval(context)[:4])
+        out.SetFromVector(self._post.Eval(context)[0].x[:4])
 
     def _out_rel(self, context, out):
-        x = self._post.Eval(context)
+        x = self._post.Eval(context)[0].x
         out.SetFromVector([x[0], x[1] - x[0], x[2], x[3] - x[2]])
 
     def _out_cov(self, context, out):
-        n = self.n
-        out.SetFromVector(self._post.Eval(context)[n:n + n * n:n + 1])
+        out.SetFromVector(np.diag(self._post.Eval(context)[0].P))
 
     def _out_bias(self, context, out):
-        x = self._post.Eval(context)
+        x = self._post.Eval(context)[0].x
         out.SetFromVector(x[self._bias] if self._bias is not None else [0.0, 0.0])

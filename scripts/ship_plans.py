@@ -49,7 +49,7 @@ def scenarios():
     tracked.append(base.with_(plant=dc.replace(base.plant, m2=1.6)))   # --set plant.m2=1.6
     q127 = at(base, grip_spacing=1.27)   # the warm start's test: its cold solve too
     plans += [lambda: P.scenario_plan(q127),
-              lambda: P.plan_swing(q127, end_depth=q127.path.plan_end_depth, guess_duration=1.0)]
+              lambda: P.plan_swing(q127, end_depth=q127.plan.end_depth, guess_duration=1.0)]
     for name in ("line_flat.toml", "line_span.toml"):
         line = load_line(ROOT / "examples" / name)
         for r in plan_route(line, base):

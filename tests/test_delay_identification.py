@@ -59,9 +59,9 @@ def test_the_fit_picks_the_delay_of_noisy_gyros_with_model_and_bias_errors(facto
     q0 = initial_configuration(1.2, p.plant, 0.0)
     true = dc.replace(p.plant, m2=factor * p.plant.m2, I2=factor * p.plant.I2,
                       lc2=p.plant.lc2 + shift)
-    window = int(p.path.plan_delay_window)
+    window = int(p.plan.delay_window)
     commands = np.full(window, -3.0)
-    probe = probe_torques(p.path.plan_delay_probe)
+    probe = probe_torques(p.plan.delay_probe)
     commands[:len(probe)] += probe
     rng = np.random.default_rng(0)
     ratios = []
@@ -132,5 +132,5 @@ def test_the_probe_is_on_the_first_eight_commands_only():
 
 
 def test_the_probe_window_must_be_whole_ticks():
-    with pytest.raises(ParameterError, match="plan_delay_window"):
-        BplirParams().with_(path=dc.replace(BplirParams().path, plan_delay_window=12.5))
+    with pytest.raises(ParameterError, match="plan.delay_window"):
+        BplirParams().with_(plan=dc.replace(BplirParams().plan, delay_window=12.5))

@@ -513,7 +513,7 @@ def test_shipped_plans_serve_a_fresh_install(monkeypatch, tmp_path):
     # +-20 deg (the quick start), 0 deg (the default, the landing's tests), 20 deg resting
     # on the line, the lines' 8, the quick benchmark's +-10 deg and 1.1 / 1.3 m swings,
     # custom_params.py's 1.15 m (at 1.1, 1.15 and 1.3 m also the solve started from the
-    # 1.2 m plan, path.plan_warm_spacing), the 1.27 m plans of the warm start's test and
+    # 1.2 m plan, plan.warm_spacing), the 1.27 m plans of the warm start's test and
     # the default swing with a 1.6 kg link 2 (the documented --set plant.m2=1.6)
     assert len(shipped) == 26
     monkeypatch.setenv("BPLIR_CACHE_DIR", str(tmp_path))
@@ -524,9 +524,9 @@ def test_shipped_plans_serve_a_fresh_install(monkeypatch, tmp_path):
     monkeypatch.setattr(P, "_solve_plan", no_solve)
     p = load_toml(Path(__file__).resolve().parents[1] / "examples" / "uphill_plan.toml")
     p = p.with_(scenario=dc.replace(p.scenario, incline_deg=20.0))
-    for incline, depth in ((20.0, 0.0), (20.0, p.path.plan_end_depth),   # test_swing_plan's,
-                           (-20.0, p.path.plan_end_depth),               # the quick start's
-                           (0.0, p.path.plan_end_depth)):                # test_reach's
+    for incline, depth in ((20.0, 0.0), (20.0, p.plan.end_depth),   # test_swing_plan's,
+                           (-20.0, p.plan.end_depth),               # the quick start's
+                           (0.0, p.plan.end_depth)):                # test_reach's
         q = p.with_(scenario=dc.replace(p.scenario, incline_deg=incline))
         plan = P.plan_swing(q, end_depth=depth)
         assert plan.feasible and plan.incline_deg == incline

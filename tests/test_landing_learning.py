@@ -1,5 +1,5 @@
 """Learning the landing across a traversal's swings (the swing summary's
-``landing_height_error_m``, ``path.landing_bias``,
+``landing_height_error_m``, ``landing.landing_bias``,
 ``traverse.landing_learning``)."""
 import dataclasses as dc
 import math
@@ -48,17 +48,17 @@ def test_a_landing_bias_raises_both_terminal_laws_aims_never_above_the_line():
     from bplir_drake.systems.plan_tracker import ApexShot, Landing
 
     p = preset()
-    path = dc.replace(p.path, landing_bias=0.004)
+    path = dc.replace(p.landing, landing_bias=0.004)
     shot = ApexShot.from_params(p.plant, p.friction, 0.0, path)
-    assert shot.height == pytest.approx(p.path.shoot_height + 0.004)
-    assert shot.landing.margin == pytest.approx(p.path.landing_margin - 0.004)
+    assert shot.height == pytest.approx(p.landing.shoot_height + 0.004)
+    assert shot.landing.margin == pytest.approx(p.landing.landing_margin - 0.004)
     assert Landing.from_params(p.plant, 0.0, path).margin == pytest.approx(
-        p.path.landing_margin - 0.004)
-    high = dc.replace(p.path, landing_bias=0.02)
+        p.landing.landing_margin - 0.004)
+    high = dc.replace(p.landing, landing_bias=0.02)
     assert ApexShot.from_params(p.plant, p.friction, 0.0, high).height == 0.0
     assert Landing.from_params(p.plant, 0.0, high).margin == 0.0
     with pytest.raises(ParameterError, match="landing_bias"):
-        dc.replace(p.path, landing_bias=0.03)
+        dc.replace(p.landing, landing_bias=0.03)
 
 
 def test_learnt_landing_is_the_share_of_the_mean_earlier_error():
@@ -66,12 +66,12 @@ def test_learnt_landing_is_the_share_of_the_mean_earlier_error():
 
     p = preset()
     on = p.with_(traverse=dc.replace(p.traverse, landing_learning=0.5))
-    assert learnt_landing(on, []).path.landing_bias == 0.0
-    assert learnt_landing(on, [-0.004, -0.006, math.nan]).path.landing_bias == pytest.approx(
+    assert learnt_landing(on, []).landing.landing_bias == 0.0
+    assert learnt_landing(on, [-0.004, -0.006, math.nan]).landing.landing_bias == pytest.approx(
         -0.0025)
-    assert learnt_landing(on, [0.1]).path.landing_bias == 0.02   # clipped to its range
+    assert learnt_landing(on, [0.1]).landing.landing_bias == 0.02   # clipped to its range
     off = p.with_(traverse=dc.replace(p.traverse, landing_learning=0.0))
-    assert learnt_landing(off, [-0.004]).path.landing_bias == 0.0
+    assert learnt_landing(off, [-0.004]).landing.landing_bias == 0.0
 
 
 def test_a_traversal_learns_its_landing_and_passes():

@@ -178,11 +178,11 @@ def test_the_presets_and_the_swapped_robot_choose_their_sensing():
 
     p = preset()
     assert p.line_sensor.range == 0.0 and p.motor.supply_voltage == 30.0
-    assert {k: getattr(p.path, k) for k in IMU_ONLY_TUNING} == IMU_ONLY_TUNING
+    assert {k: getattr(p.landing, k) for k in IMU_ONLY_TUNING} == IMU_ONLY_TUNING
     assert preset("lab").line_sensor.range == 0.0
     s = p.with_hardware("line-sensor")
-    assert (s.line_sensor.range, s.path.shoot_height, s.path.shoot_min_time,
-            s.path.shoot_lift_min_time) == tuple(LINE_SENSOR_OPTION.values())
+    assert (s.line_sensor.range, s.landing.shoot_height, s.landing.shoot_min_time,
+            s.landing.shoot_lift_min_time) == tuple(LINE_SENSOR_OPTION.values())
     assert s.with_controller("cpfl-qft").line_sensor.range == 0.0
     assert s.with_controller("plan").line_sensor.range == 0.2
     assert s.imu_only() == p
@@ -191,4 +191,4 @@ def test_the_presets_and_the_swapped_robot_choose_their_sensing():
         p.with_hardware("solar")
     assert swing_params(s, 1, 1.2, 0.0).line_sensor.range == 0.2
     swapped = swing_params(s, 2, 1.2, 0.0)
-    assert (swapped.line_sensor.range, swapped.path.shoot_height) == (0.0, -0.015)
+    assert (swapped.line_sensor.range, swapped.landing.shoot_height) == (0.0, -0.015)

@@ -1,4 +1,6 @@
 """Parameter blocks: defaults from the dissertation, validation, presets, TOML."""
+import dataclasses as dc
+import json
 import math
 
 import pytest
@@ -42,7 +44,7 @@ def test_lab_preset_geometry():
     (P.ScenarioParams, {"incline_deg": 90.0}, ["scenario.incline_deg", "90"]),
     (P.ScenarioParams, {"seed": -3}, ["scenario.seed"]),
     (P.ControllerParams, {"preset": "pid"}, ["controller.preset", "plan"]),
-    (P.PathParams, {"landing_law": "lqr"}, ["path.landing_law", "aim, shoot"]),
+    (P.LandingParams, {"landing_law": "lqr"}, ["landing.landing_law", "aim, shoot"]),
     (P.TraverseParams, {"swapped_landing_law": "x"}, ["traverse.swapped_landing_law", "shoot"]),
 ])
 def test_bad_parameters_name_field_and_range(block, kwargs, words):
@@ -148,12 +150,12 @@ def test_the_command_line_names_its_version_lists_and_sets_parameters(capsys):
         main(["--version"])
     assert ex.value.code == 0 and capsys.readouterr().out.startswith("bplir ")
     assert main(["params", "--json", "--hardware", "48v", "--set", "plant.m2=1.6",
-                 "--set", "path.landing_law=aim"]) == 0
+                 "--set", "landing.landing_law=aim"]) == 0
     rows = {f"{r['block']}.{r['name']}": r for r in json.loads(capsys.readouterr().out)["parameters"]}
     assert len(rows) == len(parameter_reference())
     assert rows["plant.m2"]["value"] == 1.6 and rows["plant.m2"]["unit"] == "kg"
     assert rows["motor.supply_voltage"]["value"] == 48.0
-    assert rows["path.landing_law"]["value"] == "aim"
+    assert rows["landing.landing_law"]["value"] == "aim"
     assert rows["motor.resistance"]["range"] == "(0, inf)"
     for bad, words in ((["--set", "plant.m2=-1"], "plant.m2 = -1 is out of range"),
                        (["--set", "plant=1"], "must be block.field=value")):
@@ -225,12 +227,37 @@ def test_the_console_script_versions_lists_sets_and_passes_plugin_arguments(tmp_
 def test_counts_are_whole_numbers():
     """Counts (samples, ticks) are integers: a file's ``500.0`` is read as 500,
     ``12.5`` ticks is one line naming the field and its range."""
-    import dataclasses as dc
-
     est = dc.replace(P.EstimatorParams(), standstill_samples=500.0)
     assert est.standstill_samples == 500 and type(est.standstill_samples) is int
-    assert type(P.BplirParams().path.plan_delay_window) is int
+    assert type(P.BplirParams().plan.delay_window) is int
     assert type(P.preset("lab").controller.delay_samples) is int
-    with pytest.raises(P.ParameterError, match=r"path.plan_delay_window = 12.5 is not a whole "
+    with pytest.raises(P.ParameterError, match=r"plan.delay_window = 12.5 is not a whole "
                                                r"number; allowed whole numbers in \[8, 50\]"):
-        dc.replace(P.PathParams(), plan_delay_window=12.5)
+        dc.replace(P.PlanParams(), delay_window=12.5)
+
+
+def test_the_path_table_is_split_into_path_plan_and_landing(tmp_path):
+    """The path generator keeps ``[path]``; plan tracking is ``[plan]`` and its
+    landing laws ``[landing]``.  A file written before the split (plan and
+    landing fields in ``[path]``, ``plan_`` prefixed) still loads into the
+    new blocks with one notice, and so does ``--set path.shoot_height``."""
+    import subprocess
+    import sys
+
+    names = {b: {f.name for f in dc.fields(P.BLOCKS[b])} for b in ("path", "plan", "landing")}
+    assert not names["path"] & (names["plan"] | names["landing"])
+    assert {"mode", "blend_exponent", "pump_gain"} <= names["path"]
+    assert {"end_depth", "indexing", "delay_probe"} <= names["plan"]
+    assert {"landing_law", "shoot_height", "reach_speed"} <= names["landing"]
+    old = tmp_path / "old.toml"
+    old.write_text("[path]\nmode = 'plan'\nplan_indexing = 'state'\nshoot_height = -0.01\n")
+    with pytest.warns(FutureWarning, match=r"now in \[plan\]"):
+        p = P.load_toml(old)
+    assert (p.path.mode, p.plan.indexing, p.landing.shoot_height) == ("plan", "state", -0.01)
+    run = subprocess.run([sys.executable, "-m", "bplir_drake.cli", "params", "landing", "--json",
+                          "--set", "path.shoot_height=-0.012"], capture_output=True, text=True)
+    assert run.returncode == 0
+    assert run.stderr == ("bplir: note: --set path.shoot_height is now --set "
+                          "landing.shoot_height\n")
+    rows = {r["name"]: r for r in json.loads(run.stdout)["parameters"]}
+    assert rows["shoot_height"]["value"] == -0.012

@@ -1,7 +1,7 @@
 """Plan tracking: a trajectory-optimised swing ending at rest inside the
 capture band, tracked by Drake's finite-horizon LQR on the estimated
 state, with its landing laws (the shot, the aim law) and their choice
-(``path.landing_law``).  The terminal reach is off
+(``landing.landing_law``).  The terminal reach is off
 (``tests/test_reach.py``: it landed on the back swing)."""
 import dataclasses as dc
 import math
@@ -32,7 +32,7 @@ def test_planned_target_rests_inside_the_band(uphill):
     assert along == pytest.approx(1.2, abs=1e-9) and normal == pytest.approx(-0.017, abs=1e-9)
     with pytest.raises(ParameterError, match="end depth"):
         tracking_plan(
-            uphill.with_(path=dc.replace(uphill.path, plan_end_depth=0.03)))
+            uphill.with_(plan=dc.replace(uphill.plan, end_depth=0.03)))
 
 
 def test_uphill_swing_with_ekf_tracking_a_plan(uphill):
@@ -128,7 +128,7 @@ def test_clock_free_uphill_swing(uphill):
     """The same 20 degree swing with the plan indexed by the estimated state
     (no clock), with the default landing: every one of seeds 0-19 captured
     within the capture limits and near the grip."""
-    p = uphill.with_(path=dc.replace(uphill.path, plan_indexing="state"))
+    p = uphill.with_(plan=dc.replace(uphill.plan, indexing="state"))
     rows = [run_swing(p, seed=k).summary for k in range(20)]
     assert [k for k, s in enumerate(rows) if s["outcome"] != "captured"] == []
     for s in rows:
@@ -161,7 +161,7 @@ def test_quick_start_captures_on_a_20_degree_line_without_a_config(tmp_path, cap
 
 def test_a_measured_grip_spacing_uses_the_plan_of_its_grid_step(uphill):
     """A study drawing the grip spacing solves one plan per
-    ``path.plan_spacing_step`` (1 cm), not one per swing: 1.204 m tracks
+    ``plan.spacing_step`` (1 cm), not one per swing: 1.204 m tracks
     the 1.20 m plan (shipped: nothing is solved here)."""
     near = uphill.with_(scenario=dc.replace(uphill.scenario, grip_spacing=1.204))
     plan, gains = tracking_plan(near)
@@ -181,16 +181,16 @@ def test_a_plan_off_1_2_m_is_also_started_from_the_1_2_m_plan():
 
     p = preset()
     q = p.with_(scenario=dc.replace(p.scenario, grip_spacing=1.27))
-    cold = plan_swing(q, end_depth=q.path.plan_end_depth, guess_duration=1.0)
+    cold = plan_swing(q, end_depth=q.plan.end_depth, guess_duration=1.0)
     assert cold.feasible and cold.link1_reversals == 4
     assert cold.objective() == pytest.approx(23.61, abs=0.01)
     assert link1_share(q.plant, 0.0, cold.states, 0.3) == pytest.approx(0.26, abs=0.01)
     plan = scenario_plan(q)
     assert plan.link1_reversals == 2 and plan.objective() == pytest.approx(10.10, abs=0.01)
     assert link1_share(q.plant, 0.0, plan.states, 0.3) == pytest.approx(0.86, abs=0.01)
-    assert landing_law(q.plant, 0.0, plan.states, q.path) == "shoot"
-    warm_off = scenario_plan(q.with_(path=dc.replace(q.path, plan_warm_spacing=0.0)))
-    first = plan_swing(q, end_depth=q.path.plan_end_depth, guess_duration=1.5)
+    assert landing_law(q.plant, 0.0, plan.states, q.landing) == "shoot"
+    warm_off = scenario_plan(q.with_(plan=dc.replace(q.plan, warm_spacing=0.0)))
+    first = plan_swing(q, end_depth=q.plan.end_depth, guess_duration=1.5)
     assert np.array_equal(warm_off.states, first.states)
     assert plan.objective() <= first.objective()
 
@@ -207,7 +207,7 @@ def test_the_shooting_landing_holds_no_shot_far_below_its_aim():
     from bplir_drake.systems.plan_tracker import ApexShot
 
     p = preset()
-    path = dc.replace(p.path, landing_law="shoot", shoot_min_time=0.04, shoot_height=-0.018)
+    path = dc.replace(p.landing, landing_law="shoot", shoot_min_time=0.04, shoot_height=-0.018)
     x = [-0.010, 1.737, 0.06, 2.59]
     acc, T = ApexShot.from_params(p.plant, p.friction, math.radians(-20), path).solve(x)
     assert T == pytest.approx(0.194, abs=1e-3) and acc == pytest.approx(-19.6, abs=0.1)
@@ -237,8 +237,8 @@ def test_the_shot_is_solved_while_link_1_creeps():
     from bplir_drake.systems.plan_tracker import ApexShot
 
     p = preset().with_hardware("line-sensor")
-    assert p.path.shoot_min_rate == 0.02
-    path = dc.replace(p.path, shoot_min_time=p.path.shoot_lift_min_time,
+    assert p.landing.shoot_min_rate == 0.02
+    path = dc.replace(p.landing, shoot_min_time=p.landing.shoot_lift_min_time,
                       shoot_height=-0.018)   # as on -20 deg then
     x = [-0.1261, 2.0851, 0.0991, 0.8202]
     law = ApexShot.from_params(p.plant, p.friction, math.radians(-20), path)
@@ -263,10 +263,10 @@ def test_the_shooting_landing_gives_up_rather_than_chase_the_line():
     from bplir_drake.systems.plan_tracker import ApexShot
 
     p = preset()
-    assert p.path.shoot_give_up_rate == 0.1
+    assert p.landing.shoot_give_up_rate == 0.1
     chase = ApexShot.from_params(p.plant, p.friction, 0.0,
-                                 dc.replace(p.path, shoot_give_up_rate=0.0))
-    law = ApexShot.from_params(p.plant, p.friction, 0.0, p.path)
+                                 dc.replace(p.landing, shoot_give_up_rate=0.0))
+    law = ApexShot.from_params(p.plant, p.friction, 0.0, p.landing)
     back, rising = [0.413, 1.849, -0.47, 0.70], [0.419, 1.844, 0.11, -0.46]
     assert law.landing.height(back) == pytest.approx(-0.039, abs=1e-3)
     assert chase.torque(back) > 240.0 and not chase.gives_up(back)
@@ -278,7 +278,7 @@ def test_the_shooting_landing_gives_up_rather_than_chase_the_line():
     (0.0, 0.79, 0.03, -0.018, "shoot"), (20.0, 1.29, 0.03, -0.018, "shoot"),
     (-20.0, 0.14, 0.05, -0.019, "aim")])
 def test_auto_landing_law_follows_who_lifts_the_gripper(incline, share, hold, aim, default):
-    """``path.landing_law = "auto"`` shoots where link 1 carries the planned
+    """``landing.landing_law = "auto"`` shoots where link 1 carries the planned
     gripper to the line (its share of the rise rate 30 cm below the line);
     where the elbow lifts it (the -20 deg plan) it shoots held from
     ``shoot_lift_min_time`` at ``shoot_lift_height`` -- the line sensor's
@@ -289,23 +289,23 @@ def test_auto_landing_law_follows_who_lifts_the_gripper(incline, share, hold, ai
 
     base = preset()
     p = base.with_hardware("line-sensor")
-    assert p.path.landing_law == base.path.landing_law == "auto"
-    assert (p.path.shoot_min_time, p.path.shoot_lift_min_time) == (0.03, 0.05)
+    assert p.landing.landing_law == base.landing.landing_law == "auto"
+    assert (p.landing.shoot_min_time, p.landing.shoot_lift_min_time) == (0.03, 0.05)
     q = p.with_(scenario=dc.replace(p.scenario, incline_deg=incline))
     plan = scenario_plan(q)
     a = math.radians(incline)
     assert link1_share(q.plant, a, plan.states, 0.3) == pytest.approx(share, abs=0.02)
-    law, path = resolved_landing(q.plant, a, plan.states, q.path)
+    law, path = resolved_landing(q.plant, a, plan.states, q.landing)
     assert law == "shoot" and (path.shoot_min_time, path.shoot_height) == (hold, aim)
-    assert dc.replace(path, shoot_min_time=q.path.shoot_min_time,
-                      shoot_height=q.path.shoot_height) == q.path
-    assert landing_law(q.plant, a, plan.states, base.path) == default
-    assert base.path.shoot_lift_min_time == 0.0
+    assert dc.replace(path, shoot_min_time=q.landing.shoot_min_time,
+                      shoot_height=q.landing.shoot_height) == q.landing
+    assert landing_law(q.plant, a, plan.states, base.landing) == default
+    assert base.landing.shoot_lift_min_time == 0.0
     for fixed in ("aim", "shoot"):
-        assert resolved_landing(q.plant, a, plan.states, dc.replace(q.path, landing_law=fixed)) \
-            == (fixed, dc.replace(q.path, landing_law=fixed))
+        assert resolved_landing(q.plant, a, plan.states, dc.replace(q.landing, landing_law=fixed)) \
+            == (fixed, dc.replace(q.landing, landing_law=fixed))
     with pytest.raises(ParameterError, match="shoot_lift_min_time = 0.01 s"):
-        dc.replace(q.path, shoot_lift_min_time=0.01)
+        dc.replace(q.landing, shoot_lift_min_time=0.01)
 
 
 def test_landing_law_option(tmp_path, capsys):
@@ -351,9 +351,9 @@ def test_auto_landing_lands_realistic_swings_the_aim_law_crashes(k, aim_speed, a
     root = Path(__file__).resolve().parents[1] / "examples"
     p, seed, _ = sample_params(load_study(root / "study_realistic.toml").with_(seed=2), k)
     runner = SwingRunner()
-    aim = runner.run(p.with_(path=dc.replace(p.path, landing_law="aim")), seed=seed).summary
+    aim = runner.run(p.with_(landing=dc.replace(p.landing, landing_law="aim")), seed=seed).summary
     assert aim["outcome"] == "crash" and aim["capture_speed_mps"] == pytest.approx(aim_speed, abs=0.01)
-    auto = runner.run(p.with_(path=dc.replace(p.path, landing_law="auto")), seed=seed).summary
+    auto = runner.run(p.with_(landing=dc.replace(p.landing, landing_law="auto")), seed=seed).summary
     assert auto["outcome"] == "captured"
     assert auto["capture_speed_mps"] == pytest.approx(auto_speed, abs=0.01)
     assert abs(auto["landing_error_m"]) < 0.1 * p.scenario.grip_spacing

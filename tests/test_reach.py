@@ -38,7 +38,7 @@ def test_reach_linearises_the_distance_to_the_line(alpha):
     with link 1 passive), with h'_cmd = sqrt(speed^2 + 2 brake (aim - h))
     toward an aim above the gripper, -sqrt(2 brake (h - aim)) below it."""
     p = preset().plant
-    reach = Reach.from_params(p, alpha, dc.replace(preset().path, reach_speed=0.2,
+    reach = Reach.from_params(p, alpha, dc.replace(preset().landing, reach_speed=0.2,
                                                     landing_lead=0.0))
     rng = np.random.default_rng(7)
     for _ in range(20):
@@ -60,10 +60,11 @@ def test_reach_takes_over_near_the_line_in_the_second_half_and_latches():
     runs; in the plan's second half the reach takes over once the gripper is
     within ``depth`` of the line, or when the plan has ended, and keeps it."""
     p = preset()
-    p = p.with_(path=dc.replace(p.path, mode="plan", reach_speed=0.2, landing_lead=0.0),
+    p = p.with_(path=dc.replace(p.path, mode="plan"),
+                landing=dc.replace(p.landing, reach_speed=0.2, landing_lead=0.0),
                 scenario=dc.replace(p.scenario, incline_deg=20.0))
     plan, gains = tracking_plan(p)
-    reach = Reach.from_params(p.plant, math.radians(20.0), p.path)
+    reach = Reach.from_params(p.plant, math.radians(20.0), p.landing)
     tracker = PlanTracker(gains, 20.0, 0.01, reach=reach)
     T = plan.times[-1]
     assert reach.height(plan.states[0]) == pytest.approx(0.0, abs=1e-9)
@@ -85,7 +86,7 @@ STUDY = Path(__file__).resolve().parents[1] / "examples" / "study_realistic.toml
 
 
 def test_the_reach_captures_on_the_back_swing_short_of_the_grip():
-    """Why the reach is off by default (``path.reach_speed = 0``): with it
+    """Why the reach is off by default (``landing.reach_speed = 0``): with it
     (0.2 m/s) swings count as captured by the 0.8 D criterion although the
     gripper fell back and grabbed the line at the next slow moment, 0.6-0.9 m
     short of the planned grip.  Sample 0 of root seed 2 at +20 deg (1.2 m),
@@ -97,7 +98,7 @@ def test_the_reach_captures_on_the_back_swing_short_of_the_grip():
     assert study.params.scenario.min_travel_fraction == 1.9
     study = study.with_(
         seed=2, params=study.params.with_(
-            path=dc.replace(study.params.path, reach_speed=0.2, landing_lead=0.0),
+            landing=dc.replace(study.params.landing, reach_speed=0.2, landing_lead=0.0),
             scenario=dc.replace(study.params.scenario, incline_deg=20.0)),
         distributions=tuple(d for d in study.distributions
                             if d.name != "scenario.grip_spacing"))
@@ -115,7 +116,7 @@ def test_the_reach_captures_on_the_back_swing_short_of_the_grip():
 @pytest.mark.parametrize("incline", [20.0, -20.0])
 def test_10_and_20_ms_of_delay_are_captured_on_the_grip_on_20_degree_lines(incline):
     """The default controller on the +-20 deg lines (plan tracking assuming the
-    lab firmware's 10 ms of actuation delay, ``path.plan_delay_compensation``),
+    lab firmware's 10 ms of actuation delay, ``plan.delay_compensation``),
     EKF in the loop, with 10 and 20 ms of actuation delay, seeds 0 and 1:
     every case captured near the planned grip."""
     from bplir_drake.analysis.swing.run import SwingRunner
@@ -139,7 +140,7 @@ def test_landing_linearises_the_distance_to_the_line(alpha):
     from bplir_drake.systems.plant import bias_term, gravity_vector, mass_matrix
 
     p = preset().plant
-    land = Landing.from_params(p, alpha, preset().path)
+    land = Landing.from_params(p, alpha, preset().landing)
     assert land.lead == 0.025 and land.margin == 0.01   # the defaults
     rng = np.random.default_rng(11)
     for _ in range(20):
@@ -165,7 +166,7 @@ def test_landing_takes_over_in_the_last_forward_swing_and_aims_at_the_band():
     p = preset()
     p = p.with_(path=dc.replace(p.path, mode="plan"))
     plan, gains = tracking_plan(p)
-    land = Landing.from_params(p.plant, 0.0, p.path)
+    land = Landing.from_params(p.plant, 0.0, p.landing)
     tracker = PlanTracker(gains, 20.0, 0.01, reach=land)
     t, X = plan.times, plan.states
     back = t[X[:, 2] < -0.05]

@@ -400,13 +400,14 @@ def test_swing_params_land_and_the_swapped_robot_aims_at_the_line():
     from bplir_drake.analysis.traverse.run import swing_params
 
     p = preset()
-    one, two = (swing_params(p, g, 1.2, 0.0).path for g in (1, 2))
-    assert one.landing_lead == two.landing_lead == p.path.landing_lead > 0
-    assert one.plan_delay_compensation == p.path.plan_delay_compensation == 0.01
-    assert (one.landing_margin, two.landing_margin) == (p.path.landing_margin,
+    one, two = (swing_params(p, g, 1.2, 0.0).landing for g in (1, 2))
+    assert one.landing_lead == two.landing_lead == p.landing.landing_lead > 0
+    assert swing_params(p, 1, 1.2, 0.0).plan.delay_compensation == p.plan.delay_compensation \
+        == 0.01
+    assert (one.landing_margin, two.landing_margin) == (p.landing.landing_margin,
                                                         p.traverse.swapped_landing_margin)
     off = p.with_(traverse=dc.replace(p.traverse, landing=False))
-    assert swing_params(off, 2, 1.2, 0.0).path.landing_lead == 0.0
+    assert swing_params(off, 2, 1.2, 0.0).landing.landing_lead == 0.0
 
 
 @pytest.mark.parametrize("k, before", [(7, "swing timeout")])
@@ -445,8 +446,8 @@ def test_the_shooting_landing_lands_the_swapped_robot(k, aim, speed):
     p, seed, _ = sample_params(load_study(root / "study_traverse.toml").with_(seed=1), k)
     q = swing_params(p, 2, 1.2, 0.0)
     runner = SwingRunner()
-    assert q.path.landing_law == "shoot"   # the traversals' default for this robot
-    aimed = q.with_(path=dc.replace(q.path, landing_law="aim"))
+    assert q.landing.landing_law == "shoot"   # the traversals' default for this robot
+    aimed = q.with_(landing=dc.replace(q.landing, landing_law="aim"))
     assert runner.run(aimed, seed=seed).summary["outcome"] == aim
     shot = runner.run(q, seed=seed).summary
     assert shot["outcome"] == "captured"
@@ -472,9 +473,10 @@ def test_the_rest_planner_budgets_the_landing_at_the_torque_limit():
     cur = budgeted_currents(plan, p)
     t = np.arange(len(cur)) * T
     planned = np.interp(t, plan.times, plan.torque)
-    no_probe = p.with_(path=dc.replace(p.path, plan_delay_probe=0.0, landing_lead=0.0))
+    no_probe = p.with_(plan=dc.replace(p.plan, delay_probe=0.0),
+                       landing=dc.replace(p.landing, landing_lead=0.0))
     np.testing.assert_array_equal(budgeted_currents(plan, no_probe), np.abs(planned) / k)
-    planned[:8] += probe_torques(p.path.plan_delay_probe)
+    planned[:8] += probe_torques(p.plan.delay_probe)
     plain = np.abs(planned) / k
     at_limit = cur == max_torque(p.motor) / k
     start = t[np.argmax(at_limit)]
@@ -482,7 +484,7 @@ def test_the_rest_planner_budgets_the_landing_at_the_torque_limit():
     np.testing.assert_array_equal(cur[t < start], plain[t < start])
     y = np.array([gripper_position(x[:2], p.plant.l1, p.plant.l2)[1] for x in plan.states])
     before, after = np.interp([start - T, start], plan.times, y)
-    assert before < -p.path.shoot_depth < after   # the window opens at 30 cm
+    assert before < -p.landing.shoot_depth < after   # the window opens at 30 cm
     assert 0.15 < plan.duration - start < 0.35
-    off = p.with_(path=dc.replace(p.path, landing_lead=0.0))
+    off = p.with_(landing=dc.replace(p.landing, landing_lead=0.0))
     np.testing.assert_array_equal(budgeted_currents(plan, off), plain)

@@ -50,13 +50,19 @@ def _with_settings(params, args):
     bare words are strings)."""
     import tomllib
 
-    from ..params import BLOCKS, ParameterError
+    from ..params import BLOCKS, ParameterError, moved_field
 
     for item in getattr(args, "set", None) or []:
         key, sep, text = item.partition("=")
         block, dot, name = key.strip().partition(".")
         if not (sep and dot and block and name):
             raise InputError(f"--set '{item}' must be block.field=value (e.g. plant.m2=1.6)")
+        if moved_field(block, name) != (block, name):
+            import warnings
+
+            new = ".".join(moved_field(block, name))
+            warnings.warn(f"--set {block}.{name} is now --set {new}", FutureWarning)
+            block, name = moved_field(block, name)
         if block not in BLOCKS:
             raise ParameterError(f"--set {key}: unknown block '{block}'; allowed: "
                                  + ", ".join(BLOCKS))
@@ -171,7 +177,7 @@ def _in_range(name: str, value, lo: float, hi: float, *, lo_open: bool = False,
 # ------------------------------------------------------------------ swing
 def _with_path_mode(params, mode, law=None):
     """``params`` with ``path.mode`` set from ``--path-mode`` and
-    ``path.landing_law`` from ``--landing-law`` (None: kept)."""
+    ``landing.landing_law`` from ``--landing-law`` (None: kept)."""
     import dataclasses as dc
 
     from ..params import LANDING_LAWS, PATH_MODES
@@ -185,7 +191,7 @@ def _with_path_mode(params, mode, law=None):
         if law not in LANDING_LAWS:
             raise InputError(f"--landing-law = '{law}' is unknown; allowed: "
                              + ", ".join(LANDING_LAWS))
-        params = params.with_(path=dc.replace(params.path, landing_law=law))
+        params = params.with_(landing=dc.replace(params.landing, landing_law=law))
     return params
 
 

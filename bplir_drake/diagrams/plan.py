@@ -6,7 +6,7 @@ The plan is the full-state trajectory from the start pose at rest to the
 mirror target at rest (7.1) on the nominal model *with* joint friction
 (Coulomb smoothing widened to at least 0.2 rad/s so the problem is smooth),
 with ``|tau| <= torque_limit``, ``|tau q2'| <= power_limit`` and the winding
-voltage ``R tau/kt + Km N q2'`` within ``path.plan_voltage_share`` of the
+voltage ``R tau/kt + Km N q2'`` within ``plan.voltage_share`` of the
 driver's largest output voltage at every knot (the motor's voltage
 envelope: ``motor.envelope``), minimising ``int tau^2 dt + time_weight * T``.
 A plan is feasible when its constraints hold within the tolerance at the
@@ -22,8 +22,8 @@ so it is not a single path ``q2 = phi(q1)`` and cannot be followed by a
 time-independent path of the passive angle.
 
 A plan is tracked with ``path.mode = "plan"`` (indexed by the clock, or by
-the phase nearest the estimated state with ``path.plan_indexing =
-"state"``): :func:`tracking_plan` plans to rest ``path.plan_end_depth``
+the phase nearest the estimated state with ``plan.indexing =
+"state"``): :func:`tracking_plan` plans to rest ``plan.end_depth``
 below the line and computes Drake's finite-horizon LQR gains for
 :class:`bplir_drake.systems.plan_tracker.PlanTracker`.
 """
@@ -220,7 +220,7 @@ def plan_envelope(params: BplirParams) -> dict | None:
     m = params.motor
     if not m.envelope:
         return None
-    return dict(voltage=m.max_voltage, share=params.path.plan_voltage_share,
+    return dict(voltage=m.max_voltage, share=params.plan.voltage_share,
                 resistance=m.resistance, emf_per_rate=m.back_emf_constant * m.gear_ratio,
                 torque_per_amp=m.torque_per_amp)
 
@@ -346,17 +346,17 @@ def tracking_plan(params: BplirParams):
 
 
 def scenario_plan(params: BplirParams) -> SwingPlan:
-    """The plan for the scenario of ``params`` with ``path.plan_end_depth``,
-    for its grip spacing rounded to ``path.plan_spacing_step``: from
+    """The plan for the scenario of ``params`` with ``plan.end_depth``,
+    for its grip spacing rounded to ``plan.spacing_step``: from
     :func:`plan_swing` (disk cache), the first feasible one of the guesses
     :data:`PLAN_GUESSES`; and, for a grip spacing other than
-    ``path.plan_warm_spacing``, also the plan started from that spacing's
+    ``plan.warm_spacing``, also the plan started from that spacing's
     plan (same line, :func:`warm_guess`), whichever has the lower
     :meth:`SwingPlan.objective`.  The straight-line guesses alone end in
     other local optima at 1.27 m on the horizontal line (link 1 reversing
     four times, 2.3 times the cost; its neighbours reverse twice) and at
     1.1 m on the -20 deg line (4.2 times the cost)."""
-    sc, depth, step = params.scenario, params.path.plan_end_depth, params.path.plan_spacing_step
+    sc, depth, step = params.scenario, params.plan.end_depth, params.plan.spacing_step
     if step > 0:   # the measured spacing on the plans' grid
         spacing = round(round(sc.grip_spacing / step) * step, 9)
         params = params.with_(scenario=replace(sc, grip_spacing=spacing))
@@ -364,7 +364,7 @@ def scenario_plan(params: BplirParams) -> SwingPlan:
         plan = plan_swing(params, end_depth=depth, guess_duration=guess)
         if plan.feasible:
             break
-    warm = params.path.plan_warm_spacing
+    warm = params.plan.warm_spacing
     if warm > 0 and abs(params.scenario.grip_spacing - warm) > 1e-9:
         ref = scenario_plan(params.with_(scenario=replace(params.scenario, grip_spacing=warm)))
         started = plan_swing(params, end_depth=depth, initial=ref)

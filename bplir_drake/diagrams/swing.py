@@ -44,7 +44,6 @@ from ..systems.disturbance import (CommandDelay, DisturbanceSource, delay_steps,
                                    disturbance_schedule, has_disturbance)
 from ..systems.calibration import ImuCalibration, calibrate_standstill
 from ..systems.line_sensor import LineSensor, standstill_readings
-from ..systems.delay_id import planned_probe
 from ..systems.ekf import KinematicEkf
 from ..systems.imu import standstill_samples
 from ..systems.friction import FRICTION_PARAMETERS, set_friction

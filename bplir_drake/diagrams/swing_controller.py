@@ -22,9 +22,9 @@ def add_swing_controller(builder, params: BplirParams, state_port, robot: Robot,
     CpflController}``, both reading the state predicted over
     ``controller.delay_compensation`` (a :class:`DelayPredictor`, also
     returned) when that is set; the plan tracker over
-    ``path.plan_delay_compensation`` when it is not (the lab firmware's
+    ``plan.delay_compensation`` when it is not (the lab firmware's
     10 ms by default), indexing the plan as much later.  With
-    ``path.plan_delay_probe`` (and ``imu_port``, the IMU samples, and
+    ``plan.delay_probe`` (and ``imu_port``, the IMU samples, and
     ``q0``, the start pose the robot believes, :func:`believed_start`) the
     plan tracker probes the delay and a
     :class:`~bplir_drake.systems.delay_id.DelayIdentifier` (also returned,
@@ -76,24 +76,25 @@ class DelayCompensation:
 
 def _add_delay_compensation(builder, params, state_port, imu_port, q0) -> DelayCompensation:
     """The delay predictor (``controller.delay_compensation``, or for the plan
-    tracker ``path.plan_delay_compensation``) and, with ``path.plan_delay_probe``
+    tracker ``plan.delay_compensation``) and, with ``plan.delay_probe``
     and the IMU samples, the delay identifier feeding it."""
     T, pp = params.controller.period, params.path
     assumed = params.controller.delay_compensation
     if pp.mode == "plan" and not assumed:
-        assumed = pp.plan_delay_compensation
+        assumed = params.plan.delay_compensation
     steps = delay_steps(assumed, T)
-    probe = planned_probe(pp, params.controller) if imu_port is not None else ()
+    probe = (planned_probe(pp, params.plan, params.controller) if imu_port is not None
+             else ())
     comp = DelayCompensation(state_port, steps, probe)
     size = steps   # the predictor's ticks (with identification: the most it may need)
     if probe:
         from ..systems.delay_id import DelayIdentifier
 
-        size = max(delay_steps(pp.plan_delay_max, T), 1)
+        size = max(delay_steps(params.plan.delay_max, T), 1)
         comp.identifier = builder.AddNamedSystem("delay_id", DelayIdentifier(
             q0, params.plant, params.friction, params.motor, T,
             params.controller.compute_latency, size, min(steps, size),
-            pp.plan_delay_window, pp.plan_delay_min_ratio))
+            params.plan.delay_window, params.plan.delay_min_ratio))
         builder.Connect(imu_port, comp.identifier.imu_port)
     if size:
         from ..systems.predictor import DelayPredictor
@@ -117,7 +118,7 @@ def _add_plan_tracker(builder, params, comp: DelayCompensation, path_geometry,
     if plan_gains is None:
         raise ValueError("path.mode = 'plan' needs the tracking gains of a planned swing: "
                          "plan_gains=tracking_plan(params)[1] (bplir_drake.diagrams.plan)")
-    pp = params.path
+    pp = params.landing
     law = pp.landing_law
     if law == "auto":   # resolved on the plan's own samples (the breaks of x0), as
         # the traversal's current budget resolves it: the two cannot disagree
@@ -133,7 +134,7 @@ def _add_plan_tracker(builder, params, comp: DelayCompensation, path_geometry,
         reach = Reach.from_params(params.plant, path_geometry.alpha, pp)
     T = params.controller.period
     tracker = builder.AddNamedSystem("plan_tracker", PlanTracker(
-        plan_gains, params.controller.torque_limit, T, indexing=pp.plan_indexing,
+        plan_gains, params.controller.torque_limit, T, indexing=params.plan.indexing,
         reach=reach, lead=comp.steps * T, probe=comp.probe,
         adaptive_lead=comp.identifier is not None, motor=params.motor))
     builder.Connect(comp.state_port, tracker.get_input_port(0))

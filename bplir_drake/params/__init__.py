@@ -53,9 +53,14 @@ from .control import (  # noqa: F401
     OUTER_LOOP_DESIGNS,
     ControllerParams,
     PATH_MODES,
+    PathParams)
+from .plan import (  # noqa: F401
     PLAN_INDEXING,
     LANDING_LAWS,
-    PathParams)
+    PlanParams,
+    LandingParams,
+    moved_field,
+    split_path_table)
 from .scenario import (  # noqa: F401
     ScenarioParams,
     TRAVERSE_SWING_MODES,

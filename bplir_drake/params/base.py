@@ -158,6 +158,13 @@ class _Block:
     def _check(self) -> None:  # cross-field checks
         pass
 
+    def _one_of(self, name: str, allowed) -> None:
+        """Refuse a text field whose value is not one of ``allowed``."""
+        value = getattr(self, name)
+        if value not in allowed:
+            raise ParameterError(f"{self._name}.{name} = '{value}' is unknown; allowed: "
+                                 + ", ".join(allowed))
+
     def as_dict(self) -> dict[str, Any]:
         return {f.name: getattr(self, f.name) for f in fields(self)}
 

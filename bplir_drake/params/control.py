@@ -171,10 +171,8 @@ class ControllerParams(_Block):
 PATH_MODES = ("auto", "adaptive", "rts", "lab", "plan")
 
 
-PLAN_INDEXING = ("time", "state")
 
 
-LANDING_LAWS = ("aim", "shoot", "auto")
 
 
 @dataclass(frozen=True)
@@ -186,10 +184,8 @@ class PathParams(_Block):
     blend to line seeking with the adaptive blend end), ``rts`` (the RTS path
     with the blend (7.20)-(7.21) at its printed end, no adaptation),
     ``lab`` (the firmware's ``1.5 q1 q2f/q1f``) or ``plan`` (no path: a
-    time-varying LQR tracks a trajectory-optimised swing, indexed by the
-    clock (``plan_indexing = "time"``) or, clock-free, by the phase nearest
-    to the estimated state (``"state"``); see
-    :mod:`bplir_drake.systems.plan_tracker`)."""
+    time-varying LQR tracks a trajectory-optimised swing: the ``plan``
+    block, with its landing in the ``landing`` block)."""
 
     _name = "path"
     mode: str = field(default="auto", metadata=dict(doc="how the swing is steered: auto (plan for the plan preset, adaptive otherwise), plan, adaptive, rts, lab", allowed="auto, plan, adaptive, rts, lab"))
@@ -212,43 +208,6 @@ class PathParams(_Block):
     calibrate_at: float = _p(0.35, "", 0, 1, doc="fit the effective damping at s = -calibrate_at * s_f")
     pump_gain: float = _p(1.0, "", 0.5, 3, doc="RTS gain lam in the first half (energy pumping for inclines)")
     lab_gain: float = _p(1.5, "", 0, 5, doc="gain of the lab firmware path")
-    plan_end_depth: float = _p(0.015, "m", 0, 0.1, doc="mode 'plan': the planned swing comes to rest this far below the line, inside the capture band, so the band is entered slowly")
-    plan_voltage_share: float = _fraction(0.9, doc="mode 'plan': share of the driver's largest voltage the plan may use at its knots (the rest is the feedback's headroom)")
-    plan_spacing_step: float = _p(0.01, "m", 0, 0.1, doc="mode 'plan': plans are made for the measured grip spacing rounded to this step, so a study drawing the spacing solves few plans (0: exact)")
-    plan_warm_spacing: float = _p(1.2, "m", 0, 3, doc="mode 'plan': a plan for another spacing is also solved from this spacing's plan and the cheaper one kept (0: straight-line guesses only)")
-    plan_indexing: str = field(default="time", metadata=dict(doc="mode 'plan': time (the plan read by the clock) or state (the plan phase nearest the estimate: no clock)", allowed="time, state"))
-    # mode 'plan': the terminal reach (systems/plan_tracker.py), off by default
-    reach_speed: float = _p(0.0, "m/s", 0, 2, doc="mode 'plan': the terminal reach's speed toward its aim (0: no reach; it lands on the back swing, short of the grip)")
-    reach_depth: float = _p(0.12, "m", 0, 0.5, doc="mode 'plan': the reach takes over once the gripper is this close to the line in the plan's second half (or at the plan's end)")
-    reach_lift: float = _p(-0.01, "m", -0.1, 0.1, doc="mode 'plan': the reach aims the gripper this far from the line (negative: below, inside the capture band)")
-    reach_brake: float = _positive(1.25, "m/s^2", doc="mode 'plan': the reach's speed profile toward its aim, sqrt(reach_speed^2 + 2 reach_brake |distance|)")
-    reach_tangent: float = _p(0.25, "m/s", 0, 10, doc="mode 'plan': while the gripper slides along the line faster than this the reach holds it reach_hold from the line (0: never)")
-    reach_hold: float = _p(-0.05, "m", -0.2, 0, doc="mode 'plan': see reach_tangent")
-    reach_rate_gain: float = _positive(30.0, "1/s", doc="mode 'plan': the reach's speed error to acceleration gain")
-    # mode 'plan': the apex landing (systems/plan_tracker.py, issue 17)
-    landing_lead: float = _p(0.025, "m s/rad", 0, 1, doc="mode 'plan': the aim law aims landing_margin + landing_lead q1' below the line, so the gripper meets the band as link 1 stops (0: no aim law)")
-    landing_margin: float = _p(0.01, "m", 0, 0.1, doc="mode 'plan': the landing aims the gripper this far below the line when link 1 stops (inside the capture band)")
-    landing_depth: float = _p(0.12, "m", 0, 0.5, doc="mode 'plan': the aim law takes over once the gripper is this close to the line in the plan's last forward swing of link 1")
-    landing_take_rate: float = _p(1.2, "rad/s", 0, 10, doc="mode 'plan': ... or once link 1 slows below this rate while decelerating")
-    landing_gain: float = _positive(10.0, "1/s", doc="mode 'plan': the landing's height error to rate gain")
-    landing_rate_gain: float = _positive(30.0, "1/s", doc="mode 'plan': the landing's rate error to acceleration gain")
-    landing_min_decel: float = _positive(1.0, "rad/s^2", doc="mode 'plan': link 1 counts as decelerating above this (nominal model, elbow held)")
-    landing_law: str = field(default="auto", metadata=dict(doc="plan tracking's terminal law: auto (shoot where link 1 carries the gripper to the line, aim where the elbow lifts it), shoot, aim", allowed="auto, shoot, aim"))
-    landing_bias: float = _p(0.0, "m", -0.02, 0.02, doc="how far the robot's estimate of the gripper's height ran above the truth at earlier landings; both landing laws aim this much higher")
-    shoot_height: float = _p(-0.015, "m", -0.02, 0, doc="landing_law 'shoot': the gripper's aimed distance to the line when link 1 stops (negative: inside the capture band)")
-    shoot_depth: float = _p(0.3, "m", 0, 1, doc="landing_law 'shoot': it takes over once the gripper is this close to the line in the plan's last forward swing of link 1")
-    shoot_min_time: float = _p(0.04, "s", 0.02, 0.5, doc="landing_law 'shoot': with less time to link 1's stop, or link 1 slower than shoot_min_rate, the stop time is held at this")
-    shoot_min_rate: float = _p(0.02, "rad/s", 0, 5, doc="landing_law 'shoot': with link 1 slower than this the shot's stop time is held at shoot_min_time")
-    shoot_lift_min_time: float = _p(0.0, "s", 0, 0.5, doc="landing_law 'auto': shoot_min_time where the plan lifts the gripper with the elbow (downhill); 0: the aim law there")
-    shoot_lift_height: float = _p(-0.019, "m", -0.02, 0, doc="landing_law 'auto': shoot_height where the plan lifts the gripper with the elbow (see shoot_lift_min_time)")
-    shoot_hold_depth: float = _p(0.03, "m", 0, 1, doc="landing_law 'shoot': the stop time is held at shoot_min_time only within this of the aimed height")
-    shoot_give_up_rate: float = _p(0.1, "rad/s", 0, 5, doc="landing_law 'shoot': once link 1 swings back faster than this with the gripper below its aim, the shot brakes the elbow and gives up")
-    shoot_link1_share: float = _p(0.5, "", 0, 1, doc="landing_law 'auto': the shot where link 1 makes at least this share of the planned gripper's rise rate near the line, else the lift rule")
-    plan_delay_compensation: float = _p(0.01, "s", 0, 0.1, doc="mode 'plan': actuation delay the tracker assumes until it has identified one (whole periods; the lab firmware's 10 ms)")
-    plan_delay_probe: float = _p(10.0, "N m", 0, 20, doc="mode 'plan': amplitude of the delay probe, two opposite doublets on the first eight commands whose gyro echo identifies the delay (0: none)")
-    plan_delay_max: float = _p(0.03, "s", 0.01, 0.1, doc="mode 'plan' with plan_delay_probe: the longest actuation delay the identification considers (whole periods)")
-    plan_delay_window: int = _count(12, "ticks", 8, 50, doc="mode 'plan' with plan_delay_probe: the ticks of gyro samples the identification fits (12: 120 ms from the release)")
-    plan_delay_min_ratio: float = _p(1.25, "", 1, 100, doc="mode 'plan': the identified delay is used only if the runner-up candidate fits the gyros this many times worse")
 
     def resolved(self, incline_deg: float, controller: "ControllerParams") -> "PathParams":
         """The path block with ``mode = "auto"`` made concrete: ``plan`` (plan
@@ -268,16 +227,3 @@ class PathParams(_Block):
         if self.mode not in PATH_MODES:
             raise ParameterError(f"path.mode = '{self.mode}' is unknown; allowed: "
                                  + ", ".join(PATH_MODES))
-        if self.plan_indexing not in PLAN_INDEXING:
-            raise ParameterError(f"path.plan_indexing = '{self.plan_indexing}' is unknown; "
-                                 "allowed: " + ", ".join(PLAN_INDEXING))
-        if self.landing_law not in LANDING_LAWS:
-            raise ParameterError(f"path.landing_law = '{self.landing_law}' is unknown; "
-                                 "allowed: " + ", ".join(LANDING_LAWS))
-        if 0.0 < self.shoot_lift_min_time < 0.02:
-            raise ParameterError(f"path.shoot_lift_min_time = {self.shoot_lift_min_time:g} s is "
-                                 "out of range; allowed 0 (the aim law) or [0.02, 0.5] s")
-        if self.landing_lead > 0 and self.reach_speed > 0:
-            raise ParameterError(f"path.landing_lead = {self.landing_lead:g} m s/rad and "
-                                 f"path.reach_speed = {self.reach_speed:g} m/s are both set; "
-                                 "allowed: one terminal law (set the other to 0)")

@@ -6,6 +6,7 @@ from dataclasses import fields, replace
 from pathlib import Path
 from typing import Any
 from .base import ParameterError
+from .plan import split_path_table
 from .model import BLOCKS, BplirParams, preset
 
 
@@ -18,7 +19,7 @@ def from_dict(data: dict[str, Any], base: BplirParams | None = None) -> BplirPar
     """
     if not isinstance(data, dict):
         raise ParameterError("parameter data must be a table of tables")
-    data = dict(data)
+    data = split_path_table(dict(data))   # files written before [plan] and [landing]
     name = data.pop("preset", None)
     if name is not None and not isinstance(name, str):
         raise ParameterError(f"preset = {name!r} must be a string naming a preset")

@@ -7,6 +7,7 @@ from .base import ParameterError, _is_plugin, _range_text
 from .robot import FrictionParams, MotorParams, PlantParams
 from .sensing import EstimatorParams, ImuParams, LineSensorParams
 from .control import CONTROLLER_PRESETS, ControllerParams, current_preset_name, HARDWARE_OPTIONS, IMU_ONLY_TUNING, LINE_SENSOR_OPTION, PathParams
+from .plan import LandingParams, PlanParams
 from .scenario import DriveParams, ScenarioParams, TraverseParams
 
 
@@ -22,6 +23,8 @@ class BplirParams:
     estimator: EstimatorParams = field(default_factory=EstimatorParams)
     controller: ControllerParams = field(default_factory=ControllerParams)
     path: PathParams = field(default_factory=PathParams)
+    plan: PlanParams = field(default_factory=PlanParams)
+    landing: LandingParams = field(default_factory=LandingParams)
     scenario: ScenarioParams = field(default_factory=ScenarioParams)
     drive: DriveParams = field(default_factory=DriveParams)
     traverse: TraverseParams = field(default_factory=TraverseParams)
@@ -83,7 +86,7 @@ class BplirParams:
         the IMUs alone), with the shooting landing's aim of that robot
         (:data:`IMU_ONLY_TUNING`)."""
         return replace(self, line_sensor=replace(self.line_sensor, range=0.0),
-                       path=replace(self.path, **IMU_ONLY_TUNING))
+                       landing=replace(self.landing, **IMU_ONLY_TUNING))
 
     def with_hardware(self, *names: str) -> "BplirParams":
         """The robot with the named hardware options (:data:`HARDWARE_OPTIONS`):
@@ -94,7 +97,8 @@ class BplirParams:
             if name == "line-sensor":
                 o = LINE_SENSOR_OPTION
                 p = replace(p, line_sensor=replace(p.line_sensor, range=o["range"]),
-                            path=replace(p.path, **{k: v for k, v in o.items() if k != "range"}))
+                            landing=replace(p.landing,
+                                            **{k: v for k, v in o.items() if k != "range"}))
             elif name == "48v":
                 p = replace(p, motor=replace(p.motor, supply_voltage=48.0))
             else:
@@ -179,7 +183,8 @@ def parameter_reference(blocks=None) -> list[dict[str, Any]]:
 BLOCKS = {
     "plant": PlantParams, "friction": FrictionParams, "motor": MotorParams,
     "imu": ImuParams, "estimator": EstimatorParams, "controller": ControllerParams,
-    "path": PathParams, "scenario": ScenarioParams, "drive": DriveParams,
+    "path": PathParams, "plan": PlanParams, "landing": LandingParams,
+    "scenario": ScenarioParams, "drive": DriveParams,
     "traverse": TraverseParams, "line_sensor": LineSensorParams,
     "true_plant": PlantParams, "true_friction": FrictionParams,
 }

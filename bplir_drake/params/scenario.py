@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from .base import ParameterError, _Block, _fraction, _p, _positive
-from .control import LANDING_LAWS
+from .plan import LANDING_LAWS
 
 
 # ---------------------------------------------------------------- scenario
@@ -71,14 +71,14 @@ class TraverseParams(_Block):
     gripper_width: float = _p(0.08, "m", 0, 0.5, doc="length of line a clasped gripper covers")
     landing_tolerance: float = _p(0.08, "m", 0, 1, doc="planned landings lie at least this much further from obstacles (the swing's landing error)")
     swing_mode: str = field(default="plan", metadata=dict(doc="how traversal swings are steered: plan (plan tracking) or the path generator (adaptive)", allowed="plan, adaptive"))
-    plan_end_depth: float = _p(0.013, "m", 0, 0.02, doc="swing_mode 'plan': the planned swing comes to rest this far below the line (path.plan_end_depth of every traversal swing)")
+    plan_end_depth: float = _p(0.013, "m", 0, 0.02, doc="swing_mode 'plan': the planned swing comes to rest this far below the line (plan.end_depth of every traversal swing)")
     # swing_mode 'plan': the single swing's apex landing and delay compensation
-    # (path.landing_*, path.plan_delay_compensation) on every traversal swing
+    # (landing.landing_*, plan.delay_compensation) on every traversal swing
     landing: bool = field(default=True, metadata=dict(doc="traversal swings end with the single swing's landing law"))
-    swapped_landing_margin: float = _p(0.0, "m", 0, 0.1, doc="path.landing_margin of the swings holding with gripper 2")
-    swapped_landing_law: str = field(default="shoot", metadata=dict(doc="path.landing_law of the swings holding with gripper 2 (the swapped robot)", allowed="auto, shoot, aim"))
-    swapped_shoot_min_time: float = _p(0.06, "s", 0.02, 0.5, doc="path.shoot_min_time of the swings holding with gripper 2")
-    swapped_shoot_height: float = _p(-0.015, "m", -0.02, 0, doc="path.shoot_height of the swings holding with gripper 2")
+    swapped_landing_margin: float = _p(0.0, "m", 0, 0.1, doc="landing.landing_margin of the swings holding with gripper 2")
+    swapped_landing_law: str = field(default="shoot", metadata=dict(doc="landing.landing_law of the swings holding with gripper 2 (the swapped robot)", allowed="auto, shoot, aim"))
+    swapped_shoot_min_time: float = _p(0.06, "s", 0.02, 0.5, doc="landing.shoot_min_time of the swings holding with gripper 2")
+    swapped_shoot_height: float = _p(-0.015, "m", -0.02, 0, doc="landing.shoot_height of the swings holding with gripper 2")
     swapped_line_range: float = _p(0.0, "m", 0, 1, doc="the largest line_sensor.range of the swings holding with gripper 2 (0: they estimate with the IMUs alone)")
     swapped_inflate_nis: float = _p(0.0, "", 0, 1000, doc="estimator.loop_inflate_nis of the swings holding with gripper 2 (0: no inflation; its large landing corrections read as model error)")
     landing_learning: float = _p(0.5, "", 0, 1, doc="each swing aims this share of the mean landing height error of the earlier captures holding with the same gripper higher (0: no learning)")
@@ -87,9 +87,5 @@ class TraverseParams(_Block):
     max_incline_deg: float = _p(25.0, "deg", 0, 60, doc="steepest line incline accepted in a line file")
 
     def _check(self):
-        if self.swapped_landing_law not in LANDING_LAWS:
-            raise ParameterError(f"traverse.swapped_landing_law = '{self.swapped_landing_law}' "
-                                 "is unknown; allowed: " + ", ".join(LANDING_LAWS))
-        if self.swing_mode not in TRAVERSE_SWING_MODES:
-            raise ParameterError(f"traverse.swing_mode = '{self.swing_mode}' is unknown; "
-                                 "allowed: " + ", ".join(TRAVERSE_SWING_MODES))
+        self._one_of("swapped_landing_law", LANDING_LAWS)
+        self._one_of("swing_mode", TRAVERSE_SWING_MODES)

@@ -47,14 +47,14 @@ def probe_torques(amplitude: float) -> tuple[float, ...]:
     return tuple(amplitude * s for s in PROBE_PATTERN) if amplitude else ()
 
 
-def planned_probe(path, controller) -> tuple[float, ...]:
+def planned_probe(path, plan, controller) -> tuple[float, ...]:
     """The probe's torques (N m, ticks 0, 1, ...) that the plan tracker of
-    the ``path`` and ``controller`` blocks adds: none unless it tracks a
-    plan (``path.mode = "plan"``) without a delay set in
+    the ``path``, ``plan`` and ``controller`` blocks adds: none unless it
+    tracks a plan (``path.mode = "plan"``) without a delay set in
     ``controller.delay_compensation``."""
     if path.mode != "plan" or controller.delay_compensation:
         return ()
-    return probe_torques(path.plan_delay_probe)
+    return probe_torques(plan.delay_probe)
 
 
 def probe_rates(q0, commands, steps: int, period: float, latency: float, plant: PlantParams,

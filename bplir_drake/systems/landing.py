@@ -8,18 +8,19 @@ from .plant import bias_term, gravity_vector, mass_matrix
 
 
 class _LineServo:
-    """What the terminal laws share: built from the ``path`` block's fields
+    """What the terminal laws share: built from the ``landing`` block's fields
     named ``<prefix>_<field>``, and the gripper's distance to the line."""
 
     _prefix = ""
 
     @classmethod
-    def from_params(cls, plant, alpha: float, path):
-        """The law of ``path`` (:class:`~bplir_drake.params.PathParams`, its
-        ``<prefix>_*`` fields) on the nominal ``plant`` for a line inclined
-        by ``alpha`` (rad)."""
+    def from_params(cls, plant, alpha: float, landing):
+        """The law of the ``landing`` block
+        (:class:`~bplir_drake.params.LandingParams`, its ``<prefix>_*``
+        fields) on the nominal ``plant`` for a line inclined by ``alpha``
+        (rad)."""
         names = [f.name for f in fields(cls) if f.name not in ("plant", "alpha")]
-        return cls(plant, alpha, **{n: getattr(path, f"{cls._prefix}_{n}") for n in names})
+        return cls(plant, alpha, **{n: getattr(landing, f"{cls._prefix}_{n}") for n in names})
 
     def height(self, x) -> float:
         """The gripper's distance to the line (m, negative below it)."""
@@ -99,11 +100,11 @@ class Landing(_LineServo):
     _prefix = "landing"
 
     @classmethod
-    def from_params(cls, plant, alpha: float, path):
-        """The law of ``path`` (its ``landing_*`` fields), its margin less
-        ``path.landing_bias`` (never above the line)."""
-        law = super().from_params(plant, alpha, path)
-        return replace(law, margin=max(0.0, law.margin - path.landing_bias))
+    def from_params(cls, plant, alpha: float, landing):
+        """The law of ``landing`` (its ``landing_*`` fields), its margin less
+        ``landing.landing_bias`` (never above the line)."""
+        law = super().from_params(plant, alpha, landing)
+        return replace(law, margin=max(0.0, law.margin - landing.landing_bias))
 
     def deceleration(self, x) -> float:
         """Link 1's deceleration ``b1 / M11`` on the nominal model with the
@@ -167,14 +168,14 @@ class ApexShot:
     steps: int = 12
 
     @classmethod
-    def from_params(cls, plant, friction, alpha: float, path):
-        """The law of ``path`` (its ``shoot_*`` fields, the aim raised by
+    def from_params(cls, plant, friction, alpha: float, landing):
+        """The law of ``landing`` (its ``shoot_*`` fields, the aim raised by
         ``landing_bias``; the fallback from its ``landing_*`` fields) on the
         nominal ``plant`` and ``friction``."""
-        height = min(0.0, path.shoot_height + path.landing_bias)
-        return cls(Landing.from_params(plant, alpha, path), friction, height,
-                   path.shoot_depth, path.shoot_min_time, path.shoot_min_rate,
-                   path.shoot_hold_depth, path.shoot_give_up_rate)
+        height = min(0.0, landing.shoot_height + landing.landing_bias)
+        return cls(Landing.from_params(plant, alpha, landing), friction, height,
+                   landing.shoot_depth, landing.shoot_min_time, landing.shoot_min_rate,
+                   landing.shoot_hold_depth, landing.shoot_give_up_rate)
 
     def takes_over(self, x) -> bool:
         """Whether the law takes over (asked in the plan's last forward
@@ -349,31 +350,31 @@ def link1_share(p, alpha: float, states, depth: float) -> float:
     return by_link1 / total if abs(total) > 1e-9 else 0.0
 
 
-def resolved_landing(p, alpha: float, states, path):
-    """(law, path): ``path.landing_law`` with ``"auto"`` resolved on the
-    planned swing (``states``, relative, in time order), and ``path`` with
+def resolved_landing(p, alpha: float, states, landing):
+    """(law, landing): ``landing.landing_law`` with ``"auto"`` resolved on the
+    planned swing (``states``, relative, in time order), and ``landing`` with
     the shot's hold time and aim of that swing.  Where link 1 makes at least
-    ``path.shoot_link1_share`` of the gripper's rise when it comes within
-    ``path.shoot_depth`` of the line, the shot held from
-    ``path.shoot_min_time``; where the elbow lifts the gripper (the end of
+    ``landing.shoot_link1_share`` of the gripper's rise when it comes within
+    ``landing.shoot_depth`` of the line, the shot held from
+    ``landing.shoot_min_time``; where the elbow lifts the gripper (the end of
     the -20 degree plan: link 1 creeps while the elbow stops the gripper
     at the line, and a short hold asks for the torque limit both ways), the
-    shot held from ``path.shoot_lift_min_time`` and aimed at
-    ``path.shoot_lift_height``, or the aim law if ``shoot_lift_min_time``
+    shot held from ``landing.shoot_lift_min_time`` and aimed at
+    ``landing.shoot_lift_height``, or the aim law if ``shoot_lift_min_time``
     is 0 (the default, the robot without the line sensor)."""
-    if path.landing_law != "auto":
-        return path.landing_law, path
-    if link1_share(p, alpha, states, path.shoot_depth) >= path.shoot_link1_share:
-        return "shoot", path
-    if path.shoot_lift_min_time > 0:
-        return "shoot", replace(path, shoot_min_time=path.shoot_lift_min_time,
-                                shoot_height=path.shoot_lift_height)
-    return "aim", path
+    if landing.landing_law != "auto":
+        return landing.landing_law, landing
+    if link1_share(p, alpha, states, landing.shoot_depth) >= landing.shoot_link1_share:
+        return "shoot", landing
+    if landing.shoot_lift_min_time > 0:
+        return "shoot", replace(landing, shoot_min_time=landing.shoot_lift_min_time,
+                                shoot_height=landing.shoot_lift_height)
+    return "aim", landing
 
 
-def landing_law(p, alpha: float, states, path) -> str:
+def landing_law(p, alpha: float, states, landing) -> str:
     """The law of :func:`resolved_landing`: ``"aim"`` or ``"shoot"``."""
-    return resolved_landing(p, alpha, states, path)[0]
+    return resolved_landing(p, alpha, states, landing)[0]
 
 
 def height_rates(p, alpha: float, x) -> tuple[float, float, float]:

@@ -254,7 +254,7 @@ class _Traversal:
                         peak_torque_Nm=s["peak_torque_Nm"], peak_power_W=s["peak_motor_power_W"],
                         peak_voltage_V=s.get("peak_voltage_V", math.nan),
                         energy_J=elec + standby, i2t_start_A2s=h0, i2t_end_A2s=self.h,
-                        landing_bias_m=p.path.landing_bias,
+                        landing_bias_m=p.landing.landing_bias,
                         landing_height_error_m=s["landing_height_error_m"], seed=seed)
         if s["success"]:
             self.landing_errors[hold_g].append(s["landing_height_error_m"])

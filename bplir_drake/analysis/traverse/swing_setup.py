@@ -32,20 +32,22 @@ def swing_params(params: BplirParams, holding: int, spacing: float,
         # gripper first moves slowly, sliding along the line if it must, where
         # a traversal has to land on the planned grip between obstacles: with
         # it, seed 0 of examples/line_span.toml landed on a spacer)
-        path = dc.replace(p.path, mode="plan", reach_speed=0.0, plan_end_depth=tp.plan_end_depth)
+        path = dc.replace(p.path, mode="plan")
+        plan = dc.replace(p.plan, end_depth=tp.plan_end_depth)
+        landing = dc.replace(p.landing, reach_speed=0.0)
         if not tp.landing:   # plan tracking alone, as traversals were first built
-            path = dc.replace(path, landing_lead=0.0, plan_delay_compensation=0.0,
-                              plan_delay_probe=0.0)
+            landing = dc.replace(landing, landing_lead=0.0)
+            plan = dc.replace(plan, delay_compensation=0.0, delay_probe=0.0)
         elif holding == 2:
-            path = dc.replace(path, landing_margin=tp.swapped_landing_margin,
-                              landing_law=tp.swapped_landing_law,
-                              shoot_min_time=tp.swapped_shoot_min_time,
-                              shoot_height=tp.swapped_shoot_height)
+            landing = dc.replace(landing, landing_margin=tp.swapped_landing_margin,
+                                 landing_law=tp.swapped_landing_law,
+                                 shoot_min_time=tp.swapped_shoot_min_time,
+                                 shoot_height=tp.swapped_shoot_height)
             p = p.with_(estimator=dc.replace(p.estimator,
                                              loop_inflate_nis=tp.swapped_inflate_nis),
                         line_sensor=dc.replace(p.line_sensor, range=min(
                             p.line_sensor.range, tp.swapped_line_range)))
-        p = p.with_(path=path)
+        p = p.with_(path=path, plan=plan, landing=landing)
     return p
 
 
@@ -61,7 +63,7 @@ def learnt_landing(p: BplirParams, errors) -> BplirParams:
     if tp.landing_learning <= 0.0 or not errors or tp.swing_mode != "plan" or not tp.landing:
         return p
     bias = min(0.02, max(-0.02, tp.landing_learning * float(np.mean(errors))))
-    return p.with_(path=dc.replace(p.path, landing_bias=bias))
+    return p.with_(landing=dc.replace(p.landing, landing_bias=bias))
 
 
 def budgeted_currents(plan, p: BplirParams) -> np.ndarray:
@@ -71,23 +73,23 @@ def budgeted_currents(plan, p: BplirParams) -> np.ndarray:
     line (in the plan's second half) to its end, the current of the torque
     limit.  The terminal law's feedback is not planned, and the swapped
     robot's runs at the limit there (README, "Traversal Monte Carlo").  The
-    delay probe (``path.plan_delay_probe``) adds its torques to the first
+    delay probe (``plan.delay_probe``) adds its torques to the first
     ticks."""
     from ...systems.delay_id import planned_probe
     from ...systems.motor import max_torque
     from ...systems.plan_tracker import height_rates, landing_law
 
-    motor, path = p.motor, p.path
+    motor, landing = p.motor, p.landing
     t = np.arange(int(plan.duration / motor.driver_period) + 1) * motor.driver_period
     tq = np.interp(t, plan.times, plan.torque)
-    probe = planned_probe(path, p.controller)   # on the plan tracker's first ticks
+    probe = planned_probe(p.path, p.plan, p.controller)   # on the plan tracker's first ticks
     ticks = np.floor(t / p.controller.period + 1e-9).astype(int)
     tq = tq + np.array([probe[k] if k < len(probe) else 0.0 for k in ticks])
     tq = np.abs(tq)
-    if path.landing_lead > 0:
+    if landing.landing_lead > 0:
         alpha = math.radians(p.scenario.incline_deg)
-        law = landing_law(p.plant, alpha, plan.states, path)
-        depth = path.shoot_depth if law == "shoot" else path.landing_depth
+        law = landing_law(p.plant, alpha, plan.states, landing)
+        depth = landing.shoot_depth if law == "shoot" else landing.landing_depth
         h = np.array([height_rates(p.plant, alpha, x)[0] for x in plan.states])
         near = (plan.times >= 0.5 * plan.duration) & (h > -depth)
         if near.any():

@@ -1,0 +1,122 @@
+"""Plan tracking's parameters: the planned swing and its tracking
+(``plan``), and the landing laws that end it (``landing``)."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field, fields
+
+from .base import ParameterError, _Block, _count, _fraction, _p, _positive
+
+PLAN_INDEXING = ("time", "state")
+LANDING_LAWS = ("aim", "shoot", "auto")
+
+
+@dataclass(frozen=True)
+class PlanParams(_Block):
+    """A swing planned by trajectory optimisation on the nominal model and
+    tracked by a time-varying LQR (``path.mode = "plan"``): where the plan
+    ends, how much of the motor's voltage it may use, which spacings get
+    plans of their own, how the tracker reads it (by the clock, or by the
+    phase nearest the estimate) and how it finds the loop's delay."""
+
+    _name = "plan"
+    end_depth: float = _p(0.015, "m", 0, 0.1, doc="the planned swing comes to rest this far below the line, inside the capture band, so the band is entered slowly")
+    voltage_share: float = _fraction(0.9, doc="share of the driver's largest voltage the plan may use at its knots (the rest is the feedback's headroom)")
+    spacing_step: float = _p(0.01, "m", 0, 0.1, doc="plans are made for the measured grip spacing rounded to this step, so a study drawing the spacing solves few plans (0: exact)")
+    warm_spacing: float = _p(1.2, "m", 0, 3, doc="a plan for another spacing is also solved from this spacing's plan and the cheaper one kept (0: straight-line guesses only)")
+    indexing: str = field(default="time", metadata=dict(doc="time (the plan read by the clock) or state (the plan phase nearest the estimate: no clock)", allowed="time, state"))
+    delay_compensation: float = _p(0.01, "s", 0, 0.1, doc="actuation delay the tracker assumes until it has identified one (whole periods; the lab firmware's 10 ms)")
+    delay_probe: float = _p(10.0, "N m", 0, 20, doc="amplitude of the delay probe, two opposite doublets on the first eight commands whose gyro echo identifies the delay (0: none)")
+    delay_max: float = _p(0.03, "s", 0.01, 0.1, doc="with delay_probe: the longest actuation delay the identification considers (whole periods)")
+    delay_window: int = _count(12, "ticks", 8, 50, doc="with delay_probe: the ticks of gyro samples the identification fits (12: 120 ms from the release)")
+    delay_min_ratio: float = _p(1.25, "", 1, 100, doc="the identified delay is used only if the runner-up candidate fits the gyros this many times worse")
+
+    def _check(self):
+        self._one_of("indexing", PLAN_INDEXING)
+
+
+@dataclass(frozen=True)
+class LandingParams(_Block):
+    """How plan tracking ends the swing on the line: the shooting landing
+    (``shoot``: link 1's stop aimed at the line), the aim law (``aim``: the
+    elbow lifts the gripper to a margin below it) or, off by default, the
+    terminal reach; ``auto`` picks between the first two on the plan."""
+
+    _name = "landing"
+    # the terminal reach (systems/landing.py), off by default
+    reach_speed: float = _p(0.0, "m/s", 0, 2, doc="the terminal reach's speed toward its aim (0: no reach; it lands on the back swing, short of the grip)")
+    reach_depth: float = _p(0.12, "m", 0, 0.5, doc="the reach takes over once the gripper is this close to the line in the plan's second half (or at the plan's end)")
+    reach_lift: float = _p(-0.01, "m", -0.1, 0.1, doc="the reach aims the gripper this far from the line (negative: below, inside the capture band)")
+    reach_brake: float = _positive(1.25, "m/s^2", doc="the reach's speed profile toward its aim, sqrt(reach_speed^2 + 2 reach_brake |distance|)")
+    reach_tangent: float = _p(0.25, "m/s", 0, 10, doc="while the gripper slides along the line faster than this the reach holds it reach_hold from the line (0: never)")
+    reach_hold: float = _p(-0.05, "m", -0.2, 0, doc="see reach_tangent")
+    reach_rate_gain: float = _positive(30.0, "1/s", doc="the reach's speed error to acceleration gain")
+    # the apex landing (systems/landing.py)
+    landing_lead: float = _p(0.025, "m s/rad", 0, 1, doc="the aim law aims landing_margin + landing_lead q1' below the line, so the gripper meets the band as link 1 stops (0: no aim law)")
+    landing_margin: float = _p(0.01, "m", 0, 0.1, doc="the landing aims the gripper this far below the line when link 1 stops (inside the capture band)")
+    landing_depth: float = _p(0.12, "m", 0, 0.5, doc="the aim law takes over once the gripper is this close to the line in the plan's last forward swing of link 1")
+    landing_take_rate: float = _p(1.2, "rad/s", 0, 10, doc="... or once link 1 slows below this rate while decelerating")
+    landing_gain: float = _positive(10.0, "1/s", doc="the landing's height error to rate gain")
+    landing_rate_gain: float = _positive(30.0, "1/s", doc="the landing's rate error to acceleration gain")
+    landing_min_decel: float = _positive(1.0, "rad/s^2", doc="link 1 counts as decelerating above this (nominal model, elbow held)")
+    landing_law: str = field(default="auto", metadata=dict(doc="plan tracking's terminal law: auto (shoot where link 1 carries the gripper to the line, aim where the elbow lifts it), shoot, aim", allowed="auto, shoot, aim"))
+    landing_bias: float = _p(0.0, "m", -0.02, 0.02, doc="how far the robot's estimate of the gripper's height ran above the truth at earlier landings; both landing laws aim this much higher")
+    shoot_height: float = _p(-0.015, "m", -0.02, 0, doc="landing_law 'shoot': the gripper's aimed distance to the line when link 1 stops (negative: inside the capture band)")
+    shoot_depth: float = _p(0.3, "m", 0, 1, doc="landing_law 'shoot': it takes over once the gripper is this close to the line in the plan's last forward swing of link 1")
+    shoot_min_time: float = _p(0.04, "s", 0.02, 0.5, doc="landing_law 'shoot': with less time to link 1's stop, or link 1 slower than shoot_min_rate, the stop time is held at this")
+    shoot_min_rate: float = _p(0.02, "rad/s", 0, 5, doc="landing_law 'shoot': with link 1 slower than this the shot's stop time is held at shoot_min_time")
+    shoot_lift_min_time: float = _p(0.0, "s", 0, 0.5, doc="landing_law 'auto': shoot_min_time where the plan lifts the gripper with the elbow (downhill); 0: the aim law there")
+    shoot_lift_height: float = _p(-0.019, "m", -0.02, 0, doc="landing_law 'auto': shoot_height where the plan lifts the gripper with the elbow (see shoot_lift_min_time)")
+    shoot_hold_depth: float = _p(0.03, "m", 0, 1, doc="landing_law 'shoot': the stop time is held at shoot_min_time only within this of the aimed height")
+    shoot_give_up_rate: float = _p(0.1, "rad/s", 0, 5, doc="landing_law 'shoot': once link 1 swings back faster than this with the gripper below its aim, the shot brakes the elbow and gives up")
+    shoot_link1_share: float = _p(0.5, "", 0, 1, doc="landing_law 'auto': the shot where link 1 makes at least this share of the planned gripper's rise rate near the line, else the lift rule")
+
+    def _check(self):
+        self._one_of("landing_law", LANDING_LAWS)
+        if 0.0 < self.shoot_lift_min_time < 0.02:
+            raise ParameterError(f"landing.shoot_lift_min_time = {self.shoot_lift_min_time:g} s "
+                                 "is out of range; allowed 0 (the aim law) or [0.02, 0.5] s")
+        if self.landing_lead > 0 and self.reach_speed > 0:
+            raise ParameterError(f"landing.landing_lead = {self.landing_lead:g} m s/rad and "
+                                 f"landing.reach_speed = {self.reach_speed:g} m/s are both set; "
+                                 "allowed: one terminal law (set the other to 0)")
+
+
+#: fields of the former ``[path]`` table that are now in ``[plan]`` (by
+#: their new names) or ``[landing]`` (same names)
+MOVED_TO_PLAN = {f"plan_{f.name}": f.name for f in fields(PlanParams)}
+MOVED_TO_LANDING = {f.name: f.name for f in fields(LandingParams)}
+
+
+def moved_field(block: str, name: str) -> tuple[str, str]:
+    """Where ``block.name`` lives now: a former ``path.plan_*`` field in
+    ``plan``, a former ``path`` landing field in ``landing``; any other
+    unchanged."""
+    if block == "path" and name in MOVED_TO_PLAN:
+        return "plan", MOVED_TO_PLAN[name]
+    if block == "path" and name in MOVED_TO_LANDING:
+        return "landing", name
+    return block, name
+
+
+def split_path_table(data: dict) -> dict:
+    """``data`` (tables by block) with a former ``[path]`` table's plan and
+    landing fields moved to ``[plan]`` and ``[landing]`` (a table the data
+    gives itself wins), with one ``FutureWarning`` naming the move."""
+    path = data.get("path")
+    if not isinstance(path, dict):
+        return data
+    moved = {k for k in path if moved_field("path", k)[0] != "path"}
+    if not moved:
+        return data
+    import warnings
+
+    warnings.warn("the [path] table's plan tracking fields are now in [plan] (without the "
+                  "plan_ prefix) and [landing]", FutureWarning, stacklevel=3)
+    out = dict(data)
+    out["path"] = {k: v for k, v in path.items() if k not in moved}
+    for key in moved:
+        block, name = moved_field("path", key)
+        table = out.setdefault(block, {})
+        if isinstance(table, dict):
+            out[block] = {name: path[key]} | table
+    return out

@@ -18,6 +18,11 @@ from typing import Iterator
 from .io import UTF8_BOM
 
 
+class LogError(ValueError):
+    """A malformed or unusable log file (one-line message)."""
+import codecs
+
+
 def text_lines(path, what: str, error) -> Iterator[str]:
     """The lines of a UTF-8 text file, decoded one at a time."""
     path = Path(path)
@@ -44,7 +49,6 @@ def text_lines(path, what: str, error) -> Iterator[str]:
 def _check_text(f, start: int, name: str, error, chunk: int = 1 << 20) -> None:
     """Check a whole file is UTF-8 text, a block at a time, before any of it
     is read as data (a binary file is named as one, wherever its bad byte)."""
-    import codecs
 
     decoder = codecs.getincrementaldecoder("utf-8")()
     f.seek(start)

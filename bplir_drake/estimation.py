@@ -24,12 +24,13 @@ from pathlib import Path
 
 import numpy as np
 
-from .csvfile import numeric_columns
+from .csvfile import LogError, numeric_columns
 from .io import Result, atomic_path
 from .params import EstimatorParams
 from .systems.ekf import (EkfState, correct_sample, ekf_predict, ekf_update, initial_state,
                           prediction_input, split_sample, state_layout)
 from .systems.imu import IMU_COLUMNS
+from .progress import progress_bar
 
 LOG_COLUMNS = ("t",) + IMU_COLUMNS
 EST_COLUMNS = ("t", "theta1", "theta2", "omega1", "omega2")
@@ -38,10 +39,6 @@ PERIOD_TOLERANCE = 0.2
 WRITE_CHUNK = 50_000
 #: logs this long (samples) or longer show the filter's progress
 PROGRESS_MIN_SAMPLES = 20_000
-
-
-class LogError(ValueError):
-    """A malformed or unusable log file (one-line message)."""
 
 
 @dataclass
@@ -252,7 +249,6 @@ def estimate(t, samples, params: EstimatorParams, x0=(0.0, 0.0, 0.0, 0.0), *,
     rate[, bias]) initial standard deviations (default ``p0_*``).  Every
     update's normalised innovation squared is kept (``nis``).
     """
-    from .progress import progress_bar
 
     t = np.asarray(t, dtype=float)
     samples = np.asarray(samples, dtype=float)

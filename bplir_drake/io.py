@@ -14,6 +14,8 @@ import math
 import os
 import tempfile
 from pathlib import Path
+import numpy as np
+from importlib.metadata import PackageNotFoundError, version
 
 UTF8_BOM = b"\xef\xbb\xbf"
 
@@ -55,7 +57,6 @@ def _finite(obj):
 
 
 def _plain(o):
-    import numpy as np
 
     if isinstance(o, np.ndarray):
         return o.tolist()
@@ -150,7 +151,6 @@ def check_output_file(path, error=ValueError) -> Path:
 def package_version() -> str:
     """The installed bplir-drake version (``"unknown"`` in a source tree
     without package metadata)."""
-    from importlib.metadata import PackageNotFoundError, version
 
     try:
         return version("bplir-drake")

@@ -251,3 +251,52 @@ def test_modules_and_functions_stay_small():
                 if size > 80:
                     big.append(f"{path.relative_to(root)}:{n.lineno} {n.name}: {size} lines")
     assert not big, "\n".join(big)
+
+
+#: what a function may import locally, and why (ARCHITECTURE.md): heavy or
+#: optional third-party modules loaded only by the functions that use them,
+#: pydrake's binding modules on first use, and platform-specific modules
+LAZY_IMPORTS = {"matplotlib", "scipy", "control", "pydrake", "tqdm", "dask", "tomli_w", "PIL",
+                "fcntl", "ctypes", "multiprocessing", "concurrent", "signal"}
+
+
+def test_function_local_imports_only_where_they_save_start_up():
+    """Outside the command line (whose commands import their machinery when
+    they run, so ``bplir --help`` starts fast), a function imports locally
+    only the modules of :data:`LAZY_IMPORTS`; the package's own modules and
+    the light standard library are imported at the top."""
+    import ast
+
+    root = Path(__file__).resolve().parents[1] / "bplir_drake"
+    wrong = []
+    for path in root.rglob("*.py"):
+        if "cli" in path.relative_to(root).parts:
+            continue
+        for fn in ast.walk(ast.parse(path.read_text())):
+            if not isinstance(fn, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                continue
+            for n in ast.walk(fn):
+                if isinstance(n, ast.ImportFrom):
+                    top = "." if n.level else n.module.split(".")[0]
+                elif isinstance(n, ast.Import):
+                    top = n.names[0].name.split(".")[0]
+                else:
+                    continue
+                if top not in LAZY_IMPORTS:
+                    wrong.append(f"{path.relative_to(root)}:{n.lineno} {ast.unparse(n)}")
+    assert not wrong, "\n".join(sorted(set(wrong)))
+
+
+def test_the_command_line_starts_without_pydrake():
+    """``bplir --help``/``--version`` load the parser alone: importing the
+    command line loads neither pydrake, nor matplotlib, scipy or
+    python-control (each command imports its machinery when it runs)."""
+    import subprocess
+    import sys
+
+    code = ("import sys, bplir_drake.cli\n"
+            "print(sorted({m.split('.')[0] for m in sys.modules} & "
+            "{'pydrake', 'matplotlib', 'scipy', 'control'}))\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout.strip()
+    assert out == "[]"

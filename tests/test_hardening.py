@@ -387,12 +387,13 @@ def test_plan_depends_only_on_the_nominal_model_and_a_hit_is_bit_identical(tmp_p
     monkeypatch.setenv("BPLIR_CACHE_DIR", str(tmp_path))
     seen = []
     real_cached = plan_cache.cached
+    from bplir_drake.diagrams import plan as P
 
     def spy(inputs, solve, **kw):
         seen.append(plan_cache.plan_key(inputs))
         return real_cached(inputs, solve, **kw)
 
-    monkeypatch.setattr(plan_cache, "cached", spy)
+    monkeypatch.setattr(P, "cached", spy)
     p = preset()
     kw = dict(knots=7, iterations=40)
     fresh = plan_swing(p, cache=False, **kw)
@@ -427,7 +428,6 @@ def test_tracking_gains_cache_hit_is_bit_identical_and_keyed_by_every_input(tmp_
     from bplir_drake.diagrams import plan as P
     from bplir_drake.diagrams import plan_cache
     from bplir_drake.params import preset
-    from bplir_drake.systems import plan_tracker
 
     monkeypatch.setenv("BPLIR_CACHE_DIR", str(tmp_path))
     monkeypatch.setattr(P, "_GAINS", {})
@@ -436,7 +436,7 @@ def test_tracking_gains_cache_hit_is_bit_identical_and_keyed_by_every_input(tmp_
     fresh = P.tracking_gains(p.plant, p.friction, plan)   # solved and stored
     P._GAINS.clear()
     solves = []
-    monkeypatch.setattr(plan_tracker, "plan_gains", lambda *a, **k: solves.append(a))
+    monkeypatch.setattr(P, "plan_gains", lambda *a, **k: solves.append(a))
     hit = P.tracking_gains(p.plant, p.friction, plan)     # read back, not solved
     assert not solves and len(list(tmp_path.glob("gains-*.npz"))) == 1
     for name in plan_cache.GAIN_FIELDS:
@@ -565,7 +565,6 @@ def test_shipped_gains_serve_the_tests_plans(monkeypatch, tmp_path):
     from bplir_drake.diagrams import plan_cache
     from bplir_drake.analysis.traverse.run import swing_params
     from bplir_drake.params import load_toml, preset
-    from bplir_drake.systems import plan_tracker
 
     monkeypatch.setenv("BPLIR_CACHE_DIR", str(tmp_path))
     monkeypatch.setattr(P, "_GAINS", {})
@@ -573,7 +572,7 @@ def test_shipped_gains_serve_the_tests_plans(monkeypatch, tmp_path):
     def no_solve(*a, **k):
         raise AssertionError("solved gains the package ships")
 
-    monkeypatch.setattr(plan_tracker, "plan_gains", no_solve)
+    monkeypatch.setattr(P, "plan_gains", no_solve)
     up = load_toml(Path(__file__).resolve().parents[1] / "examples" / "uphill_plan.toml")
     up = up.with_(scenario=dc.replace(up.scenario, incline_deg=20.0))
     base = preset()
@@ -645,13 +644,12 @@ def test_the_shipped_plans_serve_whatever_state_the_cache_is_in(monkeypatch, tmp
     from bplir_drake.diagrams import plan as P
     from bplir_drake.diagrams import plan_cache
     from bplir_drake.params import preset
-    from bplir_drake.systems import plan_tracker
 
     def no_solve(*a, **k):
         raise AssertionError("solved a shipped plan")
 
     monkeypatch.setattr(P, "_solve_plan", no_solve)
-    monkeypatch.setattr(plan_tracker, "plan_gains", no_solve)
+    monkeypatch.setattr(P, "plan_gains", no_solve)
     monkeypatch.setattr(P, "_GAINS", {})
     readonly = tmp_path / "ro"
     readonly.mkdir()
@@ -833,7 +831,7 @@ def test_a_second_study_into_the_same_directory_is_refused_with_the_holders_pid(
     from bplir_drake.analysis import montecarlo as mc
 
     out = tmp_path / "mc"
-    args = [sys.executable, "-m", "bplir_drake.cli", "montecarlo", "-n", "6", "--workers",
+    args = [sys.executable, "-m", "bplir_drake.cli", "montecarlo", "-n", "24", "--workers",
             "1", "--no-plots", "--out", str(out)]
     first = subprocess.Popen(args, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     deadline = time.monotonic() + 120
@@ -847,7 +845,7 @@ def test_a_second_study_into_the_same_directory_is_refused_with_the_holders_pid(
                                      f"process {first.pid}; wait for it to finish or choose "
                                      "another --out")
     rows = mc.read_results(out / "results.csv")
-    assert sorted(r["index"] for r in rows) == list(range(6))
+    assert sorted(r["index"] for r in rows) == list(range(24))
     assert os.path.exists(out / ".lock")   # released with the process, kept as a file
 
 

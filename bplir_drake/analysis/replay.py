@@ -23,6 +23,10 @@ import numpy as np
 
 from ..io import write_text_atomic
 from ..params import PlantParams
+import html as html_text
+import re
+import logging
+from ..diagrams.visual import build_replay_visualizer
 
 #: colours (RGBA) of the scene
 LINE_RGBA = (0.25, 0.25, 0.28, 1.0)
@@ -116,7 +120,6 @@ def replay_html(plant: PlantParams, t, q, scene: ReplayScene, *, fps: float = 30
     line; ``None`` holds it at the origin."""
     from pydrake.geometry import Meshcat
 
-    from ..diagrams.visual import build_replay_visualizer
 
     from pydrake.math import RigidTransform, RotationMatrix
 
@@ -155,8 +158,6 @@ def replay_html(plant: PlantParams, t, q, scene: ReplayScene, *, fps: float = 30
     finally:
         meshcat.Delete()
         del meshcat
-    import html as html_text
-    import re
 
     return re.sub(r"<title>[^<]*</title>", f"<title>{html_text.escape(title)}</title>", page,
                   count=1)
@@ -165,7 +166,6 @@ def replay_html(plant: PlantParams, t, q, scene: ReplayScene, *, fps: float = 30
 def _quiet_meshcat(Meshcat):
     """A Meshcat server without its "listening for connections" log line
     (the replay is written to a file; nobody connects)."""
-    import logging
 
     log = logging.getLogger("drake")
     level = log.level

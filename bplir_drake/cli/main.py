@@ -7,8 +7,8 @@ import sys
 import warnings
 
 from ..analysis.control.errors import QftError
-from ..analysis.identification.calibration import CalibrationError
-from ..estimation import LogError
+from ..analysis.identification.errors import CalibrationError
+from ..csvfile import LogError
 from ..params import ParameterError
 from .common import _OUT, InputError, Terminated, _terminate
 from .parser import build_parser

@@ -10,6 +10,7 @@ from ..params import BplirParams
 from ..systems.controller import CpflController
 from ..systems.motor import MotorDriver
 from .parts import Built, add_plant_with_friction, sampled, torque_source
+from dataclasses import replace
 
 
 def build_cpfl_plant(params: BplirParams) -> Built:
@@ -17,7 +18,6 @@ def build_cpfl_plant(params: BplirParams) -> Built:
     the outer-loop signal ``v`` as the diagram input and the plant state as
     output: linearising it from v to q2 gives the plant family the outer loop
     is designed for (4.7)."""
-    from dataclasses import replace
 
     builder = DiagramBuilder()
     plant, fr = add_plant_with_friction(builder, params.simulated_plant,
@@ -52,7 +52,6 @@ def build_control_loop(params: BplirParams, reference=0.0, *, continuous: bool =
     ``continuous=True`` builds the continuous-time controller (the loop can
     then be linearised; with the reference exported as input ``reference``
     when ``reference`` is None)."""
-    from dataclasses import replace
 
     from pydrake.systems.primitives import Adder
 
@@ -112,7 +111,6 @@ def build_cpfl_step(params: BplirParams, v_schedule, log_period: float = 0.002) 
     """Step tests of the CPFL loop (4.7): simulated plant + friction + motor,
     the *discrete* nominal CPFL controller with no outer loop (K = 0, F = 1)
     and the outer-loop signal ``v`` from a schedule (times, values)."""
-    from dataclasses import replace
 
     builder = DiagramBuilder()
     plant, fr = add_plant_with_friction(builder, params.simulated_plant,

@@ -10,6 +10,7 @@ from ..systems.ekf import KinematicEkf
 from ..systems.motor import MotorDriver
 from ..systems.schedule import TickLogger
 from .parts import Built, add_imus, add_plant_with_friction, pulse_source, torque_source
+from dataclasses import replace
 
 
 def build_free_swing(params: BplirParams, elbow_torque=0.0, *, friction: bool = True,
@@ -24,7 +25,6 @@ def build_free_swing(params: BplirParams, elbow_torque=0.0, *, friction: bool = 
     builder = DiagramBuilder()
     fp = params.simulated_friction
     if not friction:
-        from dataclasses import replace
 
         fp = replace(fp, enabled=False)
     plant, fr = add_plant_with_friction(builder, params.simulated_plant, fp)

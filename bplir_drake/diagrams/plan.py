@@ -41,6 +41,13 @@ from ..params import BplirParams, ParameterError
 from ..io import Result
 from .plan_plot import (  # noqa: F401 (re-exported)
     plot_plan)
+from .open_loop import build_plant_with_friction
+from ..systems.plant import initial_configuration
+from .plan_cache import cached
+from ..systems.friction import friction_torques
+from ..progress import progress_bar
+from ..systems.plan_tracker import TrackerWeights, plan_gains
+
 
 #: smallest Coulomb smoothing velocity the planner uses (rad/s)
 PLAN_FRICTION_SMOOTHING = 0.2
@@ -145,7 +152,6 @@ def plan_model(params: BplirParams):
     """(model, friction): the nominal plant with its friction (Coulomb
     smoothing widened to ``PLAN_FRICTION_SMOOTHING``) as a diagram with the
     elbow torque as input and the state as output."""
-    from .open_loop import build_plant_with_friction
 
     friction = replace(params.friction, b=max(params.friction.b, PLAN_FRICTION_SMOOTHING))
     return build_plant_with_friction(params.with_(friction=friction), nominal=True).diagram, \
@@ -173,7 +179,6 @@ def plan_swing(params: BplirParams, *, power_limit: float | None = None, knots: 
     keyed by every input the planner reads; a solve takes about a
     minute).  ``progress``: count SNOPT's evaluations on standard error
     while it solves."""
-    from ..systems.plant import initial_configuration
 
     if not 5 <= knots <= 400:
         raise ParameterError(f"knots = {knots} is out of range; allowed [5, 400]")
@@ -207,7 +212,6 @@ def plan_swing(params: BplirParams, *, power_limit: float | None = None, knots: 
 
     if not cache:
         return solve()
-    from .plan_cache import cached   # lazy: the cache is read only when a plan is asked for
 
     return cached(inputs, solve, make=SwingPlan)
 
@@ -261,7 +265,6 @@ def _solve_plan(params, q0, qT, tau_max, power, tmax, knots, time_weight, guess_
     from pydrake.all import (DirectCollocation, PiecewisePolynomial, SnoptSolver, Solve,
                              SolverOptions)
 
-    from ..systems.friction import friction_torques
 
     system, friction = plan_model(params)
     dircol = DirectCollocation(system, system.CreateDefaultContext(), num_time_samples=knots,
@@ -295,7 +298,6 @@ def _solve_plan(params, q0, qT, tau_max, power, tmax, knots, time_weight, guess_
     options = SolverOptions()
     snopt = SnoptSolver().solver_id()
     options.SetOption(snopt, "Major iterations limit", int(iterations))
-    from ..progress import progress_bar
 
     with progress_bar(progress, desc="plan (SNOPT)", unit="evaluations") as bar:
         if progress:  # Drake calls it at every evaluation of the costs and constraints
@@ -385,7 +387,6 @@ def gains_inputs(plant, friction, plan: SwingPlan) -> dict:
     """Every input of the tracking gains of ``plan``: the nominal model
     (plant, friction), the LQR weights (:class:`TrackerWeights`, as
     :func:`plan_gains` uses them) and the plan's samples (by digest)."""
-    from ..systems.plan_tracker import TrackerWeights
 
     digest = hashlib.sha256(b"".join(np.ascontiguousarray(a, dtype=float).tobytes()
                                      for a in (plan.times, plan.states, plan.torque)))
@@ -399,20 +400,17 @@ def tracking_gains(plant, friction, plan: SwingPlan, cache: bool = True):
     """Finite-horizon LQR gains along ``plan`` on the nominal model (plant,
     friction): kept in this process per input, and with ``cache`` on disk
     (:mod:`.plan_cache`, keyed by :func:`gains_inputs`)."""
-    from ..params import BplirParams as _P
-    from ..systems.plan_tracker import plan_gains
 
     inputs = gains_inputs(plant, friction, plan)
 
     def solve():
-        model, _ = plan_model(_P(plant=plant, friction=friction))
+        model, _ = plan_model(BplirParams(plant=plant, friction=friction))
         return plan_gains(model, plan.times, plan.states, plan.torque)
 
     if not cache:
         return solve()
     key = json.dumps(inputs, sort_keys=True)
     if key not in _GAINS:
-        from .plan_cache import cached
 
         _GAINS[key] = cached(inputs, solve, kind="gains")
     return _GAINS[key]
@@ -422,7 +420,6 @@ def planned_target(params: BplirParams, end_depth: float = 0.0) -> np.ndarray:
     """The mirror target (7.1) of the nominal robot, turned about the pivot
     so that the free gripper rests ``end_depth`` below the line at the same
     distance along it."""
-    from ..systems.plant import initial_configuration
 
     sc = params.scenario
     D = sc.grip_spacing

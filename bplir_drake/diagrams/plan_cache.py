@@ -34,6 +34,8 @@ import os
 from pathlib import Path
 
 import numpy as np
+from ..io import atomic_path
+from ..systems.plan_tracker import TrackingGains
 
 #: bump when the planner's formulation changes (old cache files are ignored)
 VERSION = 2
@@ -105,7 +107,6 @@ def polynomial_from_arrays(breaks, coefficients):
 
 def _write_npz(path: Path, arrays: dict) -> None:
     """``arrays`` as ``.npz`` at ``path``, atomically (:func:`~bplir_drake.io.atomic_path`)."""
-    from ..io import atomic_path
 
     with atomic_path(path) as tmp, open(tmp, "wb") as fh:
         np.savez(fh, **arrays)
@@ -129,7 +130,6 @@ def save_gains(gains, path: Path) -> None:
 
 def load_gains(path: Path):
     """The :class:`~bplir_drake.systems.plan_tracker.TrackingGains` of :func:`save_gains`."""
-    from ..systems.plan_tracker import TrackingGains
 
     with np.load(path, allow_pickle=False) as data:
         return TrackingGains(**{name: polynomial_from_arrays(data[f"{name}_breaks"],

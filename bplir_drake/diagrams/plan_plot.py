@@ -4,6 +4,8 @@ from __future__ import annotations
 import math
 import numpy as np
 from ..params import BplirParams
+from ..systems.plant import elbow_position, gripper_position
+from ..plotting import figure_axes, finish
 
 
 def plot_plan(plan: SwingPlan, params: BplirParams, axes=None):
@@ -11,8 +13,6 @@ def plot_plan(plan: SwingPlan, params: BplirParams, axes=None):
     the robot drawn at a few instants on the line (three axes)."""
     from matplotlib import colormaps
 
-    from ..systems.plant import elbow_position, gripper_position
-    from ..plotting import figure_axes, finish
 
     fig, ax = figure_axes(axes, 1, 3, figsize=(15, 4.2))
     t, X = plan.times, plan.states

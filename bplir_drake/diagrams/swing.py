@@ -53,6 +53,11 @@ from ..systems.schedule import TickLogger
 from .parts import Built, add_imus, add_plant_with_friction, sampled
 from .swing_controller import (  # noqa: F401 (re-exported)
     add_swing_controller)
+from ..systems.gripper import GripperInterlock, LineGeometry
+from ..systems.path import PathGeometry
+from ..systems.plant import initial_configuration, target_configuration
+from .plugin import make_plugin
+from .plan import tracking_plan
 
 #: the parameter fields a context carries (:func:`set_swing_sample`), by
 #: block (the disturbance fields only when the built swing has disturbances)
@@ -73,9 +78,6 @@ def swing_geometry(params: BplirParams):
     The path geometry uses the *nominal* link lengths (what the robot
     believes); the start pose of the simulated robot and the line geometry
     of the interlock use its true lengths."""
-    from ..systems.gripper import LineGeometry
-    from ..systems.path import PathGeometry
-    from ..systems.plant import initial_configuration, target_configuration
 
     sc = params.scenario
     alpha = math.radians(sc.incline_deg)
@@ -166,7 +168,6 @@ def believed_start(params: BplirParams) -> np.ndarray:
     scenario's grip spacing, with the *nominal* link lengths (rad).  The
     simulated robot starts at the pose of its true lengths
     (:func:`swing_geometry`), a few mrad away with 2 mm length errors."""
-    from ..systems.plant import initial_configuration
 
     sc = params.scenario
     return initial_configuration(sc.grip_spacing, params.plant, math.radians(sc.incline_deg))
@@ -205,7 +206,6 @@ def add_sensing(builder, params: BplirParams, robot: Robot, q0, seed: int, estim
     Returns ``(sampler, estimator, estimate port)``."""
     sampler = add_imus(builder, robot.plant, params, seed)
     if estimator is not None or params.estimator.plugin:
-        from .plugin import make_plugin
 
         user = builder.AddNamedSystem("estimator", make_plugin(params, "estimator", estimator))
         builder.Connect(sampler.get_output_port(0), user.GetInputPort("imu"))
@@ -251,7 +251,6 @@ def add_interlock(builder, params: BplirParams, robot: Robot, estimate_port, lin
     """The gripper interlock: judges the true state at the controller rate
     and ends the run on an outcome (``estimate_port``: what the robot
     believes, for its record)."""
-    from ..systems.gripper import GripperInterlock
 
     lock = builder.AddNamedSystem("interlock", GripperInterlock(
         line_geometry, params.scenario, params.controller.period))
@@ -335,7 +334,6 @@ def build_swing(params: BplirParams, *, seed: int | None = None, use_estimator: 
         params = params.with_(path=replace(params.path, mode="adaptive"))
     params = params.resolved()   # path.mode "auto" made concrete
     if plan_gains is None and controller is None and params.path.mode == "plan":
-        from .plan import tracking_plan   # lazy: solving or reading plans needs SNOPT and disk
 
         plan_gains = tracking_plan(params)[1]   # the nominal model and the scenario only
     sc = params.scenario

@@ -7,6 +7,11 @@ from ..params import BplirParams
 from ..systems.controller import CpflController
 from ..systems.disturbance import delay_steps
 from ..systems.delay_id import planned_probe
+from .plugin import make_plugin
+from ..systems.plan_tracker import ApexShot, Landing, PlanTracker, Reach, resolved_landing
+from ..systems.path_generator import PathGenerator
+from ..systems.delay_id import DelayIdentifier
+from ..systems.predictor import DelayPredictor
 
 
 def add_swing_controller(builder, params: BplirParams, state_port, robot: Robot, path_geometry,
@@ -52,7 +57,6 @@ def add_swing_controller(builder, params: BplirParams, state_port, robot: Robot,
 def _add_plugin(builder, params, state_port, robot, controller) -> dict[str, Any]:
     """A user's controller (:mod:`.plugin`) reading the state, and the torque
     the motor can give when it asks for it."""
-    from .plugin import make_plugin
 
     ctrl = builder.AddNamedSystem("controller", make_plugin(params, "controller", controller))
     builder.Connect(state_port, ctrl.GetInputPort("state"))
@@ -88,7 +92,6 @@ def _add_delay_compensation(builder, params, state_port, imu_port, q0) -> DelayC
     comp = DelayCompensation(state_port, steps, probe)
     size = steps   # the predictor's ticks (with identification: the most it may need)
     if probe:
-        from ..systems.delay_id import DelayIdentifier
 
         size = max(delay_steps(params.plan.delay_max, T), 1)
         comp.identifier = builder.AddNamedSystem("delay_id", DelayIdentifier(
@@ -97,7 +100,6 @@ def _add_delay_compensation(builder, params, state_port, imu_port, q0) -> DelayC
             params.plan.delay_window, params.plan.delay_min_ratio))
         builder.Connect(imu_port, comp.identifier.imu_port)
     if size:
-        from ..systems.predictor import DelayPredictor
 
         comp.predictor = builder.AddNamedSystem("predictor", DelayPredictor(
             params.plant, params.friction, T, size, adaptive=bool(probe)))
@@ -113,7 +115,6 @@ def _add_plan_tracker(builder, params, comp: DelayCompensation, path_geometry,
                       plan_gains) -> dict[str, Any]:
     """The plan tracker (Drake's finite-horizon LQR along the planned swing)
     with its terminal law: the apex shot, the aim landing, the reach or none."""
-    from ..systems.plan_tracker import ApexShot, Landing, PlanTracker, Reach, resolved_landing
 
     if plan_gains is None:
         raise ValueError("path.mode = 'plan' needs the tracking gains of a planned swing: "
@@ -144,7 +145,6 @@ def _add_plan_tracker(builder, params, comp: DelayCompensation, path_geometry,
 def _add_cpfl(builder, params, comp: DelayCompensation, robot, path_geometry) -> dict[str, Any]:
     """The dissertation's loop: the path generator (chapter 7) and the CPFL +
     QFT controller (chapter 6), both reading the (predicted) state."""
-    from ..systems.path_generator import PathGenerator
 
     T = params.controller.period
     fv1 = params.friction.fv1 if params.path.predict_friction else 0.0

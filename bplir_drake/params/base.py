@@ -5,6 +5,7 @@ import math
 from dataclasses import field, fields, replace
 from pathlib import Path
 from typing import Any
+from importlib.metadata import entry_points
 
 
 INF = math.inf
@@ -56,7 +57,6 @@ def registered_plugins(kind: str | None = None) -> dict[str, str]:
     """The plug-ins installed packages register (entry points in
     :data:`PLUGIN_GROUPS`): name -> ``module:factory``, of one ``kind``
     (``"controller"``, ``"estimator"``) or of both."""
-    from importlib.metadata import entry_points
 
     kinds = PLUGIN_GROUPS if kind is None else {kind: PLUGIN_GROUPS[kind]}
     return {ep.name: ep.value for group in kinds.values() for ep in entry_points(group=group)}

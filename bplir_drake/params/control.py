@@ -4,6 +4,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field, fields, replace
 from .base import ParameterError, _Block, _count, _fraction, _is_plugin, plugin_arguments, _p, _positive
+import warnings
+import numpy as _np
 
 
 #: the in-loop filter tuning with the trapezoid step (``EstimatorParams``
@@ -47,7 +49,6 @@ def current_preset_name(name):
     """The preset's current name; a former one (:data:`RENAMED_PRESETS`) is
     accepted with a one-line ``FutureWarning``."""
     if isinstance(name, str) and name in RENAMED_PRESETS:
-        import warnings
 
         warnings.warn(f"controller preset '{name}' is now called '{RENAMED_PRESETS[name]}'",
                       FutureWarning, stacklevel=4)
@@ -138,7 +139,6 @@ class ControllerParams(_Block):
                     "non-zero leading denominator coefficient")
         f_den = self.design["f_den"]
         if len(f_den) > 1:
-            import numpy as _np
 
             poles = _np.roots(f_den)
             if _np.any(poles.real >= 0):

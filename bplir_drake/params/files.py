@@ -8,6 +8,7 @@ from typing import Any
 from .base import ParameterError
 from .plan import split_path_table
 from .model import BLOCKS, BplirParams, preset
+from ..io import read_text, write_text_atomic
 
 
 # ---------------------------------------------------------------- TOML
@@ -54,7 +55,6 @@ def read_toml(path: str | Path, what: str = "parameter file", error=ParameterErr
     """A TOML file as a dict; unreadable, binary, non-UTF-8 or malformed files
     raise ``error`` with a one-line message naming the file (a UTF-8 BOM is
     accepted)."""
-    from ..io import read_text
 
     path = Path(path)
     text = read_text(path, what, error)
@@ -88,7 +88,6 @@ def to_toml(params: BplirParams) -> str:
 
 def save_toml(params: BplirParams, path: str | Path) -> None:
     """Write the parameters as TOML at ``path`` (atomic)."""
-    from ..io import write_text_atomic
 
     write_text_atomic(path, to_toml(params))
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field, fields
 
 from .base import ParameterError, _Block, _count, _fraction, _p, _positive
+import warnings
 
 PLAN_INDEXING = ("time", "state")
 LANDING_LAWS = ("aim", "shoot", "auto")
@@ -108,7 +109,6 @@ def split_path_table(data: dict) -> dict:
     moved = {k for k in path if moved_field("path", k)[0] != "path"}
     if not moved:
         return data
-    import warnings
 
     warnings.warn("the [path] table's plan tracking fields are now in [plan] (without the "
                   "plan_ prefix) and [landing]", FutureWarning, stacklevel=3)

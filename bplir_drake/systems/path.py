@@ -43,6 +43,7 @@ import pydrake.math as dmath
 
 from ..params import PathParams, PlantParams
 from .plant import gravity_vector, initial_configuration, mass_matrix, bias_term
+from .plant import kinetic_energy, potential_energy
 
 
 @dataclass(frozen=True)
@@ -297,7 +298,6 @@ def projected_rate(x, s_e, g: PathGeometry, pp: PathParams, p: PlantParams) -> f
     """q1' of the state on the path with the same mechanical energy as ``x``
     (the elbow carries much of the kinetic energy, so small tracking errors
     move energy between the links; the energy is the robust quantity)."""
-    from .plant import kinetic_energy, potential_energy
 
     s = x[0] - g.alpha
     phi, d1, _ = path_derivatives(s, s_e, g, pp.blend_exponent, pp.pump_gain)

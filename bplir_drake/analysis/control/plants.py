@@ -6,6 +6,9 @@ from dataclasses import dataclass
 import control
 import numpy as np
 from .errors import QftError
+from dataclasses import replace
+from ...diagrams import build_cpfl_plant
+from ...systems.controller import cpfl_terms
 
 
 @dataclass
@@ -78,7 +81,6 @@ def perturbed(params, rng, friction_spread: float = 0.2, mass_spread: float = 0.
     """Parameters whose *simulated* plant differs from the nominal one: each
     friction coefficient within +/- friction_spread, masses and inertias
     within +/- mass_spread (uniform)."""
-    from dataclasses import replace
 
     f, p = params.friction, params.plant
     u = rng.uniform(1 - friction_spread, 1 + friction_spread, 4)
@@ -110,7 +112,6 @@ def linearized_cpfl_plant(params, x0) -> control.TransferFunction:
     e.g. with link 1 falling near the horizontal)."""
     from pydrake.systems.primitives import FirstOrderTaylorApproximation
 
-    from ...diagrams import build_cpfl_plant
 
     built = build_cpfl_plant(params)
     ctx = built.diagram.CreateDefaultContext()
@@ -164,7 +165,6 @@ def v_max_over_box(params, n: int = 9, torque_limit: float | None = None) -> dic
     less) and the smallest |v| guaranteed in both directions at every state
     (zero: in parts of the box 20 N m is not even enough to hold the elbow
     against b(q, qd))."""
-    from ...systems.controller import cpfl_terms
 
     tmax = params.controller.torque_limit if torque_limit is None else torque_limit
     grids = [np.linspace(lo, hi, n) for lo, hi in STATE_BOX]

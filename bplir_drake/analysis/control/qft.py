@@ -32,6 +32,8 @@ from ...io import Result
 from .errors import QftError   # defined apart so the command line need not import control
 from .plants import (  # noqa: F401 (re-exported)
     Plant, PlantFamily, _check_omegas, dissertation_family, _s, perturbed, STATE_BOX, SWING_BOX, linearized_cpfl_plant, diagram_family, v_max_over_box)
+from .plots import plot_family_responses
+from ...progress import progress_bar
 
 
 # ----------------------------------------------------------- plants
@@ -191,7 +193,6 @@ class Verification(Result):
 
     def plot(self, axes=None):
         """The family's step and disturbance responses against the specifications (four axes)."""
-        from .plots import plot_family_responses
 
         return plot_family_responses(self, axes)
 
@@ -389,7 +390,6 @@ def design_qft(family: PlantFamily, specs: QftSpecs, *, crossover_max: float = 2
     standard error."""
     from scipy.optimize import differential_evolution
 
-    from ...progress import progress_bar
 
     w = np.logspace(-1, 4, 400)
     P = family.response(w)

@@ -16,6 +16,9 @@ import numpy as np
 from ...io import dumps_strict
 from ...params import BplirParams, ControllerParams
 from . import qft as Q
+from .plots import plot_family_responses, plot_nichols, plot_tracking, plot_zero_dynamics
+from ...systems.controller import outer_loop_numerator
+from .zero_dynamics import zero_dynamics_portrait
 
 
 @dataclass
@@ -48,7 +51,6 @@ class QftReport:
     def figures(self) -> dict:
         """The four figures by file name (new figures; saving is the
         caller's)."""
-        from .plots import plot_family_responses, plot_nichols, plot_tracking, plot_zero_dynamics
 
         return {"nichols.png": plot_nichols(self.bounds, self.templates, self.loop, self.w_dense),
                 "tracking_bode.png": plot_tracking(self.verification),
@@ -57,7 +59,6 @@ class QftReport:
 
     def plot(self, axes=None):
         """The family's step responses against the specifications."""
-        from .plots import plot_family_responses
 
         return plot_family_responses(self.verification, axes)
 
@@ -85,7 +86,6 @@ def _from_diagram(params: BplirParams, ctrl: ControllerParams, specs, plants: in
                   design: bool, progress: bool = False) -> tuple[dict, Any, Any, Any]:
     import control
 
-    from ...systems.controller import outer_loop_numerator
 
     fam = Q.diagram_family(params, plants, seed=seed)
     d = ctrl.design
@@ -113,7 +113,6 @@ def qft_report(params: BplirParams, controller: str | None = None, *,
     (``plants`` plants linearised from the simulated diagram with friction
     and masses drawn from ``seed``; K sign-corrected as the controller uses
     it).  ``progress``: the design's generations on standard error."""
-    from .zero_dynamics import zero_dynamics_portrait
 
     ctrl = ControllerParams.preset_named(controller) if controller else params.controller
     specs = Q.QftSpecs()

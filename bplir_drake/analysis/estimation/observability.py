@@ -22,6 +22,10 @@ import numpy as np
 from ...params import EstimatorParams
 from ...systems.ekf import jacobians, kinematic_f, kinematic_h
 from ...io import Result
+from .plots import plot_observability
+from dataclasses import replace
+from ..model.linearization import hanging_linearization
+from ...systems.ekf import GROUP_NOISE, state_layout
 
 DEFAULT_THRESHOLD = 1e-3
 
@@ -43,7 +47,6 @@ class ObservabilityResult(Result):
 
     def plot(self, axes=None):
         """Relative smallest singular values and the A entries against time (two axes)."""
-        from .plots import plot_observability
 
         return plot_observability(self, axes)
 
@@ -114,7 +117,6 @@ def observability_along(t, x_abs, u, p: EstimatorParams, *, threshold: float = D
     there (``events``): that is where (5.17) predicts the gyro-only map to
     lose rank.
     """
-    from dataclasses import replace
 
     p4 = replace(p, estimate_bias=False)
     S = np.diag([angle_scale, angle_scale, rate_scale, rate_scale])
@@ -165,7 +167,6 @@ def drake_is_observable(A, C, threshold: float | None = None) -> bool:
 def plant_gyro_observability(params, threshold: float = 1e-6) -> dict:
     """Drake's ``IsObservable`` on the linearised plant + friction at rest
     with gyro outputs (omega1, omega2 = q1d, q1d + q2d), scaled and raw."""
-    from ..model.linearization import hanging_linearization
 
     lin = hanging_linearization(params)
     C = np.array([[0, 0, 1.0, 0], [0, 0, 1.0, 1.0]])
@@ -201,7 +202,6 @@ def calibration_identifiability(result, params: EstimatorParams,
     links are still, a gyro scale or an IMU distance without motion) the
     ratio stays near 1: that is the observability check on real data.
     The ratio is about the filter's model; it assumes its noise levels."""
-    from ...systems.ekf import GROUP_NOISE, state_layout
 
     layout, _ = state_layout(params)
     prior = {g: getattr(params, fields[0]) for g, fields in GROUP_NOISE.items()}

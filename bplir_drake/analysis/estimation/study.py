@@ -15,6 +15,9 @@ from ...params import BplirParams
 from ...simulate import logs, make_simulator, run
 from ...systems.plant import absolute_from_relative
 from ...io import Result
+import dataclasses as dc
+import math
+from .plots import plot_estimate
 
 #: the default scenario of 5.5: free response, actuation, knock
 DEFAULT_TORQUE = ((0.0, 3.0, 3.6), (0.0, 3.0, 0.0))
@@ -61,7 +64,6 @@ class EstimationRun(Result):
 
     def plot(self, axes=None):
         """EKF and gyro-integral angles against the truth, and their errors (three axes)."""
-        from .plots import plot_estimate
 
         return plot_estimate(self.t, self.estimate, self.gyro_integral, axes, truth=self.truth)
 
@@ -112,8 +114,6 @@ def realistic_imu_log(params: BplirParams, seed: int, duration: float = 25.0, *,
     estimators.  The errors are returned with the run (``errors``).
     ``drift``: the bias random walk (0: constant biases, to check their
     recovery)."""
-    import dataclasses as dc
-    import math
 
     p = params.imu
     rng = np.random.default_rng([seed, 20])

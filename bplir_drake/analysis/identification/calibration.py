@@ -41,6 +41,13 @@ from ...params import BplirParams
 from ...io import Result
 from .deadband import (  # noqa: F401 (re-exported)
     identify_deadband, cpfl_step_response, damped_integrator_response, fit_step, PlantFamilyFit, identify_plant_family)
+from ...diagrams import build_free_swing
+from ...simulate import Log, logs, make_simulator, run
+from ...systems.plant import bias_term, gravity_vector, mass_matrix
+from ...progress import progress_bar
+from ...params import save_toml
+from ...plotting import figure_axes, finish
+from .errors import CalibrationError  # noqa: F401 (re-exported)
 
 CALIBRATION_COLUMNS = ("t", "q1", "q2")
 FITTABLE = {
@@ -51,10 +58,6 @@ FITTABLE = {
     "m1": ("plant", 0.1, 20.0), "m2": ("plant", 0.1, 20.0),
 }
 DEFAULT_FIT = ("fv1", "fv2", "fc1", "fc2")
-
-
-class CalibrationError(ValueError):
-    """A malformed or unusable calibration log, or a bad fit request."""
 
 
 @dataclass
@@ -140,8 +143,6 @@ def check_calibration_log(t, q, tau, qd0=None, *, min_duration: float = 2.0) -> 
 
 def simulate_log(params: BplirParams, log: CalibrationLog, *, accuracy: float = 1e-6) -> np.ndarray:
     """Joint angles of the (nominal) model driven by the logged torque."""
-    from ...diagrams import build_free_swing
-    from ...simulate import Log, make_simulator, run
 
     p = params.with_(true_plant=None, true_friction=None)
     built = build_free_swing(p, (log.t, log.tau), log_period=float(np.median(np.diff(log.t))))
@@ -195,7 +196,6 @@ def friction_from_inverse_dynamics(params: BplirParams, log: CalibrationLog,
     the start of :func:`calibrate`."""
     from scipy.signal import savgol_filter
 
-    from ...systems.plant import bias_term, gravity_vector, mass_matrix
 
     dt = float(np.median(np.diff(log.t)))
     w = max(5, int(round(window / dt)) | 1)
@@ -226,7 +226,6 @@ def calibrate(params: BplirParams, log: CalibrationLog, fit=DEFAULT_FIT, *,
     error and fc1 comes out 25 % off); the final residual is at 1e-6.
     ``progress``: count the simulations (residual evaluations, Jacobian
     columns included) on standard error."""
-    from ...progress import progress_bar
     from scipy.optimize import least_squares
 
     fit = tuple(fit)
@@ -287,7 +286,6 @@ def calibrate(params: BplirParams, log: CalibrationLog, fit=DEFAULT_FIT, *,
 
 def write_calibrated_toml(result: CalibrationResult, path) -> Path:
     """The calibrated parameters as a TOML parameter file at ``path`` (atomic)."""
-    from ...params import save_toml
 
     path = Path(path)
     save_toml(result.params, path)
@@ -297,7 +295,6 @@ def write_calibrated_toml(result: CalibrationResult, path) -> Path:
 def plot_calibration(result: CalibrationResult, axes=None):
     """The logged angles against the simulation before and after the fit (two axes); returns the
     figure."""
-    from ...plotting import figure_axes, finish
     fig, ax = figure_axes(axes, 2, 1, figsize=(10, 6), sharex=True)
     for i, a in enumerate(ax):
         a.plot(result.t, result.logged[:, i], "k", lw=2, alpha=0.4, label="logged")
@@ -317,8 +314,6 @@ def synthetic_log(params: BplirParams, *, q0=(0.8, 0.3), free_time: float = 6.0,
     """A Fig. 4.7-style log of the *simulated* robot (``params.true_*``): a
     free swing, then an elbow torque square wave of +/- ``torque`` (so the
     elbow moves both ways), with white angle noise of ``noise`` rad."""
-    from ...diagrams import build_free_swing
-    from ...simulate import logs, make_simulator, run
 
     T = free_time + torque_time
     t = np.arange(0.0, T + 1e-9, dt)

@@ -5,6 +5,10 @@ import math
 from dataclasses import dataclass
 import numpy as np
 from ...params import BplirParams
+from ...diagrams import build_cpfl_step, build_free_swing
+from ...simulate import logs, make_simulator, run
+from ..control.qft import Plant, PlantFamily
+from ..swing.run import draw_true_friction
 
 
 def identify_deadband(params: BplirParams, *, ramp_rate: float = 0.05, start: float = 0.3,
@@ -13,8 +17,6 @@ def identify_deadband(params: BplirParams, *, ramp_rate: float = 0.05, start: fl
     model from the hanging rest state; the identified dead-band is the
     command at which |q2'| first exceeds ``rate_threshold``, forward and
     reverse."""
-    from ...diagrams import build_free_swing
-    from ...simulate import logs, make_simulator, run
 
     out = {}
     T = (max_torque - start) / ramp_rate
@@ -43,8 +45,6 @@ def cpfl_step_response(params: BplirParams, v: float, q0=(0.0, 0.0), qd0=(0.0, 0
                        duration: float = 0.6, t_step: float = 0.05):
     """q2 response of the CPFL loop (discrete at Ts, through the motor) to a
     step of the outer-loop signal ``v`` at ``t_step``; returns (t, q2 - q2(t_step))."""
-    from ...diagrams import build_cpfl_step
-    from ...simulate import logs, make_simulator, run
 
     built = build_cpfl_step(params, ((0.0, t_step), (0.0, v)))
     sim = make_simulator(built, q0, qd0, accuracy=1e-6)
@@ -106,7 +106,6 @@ class PlantFamilyFit:
         on the corners of the ranges."""
         import control
 
-        from ..control.qft import Plant, PlantFamily
 
         plants = [Plant(control.tf([g], [1.0, c, 0.0]), d, f"g={g:.3g} c={c:.3g} Td={d:.3g}")
                   for g in self.ranges["g"] for c in self.ranges["c"] for d in self.ranges["Td"]]
@@ -117,7 +116,6 @@ def identify_plant_family(params: BplirParams, steps=(10.0, 20.0, 40.0, -20.0), 
                           seed: int = 0) -> PlantFamilyFit:
     """Step tests of the CPFL loop on ``n_plants`` robots with friction drawn
     within +/-20 % (the first one nominal), for each step size in ``steps``."""
-    from ..swing.run import draw_true_friction
 
     fits, responses = [], []
     for i in range(n_plants):

@@ -17,6 +17,7 @@ import numpy as np
 from ...params import BplirParams
 from ...systems.motor import envelope_curve, no_load_speed
 from ...io import Result
+from .plots import plot_envelope
 
 
 @dataclass
@@ -60,7 +61,6 @@ class EnvelopeResult(Result):
 
     def plot(self, axes=None):
         """The envelope and the operating points on one axes."""
-        from .plots import plot_envelope
 
         return plot_envelope(self, axes)
 

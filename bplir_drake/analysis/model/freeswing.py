@@ -10,6 +10,7 @@ from ...params import BplirParams
 from ...simulate import logs, make_simulator, run
 from .energy import energy, energy_rate_from_forces
 from ...io import Result
+from .plots import plot_free_swing
 
 
 @dataclass
@@ -37,7 +38,6 @@ class FreeSwingResult(Result):
 
     def plot(self, axes=None):
         """Angles, rates and energies against time (three axes)."""
-        from .plots import plot_free_swing
 
         return plot_free_swing(self, axes)
 

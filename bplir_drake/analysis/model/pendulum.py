@@ -13,6 +13,7 @@ import math
 from dataclasses import dataclass
 
 from ...params import PlantParams
+from ...systems.plant import mass_matrix
 
 
 def simple_pendulum_period(r_com: float, g: float) -> float:
@@ -29,7 +30,6 @@ def com_radius(p: PlantParams, q2: float) -> float:
 
 def compound_pendulum_period(p: PlantParams, q2: float) -> float:
     """Small-oscillation period with the elbow locked at ``q2``."""
-    from ...systems.plant import mass_matrix
 
     m11 = mass_matrix([0.0, q2], p)[0, 0]
     return 2.0 * math.pi * math.sqrt(m11 / ((p.m1 + p.m2) * p.g * com_radius(p, q2)))

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 from ...plotting import figure_axes, finish
+import numpy as np
 
 
 def plot_free_swing(result, axes=None):
@@ -34,7 +35,6 @@ def plot_envelope(result, axes=None):
     the deliverable torque at the supply voltage (shaded), at the other
     voltage (dashed), the motor's power rating (dotted) and a swing's
     operating points (dots)."""
-    import numpy as np
 
     fig, ax = figure_axes(axes, 1, 1, figsize=(7.5, 5.5))
     w, lo, hi = result.speeds, result.torque[:, 0], result.torque[:, 1]

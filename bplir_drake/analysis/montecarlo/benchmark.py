@@ -31,6 +31,9 @@ import numpy as np
 from ...params import BplirParams, ParameterError, plugin_name
 from .executors import map_jobs
 from .sampling import apply_values, base_value, error_text, pinned
+from ..swing.run import run_swing
+from ...io import atomic_path
+from ...plotting import figure_axes, finish
 
 MODEL_FIELDS = ("true_plant.m1", "true_plant.m2", "true_plant.I1", "true_plant.I2",
                 "true_plant.lc1", "true_plant.lc2", "true_friction.fv1", "true_friction.fv2",
@@ -97,7 +100,6 @@ def case_seed(root: int, case: dict, repeat: int) -> int:
 
 
 def _run_case(params: BplirParams, job: dict) -> dict:
-    from ..swing.run import run_swing
 
     row = {k: job[k] for k in ("controller", "category", "label", "case", "repeat", "seed")}
     try:
@@ -212,7 +214,6 @@ def leaderboard_table(board: list[dict]) -> str:
 
 def write_cases_csv(rows, path) -> Path:
     """One CSV row per benchmark case at ``path`` (atomic)."""
-    from ...io import atomic_path
 
     path = Path(path)
     with atomic_path(path) as tmp, tmp.open("w", newline="") as fh:
@@ -237,7 +238,6 @@ def benchmark_table(result: dict) -> str:
 
 def plot_benchmark(result: dict, axes=None):
     """Scores by category and the outcome of every case (two axes); returns the figure."""
-    from ...plotting import figure_axes, finish
     ctrls = list(result["scores"])
     fig, (ax, ax2) = figure_axes(axes, 1, 2, figsize=(14, 7.5),
                                  gridspec_kw={"width_ratios": [2, 3]})

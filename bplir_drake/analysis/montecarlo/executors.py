@@ -6,6 +6,7 @@ import os
 from typing import Callable, Iterable
 
 from .study import StudyError
+from ...progress import progress_bar
 
 #: how long to try to reach a Dask scheduler before giving up (s)
 SCHEDULER_TIMEOUT = 10.0
@@ -106,7 +107,6 @@ def map_jobs(fn: Callable, args: list[tuple], *, workers: int = 0, dask: bool = 
         it = _dask_map(fn, args, scheduler, workers)
     else:
         it = _pool_map(fn, args, min(workers, max(1, len(args))))
-    from ...progress import progress_bar
 
     with progress_bar(progress, desc=desc, unit="swings", total=len(args)) as bar:
         for result in it:

@@ -15,6 +15,8 @@ import numpy as np
 from .statistics import influence
 from .study import Study
 from ...plotting import figure_axes, finish
+from dataclasses import fields
+from ...params import BLOCKS
 
 OUTCOME_COLOURS = {"captured": "tab:green", "crash": "tab:red", "timeout": "tab:orange",
                    "fault": "tab:purple", "error": "black"}
@@ -24,9 +26,7 @@ def quantity_label(name: str) -> str:
     """An axis label for a study's quantity ``block.field``: its meaning and
     unit from the parameter metadata (the simulated robot's, for ``true_``
     blocks)."""
-    from dataclasses import fields
 
-    from ...params import BLOCKS
 
     block, _, field = name.partition(".")
     cls = BLOCKS.get(block)

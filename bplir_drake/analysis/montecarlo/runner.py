@@ -52,6 +52,9 @@ from .sampling import run_sample, sample_params
 from .statistics import summarize
 from .store import ResultWriter, columns, read_results
 from .study import RESULTS_FILE, STUDY_FILE, SUMMARY_FILE, Study, StudyError, load_study, save_study
+from ..swing.run import run_swing
+from .plots import plot_success_vs_parameters, study_figures
+from .sampling import run_traverse_sample
 
 def check_out(study: Study, out) -> None:
     """Refuse (``StudyError``) a directory that holds a different study
@@ -156,7 +159,6 @@ def _run_study(study: Study, out: Path, workers: int, dask: bool, scheduler, pro
 def replay(study_dir, index: int):
     """Re-run sample ``index`` of a study directory: (SwingResult, or
     TraverseResult for a traversal study; recorded row or None)."""
-    from ..swing.run import run_swing
 
     study_dir = Path(study_dir)
     if not (study_dir / STUDY_FILE).exists():
@@ -173,7 +175,6 @@ def replay(study_dir, index: int):
     p, seed, _ = sample_params(study, index)
     recorded = next((r for r in rows if r["index"] == index), None)
     if study.line is not None:
-        from .sampling import run_traverse_sample
 
         return run_traverse_sample(study, p, seed), recorded
     return run_swing(p, seed=seed), recorded
@@ -204,12 +205,10 @@ class StudyResult(Result):
 
     def plot(self, axes=None):
         """Success against each uncertain quantity (one axis per quantity)."""
-        from .plots import plot_success_vs_parameters
 
         return plot_success_vs_parameters(self.study, self.rows, axes)
 
     def figures(self) -> dict:
         """Every figure of the study by file name (:func:`~.plots.study_figures`)."""
-        from .plots import study_figures
 
         return study_figures(self.study, self.rows)

@@ -11,6 +11,9 @@ import numpy as np
 
 from ...params import BplirParams
 from .study import Study
+from ..swing.run import SwingRunner
+from ..traverse.line import line_from_dict
+from ..traverse.run import run_traverse
 
 # ------------------------------------------------------------ one sample
 
@@ -72,7 +75,6 @@ _TRAVERSE_RUNNERS: dict = {}  # ... and the two of traversals (gripper 1 / gripp
 def run_sample(study: Study, index: int) -> dict:
     """One sample as a result row; never raises (errors are recorded)."""
     global _RUNNER
-    from ..swing.run import SwingRunner
 
     if _RUNNER is None:
         _RUNNER = SwingRunner()
@@ -93,9 +95,6 @@ def run_sample(study: Study, index: int) -> dict:
 
 def run_traverse_sample(study: Study, params: BplirParams, seed: int):
     """The traversal of a traversal study's sample (this process's runners)."""
-    from ..swing.run import SwingRunner
-    from ..traverse.line import line_from_dict
-    from ..traverse.run import run_traverse
 
     if not _TRAVERSE_RUNNERS:
         _TRAVERSE_RUNNERS.update({1: SwingRunner(), 2: SwingRunner()})

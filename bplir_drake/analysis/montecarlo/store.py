@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from .study import Study, StudyError
+from ...io import atomic_path
 
 # ------------------------------------------------------------ result table
 
@@ -65,7 +66,6 @@ class ResultWriter:
     """Appends one row per finished sample and flushes it to disk."""
 
     def __init__(self, path: Path, cols: list[str], existing: list[dict]):
-        from ...io import atomic_path
 
         self.path, self.cols = path, cols
         # rewrite the valid rows (drops a line cut short by an interruption)

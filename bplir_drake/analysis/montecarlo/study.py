@@ -11,6 +11,7 @@ import numpy as np
 
 from ...io import write_text_atomic
 from ...params import BLOCKS, BplirParams, ParameterError, from_dict, read_toml, to_dict
+from ..traverse.line import line_from_dict
 
 DIST_KINDS = ("uniform", "normal", "truncnormal")
 #: blocks a distribution may address (never the nominal model)
@@ -218,7 +219,6 @@ def study_from_dict(data: dict, source: str = "study") -> Study:
         dists = tuple(dists)
     line = data.get("line")
     if line is not None:
-        from ..traverse.line import line_from_dict
 
         line_from_dict(line, f"{source} [line]",
                        max_incline_deg=params.traverse.max_incline_deg)  # validates

@@ -6,6 +6,8 @@ import dataclasses as dc
 
 from ...params import BplirParams
 from .run import run_swing
+from ...plotting import figure_axes, finish
+from ...systems.plant import gripper_position
 
 #: (label, controller preset, path mode, estimator in the loop); "auto" is
 #: the default (plan tracking with the apex landing for ``plan``)
@@ -46,12 +48,10 @@ def comparison_table(rows) -> str:
 
 def plot_comparison(rows, axes=None):
     """Elbow angle, torque and gripper path of every run (three axes); returns the figure."""
-    from ...plotting import figure_axes, finish
     fig, ax = figure_axes(axes, 1, 3, figsize=(15, 4.5))
     for r in rows:
         st = r["_result"].logs["state"]
         tp = r["_result"].params.simulated_plant
-        from ...systems.plant import gripper_position
 
         gp = [gripper_position(x[:2], tp.l1, tp.l2) for x in st.data]
         ax[0].plot(st.t, st.data[:, 1], label=r["variant"])

@@ -7,6 +7,7 @@ from ...io import atomic_path
 from ...params import BplirParams
 from ...simulate import Log, logs
 from ...systems.plant import gripper_position, gripper_velocity, kinetic_energy, potential_energy
+from ...systems.motor import back_emf, torque_window
 
 
 LOG_COLUMNS = ("t", "q1", "q2", "q1d", "q2d", "q1_est", "q2_est", "q1d_est", "q2d_est",
@@ -41,7 +42,6 @@ def motor_columns(p: BplirParams, lg: dict[str, Log], x) -> np.ndarray:
     power, and the lowest and highest torque the motor could deliver at
     that instant (voltage envelope at the true elbow rate, the driver's
     present current limit, the torque saturation)."""
-    from ...systems.motor import back_emf, torque_window
 
     m, t = p.motor, lg["state"].t
     limit = min(p.controller.torque_limit, m.torque_limit)

@@ -9,6 +9,7 @@ import numpy as np
 from ...io import atomic_path
 from ...plotting import figure_axes, finish
 from .logs import log_table
+from ..replay import ReplayScene, replay_html, write_replay_html
 
 
 #: the panels of :func:`plot_swing`: (row, column, y label, [(log column,
@@ -159,7 +160,6 @@ def swing_replay_scene(result):
     the line through the holding gripper at the scenario's incline, the
     target one grip spacing along it, the holding gripper's clamp, and the
     arriving gripper's clamp from the capture on (a captured swing)."""
-    from ..replay import ReplayScene
 
     p, s = result.params, result.summary
     alpha = math.radians(p.scenario.incline_deg)
@@ -176,7 +176,6 @@ def swing_replay_scene(result):
 def replay_swing_html(result, path, fps: float = 30.0) -> Path:
     """A self-contained HTML Meshcat replay of a swing (the simulated
     robot's true motion), written atomically to ``path``."""
-    from ..replay import replay_html, write_replay_html
 
     st = result.logs["state"]
     s = result.summary

@@ -25,6 +25,9 @@ from ...systems.plant import gripper_position, gripper_velocity, kinetic_energy,
 from .logs import (  # noqa: F401 (re-exported)
     LOG_COLUMNS, log_table, motor_columns, write_log_csv, gripper_speed)
 from .summary import SwingSummary
+from .plots import plot_swing
+from ...systems.plan_tracker import height_rates
+from ...diagrams.plan import tracking_plan
 
 
 def draw_true_friction(params: BplirParams, seed: int) -> BplirParams:
@@ -73,7 +76,6 @@ class SwingResult:
         """Six panels (3 x 2 axes) in the style of Fig. 7.6, or one panel on
         one axes (``panel``: angles, rates, torque, voltage, gripper,
         energy); returns the figure."""
-        from .plots import plot_swing
 
         return plot_swing(self, axes, title, panel)
 
@@ -99,7 +101,6 @@ def swing_diagram(params: BplirParams, **kwargs):
     if kwargs.get("controller") is None and "plan_gains" not in kwargs:
         resolved = params.resolved()
         if resolved.path.mode == "plan":
-            from ...diagrams.plan import tracking_plan
 
             kwargs["plan_gains"] = tracking_plan(resolved)[1]
     return build_swing(params, **kwargs)
@@ -193,7 +194,6 @@ def arrival_height_error(p: BplirParams, est: Log, status: dict) -> float:
     what the robot itself can measure at each capture.  The log is the
     in-loop estimator's, which runs in a swing on the true state
     (``use_estimator=False``) too, unused: there this is its error."""
-    from ...systems.plan_tracker import height_rates
 
     t = status["event_time_s"]
     if status["outcome"] not in ("captured", "crash") or not np.isfinite(t) or not len(est.t):

@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from ...plotting import figure_axes, finish
+from ..replay import ReplayScene, replay_html, write_replay_html
 
 #: colour of each gripper's grips
 GRIPPER_COLOURS = {1: "C0", 2: "C1"}
@@ -97,7 +98,6 @@ def plot_timeline(result, axes=None):
 def traverse_replay_scene(result):
     """The :class:`~bplir_drake.analysis.replay.ReplayScene` of a traversal:
     the line, its obstacles, every clamp while it is closed."""
-    from ..replay import ReplayScene
 
     line = result.line
     obstacles = []
@@ -119,7 +119,6 @@ def traverse_replay_scene(result):
 def traverse_replay_html(result, path, fps: float = 20.0) -> Path:
     """A self-contained HTML Meshcat replay of the whole traversal (the
     simulated robot drawn from gripper 1), written atomically to ``path``."""
-    from ..replay import replay_html, write_replay_html
 
     tl = result.timeline()
     t, keep = np.unique(tl["t"], return_index=True)

@@ -6,6 +6,7 @@ import numpy as np
 from ...params import BplirParams
 from ...io import Result
 from .line import Line
+from .plots import plot_line_grips
 
 
 #: traversal outcomes: passed, or the first thing that went wrong
@@ -83,6 +84,5 @@ class TraverseResult(Result):
 
     def plot(self, axes=None):
         """The line with its obstacles and every grip (one axis)."""
-        from .plots import plot_line_grips
 
         return plot_line_grips(self, axes)

@@ -42,13 +42,16 @@ from .result import (  # noqa: F401 (re-exported)
     OUTCOMES, ROW_FIELDS, Segment, TraverseResult)
 from .tables import (  # noqa: F401 (re-exported)
     TABLE_COLUMNS, _cell, manoeuvre_table, totals_lines, write_rows_csv)
+from ..swing.run import SwingRunner, draw_true_friction
+from ...diagrams.plan import tracking_plan
+from ...progress import progress_bar
+from ...systems.plant import gripper_position
 
 
 class _Traversal:
     """The state carried from manoeuvre to manoeuvre."""
 
     def __init__(self, line: Line, params: BplirParams, seed: int, runners=None):
-        from ..swing.run import SwingRunner
 
         self.line, self.params, self.seed = line, params, seed
         self.runners = runners if runners is not None else {1: SwingRunner(), 2: SwingRunner()}
@@ -166,7 +169,6 @@ class _Traversal:
     def _rest_before(self, p, obstacle: str) -> None:
         """Rest before a swing when the planned swing would eat into the i^2 t
         margin (nominal plan only), then calibrate the IMUs standing still."""
-        from ...diagrams.plan import tracking_plan
 
         tp = self.params.traverse
         # the standstill calibration of the IMUs (estimator.standstill_samples)
@@ -198,7 +200,6 @@ class _Traversal:
             base = np.repeat(hb[None, :], len(t), axis=0)
         else:
             q = np.array([swapped_state(x[:2]) for x in st.data])
-            from ...systems.plant import gripper_position
 
             gp = np.array([gripper_position(x[:2], sim_p.l1, sim_p.l2) for x in st.data])
             base = hb[None, :] + np.column_stack([gp, np.zeros(len(t))])
@@ -336,14 +337,12 @@ def run_traverse(line: Line, params: BplirParams, *, seed: int = 0, progress: bo
     in its row).  ``runners``: ``{1: SwingRunner, 2: SwingRunner}`` to reuse
     built diagrams across traversals.  Raises :class:`~.line.LineError`
     when the line cannot be crossed (checked before any simulation)."""
-    from ..swing.run import draw_true_friction
 
     plan_route(line, params)   # the whole line is crossable on paper
     params = draw_true_friction(params, seed)   # one robot for the whole traversal
     tr = _Traversal(line, params, seed, runners)
     tp = params.traverse
     D = tp.grip_spacing
-    from ...progress import progress_bar
 
     bar = progress_bar(progress, total=len(line.obstacles), desc="obstacles", unit="obstacle")
     try:

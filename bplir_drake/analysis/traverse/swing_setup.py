@@ -5,6 +5,10 @@ import dataclasses as dc
 import math
 import numpy as np
 from ...params import BplirParams, swapped
+from ...systems.delay_id import planned_probe
+from ...systems.motor import max_torque
+from ...systems.plan_tracker import height_rates, landing_law
+from ...systems.plant import gripper_velocity, mass_matrix
 
 
 def swing_params(params: BplirParams, holding: int, spacing: float,
@@ -75,9 +79,6 @@ def budgeted_currents(plan, p: BplirParams) -> np.ndarray:
     robot's runs at the limit there (README, "Traversal Monte Carlo").  The
     delay probe (``plan.delay_probe``) adds its torques to the first
     ticks."""
-    from ...systems.delay_id import planned_probe
-    from ...systems.motor import max_torque
-    from ...systems.plan_tracker import height_rates, landing_law
 
     motor, landing = p.motor, p.landing
     t = np.arange(int(plan.duration / motor.driver_period) + 1) * motor.driver_period
@@ -103,7 +104,6 @@ def capture_impulse(q, v, p) -> tuple[float, float]:
     to stop the gripper moving at joint rates ``v`` in pose ``q``: with
     both grippers pinned the robot stops, so the impulse is ``Lambda v_g``,
     ``Lambda = J^-T M J^-1`` the robot's inertia seen at the gripper."""
-    from ...systems.plant import gripper_velocity, mass_matrix
 
     # the gripper's Jacobian, column by column from its velocity
     J = np.column_stack([gripper_velocity(q, e, p.l1, p.l2) for e in ((1.0, 0.0), (0.0, 1.0))])

@@ -3,6 +3,9 @@ from __future__ import annotations
 
 import math
 from .result import ROW_FIELDS, TraverseResult
+import io as _io
+from ...io import write_text_atomic
+import csv
 
 
 #: columns of the per-manoeuvre table: (row key, header, format), the
@@ -60,10 +63,7 @@ def totals_lines(result: TraverseResult) -> list[str]:
 
 def write_rows_csv(result: TraverseResult, path):
     """The per-manoeuvre rows as CSV at ``path`` (atomic)."""
-    import csv
-    import io as _io
 
-    from ...io import write_text_atomic
 
     buf = _io.StringIO()
     w = csv.DictWriter(buf, fieldnames=list(ROW_FIELDS))

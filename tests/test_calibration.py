@@ -90,3 +90,25 @@ def test_bad_fit_names(params):
     log = C.synthetic_log(params, free_time=2.0, torque_time=0.5, noise=0.0)
     with pytest.raises(C.CalibrationError, match="cannot fit mass3"):
         C.calibrate(params, log, ("mass3",))
+
+
+def test_a_small_robots_inertia_is_fitted_within_bounds_of_its_own_size():
+    """Masses and inertias are fitted within 0.1x-10x their nominal values:
+    a 0.34 m robot (DFKI's AcroMonk scale, I2 = 0.0017 kg m^2, below the
+    former absolute floor of 0.01) recovers a 20 % heavier link-2 inertia
+    from a synthetic log within 2 %."""
+    import dataclasses as dc
+
+    from bplir_drake.params import BplirParams, PlantParams
+
+    plant = PlantParams(m1=0.63, m2=0.63, l1=0.34, l2=0.34, lc1=0.18, lc2=0.16,
+                        I1=0.0017, I2=0.0017)
+    nominal = BplirParams.of_plant(plant)
+    nominal = nominal.with_(friction=dc.replace(nominal.friction, fv1=0.002, fv2=0.002,
+                                                fc1=0.0, fc2=0.0))
+    truth = nominal.with_(true_plant=dc.replace(plant, I2=0.0017 * 1.2),
+                          true_friction=nominal.friction)
+    log = C.synthetic_log(truth, q0=(0.6, 0.2), free_time=2.0, torque=0.05, torque_time=2.0,
+                          noise=0.0005)
+    res = C.calibrate(nominal, log, ("I2",))
+    assert res.values[0] == pytest.approx(0.0017 * 1.2, rel=0.02)

@@ -66,3 +66,28 @@ def test_plan_figure_and_cli_errors(uphill, tmp_path, capsys):
     assert len(err) == 2 and all(line.startswith("bplir: error:") for line in err)
     assert "allowed" in err[0] and "allowed" in err[1]
     assert math.isfinite(json.loads(json.dumps(plan.summary()))["peak_motor_power_W"])
+
+
+def test_tracking_gains_accept_links_shorter_than_the_default_imu_radii(monkeypatch):
+    """A robot with 0.34 m links (DFKI's AcroMonk): the gains' plant model is
+    built from its plant and friction alone -- the default IMUs at 0.5 m,
+    which would not fit on its links, play no part -- and
+    ``BplirParams.of_plant`` puts the IMUs at mid-link."""
+    import numpy as np
+
+    from bplir_drake.diagrams import plan as P
+    from bplir_drake.params import BplirParams, ParameterError, PlantParams
+
+    plant = PlantParams(m1=0.63, m2=0.63, l1=0.34, l2=0.34, lc1=0.18, lc2=0.16,
+                        I1=0.0017, I2=0.0017)
+    with pytest.raises(ParameterError, match="must lie on the links"):
+        BplirParams(plant=plant)
+    p = BplirParams.of_plant(plant)
+    assert (p.imu.r1, p.imu.r2, p.estimator.l1) == (0.17, 0.17, 0.34)
+    seen = []
+    monkeypatch.setattr(P, "plan_gains", lambda model, *a: seen.append(model) or "gains")
+    t = np.linspace(0.0, 1.0, 5)
+    plan = P.SwingPlan(t, np.zeros((5, 4)), np.zeros(5), np.zeros((5, 2)), True, True, "test",
+                       0.0, 20.0, 220.0, 1e-4)
+    assert P.tracking_gains(plant, p.friction, plan, cache=False) == "gains"
+    assert seen[0].num_continuous_states() == 4

@@ -404,7 +404,7 @@ def tracking_gains(plant, friction, plan: SwingPlan, cache: bool = True):
     inputs = gains_inputs(plant, friction, plan)
 
     def solve():
-        model, _ = plan_model(BplirParams(plant=plant, friction=friction))
+        model, _ = plan_model(BplirParams.of_plant(plant, friction))   # any link lengths
         return plan_gains(model, plan.times, plan.states, plan.torque)
 
     if not cache:

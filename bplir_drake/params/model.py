@@ -81,6 +81,19 @@ class BplirParams:
         return replace(self, controller=ControllerParams.preset_named(name), path=path,
                        line_sensor=sensor)
 
+    @classmethod
+    def of_plant(cls, plant: PlantParams, friction: FrictionParams | None = None) -> "BplirParams":
+        """The default parameters around another robot's links (``plant``,
+        ``friction``): the IMUs and the filter's geometry moved to the middle
+        of its links, so links shorter than the default IMU radii are
+        accepted (a plant-only model, such as the planner's, reads none of
+        them)."""
+        base = cls()
+        return replace(base, plant=plant, friction=friction or base.friction,
+                       imu=replace(base.imu, r1=plant.l1 / 2, r2=plant.l2 / 2),
+                       estimator=replace(base.estimator, r1=plant.l1 / 2, r2=plant.l2 / 2,
+                                         l1=plant.l1))
+
     def imu_only(self) -> "BplirParams":
         """The robot without the jaw's line sensor (``line_sensor.range = 0``:
         the IMUs alone), with the shooting landing's aim of that robot

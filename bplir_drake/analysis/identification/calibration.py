@@ -53,10 +53,13 @@ CALIBRATION_COLUMNS = ("t", "q1", "q2")
 FITTABLE = {
     "fv1": ("friction", 0.0, 2.0), "fv2": ("friction", 0.0, 2.0),
     "fc1": ("friction", 0.0, 2.0), "fc2": ("friction", 0.0, 3.0),
-    "I1": ("plant", 0.01, 1.0), "I2": ("plant", 0.01, 1.0),
+    "I1": ("plant", "rel", "rel"), "I2": ("plant", "rel", "rel"),
     "lc1": ("plant", 0.0, None), "lc2": ("plant", 0.0, None),
-    "m1": ("plant", 0.1, 20.0), "m2": ("plant", 0.1, 20.0),
+    "m1": ("plant", "rel", "rel"), "m2": ("plant", "rel", "rel"),
 }
+#: a mass or inertia is fitted within these factors of its nominal value
+#: (so a small robot's 0.0017 kg m^2 fits as a large one's 0.15 does)
+RELATIVE_BOUNDS = (0.1, 10.0)
 DEFAULT_FIT = ("fv1", "fv2", "fc1", "fc2")
 
 
@@ -240,9 +243,12 @@ def calibrate(params: BplirParams, log: CalibrationLog, fit=DEFAULT_FIT, *,
             k: float(v) for k, v in start.items() if v > 0}))
     x0 = np.array([getattr(params.friction if FITTABLE[n][0] == "friction" else params.plant, n)
                    for n in fit])
-    lo = np.array([FITTABLE[n][1] for n in fit])
-    hi = np.array([FITTABLE[n][2] if FITTABLE[n][2] is not None
-                   else getattr(params.plant, "l1" if n == "lc1" else "l2") for n in fit])
+    lo = np.array([x * RELATIVE_BOUNDS[0] if FITTABLE[n][1] == "rel" else FITTABLE[n][1]
+                   for n, x in zip(fit, x0)])
+    hi = np.array([x * RELATIVE_BOUNDS[1] if FITTABLE[n][2] == "rel"
+                   else FITTABLE[n][2] if FITTABLE[n][2] is not None
+                   else getattr(params.plant, "l1" if n == "lc1" else "l2")
+                   for n, x in zip(fit, x0)])
     scale = np.maximum(np.abs(x0), 1e-3)
     count = [0]
     bar = progress_bar(progress, desc="calibrate", unit="simulations")

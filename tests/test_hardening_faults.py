@@ -289,3 +289,29 @@ def test_a_resumed_study_keeps_each_row_once_and_replays_any_kept_row(tmp_path):
     rc, out, err = run("swing", "--replay", mcdir, "--sample", "2", "--no-animation",
                        "--out", tmp_path / "r")
     assert rc == 0 and "replay of sample 2" in out and "matches the recorded result" in out
+
+
+@pytest.mark.parametrize("where", ["/proc/bplir-no-such/cache", "a file"])
+def test_an_unusable_cache_directory_still_swings_on_the_shipped_plans(where, tmp_path):
+    """Row 10 from the command line: with ``BPLIR_CACHE_DIR`` inside /proc or
+    a file the default swing runs on the shipped plan and gains (nothing
+    is solved: the solver is switched off in that process) and captures.
+    (A file where the directory should be is unusable even to root, which
+    a read-only directory is not.)"""
+    import os
+
+    if where == "a file":
+        where = tmp_path / "not-a-directory"
+        where.write_text("")
+    code = ("import sys\n"
+            "from bplir_drake.diagrams import plan as P\n"
+            "def refuse(*a, **k):\n"
+            "    raise SystemExit('solved a shipped plan')\n"
+            "P._solve_plan = P.plan_gains = refuse\n"
+            "from bplir_drake.cli import main\n"
+            "sys.exit(main(sys.argv[1:]))\n")
+    p = subprocess.run([sys.executable, "-c", code, "swing", "--no-animation", "--json",
+                        "--out", str(tmp_path / "out")], capture_output=True, text=True,
+                       env=dict(os.environ, BPLIR_CACHE_DIR=str(where)), timeout=180)
+    assert p.returncode == 0, p.stderr
+    assert '"outcome": "captured"' in p.stdout

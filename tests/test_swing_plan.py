@@ -91,3 +91,22 @@ def test_tracking_gains_accept_links_shorter_than_the_default_imu_radii(monkeypa
                        0.0, 20.0, 220.0, 1e-4)
     assert P.tracking_gains(plant, p.friction, plan, cache=False) == "gains"
     assert seen[0].num_continuous_states() == 4
+
+
+def test_a_solver_that_stops_early_is_not_called_proof_of_no_plan(tmp_path):
+    """SNOPT stopped by its iteration limit reports "iteration limit", and
+    the one-line message says that a plan may still exist; only a proof of
+    infeasible limits is reported as "no feasible plan"."""
+    import dataclasses as dc
+
+    from bplir_drake.diagrams import plan as P
+    from bplir_drake.params import preset
+
+    stopped = P.plan_swing(preset(), knots=7, iterations=1, cache=False)
+    assert not stopped.feasible and stopped.status == "iteration limit"
+    assert stopped.summary()["solver_status"] == "iteration limit"
+    assert "stopped without converging (iteration limit), which does not show that none " \
+           "exists" in P.no_plan_message(stopped)
+    proof = dc.replace(stopped, status="infeasible")
+    assert P.no_plan_message(proof).startswith("no feasible plan for a 0 deg line within ")
+    assert "the solver found the limits cannot be met" in P.no_plan_message(proof)

@@ -27,7 +27,10 @@ def cmd_plan(args) -> int:
     with atomic_path(out / "plan.csv") as tmp:
         np.savetxt(tmp, np.c_[plan.times, plan.states, plan.torque],
                    delimiter=",", header="t,q1,q2,q1d,q2d,tau", comments="")
-    verdict = "feasible" if plan.feasible else "NOT feasible"
+    verdict = ("feasible" if plan.feasible else "NOT feasible: the limits cannot be met"
+               if plan.status == "infeasible" else
+               f"NOT feasible: the solver stopped without converging ({plan.status}); a plan "
+               "may still exist")
     _emit(summary, args.json, [
         f"planned swing on a {plan.incline_deg:g} deg line: {verdict} "
         f"(solver {plan.solver}, optimal: {plan.solved})",

@@ -73,6 +73,9 @@ class SwingPlan(Result):
     resistance: float = 0.0           # winding resistance (ohm)
     emf_per_rate: float = 0.0         # back-EMF per elbow rate, Km N (V s/rad)
     torque_per_amp: float = 1.0       # kt (N m/A)
+    #: how the solver ended (:data:`SOLVER_STATUS`): "solved", "infeasible"
+    #: (it proved the constraints cannot hold), "iteration limit", ...
+    status: str = ""
 
     @property
     def duration(self) -> float:
@@ -145,7 +148,7 @@ class SwingPlan(Result):
                 "voltage_limit_V": (self.voltage_limit if math.isfinite(self.voltage_limit)
                                     else None),
                 "peak_elbow_rate_rad_s": float(np.max(np.abs(self.states[:, 3]))),
-                "constraint_tolerance": self.tolerance}
+                "constraint_tolerance": self.tolerance, "solver_status": self.status}
 
 
 def plan_model(params: BplirParams):
@@ -259,6 +262,12 @@ def _peak_voltage(dircol, result, env, knots) -> float:
                                + env["emf_per_rate"] * rate)))
 
 
+#: Drake's solution results in words (a plan's ``status``)
+SOLVER_STATUS = {"kSolutionFound": "solved", "kInfeasibleConstraints": "infeasible",
+                 "kIterationLimit": "iteration limit", "kSolverSpecificError": "solver error",
+                 "kInvalidInput": "invalid input", "kUnbounded": "unbounded"}
+
+
 def _solve_plan(params, q0, qT, tau_max, power, tmax, knots, time_weight, guess_duration,
                 tolerance, iterations, progress=False, guess=None) -> SwingPlan:
     """The DirectCollocation solve of :func:`plan_swing`."""
@@ -327,7 +336,8 @@ def _solve_plan(params, q0, qT, tau_max, power, tmax, knots, time_weight, guess_
         torque_per_amp=env["torque_per_amp"])
     plan = SwingPlan(times, states, torque, fr, bool(result.is_success()), feasible,
                      result.get_solver_id().name(), params.scenario.incline_deg, tau_max,
-                     power, tolerance, **electric)
+                     power, tolerance, **electric,
+                     status=SOLVER_STATUS.get(result.get_solution_result().name, "failed"))
     if env is not None and plan.peak_voltage > env["voltage"]:   # between the knots
         plan = replace(plan, feasible=False)
     return plan
@@ -373,11 +383,23 @@ def scenario_plan(params: BplirParams) -> SwingPlan:
         if started.feasible and (not plan.feasible or started.objective() < plan.objective()):
             plan = started
     if not plan.feasible:
-        volts = (f", {plan.voltage_share:g} of {plan.voltage_limit:g} V at the knots"
-                 if math.isfinite(plan.voltage_limit) else "")
-        raise ParameterError(f"no feasible plan for a {sc.incline_deg:g} deg line within "
-                             f"{plan.torque_limit:g} N m and {plan.power_limit:g} W{volts}")
+        raise ParameterError(no_plan_message(plan))
     return plan
+
+
+def no_plan_message(plan: SwingPlan) -> str:
+    """Why there is no plan, in one line: the solver proved the limits
+    cannot be met, or it merely stopped without meeting them (which proves
+    nothing: a plan may still exist)."""
+    volts = (f", {plan.voltage_share:g} of {plan.voltage_limit:g} V at the knots"
+             if math.isfinite(plan.voltage_limit) else "")
+    limits = f"{plan.torque_limit:g} N m and {plan.power_limit:g} W{volts}"
+    if plan.status == "infeasible":
+        return (f"no feasible plan for a {plan.incline_deg:g} deg line within {limits}: the "
+                "solver found the limits cannot be met")
+    return (f"no plan found for a {plan.incline_deg:g} deg line within {limits}: the solver "
+            f"stopped without converging ({plan.status or 'unknown'}), which does not show that "
+            "none exists; try another grip spacing, end depth or limit")
 
 
 _GAINS: dict = {}

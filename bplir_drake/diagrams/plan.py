@@ -47,6 +47,8 @@ from .plan_cache import cached
 from ..systems.friction import friction_torques
 from ..progress import progress_bar
 from ..systems.plan_tracker import TrackerWeights, plan_gains
+from .plan_status import (  # noqa: F401 (re-exported)
+    SOLVER_STATUS, no_plan_message)
 
 
 #: smallest Coulomb smoothing velocity the planner uses (rad/s)
@@ -262,12 +264,6 @@ def _peak_voltage(dircol, result, env, knots) -> float:
                                + env["emf_per_rate"] * rate)))
 
 
-#: Drake's solution results in words (a plan's ``status``)
-SOLVER_STATUS = {"kSolutionFound": "solved", "kInfeasibleConstraints": "infeasible",
-                 "kIterationLimit": "iteration limit", "kSolverSpecificError": "solver error",
-                 "kInvalidInput": "invalid input", "kUnbounded": "unbounded"}
-
-
 def _solve_plan(params, q0, qT, tau_max, power, tmax, knots, time_weight, guess_duration,
                 tolerance, iterations, progress=False, guess=None) -> SwingPlan:
     """The DirectCollocation solve of :func:`plan_swing`."""
@@ -385,21 +381,6 @@ def scenario_plan(params: BplirParams) -> SwingPlan:
     if not plan.feasible:
         raise ParameterError(no_plan_message(plan))
     return plan
-
-
-def no_plan_message(plan: SwingPlan) -> str:
-    """Why there is no plan, in one line: the solver proved the limits
-    cannot be met, or it merely stopped without meeting them (which proves
-    nothing: a plan may still exist)."""
-    volts = (f", {plan.voltage_share:g} of {plan.voltage_limit:g} V at the knots"
-             if math.isfinite(plan.voltage_limit) else "")
-    limits = f"{plan.torque_limit:g} N m and {plan.power_limit:g} W{volts}"
-    if plan.status == "infeasible":
-        return (f"no feasible plan for a {plan.incline_deg:g} deg line within {limits}: the "
-                "solver found the limits cannot be met")
-    return (f"no plan found for a {plan.incline_deg:g} deg line within {limits}: the solver "
-            f"stopped without converging ({plan.status or 'unknown'}), which does not show that "
-            "none exists; try another grip spacing, end depth or limit")
 
 
 _GAINS: dict = {}

@@ -315,3 +315,50 @@ def test_an_unusable_cache_directory_still_swings_on_the_shipped_plans(where, tm
                        env=dict(os.environ, BPLIR_CACHE_DIR=str(where)), timeout=180)
     assert p.returncode == 0, p.stderr
     assert '"outcome": "captured"' in p.stdout
+
+
+_STUBBED_SOLVER = (
+    "import sys\n"
+    "import numpy as np\n"
+    "from bplir_drake.diagrams import plan as P\n"
+    "def quick(params, *a, **k):   # a stand-in for SNOPT's minute: a 1 s plan at rest\n"
+    "    t = np.linspace(0.0, 1.0, 5)\n"
+    "    return P.SwingPlan(t, np.zeros((5, 4)), np.zeros(5), np.zeros((5, 2)), True, True,\n"
+    "                       'stub', params.scenario.incline_deg, 20.0, 220.0, 1e-4)\n"
+    "P._solve_plan = quick\n"
+    "from bplir_drake.cli import main\n"
+    "sys.exit(main(sys.argv[1:]))\n")
+
+
+def _plan_process(cache, out):
+    import os
+
+    return subprocess.run([sys.executable, "-c", _STUBBED_SOLVER, "plan", "--incline", "9",
+                           "--out", str(out)], capture_output=True, text=True, timeout=180,
+                          env=dict(os.environ, BPLIR_CACHE_DIR=str(cache)))
+
+
+def test_a_damaged_cached_plan_or_a_planted_link_does_not_stop_bplir_plan(tmp_path):
+    """Rows 9 and 25 from the command line (the solver replaced by a quick
+    stand-in in that process): a truncated ``plan-<key>.npz`` is moved aside
+    as ``.damaged`` and solved again, exit 0; a link planted at the plan's
+    ``.lock`` is neither followed nor truncated, and the command still
+    succeeds."""
+    cache = tmp_path / "cache"
+    first = _plan_process(cache, tmp_path / "a")
+    assert first.returncode == 0, first.stderr
+    [stored] = cache.glob("plan-*.npz")
+    stored.write_bytes(stored.read_bytes()[:40])            # row 9: truncated
+    again = _plan_process(cache, tmp_path / "b")
+    assert again.returncode == 0, again.stderr
+    assert stored.with_suffix(".damaged").exists() and stored.stat().st_size > 40
+    stored.unlink()
+    lock = stored.with_suffix(".lock")
+    lock.unlink()
+    victim = tmp_path / "victim.txt"
+    victim.write_text("keep me")
+    lock.symlink_to(victim)                                  # row 25: a planted link
+    third = _plan_process(cache, tmp_path / "c")
+    assert third.returncode == 0, third.stderr
+    assert victim.read_text() == "keep me"
+    assert (tmp_path / "c" / "plan.json").exists()

@@ -261,3 +261,27 @@ def test_the_path_table_is_split_into_path_plan_and_landing(tmp_path):
                           "landing.shoot_height\n")
     rows = {r["name"]: r for r in json.loads(run.stdout)["parameters"]}
     assert rows["shoot_height"]["value"] == -0.012
+
+
+def test_the_imus_keep_their_place_along_shorter_links(tmp_path, capsys):
+    """A file giving a 0.34 m robot (DFKI's AcroMonk scale) and no IMU
+    positions: the IMUs and the filter's geometry keep their place along the
+    links (0.5 m of 0.9091 m becomes 0.187 m of 0.34 m) instead of refusing
+    the default 0.5 m radii; a radius the file gives is kept; ``bplir model``
+    runs on it."""
+    from bplir_drake.cli import main
+
+    text = ("[plant]\nm1 = 0.63\nm2 = 0.63\nl1 = 0.34\nl2 = 0.34\nlc1 = 0.18\nlc2 = 0.16\n"
+            "I1 = 0.0017\nI2 = 0.0017\n")
+    (tmp_path / "small.toml").write_text(text)
+    p = P.load_toml(tmp_path / "small.toml")
+    d = P.BplirParams()
+    assert p.imu.r1 == pytest.approx(d.imu.r1 * 0.34 / d.plant.l1)
+    assert p.imu.r2 == pytest.approx(d.imu.r2 * 0.34 / d.plant.l2)
+    assert (p.estimator.r1, p.estimator.r2, p.estimator.l1) == pytest.approx(
+        (p.imu.r1, p.imu.r2, 0.34))
+    (tmp_path / "given.toml").write_text(text + "[imu]\nr1 = 0.3\n")
+    assert P.load_toml(tmp_path / "given.toml").imu.r1 == 0.3
+    assert main(["model", "--config", str(tmp_path / "small.toml"), "--no-swing",
+                 "--out", str(tmp_path / "m")]) == 0
+    assert "hanging eigenvalues" in capsys.readouterr().out

@@ -45,10 +45,32 @@ def from_dict(data: dict[str, Any], base: BplirParams | None = None) -> BplirPar
             raise
         except TypeError as exc:  # pragma: no cover - defensive
             raise ParameterError(f"[{key}]: {exc}") from None
+    updates = follow_the_links(params, updates, data)
     try:
         return replace(params, **updates)
     except TypeError as exc:  # pragma: no cover - defensive
         raise ParameterError(str(exc)) from None
+
+
+def follow_the_links(params: BplirParams, updates: dict, data: dict) -> dict:
+    """When a file gives the robot other link lengths (``[plant]`` l1, l2)
+    but not where its IMUs sit, the IMUs keep their place along the links:
+    ``imu`` and ``estimator`` radii (and the filter's l1) scale with their
+    link, so a shorter robot is not refused for the default 0.5 m radii.
+    What the file gives itself is kept."""
+    plant = updates.get("plant")
+    if plant is None or (plant.l1, plant.l2) == (params.plant.l1, params.plant.l2):
+        return updates
+    k1, k2 = plant.l1 / params.plant.l1, plant.l2 / params.plant.l2
+    given = {b: set(t) if isinstance(t, dict) else set() for b, t in data.items()}
+    imu = updates.get("imu", params.imu)
+    scaled = {n: getattr(params.imu, n) * k for n, k in (("r1", k1), ("r2", k2))
+              if n not in given.get("imu", ())}
+    est = updates.get("estimator", params.estimator)
+    est_scaled = {n: v for n, v in (("r1", params.estimator.r1 * k1),
+                                    ("r2", params.estimator.r2 * k2), ("l1", plant.l1))
+                  if n not in given.get("estimator", ())}
+    return updates | {"imu": replace(imu, **scaled), "estimator": replace(est, **est_scaled)}
 
 
 def read_toml(path: str | Path, what: str = "parameter file", error=ParameterError) -> dict:

@@ -6,12 +6,12 @@ import argparse
 
 from ..io import package_version
 from . import (benchmark, calibrate, estimate, freeswing, model, montecarlo, observability,
-               parameters, plan, qft, swing, traverse)
+               parameters, plan, qft, replay, swing, traverse)
 from .common import _Parser
 
 #: the commands in the order ``bplir --help`` lists them
 COMMANDS = (model, parameters, freeswing, estimate, observability, swing, montecarlo, benchmark,
-            traverse, plan, calibrate, qft)
+            traverse, plan, calibrate, replay, qft)
 
 
 def build_parser() -> argparse.ArgumentParser:

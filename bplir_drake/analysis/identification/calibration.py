@@ -73,10 +73,12 @@ class CalibrationLog:
     qd0: np.ndarray        # (2,) initial rates
 
 
-def read_calibration_csv(path, torque_per_amp: float) -> CalibrationLog:
+def read_calibration_csv(path, torque_per_amp: float, *, min_duration: float = 2.0,
+                         torque_sign: float = 1.0) -> CalibrationLog:
     """A calibration CSV (t, q1, q2 and tau in N m or i_cmd in A, converted with
-    ``torque_per_amp``) as a checked :class:`CalibrationLog`; a bad file raises
-    :class:`CalibrationError`."""
+    ``torque_per_amp``, times ``torque_sign``) as a checked
+    :class:`CalibrationLog` spanning at least ``min_duration`` s; a bad file
+    raises :class:`CalibrationError`."""
     path = Path(path)
     header, body = csv_rows(path, "log", CalibrationError)
     missing = [c for c in CALIBRATION_COLUMNS if c not in header]
@@ -101,7 +103,7 @@ def read_calibration_csv(path, torque_per_amp: float) -> CalibrationLog:
         if len(data) else np.zeros(0)
     qd0 = (np.array([data[0, idx["q1d"]], data[0, idx["q2d"]]])
            if {"q1d", "q2d"} <= set(idx) and len(data) else None)
-    return check_calibration_log(t, q, tau, qd0)
+    return check_calibration_log(t, q, torque_sign * tau, qd0, min_duration=min_duration)
 
 
 #: plausible values of a calibration log: the elbow torque (10x the motor's
@@ -148,9 +150,10 @@ def simulate_log(params: BplirParams, log: CalibrationLog, *, accuracy: float = 
     """Joint angles of the (nominal) model driven by the logged torque."""
 
     p = params.with_(true_plant=None, true_friction=None)
-    built = build_free_swing(p, (log.t, log.tau), log_period=float(np.median(np.diff(log.t))))
+    period = float(np.median(np.diff(log.t)))
+    built = build_free_swing(p, (log.t, log.tau), log_period=period)
     sim = make_simulator(built, log.q[0], log.qd0, accuracy=accuracy)
-    run(sim, float(log.t[-1]))
+    run(sim, float(log.t[-1]) + period)   # a logged sample past the log's last time
     return Log.from_logger(built.loggers["state"], sim.get_context()).at(log.t)[:, :2]
 
 

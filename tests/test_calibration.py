@@ -116,12 +116,11 @@ def test_a_small_robots_inertia_is_fitted_within_bounds_of_its_own_size():
 
 def test_a_logged_torque_replays_into_the_model(tmp_path, params, capsys):
     """``bplir replay``: a 1.2 s log (too short to calibrate on) of the
-    model itself, replayed with its own torque, follows the log within
-    3 mrad RMSE (the loggers' event times differ by rounding, and the driven
-    double pendulum amplifies it: 0.4 / 1.4 mrad measured) and never passes
-    0.1 rad; the log of a robot with 3x the elbow's viscous friction and
-    -20 % link-2 inertia drifts away (31 / 77 mrad) and passes 0.1 rad at
-    0.96 s.  The figure is drawn."""
+    model itself, replayed with its own torque through the CSV (9 digits),
+    follows the log to 1e-6 rad (2e-8 measured) and never passes 0.1 rad;
+    the log of a robot with 3x the elbow's viscous friction and -20 %
+    link-2 inertia drifts away (31 / 77 mrad) and passes 0.1 rad at 0.96 s.
+    The figure is drawn."""
     import dataclasses as dc
 
     same = C.synthetic_log(params, q0=(0.8, 0.2), free_time=0.4, torque=4.0, torque_time=0.8,
@@ -130,7 +129,7 @@ def test_a_logged_torque_replays_into_the_model(tmp_path, params, capsys):
     assert main(["replay", str(csv_path), "--json", "--out", str(tmp_path / "a")]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["duration_s"] == pytest.approx(1.2) and out["divergence_time_s"] is None
-    assert max(out["rmse_rad"]) < 3e-3
+    assert max(out["rmse_rad"]) < 1e-6
     assert (tmp_path / "a" / "replay.png").stat().st_size > 30_000
     other = params.with_(true_friction=dc.replace(params.friction, fv2=3 * params.friction.fv2),
                          true_plant=dc.replace(params.plant, I2=0.8 * params.plant.I2))

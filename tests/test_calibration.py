@@ -117,7 +117,7 @@ def test_a_small_robots_inertia_is_fitted_within_bounds_of_its_own_size():
 def test_a_logged_torque_replays_into_the_model(tmp_path, params, capsys):
     """``bplir replay``: a 1.2 s log (too short to calibrate on) of the
     model itself, replayed with its own torque through the CSV (9 digits),
-    follows the log to 1e-6 rad (2e-8 measured) and never passes 0.1 rad;
+    follows the log to 1e-6 rad (3e-10 measured) and never passes 0.1 rad;
     the log of a robot with 3x the elbow's viscous friction and -20 %
     link-2 inertia drifts away (31 / 77 mrad) and passes 0.1 rad at 0.96 s.
     The figure is drawn."""

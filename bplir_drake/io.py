@@ -76,22 +76,46 @@ def dumps_strict(obj, indent: int | None = 2) -> str:
 
 
 @contextlib.contextmanager
+def _signals_held():
+    """Hold Ctrl-C, SIGTERM and SIGHUP until the block ends (they are
+    delivered then), where the platform allows it."""
+    import signal
+
+    held = {signal.SIGINT, signal.SIGTERM, signal.SIGHUP}
+    try:
+        before = signal.pthread_sigmask(signal.SIG_BLOCK, held)
+    except (AttributeError, ValueError, OSError):   # not POSIX
+        yield
+        return
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, before)
+
+
+@contextlib.contextmanager
 def atomic_path(path):
     """Yield a temporary path beside ``path`` (same suffix) to write to; on
-    success it is renamed onto ``path``, on failure removed."""
+    success it is renamed onto ``path``, on failure removed.  A signal that
+    arrives while the temporary file is made is held until it has a name
+    to remove, so no temporary file outlives an interrupted write."""
     path = Path(path)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}-", suffix=path.suffix)
-    os.close(fd)
+    tmp = None
     try:
+        with _signals_held():
+            fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}-",
+                                       suffix=path.suffix)
+            os.close(fd)
+            # mkstemp makes the file private (0600); outputs get the usual mode
+            umask = os.umask(0)
+            os.umask(umask)
         yield Path(tmp)
-        # mkstemp makes the file private (0600); outputs get the usual mode
-        umask = os.umask(0)
-        os.umask(umask)
         os.chmod(tmp, 0o666 & ~umask)
         os.replace(tmp, path)
     except BaseException as exc:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
+        if tmp is not None:
+            with contextlib.suppress(OSError):
+                os.unlink(tmp)
         if isinstance(exc, OSError) and exc.errno and exc.filename in (None, tmp, str(tmp)):
             # a full disk while writing: name the file the user asked for
             raise OSError(exc.errno, exc.strerror, str(path)) from exc

@@ -15,56 +15,11 @@ from array import array
 from pathlib import Path
 from typing import Iterator
 
-from .io import UTF8_BOM
+from .io import text_lines
 
 
 class LogError(ValueError):
     """A malformed or unusable log file (one-line message)."""
-import codecs
-
-
-def text_lines(path, what: str, error) -> Iterator[str]:
-    """The lines of a UTF-8 text file, decoded one at a time."""
-    path = Path(path)
-    try:
-        f = open(path, "rb")
-    except IsADirectoryError:
-        raise error(f"{what} {path} is a directory, not a file") from None
-    except OSError as exc:
-        raise error(f"cannot read {what} {path}: {exc.strerror or exc}") from None
-    with f:
-        try:
-            head = f.read(4)
-            if head[:2] in (b"\xff\xfe", b"\xfe\xff"):
-                raise error(f"{what} {path} is UTF-16 text; save it as UTF-8")
-            start = len(UTF8_BOM) if head.startswith(UTF8_BOM) else 0
-            _check_text(f, start, f"{what} {path}", error)
-            f.seek(start)
-            for raw in f:
-                yield raw.decode("utf-8")
-        except OSError as exc:
-            raise error(f"cannot read {what} {path}: {exc.strerror or exc}") from None
-
-
-def _check_text(f, start: int, name: str, error, chunk: int = 1 << 20) -> None:
-    """Check a whole file is UTF-8 text, a block at a time, before any of it
-    is read as data (a binary file is named as one, wherever its bad byte)."""
-
-    decoder = codecs.getincrementaldecoder("utf-8")()
-    f.seek(start)
-    offset = start
-    while True:
-        block = f.read(chunk)
-        if b"\x00" in block:
-            raise error(f"{name} is a binary file, not UTF-8 text")
-        try:
-            decoder.decode(block, final=not block)
-        except UnicodeDecodeError as exc:
-            raise error(f"{name} is not UTF-8 text (invalid byte at offset "
-                        f"{offset + exc.start})") from None
-        if not block:
-            return
-        offset += len(block)
 
 
 def csv_stream(path, what: str, error) -> tuple[list[str], Iterator[tuple[int, list[str]]]]:

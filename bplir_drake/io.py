@@ -8,12 +8,14 @@ class their one-line errors use.
 """
 from __future__ import annotations
 
+import codecs
 import contextlib
 import json
 import math
 import os
 import tempfile
 from pathlib import Path
+from typing import Iterator
 import numpy as np
 from importlib.metadata import PackageNotFoundError, version
 
@@ -24,25 +26,51 @@ def read_text(path, what: str, error=ValueError) -> str:
     """The text of a UTF-8 file (a leading byte-order mark is accepted).
 
     A missing, unreadable, binary or UTF-16 file raises ``error`` with one
-    line naming the file and the problem."""
+    line naming the file and the problem (:func:`text_lines`)."""
+    return "".join(text_lines(path, what, error))
+
+
+def text_lines(path, what: str, error) -> Iterator[str]:
+    """The lines of a UTF-8 text file, decoded one at a time."""
     path = Path(path)
     try:
-        data = path.read_bytes()
+        f = open(path, "rb")
     except IsADirectoryError:
         raise error(f"{what} {path} is a directory, not a file") from None
     except OSError as exc:
         raise error(f"cannot read {what} {path}: {exc.strerror or exc}") from None
-    if data.startswith(UTF8_BOM):
-        data = data[len(UTF8_BOM):]
-    if data[:2] in (b"\xff\xfe", b"\xfe\xff"):
-        raise error(f"{what} {path} is UTF-16 text; save it as UTF-8")
-    if b"\x00" in data:
-        raise error(f"{what} {path} is a binary file, not UTF-8 text")
-    try:
-        return data.decode("utf-8")
-    except UnicodeDecodeError as exc:
-        raise error(f"{what} {path} is not UTF-8 text (invalid byte at offset {exc.start})") \
-            from None
+    with f:
+        try:
+            head = f.read(4)
+            if head[:2] in (b"\xff\xfe", b"\xfe\xff"):
+                raise error(f"{what} {path} is UTF-16 text; save it as UTF-8")
+            start = len(UTF8_BOM) if head.startswith(UTF8_BOM) else 0
+            _check_text(f, start, f"{what} {path}", error)
+            f.seek(start)
+            for raw in f:
+                yield raw.decode("utf-8")
+        except OSError as exc:
+            raise error(f"cannot read {what} {path}: {exc.strerror or exc}") from None
+
+
+def _check_text(f, start: int, name: str, error, chunk: int = 1 << 20) -> None:
+    """Check a whole file is UTF-8 text, a block at a time, before any of it
+    is read as data (a binary file is named as one, wherever its bad byte)."""
+    decoder = codecs.getincrementaldecoder("utf-8")()
+    f.seek(start)
+    offset = 0   # counted from the text's start, after a byte-order mark
+    while True:
+        block = f.read(chunk)
+        if b"\x00" in block:
+            raise error(f"{name} is a binary file, not UTF-8 text")
+        try:
+            decoder.decode(block, final=not block)
+        except UnicodeDecodeError as exc:
+            raise error(f"{name} is not UTF-8 text (invalid byte at offset "
+                        f"{offset + exc.start})") from None
+        if not block:
+            return
+        offset += len(block)
 
 
 def _finite(obj):

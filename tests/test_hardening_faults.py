@@ -291,6 +291,30 @@ def test_a_resumed_study_keeps_each_row_once_and_replays_any_kept_row(tmp_path):
     assert rc == 0 and "replay of sample 2" in out and "matches the recorded result" in out
 
 
+def _bplir_with_solver(solver: str, cache, *argv):
+    """``bplir ARGV`` in a process of its own whose plan solver (and LQR
+    gains) is replaced: ``refuse`` (no solve may happen) or ``quick`` (a
+    1 s plan at rest instead of SNOPT's minute); ``BPLIR_CACHE_DIR`` is
+    ``cache``."""
+    import os
+
+    code = ("import sys\n"
+            "import numpy as np\n"
+            "from bplir_drake.diagrams import plan as P\n"
+            "def refuse(*a, **k):\n"
+            "    raise SystemExit('solved a shipped plan')\n"
+            "def quick(params, *a, **k):\n"
+            "    t = np.linspace(0.0, 1.0, 5)\n"
+            "    return P.SwingPlan(t, np.zeros((5, 4)), np.zeros(5), np.zeros((5, 2)), True,\n"
+            "                       True, 'stub', params.scenario.incline_deg, 20.0, 220.0, 1e-4)\n"
+            f"P._solve_plan = {solver}\n"
+            + ("P.plan_gains = refuse\n" if solver == "refuse" else "")
+            + "from bplir_drake.cli import main\n"
+            "sys.exit(main(sys.argv[1:]))\n")
+    return subprocess.run([sys.executable, "-c", code, *map(str, argv)], capture_output=True,
+                          text=True, timeout=180, env=dict(os.environ, BPLIR_CACHE_DIR=str(cache)))
+
+
 @pytest.mark.parametrize("where", ["/proc/bplir-no-such/cache", "a file"])
 def test_an_unusable_cache_directory_still_swings_on_the_shipped_plans(where, tmp_path):
     """Row 10 from the command line: with ``BPLIR_CACHE_DIR`` inside /proc or
@@ -298,44 +322,17 @@ def test_an_unusable_cache_directory_still_swings_on_the_shipped_plans(where, tm
     is solved: the solver is switched off in that process) and captures.
     (A file where the directory should be is unusable even to root, which
     a read-only directory is not.)"""
-    import os
-
     if where == "a file":
         where = tmp_path / "not-a-directory"
         where.write_text("")
-    code = ("import sys\n"
-            "from bplir_drake.diagrams import plan as P\n"
-            "def refuse(*a, **k):\n"
-            "    raise SystemExit('solved a shipped plan')\n"
-            "P._solve_plan = P.plan_gains = refuse\n"
-            "from bplir_drake.cli import main\n"
-            "sys.exit(main(sys.argv[1:]))\n")
-    p = subprocess.run([sys.executable, "-c", code, "swing", "--no-animation", "--json",
-                        "--out", str(tmp_path / "out")], capture_output=True, text=True,
-                       env=dict(os.environ, BPLIR_CACHE_DIR=str(where)), timeout=180)
+    p = _bplir_with_solver("refuse", where, "swing", "--no-animation", "--json",
+                           "--out", tmp_path / "out")
     assert p.returncode == 0, p.stderr
     assert '"outcome": "captured"' in p.stdout
 
 
-_STUBBED_SOLVER = (
-    "import sys\n"
-    "import numpy as np\n"
-    "from bplir_drake.diagrams import plan as P\n"
-    "def quick(params, *a, **k):   # a stand-in for SNOPT's minute: a 1 s plan at rest\n"
-    "    t = np.linspace(0.0, 1.0, 5)\n"
-    "    return P.SwingPlan(t, np.zeros((5, 4)), np.zeros(5), np.zeros((5, 2)), True, True,\n"
-    "                       'stub', params.scenario.incline_deg, 20.0, 220.0, 1e-4)\n"
-    "P._solve_plan = quick\n"
-    "from bplir_drake.cli import main\n"
-    "sys.exit(main(sys.argv[1:]))\n")
-
-
 def _plan_process(cache, out):
-    import os
-
-    return subprocess.run([sys.executable, "-c", _STUBBED_SOLVER, "plan", "--incline", "9",
-                           "--out", str(out)], capture_output=True, text=True, timeout=180,
-                          env=dict(os.environ, BPLIR_CACHE_DIR=str(cache)))
+    return _bplir_with_solver("quick", cache, "plan", "--incline", "9", "--out", out)
 
 
 def test_a_damaged_cached_plan_or_a_planted_link_does_not_stop_bplir_plan(tmp_path):

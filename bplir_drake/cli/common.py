@@ -57,12 +57,12 @@ def _with_settings(params, args):
         block, dot, name = key.strip().partition(".")
         if not (sep and dot and block and name):
             raise InputError(f"--set '{item}' must be block.field=value (e.g. plant.m2=1.6)")
-        if moved_field(block, name) != (block, name):
+        now = moved_field(block, name)
+        if now != (block, name):
             import warnings
 
-            new = ".".join(moved_field(block, name))
-            warnings.warn(f"--set {block}.{name} is now --set {new}", FutureWarning)
-            block, name = moved_field(block, name)
+            warnings.warn(f"--set {block}.{name} is now --set {'.'.join(now)}", FutureWarning)
+            block, name = now
         if block not in BLOCKS:
             raise ParameterError(f"--set {key}: unknown block '{block}'; allowed: "
                                  + ", ".join(BLOCKS))

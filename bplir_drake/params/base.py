@@ -158,6 +158,19 @@ class _Block:
     def _check(self) -> None:  # cross-field checks
         pass
 
+    def _check_plugin(self) -> None:
+        """The block's ``plugin`` spec and ``plugin_args`` (controller and
+        estimator blocks)."""
+        if not isinstance(self.plugin, str) or (self.plugin and not _is_plugin(self.plugin)):
+            raise ParameterError(
+                f"{self._name}.plugin = {self.plugin!r} must be 'module:factory' (a module "
+                "name or a .py file, a colon, a function returning a Drake system) or the "
+                "name of a registered plug-in")
+        plugin_arguments(self.plugin_args)
+        if self.plugin_args and not self.plugin:
+            raise ParameterError(f"{self._name}.plugin_args are given without "
+                                 f"{self._name}.plugin")
+
     def _one_of(self, name: str, allowed) -> None:
         """Refuse a text field whose value is not one of ``allowed``."""
         value = getattr(self, name)

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, fields, replace
-from .base import ParameterError, _Block, _count, _fraction, _is_plugin, plugin_arguments, _p, _positive
+from .base import ParameterError, _Block, _count, _fraction, _p, _positive
 import warnings
 import numpy as _np
 
@@ -105,18 +105,8 @@ class ControllerParams(_Block):
         super().__post_init__()
 
     def _check(self):
-        if not isinstance(self.plugin, str) or (self.plugin and not _is_plugin(self.plugin)):
-            raise ParameterError(
-                f"controller.plugin = {self.plugin!r} must be 'module:factory' (a module "
-                "name or a .py file, a colon, a function returning a Drake system) or the "
-                "name of a registered plug-in")
-        plugin_arguments(self.plugin_args)
-        if self.plugin_args and not self.plugin:
-            raise ParameterError(f"controller.plugin_args are given without controller.plugin")
-        if self.preset not in CONTROLLER_PRESETS:
-            raise ParameterError(
-                f"controller.preset = '{self.preset}' is unknown; allowed: "
-                + ", ".join(CONTROLLER_PRESETS))
+        self._check_plugin()
+        self._one_of("preset", CONTROLLER_PRESETS)
         if self.compute_latency >= self.period:
             raise ParameterError(
                 f"controller.compute_latency = {self.compute_latency:g} s must be shorter "

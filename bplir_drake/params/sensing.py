@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
-from .base import ParameterError, _Block, _count, _is_plugin, plugin_arguments, _length, _p, _positive
+from .base import ParameterError, _Block, _count, _length, _p, _positive
 
 
 # ---------------------------------------------------------------- IMU
@@ -87,18 +87,9 @@ class EstimatorParams(_Block):
         if self.r1 > self.l1:
             raise ParameterError(f"estimator.r1 = {self.r1:g} m exceeds estimator.l1 = "
                                  f"{self.l1:g} m; allowed (0, l1]")
-        if not isinstance(self.plugin, str) or (self.plugin and not _is_plugin(self.plugin)):
-            raise ParameterError(
-                f"estimator.plugin = {self.plugin!r} must be 'module:factory' (a module "
-                "name or a .py file, a colon, a function returning a Drake system) or the "
-                "name of a registered plug-in")
-        plugin_arguments(self.plugin_args)
-        if self.plugin_args and not self.plugin:
-            raise ParameterError(f"estimator.plugin_args are given without estimator.plugin")
+        self._check_plugin()
         for name in ("integration", "loop_integration"):
-            if getattr(self, name) not in ("euler", "trapezoid", "heun"):
-                raise ParameterError(f"estimator.{name} = '{getattr(self, name)}' is unknown; "
-                                     "allowed: euler, trapezoid, heun")
+            self._one_of(name, ("euler", "trapezoid", "heun"))
 
     r1: float = _length(0.5, doc="IMU 1 distance from joint 1 (filter geometry)")
     r2: float = _length(0.5, doc="IMU 2 distance from the elbow")

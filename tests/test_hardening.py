@@ -514,8 +514,9 @@ def test_shipped_plans_serve_a_fresh_install(monkeypatch, tmp_path):
     # on the line, the lines' 8, the quick benchmark's +-10 deg and 1.1 / 1.3 m swings,
     # custom_params.py's 1.15 m (at 1.1, 1.15 and 1.3 m also the solve started from the
     # 1.2 m plan, plan.warm_spacing), the 1.27 m plans of the warm start's test and
-    # the default swing with a 1.6 kg link 2 (the documented --set plant.m2=1.6)
-    assert len(shipped) == 26
+    # the default swing with a 1.6 kg link 2 (the documented --set plant.m2=1.6) and the
+    # flat-line swing tried again from hanging (the traversal's recovery)
+    assert len(shipped) == 27
     monkeypatch.setenv("BPLIR_CACHE_DIR", str(tmp_path))
 
     def no_solve(*a, **k):
@@ -556,7 +557,7 @@ def test_shipped_plans_serve_a_fresh_install(monkeypatch, tmp_path):
 def test_shipped_gains_serve_the_tests_plans(monkeypatch, tmp_path):
     """The LQR gains of the plans the tests and the quick start track (the
     +-20 deg swings, the horizontal one of plan tracking, and both robots on
-    the flat example line) ship too: with
+    the flat example line, and its try from hanging) ship too: with
     an empty cache they are read, never solved, and every shipped gains
     file belongs to a shipped plan."""
     import dataclasses as dc
@@ -581,6 +582,8 @@ def test_shipped_gains_serve_the_tests_plans(monkeypatch, tmp_path):
     heavy = base.with_(plant=dc.replace(base.plant, m2=1.6))   # --set plant.m2=1.6
     cases = [up, down, flat, heavy] + [swing_params(base, g, base.traverse.grip_spacing, 0.0)
                                        for g in (1, 2)] + _quick_benchmark_swings()
+    from bplir_drake.analysis.traverse.recovery import retry_params
+    cases.append(retry_params(cases[4]))   # the flat swing tried again from hanging
     keys = set()
     for p in cases:
         plan, gains = P.tracking_plan(p)

@@ -103,3 +103,40 @@ def build_sensor_swing(params: BplirParams, x0_estimate=(0.0, 0.0, 0.0, 0.0), *,
     return Built(diagram, plant, systems, loggers, params)
 
 
+
+
+def build_damping(params: BplirParams, kp: float, kd: float, lean: float = 0.0, *,
+                  log_period: float = 0.01) -> Built:
+    """The robot hanging from its holding gripper after a swing that did not
+    arrive, its elbow draining the swing: ``tau = kp (lean q1' - q2) - kd
+    q2'`` (Drake's ``PidController`` on the elbow encoder's angle and rate,
+    aiming the elbow against the shoulder's swing), within the torque of the
+    driver's continuous current (a ``Saturation``: the law's torques stay
+    small and slow, so the dead-band, the current loop and the voltage
+    envelope are left out).  The simulated plant with its friction; only
+    C++ systems.  Loggers ``state`` and ``torque``."""
+    from pydrake.systems.controllers import PidController
+    from pydrake.systems.primitives import MatrixGain, Saturation
+
+    builder = DiagramBuilder()
+    plant, fr = add_plant_with_friction(builder, params.simulated_plant,
+                                        params.simulated_friction)
+    encoder = builder.AddNamedSystem("elbow_encoder", MatrixGain(
+        [[0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0]]))
+    aim = builder.AddNamedSystem("aim", MatrixGain([[0.0, 0.0, lean, 0.0], [0.0] * 4]))
+    pd = builder.AddNamedSystem("damping", PidController([kp], [0.0], [kd]))
+    m = params.motor
+    limit = min(m.torque_limit, params.controller.torque_limit, m.torque_per_amp * m.i_cont)
+    sat = builder.AddNamedSystem("driver", Saturation([-limit], [limit]))
+    state = plant.get_state_output_port()
+    builder.Connect(state, encoder.get_input_port(0))
+    builder.Connect(state, aim.get_input_port(0))
+    builder.Connect(encoder.get_output_port(0), pd.get_input_port_estimated_state())
+    builder.Connect(aim.get_output_port(0), pd.get_input_port_desired_state())
+    builder.Connect(pd.get_output_port_control(), sat.get_input_port())
+    builder.Connect(sat.get_output_port(), plant.get_actuation_input_port())
+    loggers = {"state": LogVectorOutput(state, builder, log_period),
+               "torque": LogVectorOutput(sat.get_output_port(), builder, log_period)}
+    diagram = builder.Build()
+    diagram.set_name("damping")
+    return Built(diagram, plant, {"friction": fr, "damping": pd}, loggers, params)

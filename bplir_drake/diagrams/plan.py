@@ -42,7 +42,7 @@ from ..io import Result
 from .plan_plot import (  # noqa: F401 (re-exported)
     plot_plan)
 from .open_loop import build_plant_with_friction
-from ..systems.plant import initial_configuration
+from ..systems.plant import initial_configuration, start_configuration
 from .plan_cache import cached
 from ..systems.friction import friction_torques
 from ..progress import progress_bar
@@ -194,8 +194,8 @@ def plan_swing(params: BplirParams, *, power_limit: float | None = None, knots: 
     if not 0.0 <= end_depth < params.scenario.capture_distance:
         raise ParameterError(f"end depth = {end_depth:g} m is out of range; allowed "
                              f"[0, {params.scenario.capture_distance:g}) m (the capture band)")
-    q0 = initial_configuration(params.scenario.grip_spacing, params.plant,
-                               math.radians(params.scenario.incline_deg))
+    q0 = start_configuration(params.scenario.start, params.scenario.grip_spacing, params.plant,
+                             math.radians(params.scenario.incline_deg))
     qT = planned_target(params, end_depth)
     m = params.motor
     tau_max = min(params.controller.torque_limit, m.torque_limit, m.torque_per_amp * m.i_peak)
@@ -344,6 +344,11 @@ def _solve_plan(params, q0, qT, tau_max, power, tmax, knots, time_weight, guess_
 #: constraint tolerance and 1.0 s does not)
 PLAN_GUESSES = (1.5, 1.0, 2.0)
 
+#: the same for a swing from hanging at rest (``scenario.start``): it pumps
+#: (link 1 reverses) before it reaches, about 3 s, on more knots
+HANGING_GUESSES = (3.0, 2.5, 4.0)
+HANGING_KNOTS = 61
+
 
 def tracking_plan(params: BplirParams):
     """(plan, tracking gains) for the scenario of ``params``: the plan of
@@ -363,17 +368,21 @@ def scenario_plan(params: BplirParams) -> SwingPlan:
     :meth:`SwingPlan.objective`.  The straight-line guesses alone end in
     other local optima at 1.27 m on the horizontal line (link 1 reversing
     four times, 2.3 times the cost; its neighbours reverse twice) and at
-    1.1 m on the -20 deg line (4.2 times the cost)."""
+    1.1 m on the -20 deg line (4.2 times the cost).  A swing from hanging
+    (``scenario.start``) tries :data:`HANGING_GUESSES` on
+    :data:`HANGING_KNOTS` knots, with no warm start."""
     sc, depth, step = params.scenario, params.plan.end_depth, params.plan.spacing_step
     if step > 0:   # the measured spacing on the plans' grid
         spacing = round(round(sc.grip_spacing / step) * step, 9)
         params = params.with_(scenario=replace(sc, grip_spacing=spacing))
-    for guess in PLAN_GUESSES:   # SNOPT sometimes stops just outside the tolerance
-        plan = plan_swing(params, end_depth=depth, guess_duration=guess)
+    hanging = params.scenario.start == "hanging"
+    for guess in HANGING_GUESSES if hanging else PLAN_GUESSES:   # SNOPT sometimes stops
+        plan = plan_swing(params, end_depth=depth, guess_duration=guess,   # just outside
+                          knots=HANGING_KNOTS if hanging else 41)   # the tolerance
         if plan.feasible:
             break
     warm = params.plan.warm_spacing
-    if warm > 0 and abs(params.scenario.grip_spacing - warm) > 1e-9:
+    if warm > 0 and not hanging and abs(params.scenario.grip_spacing - warm) > 1e-9:
         ref = scenario_plan(params.with_(scenario=replace(params.scenario, grip_spacing=warm)))
         started = plan_swing(params, end_depth=depth, initial=ref)
         if started.feasible and (not plan.feasible or started.objective() < plan.objective()):

@@ -38,7 +38,7 @@ import numpy as np
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import LogVectorOutput, ZeroOrderHold
 
-from ..params import BplirParams, ScenarioParams, to_dict
+from ..params import BplirParams, ParameterError, ScenarioParams, to_dict
 from ..systems.controller import CpflController
 from ..systems.disturbance import (CommandDelay, DisturbanceSource, delay_steps,
                                    disturbance_schedule, has_disturbance)
@@ -55,7 +55,7 @@ from .swing_controller import (  # noqa: F401 (re-exported)
     add_swing_controller)
 from ..systems.gripper import GripperInterlock, LineGeometry
 from ..systems.path import PathGeometry
-from ..systems.plant import initial_configuration, target_configuration
+from ..systems.plant import start_configuration, target_configuration
 from .plugin import make_plugin
 from .plan import tracking_plan
 
@@ -82,7 +82,7 @@ def swing_geometry(params: BplirParams):
     sc = params.scenario
     alpha = math.radians(sc.incline_deg)
     true_p = params.simulated_plant
-    q0 = initial_configuration(sc.grip_spacing, true_p, alpha)
+    q0 = start_configuration(sc.start, sc.grip_spacing, true_p, alpha)
     qT = target_configuration(sc.grip_spacing, true_p, alpha)
     believed_start(params)  # the robot's own start pose: validates the scenario for the model too
     pg = PathGeometry.from_scenario(params.plant, sc.grip_spacing, alpha, sc.capture_distance)
@@ -164,13 +164,15 @@ def add_robot(builder, params: BplirParams, seed: int) -> Robot:
 
 
 def believed_start(params: BplirParams) -> np.ndarray:
-    """The start pose the robot computes: both grippers on the line at the
-    scenario's grip spacing, with the *nominal* link lengths (rad).  The
+    """The start pose the robot computes (``scenario.start``): both grippers
+    on the line at the scenario's grip spacing, with the *nominal* link
+    lengths (rad), or hanging at rest below the holding gripper.  The
     simulated robot starts at the pose of its true lengths
     (:func:`swing_geometry`), a few mrad away with 2 mm length errors."""
 
     sc = params.scenario
-    return initial_configuration(sc.grip_spacing, params.plant, math.radians(sc.incline_deg))
+    return start_configuration(sc.start, sc.grip_spacing, params.plant,
+                               math.radians(sc.incline_deg))
 
 
 def standstill_calibration(params: BplirParams, q0, seed: int) -> ImuCalibration:
@@ -191,7 +193,7 @@ def standstill_calibration(params: BplirParams, q0, seed: int) -> ImuCalibration
     samples = standstill_samples(params.imu, theta, params.simulated_plant.g, seed, n)
     believed = absolute_from_relative(np.asarray(believed_start(params)[:2], dtype=float))
     calibration = calibrate_standstill(samples, believed, params.estimator.g)
-    if params.line_sensor.range > 0:   # the free gripper holds the line: the gap is 0
+    if params.line_sensor.range > 0 and params.scenario.start == "line":   # the gap is 0
         offset = float(np.mean(standstill_readings(params.line_sensor, seed, n)))
         calibration = replace(calibration, line_offset=offset)
     return calibration
@@ -333,6 +335,9 @@ def build_swing(params: BplirParams, *, seed: int | None = None, use_estimator: 
     if controller is not None and params.path.mode == "auto":   # a user's controller
         params = params.with_(path=replace(params.path, mode="adaptive"))
     params = params.resolved()   # path.mode "auto" made concrete
+    if params.scenario.start != "line" and (controller is not None or params.path.mode != "plan"):
+        raise ParameterError(f"scenario.start = '{params.scenario.start}' needs plan tracking "
+                             "(path.mode = 'plan'): the other controllers start on the line")
     if plan_gains is None and controller is None and params.path.mode == "plan":
 
         plan_gains = tracking_plan(params)[1]   # the nominal model and the scenario only

@@ -2,11 +2,15 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from .base import ParameterError, _Block, _fraction, _p, _positive
+from .base import ParameterError, _Block, _count, _fraction, _p, _positive
 from .plan import LANDING_LAWS
 
 
 # ---------------------------------------------------------------- scenario
+#: where a swing starts (``scenario.start``)
+SWING_STARTS = ("line", "hanging")
+
+
 @dataclass(frozen=True)
 class ScenarioParams(_Block):
     """One swing: geometry of the line, thresholds of success, noise seeds."""
@@ -30,8 +34,10 @@ class ScenarioParams(_Block):
     seed: int = field(default=0, metadata=dict(doc="seed of the swing's random draws (sensor noise, gusts, the simulated friction)", allowed="[0, 2^32)"))
     use_estimator: bool = field(default=True, metadata=dict(doc="the controller reads the EKF's estimate (false: the true state sampled at its tick)"))
     wall_limit: float = _p(300.0, "s", 0, 86400, lo_open=True, doc="wall-clock time one swing may take before it is stopped as a fault (a hung plug-in); not physics")
+    start: str = field(default="line", metadata=dict(doc="where the swing starts: line (both grippers on the line) or hanging (at rest below the holding gripper; plan tracking only)", allowed="line, hanging"))
 
     def _check(self):
+        self._one_of("start", SWING_STARTS)
         if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
             raise ParameterError(
                 f"scenario.seed = {self.seed!r} must be a whole number >= 0")
@@ -85,6 +91,13 @@ class TraverseParams(_Block):
     rest: bool = field(default=True, metadata=dict(doc="rest before a swing until the driver's i^2 t state allows the planned swing"))
     i2t_margin: float = _p(0.2, "", 0, 0.9, doc="share of the driver's i^2 t budget a swing may not use: the planner rests until the planned swing keeps this share free")
     max_incline_deg: float = _p(25.0, "deg", 0, 60, doc="steepest line incline accepted in a line file")
+    retries: int = _count(2, "", 0, 5, doc="swings tried again after a timeout, each from hanging at rest (0: a timeout ends the traversal)")
+    retry_max_time: float = _p(6.0, "s", 1, 60, doc="scenario.max_time of a swing tried again from hanging (it pumps before it reaches)")
+    recover_limit: float = _p(240.0, "s", 1, 3600, doc="longest the robot damps its swing after a timeout before it gives up")
+    recover_energy: float = _p(0.05, "J", 0, 10, lo_open=True, doc="the swing counts as damped when its energy above hanging at rest is below this")
+    recover_kp: float = _p(20.0, "N m/rad", 0, 1000, doc="stiffness of the elbow's damping law tau = kp (lean q1' - q2) - kd q2'")
+    recover_kd: float = _p(3.0, "N m s/rad", 0, 1000, doc="damping of the elbow's damping law")
+    recover_lean: float = _p(-0.3, "s", -2, 2, doc="elbow angle per shoulder rate the damping law aims at (it bends the elbow against the swing)")
 
     def _check(self):
         self._one_of("swapped_landing_law", LANDING_LAWS)

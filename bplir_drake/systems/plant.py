@@ -170,6 +170,16 @@ def initial_configuration(grip_spacing: float, p: PlantParams,
     return np.array([q1 + incline, q2])
 
 
+def start_configuration(start: str, grip_spacing: float, p: PlantParams,
+                        incline: float = 0.0) -> np.ndarray:
+    """The swing's start pose for ``scenario.start``: ``"line"`` both
+    grippers on the line (:func:`initial_configuration`), ``"hanging"`` at
+    rest straight below the holding gripper (q1 = q2 = 0, whatever the
+    incline; the grip spacing and the links are still checked)."""
+    q = initial_configuration(grip_spacing, p, incline)
+    return q if start == "line" else np.zeros(2)
+
+
 def target_configuration(grip_spacing: float, p: PlantParams,
                          incline: float = 0.0) -> np.ndarray:
     """Mirror configuration (7.1) about the line's normal through the pivot."""

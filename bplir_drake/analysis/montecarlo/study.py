@@ -25,7 +25,7 @@ RESULT_FIELDS = ("outcome", "success", "swing_time_s", "capture_distance_m", "ca
                  "peak_voltage_V", "on_envelope_s")
 #: traversal summary fields kept per sample of a traversal study (the worst
 #: swing's figures under the swing fields' names)
-TRAVERSE_FIELDS = ("outcome", "success", "obstacles_passed", "swings", "failed_swing",
+TRAVERSE_FIELDS = ("outcome", "success", "obstacles_passed", "swings", "retries", "failed_swing",
                    "time_s", "distance_m", "speed_m_per_min", "energy_J", "energy_per_m_J",
                    "rest_time_s", "capture_speed_mps", "peak_capture_impulse_Ns",
                    "swing_time_s", "peak_torque_Nm", "peak_motor_power_W", "energy_in_J",

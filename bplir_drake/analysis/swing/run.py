@@ -131,8 +131,12 @@ class SwingRunner:
 
     def run(self, params: BplirParams, *, seed: int | None = None,
             use_estimator: bool | None = None, accuracy: float = SWING_ACCURACY,
-            integrator: str = SWING_INTEGRATOR, driver_state=None) -> SwingResult:
-        """One swing; the arguments are those of :func:`run_swing`."""
+            integrator: str = SWING_INTEGRATOR, driver_state=None,
+            start_state=None) -> SwingResult:
+        """One swing; the arguments are those of :func:`run_swing`;
+        ``start_state`` (q1, q2, q1', q2'): the simulated robot starts there
+        instead of at rest in its start pose (the robot still believes it
+        starts at rest in :func:`~bplir_drake.diagrams.swing.believed_start`)."""
         params = params.resolved()   # path.mode "auto" made concrete
         sc = params.scenario
         seed = sc.seed if seed is None else int(seed)
@@ -148,7 +152,8 @@ class SwingRunner:
             if driver_state is not None:
                 driver.set_interlock_state(driver.GetMyMutableContextFromRoot(ctx), *driver_state)
 
-        sim = make_simulator(built, built.q0, accuracy=accuracy, integrator=integrator,
+        x0 = np.r_[built.q0, 0.0, 0.0] if start_state is None else np.asarray(start_state, float)
+        sim = make_simulator(built, x0[:2], x0[2:], accuracy=accuracy, integrator=integrator,
                              set_context=set_context)
         h0 = driver.interlock_state(driver.GetMyContextFromRoot(sim.get_context()))
         run_until_outcome(sim, built, sc.max_time, sc.wall_limit, f"the swing of seed {seed}")

@@ -18,7 +18,7 @@ ROW_FIELDS = ("index", "kind", "obstacle", "holding_gripper", "robot", "t_start_
               "hold_m", "from_m", "to_m", "incline_deg", "outcome", "capture_speed_mps",
               "capture_impulse_Ns", "effective_mass_kg", "peak_torque_Nm", "peak_power_W",
               "peak_voltage_V", "energy_J", "i2t_start_A2s", "i2t_end_A2s", "landing_bias_m",
-              "landing_height_error_m", "seed")
+              "landing_height_error_m", "seed", "attempt")
 
 
 @dataclass

@@ -31,17 +31,18 @@ import numpy as np
 
 from ...params import BplirParams, swapped
 from ...systems.drive import ride
-from ...systems.motor import i2t_after_rest, i2t_trace, interlock_budget, rest_for
+from ...systems.motor import i2t_after_rest, i2t_trace, rest_for
 from ...systems.plant import initial_configuration, swapped_state, target_configuration
 from ...io import Result
 from .line import Line
 from .route import hold_position, plan_route
+from .recovery import can_retry, damp, damping_drive, retry_params
 from .swing_setup import (  # noqa: F401 (re-exported)
     swing_params, learnt_landing, budgeted_currents, capture_impulse)
 from .result import (  # noqa: F401 (re-exported)
     OUTCOMES, ROW_FIELDS, Segment, TraverseResult)
 from .tables import (  # noqa: F401 (re-exported)
-    TABLE_COLUMNS, _cell, manoeuvre_table, totals_lines, write_rows_csv)
+    TABLE_COLUMNS, _cell, manoeuvre_table, totals_lines, traverse_totals, write_rows_csv)
 from ..swing.run import SwingRunner, draw_true_friction
 from ...diagrams.plan import tracking_plan
 from ...progress import progress_bar
@@ -51,9 +52,10 @@ from ...systems.plant import gripper_position
 class _Traversal:
     """The state carried from manoeuvre to manoeuvre."""
 
-    def __init__(self, line: Line, params: BplirParams, seed: int, runners=None):
+    def __init__(self, line: Line, params: BplirParams, seed: int, runners=None, adjust=None):
 
         self.line, self.params, self.seed = line, params, seed
+        self.adjust = adjust
         self.runners = runners if runners is not None else {1: SwingRunner(), 2: SwingRunner()}
         self.t = 0.0
         self.h, self.tripped = 0.0, False
@@ -185,24 +187,26 @@ class _Traversal:
         self.rest(need - calib, obstacle)
         self.rest(calib, obstacle, kind="calibrate")
 
+    def _pose_track(self, states, hold: float, hold_g: int, sim_p):
+        """(q, base) for the figures of a motion of the robot holding with
+        gripper ``hold_g`` at ``hold``: the original robot's angles and
+        gripper 1's pose."""
+        hb = self._base(hold)
+        states = np.atleast_2d(states)
+        if hold_g == 1:
+            return states[:, :2], np.repeat(hb[None, :], len(states), axis=0)
+        q = np.array([swapped_state(x[:2]) for x in states])
+        gp = np.array([gripper_position(x[:2], sim_p.l1, sim_p.l2) for x in states])
+        return q, hb[None, :] + np.column_stack([gp, np.zeros(len(states))])
+
     def _record_motion(self, res, p, hold: float, hold_g: int):
         """Add a swing's motion (in the original robot's angles), current and
         i^2 t trace to the figures' segments and its energy to the totals;
         (times, electrical energy J, standby energy J, duration s)."""
         st = res.logs["state"]
-        sim_p = p.simulated_plant
         motor = self.params.motor
-        # motion for the figures: back to the original robot's angles, gripper 1's pose
-        hb = self._base(hold)
         t = self.t + st.t
-        if hold_g == 1:
-            q = st.data[:, :2]
-            base = np.repeat(hb[None, :], len(t), axis=0)
-        else:
-            q = np.array([swapped_state(x[:2]) for x in st.data])
-
-            gp = np.array([gripper_position(x[:2], sim_p.l1, sim_p.l2) for x in st.data])
-            base = hb[None, :] + np.column_stack([gp, np.zeros(len(t))])
+        q, base = self._pose_track(st.data, hold, hold_g, p.simulated_plant)
         cur = res.logs["current"].at(st.t)[:, 0]
         # the driver's rule on its own ticks, for the figures (the driver's
         # state is what the traversal carries)
@@ -220,60 +224,127 @@ class _Traversal:
         return t, elec, standby, duration
 
     def swing(self, obstacle: str) -> bool:
-        """The rear gripper swings past the front one; True when it landed clear."""
+        """The rear gripper swings past the front one; True when it landed
+        clear.  A swing that times out is tried again from hanging, after
+        the robot has damped its swing (:mod:`.recovery`), up to
+        ``traverse.retries`` times."""
         tp = self.params.traverse
         hold_g = self.front_gripper
-        swing_g = 3 - hold_g
         hold, start = self.front, self.rear
         spacing, _ = self.line.chord(start, hold)
-        target = hold + tp.grip_spacing
-        _, inc = self.line.chord(start, min(target, self.line.length))
+        _, inc = self.line.chord(start, min(hold + tp.grip_spacing, self.line.length))
         p = learnt_landing(swing_params(self.params, hold_g, spacing, inc),
                            self.landing_errors[hold_g])
         self._rest_before(p, obstacle)
+        x_start, attempt = None, 1
+        while True:
+            s, x_end = self._attempt(p, obstacle, attempt, x_start)
+            if s["outcome"] != "timeout" or s["driver_tripped"] or attempt > tp.retries:
+                break
+            if not can_retry(retry_params(p)):
+                self._row("recover", 0.0, obstacle=obstacle, holding_gripper=str(hold_g),
+                          hold_m=hold, outcome="no plan from hanging")
+                break
+            x_start = self._recover(p, obstacle, x_end)
+            if x_start is None:
+                break
+            p, attempt = retry_params(p), attempt + 1
+        return self._land(s, obstacle, hold, spacing)
+
+    def _attempt(self, p, obstacle: str, attempt: int, x_start):
+        """One try of the swing ``p`` (from ``x_start``, the state after a
+        recovery, or its start pose); (summary, last state)."""
+        hold_g, hold, start = self.front_gripper, self.front, self.rear
         seed = int(np.random.SeedSequence([self.seed, self.swings]).generate_state(
             1, dtype=np.uint32)[0])
+        run_p = p if self.adjust is None else self.adjust(self.swings, attempt, p)
         self.swings += 1
-        res = self.runners[hold_g].run(p, seed=seed, driver_state=(self.h, self.tripped))
+        res = self.runners[hold_g].run(run_p, seed=seed, driver_state=(self.h, self.tripped),
+                                       start_state=x_start)
         s = res.summary
-        st = res.logs["state"]
-        sim_p = p.simulated_plant
-        x_end = st.data[-1]
+        x_end = res.logs["state"].data[-1]
+        sim_p = run_p.simulated_plant
         impulse, m_eff = (capture_impulse(x_end[:2], x_end[2:], sim_p) if s["success"]
                           else (math.nan, math.nan))
-        t, elec, standby, duration = self._record_motion(res, p, hold, hold_g)
+        t, elec, standby, duration = self._record_motion(res, run_p, hold, hold_g)
         h0 = self.h
         self.h, self.tripped = s["i2t_end_A2s"], s["driver_tripped_end"]
         self.est_err = float(np.nanmax([self.est_err, s["max_estimation_error_rad"]]))
         self.fixed_open = self.fixed_open or (s["fixed_gripper_open"] and not s["success"])
+        spacing, _ = self.line.chord(start, hold)
         landed = hold + s["travel_m"] - spacing if s["success"] else math.nan
-        row = self._row("swing", duration, obstacle=obstacle, holding_gripper=str(hold_g),
-                        robot="original" if hold_g == 1 else "swapped", hold_m=hold,
-                        from_m=start, to_m=landed, incline_deg=math.degrees(inc),
-                        outcome=s["outcome"], capture_speed_mps=s["capture_speed_mps"],
-                        capture_impulse_Ns=impulse, effective_mass_kg=m_eff,
-                        peak_torque_Nm=s["peak_torque_Nm"], peak_power_W=s["peak_motor_power_W"],
-                        peak_voltage_V=s.get("peak_voltage_V", math.nan),
-                        energy_J=elec + standby, i2t_start_A2s=h0, i2t_end_A2s=self.h,
-                        landing_bias_m=p.landing.landing_bias,
-                        landing_height_error_m=s["landing_height_error_m"], seed=seed)
-        if s["success"]:
-            self.landing_errors[hold_g].append(s["landing_height_error_m"])
+        self._row("swing", duration, obstacle=obstacle, holding_gripper=str(hold_g),
+                  robot="original" if hold_g == 1 else "swapped", hold_m=hold,
+                  from_m=start, to_m=landed, incline_deg=p.scenario.incline_deg,
+                  outcome=s["outcome"], capture_speed_mps=s["capture_speed_mps"],
+                  capture_impulse_Ns=impulse, effective_mass_kg=m_eff,
+                  peak_torque_Nm=s["peak_torque_Nm"], peak_power_W=s["peak_motor_power_W"],
+                  peak_voltage_V=s.get("peak_voltage_V", math.nan),
+                  energy_J=elec + standby, i2t_start_A2s=h0, i2t_end_A2s=self.h,
+                  landing_bias_m=p.landing.landing_bias,
+                  landing_height_error_m=s["landing_height_error_m"], seed=seed,
+                  attempt=attempt)
         self.t += duration
-        # the swinging gripper opened at the start, closes at capture
-        self.holds.append((swing_g, self.closed[swing_g], t[0]))
-        self._unclamp(swing_g, t[0])
+        if attempt == 1:   # the swinging gripper opened at the start, closes at capture
+            self.holds.append((3 - hold_g, self.closed[3 - hold_g], t[0]))
+            self._unclamp(3 - hold_g, t[0])
+        return s, x_end
+
+    def _recover(self, p, obstacle: str, x_end):
+        """Damp the swing hanging from the holding gripper, then calibrate
+        the IMUs hanging at rest; the state to try again from (None: the
+        swing could not be damped)."""
+        hold_g, hold = self.front_gripper, self.front
+        d = damp(p, x_end)
+        motor = self.params.motor
+        q, base = self._pose_track(d.states, hold, hold_g, p.simulated_plant)
+        h0 = self.h
+        cur, h, elec = damping_drive(d, motor, h0)
+        self.segments.append(_seg(self.t + d.t, q, base, d.torque, cur, h))
+        self.h = float(h[-1]) if len(h) else h0
+        standby = self.params.drive.standby_power * d.duration
+        self.energy["swing"] += elec
+        self.energy["standby"] += standby
+        self._row("recover", d.duration, obstacle=obstacle, holding_gripper=str(hold_g),
+                  hold_m=hold, outcome="damped" if d.damped else "not damped",
+                  energy_J=elec + standby, i2t_start_A2s=h0, i2t_end_A2s=self.h)
+        self.t += d.duration
+        if not d.damped:
+            return None
+        calib = p.estimator.standstill_samples * p.imu.period
+        if calib > 0:   # the standstill calibration, hanging at rest
+            tt = self.t + np.array([0.0, calib])
+            qh, bh = self._pose_track(np.repeat(d.state[None, :], 2, axis=0), hold, hold_g,
+                                      p.simulated_plant)
+            self.segments.append(_seg(tt, qh, bh, np.zeros(2), np.zeros(2),
+                                      np.full(2, self.h)))
+            h0, self.h = self.h, i2t_after_rest(self.h, calib, motor)
+            standby = self.params.drive.standby_power * calib
+            self.energy["standby"] += standby
+            self._row("calibrate", calib, obstacle=obstacle, holding_gripper=str(hold_g),
+                      energy_J=standby, i2t_start_A2s=h0, i2t_end_A2s=self.h, outcome="done")
+            self.t += calib
+        return d.state
+
+    def _land(self, s, obstacle: str, hold: float, spacing: float) -> bool:
+        """After the last try: stop the traversal, or clamp the landed gripper."""
+        tp = self.params.traverse
+        swing_g = 3 - self.front_gripper
+        row = self.rows[-1] if self.rows[-1]["kind"] == "swing" else None
         if s["driver_tripped"]:
             self.outcome = "driver trip"
             return False
         if not s["success"]:
             self.outcome = f"swing {s['outcome']}"
             return False
+        landed = hold + s["travel_m"] - spacing
         hit = self.line.obstacle_at(landed, tp.gripper_width / 2)
         if hit is not None or landed > self.line.length:
-            row["outcome"] = "landed on obstacle"
+            if row is not None:
+                row["outcome"] = "landed on obstacle"
             self.outcome = "landed on obstacle"
             return False
+        self.landing_errors[self.front_gripper].append(s["landing_height_error_m"])
         self.closed[swing_g] = self.t
         self.clamp[swing_g] = (landed, self.t)
         self.pos[swing_g] = landed
@@ -288,39 +359,7 @@ class _Traversal:
             if not (stopped and g != self.front_gripper):   # a failed swing's gripper stays open
                 self.holds.append((g, self.closed[g], math.inf))
                 self._unclamp(g, math.inf)
-        swings = [r for r in self.rows if r["kind"] == "swing"]
-        rides = [r for r in self.rows if r["kind"] in ("ride", "adjust")]
-        energy = sum(self.energy.values())
-        dist = max(self.rear - (self.line.start - self.params.traverse.grip_spacing), 0.0)
-        peak_i2t = max([r["i2t_end_A2s"] for r in self.rows] + [0.0])
-        failed = [i for i, r in enumerate(swings) if r["outcome"] != "captured"]
-        speeds = [r["capture_speed_mps"] for r in swings if r["outcome"] == "captured"]
-        return {
-            "failed_swing": failed[0] if failed else math.nan,
-            "capture_speed_mps": max(speeds) if speeds else math.nan,
-            "peak_torque_Nm": max([r["peak_torque_Nm"] for r in swings] + [0.0]),
-            "peak_motor_power_W": max([r["peak_power_W"] for r in swings] + [0.0]),
-            "peak_voltage_V": max([r["peak_voltage_V"] for r in swings] + [0.0]),
-            "max_estimation_error_rad": self.est_err,
-            "fixed_gripper_open": self.fixed_open,
-            "outcome": self.outcome, "success": self.outcome == "passed",
-            "obstacles": len(self.line.obstacles),
-            "obstacles_passed": sum(1 for r in swings if r["outcome"] == "captured") // 2,
-            "swings": len(swings), "distance_m": dist, "time_s": self.t,
-            "swing_time_s": sum(r["duration_s"] for r in swings),
-            "ride_time_s": sum(r["duration_s"] for r in rides),
-            "rest_time_s": sum(r["duration_s"] for r in self.rows if r["kind"] == "rest"),
-            "calibration_time_s": sum(r["duration_s"] for r in self.rows
-                                      if r["kind"] == "calibrate"),
-            "speed_m_per_min": 60.0 * dist / self.t if self.t > 0 else math.nan,
-            "energy_J": energy, "energy_ride_J": self.energy["ride"],
-            "energy_swing_J": self.energy["swing"], "energy_standby_J": self.energy["standby"],
-            "energy_per_m_J": energy / dist if dist > 0 else math.nan,
-            "peak_capture_impulse_Ns": max([r["capture_impulse_Ns"] for r in swings
-                                            if not math.isnan(r["capture_impulse_Ns"])] + [0.0]),
-            "peak_i2t_A2s": peak_i2t, "i2t_budget_A2s": interlock_budget(self.params.motor),
-            "seed": self.seed,
-        }
+        return traverse_totals(self)
 
 
 def _seg(t, q, base, torque, current, i2t) -> Segment:
@@ -329,18 +368,21 @@ def _seg(t, q, base, torque, current, i2t) -> Segment:
 
 
 def run_traverse(line: Line, params: BplirParams, *, seed: int = 0, progress: bool = False,
-                 runners=None) -> TraverseResult:
+                 runners=None, adjust=None) -> TraverseResult:
     """Cross ``line`` with the robot of ``params``; stops at the first
     failure.  ``seed``: the simulated robot's friction (drawn once, within
     ``scenario.friction_uncertainty``, unless ``true_friction`` is set) and
     every swing's sensor noise and disturbances (a seed per swing, recorded
     in its row).  ``runners``: ``{1: SwingRunner, 2: SwingRunner}`` to reuse
-    built diagrams across traversals.  Raises :class:`~.line.LineError`
+    built diagrams across traversals.  ``adjust(swing, attempt, params)``
+    returns the parameters one try of a swing runs with (``swing`` counts
+    every try from 0, ``attempt`` from 1): a disturbance on one swing, say.
+    Raises :class:`~.line.LineError`
     when the line cannot be crossed (checked before any simulation)."""
 
     plan_route(line, params)   # the whole line is crossable on paper
     params = draw_true_friction(params, seed)   # one robot for the whole traversal
-    tr = _Traversal(line, params, seed, runners)
+    tr = _Traversal(line, params, seed, runners, adjust)
     tp = params.traverse
     D = tp.grip_spacing
 

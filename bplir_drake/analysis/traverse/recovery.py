@@ -1,0 +1,105 @@
+"""After a swing that did not arrive (a timeout): the robot hangs from its
+holding gripper, drains the swing with the elbow until it hangs at rest,
+and swings again from there.
+
+:func:`damp` simulates the hanging robot (the true plant and friction)
+under the elbow's damping law of :func:`~bplir_drake.diagrams.open_loop.
+build_damping` (``traverse.recover_kp``, ``recover_kd``, ``recover_lean``)
+from the state the timed-out swing ended in, in steps of a second, until
+the energy above hanging at rest falls below ``traverse.recover_energy``
+(damped) or ``traverse.recover_limit`` has passed, or the energy grows
+beyond where it began (the law pumping instead of draining: given up).
+:func:`retry_params` is the swing tried again: from hanging
+(``scenario.start``), with ``traverse.retry_max_time``.
+"""
+from __future__ import annotations
+
+import dataclasses as dc
+from dataclasses import dataclass
+
+import numpy as np
+
+from ...params import BplirParams, ParameterError
+from ...diagrams.plan import scenario_plan
+from ...simulate import make_simulator, run
+from ...systems.plant import kinetic_energy, potential_energy
+from ...diagrams.open_loop import build_damping
+
+
+@dataclass
+class Damping:
+    """The damping after a timeout: ``damped`` (came to rest within the
+    limit), its duration (s), the energy above hanging at rest at its start
+    and end (J), the state it ended in and its logs (times, states, torque)."""
+
+    damped: bool
+    duration: float
+    energy_start: float
+    energy_end: float
+    state: np.ndarray
+    t: np.ndarray
+    states: np.ndarray
+    torque: np.ndarray
+
+
+def swing_energy(x, p) -> float:
+    """Energy (J) of the state ``x`` above hanging at rest, robot ``p``."""
+    q, v = np.asarray(x[:2], float), np.asarray(x[2:4], float)
+    return float(kinetic_energy(q, v, p) + potential_energy(q, p)
+                 - potential_energy(np.zeros(2), p))
+
+
+def damp(params: BplirParams, x0) -> Damping:
+    """Drain the swing of the robot of ``params`` (its simulated plant),
+    hanging from the holding gripper in state ``x0``, with the elbow's
+    damping law (:mod:`module docs <.recovery>`)."""
+    tp = params.traverse
+    built = build_damping(params, tp.recover_kp, tp.recover_kd, tp.recover_lean)
+    x0 = np.asarray(x0, dtype=float)
+    sim = make_simulator(built, x0[:2], x0[2:], accuracy=1e-6)
+    plant = built.plant
+    pctx = plant.GetMyContextFromRoot(sim.get_context())
+    true_p = params.simulated_plant
+    e0 = energy = swing_energy(x0, true_p)
+    t = 0.0
+    while energy > tp.recover_energy and t < tp.recover_limit and energy <= 1.1 * e0 + 0.1:
+        run(sim, min(1.0, tp.recover_limit - t))
+        t = sim.get_context().get_time()
+        energy = swing_energy(plant.GetPositionsAndVelocities(pctx), true_p)
+    ctx = sim.get_context()
+    st = built.loggers["state"].FindLog(ctx)
+    tq = built.loggers["torque"].FindLog(ctx)
+    return Damping(energy <= tp.recover_energy, t, e0, energy,
+                   plant.GetPositionsAndVelocities(pctx), st.sample_times(), st.data().T,
+                   tq.data()[0])
+
+
+def retry_params(p: BplirParams) -> BplirParams:
+    """The swing of ``p`` tried again: from hanging at rest below the
+    holding gripper, with ``traverse.retry_max_time`` to arrive."""
+    sc = dc.replace(p.scenario, start="hanging", max_time=p.traverse.retry_max_time)
+    return p.with_(scenario=sc)
+
+
+def damping_drive(d: Damping, motor, h0: float):
+    """(current A, the driver's i^2 t A^2 s, electrical energy J) along the
+    damping ``d`` from the i^2 t state ``h0``: the current of the torque
+    (within the continuous current, so i^2 t only falls) and the positive
+    mechanical work through the gear's and the motor's efficiencies."""
+    cur = d.torque / motor.torque_per_amp
+    dt = np.diff(d.t, prepend=d.t[0] if len(d.t) else 0.0)
+    h = np.maximum(0.0, h0 - np.cumsum((motor.i_cont ** 2 - cur ** 2) * dt))
+    work = float(np.sum(np.maximum(d.torque * d.states[:, 3], 0.0) * dt))
+    return cur, h, work / (motor.eta_g * motor.eta_m)
+
+
+def can_retry(p: BplirParams) -> bool:
+    """Whether the planner finds a swing from hanging for ``p`` (a
+    :func:`retry_params`) on the nominal model: the swapped robot, whose
+    swinging link's weight needs more than its torque limit to hold level,
+    has none at 19.9 N m."""
+    try:
+        scenario_plan(p.resolved())
+    except ParameterError:
+        return False
+    return True

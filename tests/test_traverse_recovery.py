@@ -44,6 +44,14 @@ def test_a_timed_out_swing_is_damped_and_tried_again_from_hanging():
     assert t["outcome"] == "passed" and t["swings"] == 6 and t["retries"] == 1
     assert t["failed_swing"] != t["failed_swing"]   # nan: nothing failed
     assert t["recover_time_s"] == pytest.approx(recover["duration_s"])
+    # the figure shades the damping in its own colour and says so
+    import matplotlib
+    matplotlib.use("Agg")
+    from bplir_drake.analysis.traverse.plots import plot_timeline
+    fig = plot_timeline(res)
+    assert "red: damping after a timeout" in fig._suptitle.get_text()
+    spans = [p for p in fig.axes[0].patches if abs(p.get_width() - recover["duration_s"]) < 1e-9]
+    assert len(spans) == 1
 
 
 def test_without_retries_the_timeout_ends_the_traversal():
@@ -55,7 +63,7 @@ def test_without_retries_the_timeout_ends_the_traversal():
 
 
 def test_the_swapped_robot_has_no_plan_from_hanging():
-    """Its swinging link (3.17 kg, centre of mass 0.69 m out) needs 21.5 N m
+    """Its swinging link (3.23 kg, centre of mass 0.69 m out) needs 21.9 N m
     to hold level, more than the 19.9 N m of the driver: the planner finds
     no swing from hanging, the table says so and the traversal ends."""
     res = run_traverse(load_line(LINE), BplirParams(), seed=0, adjust=headwind(1, -10.0))

@@ -83,16 +83,19 @@ def plot_timeline(result, axes=None):
             for a in ax:
                 a.axvspan(r["t_start_s"], r["t_start_s"] + r["duration_s"],
                           color=GRIPPER_COLOURS[int(r["holding_gripper"])], alpha=0.12, lw=0)
-        elif r["kind"] in ("rest", "calibrate"):
+        elif r["kind"] in ("rest", "calibrate", "recover"):
+            colour = "tab:red" if r["kind"] == "recover" else "0.5"
             for a in ax:
-                a.axvspan(r["t_start_s"], r["t_start_s"] + r["duration_s"], color="0.5",
-                          alpha=0.15, lw=0)
+                a.axvspan(r["t_start_s"], r["t_start_s"] + r["duration_s"], color=colour,
+                          alpha=0.15 if colour == "0.5" else 0.08, lw=0)
     for a in ax:
         a.grid(True, alpha=0.3)
     ax[0].legend(fontsize=8)
     ax[2].legend(fontsize=8)
+    recovered = any(r["kind"] == "recover" for r in result.rows)
     return finish(fig, "traversal: swings shaded (blue: gripper 1 holds, orange: gripper 2 "
-                       "holds, grey: rest or IMU calibration)")
+                       "holds, grey: rest or IMU calibration"
+                       + (", red: damping after a timeout)" if recovered else ")"))
 
 
 def traverse_replay_scene(result):

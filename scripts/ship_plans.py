@@ -11,7 +11,7 @@ quick benchmark's +-10 deg and 1.1 / 1.15 / 1.3 m swings (with their warm
 starts from 1.2 m), the 1.27 m warm start, every swing of the example
 lines (both robots), the default swing of a robot whose nominal link 2
 weighs 1.6 kg (the documented ``--set plant.m2=1.6``) and the flat-line
-swing tried again from hanging; gains for the swings the tests track.
+swings tried again from hanging (both robots); gains for the swings the tests track.
 """
 from __future__ import annotations
 
@@ -47,9 +47,10 @@ def scenarios():
              + [at(base, grip_spacing=d) for d in (1.1, 1.15, 1.3)])
     tracked += quick + [swing_params(base, g, base.traverse.grip_spacing, 0.0) for g in (1, 2)]
     tracked.append(base.with_(plant=dc.replace(base.plant, m2=1.6)))   # --set plant.m2=1.6
-    # a flat-line swing tried again from hanging (the traversal's recovery)
+    # the flat-line swings tried again from hanging (the traversal's recovery)
     from bplir_drake.analysis.traverse.recovery import retry_params
-    tracked.append(retry_params(swing_params(base, 1, base.traverse.grip_spacing, 0.0)))
+    tracked += [retry_params(swing_params(base, g, base.traverse.grip_spacing, 0.0))
+                for g in (1, 2)]
     q127 = at(base, grip_spacing=1.27)   # the warm start's test: its cold solve too
     plans += [lambda: P.scenario_plan(q127),
               lambda: P.plan_swing(q127, end_depth=q127.plan.end_depth, guess_duration=1.0)]

@@ -167,7 +167,7 @@ def plan_swing(params: BplirParams, *, power_limit: float | None = None, knots: 
                time_weight: float = 1.0, max_duration: float | None = None,
                guess_duration: float = 1.5, tolerance: float = 1e-4,
                iterations: int = 1500, end_depth: float = 0.0,
-               initial: SwingPlan | None = None,
+               initial: SwingPlan | None = None, minor_iterations: int | None = None,
                cache: bool = True, progress: bool = False) -> SwingPlan:
     """Plan the scenario's swing on the nominal model, from the nominal start
     pose (what the controller knows; the simulated robot never enters).
@@ -183,7 +183,9 @@ def plan_swing(params: BplirParams, *, power_limit: float | None = None, knots: 
     read from, or written to, the disk cache (:func:`plan_cache_path`:
     keyed by every input the planner reads; a solve takes about a
     minute).  ``progress``: count SNOPT's evaluations on standard error
-    while it solves."""
+    while it solves.  ``minor_iterations``: SNOPT's limit on all its
+    (minor) iterations (default SNOPT's own, which a swing from hanging
+    exceeds)."""
 
     if not 5 <= knots <= 400:
         raise ParameterError(f"knots = {knots} is out of range; allowed [5, 400]")
@@ -198,13 +200,16 @@ def plan_swing(params: BplirParams, *, power_limit: float | None = None, knots: 
                              math.radians(params.scenario.incline_deg))
     qT = planned_target(params, end_depth)
     m = params.motor
-    tau_max = min(params.controller.torque_limit, m.torque_limit, m.torque_per_amp * m.i_peak)
+    tau_max = params.plan.torque_share * min(params.controller.torque_limit, m.torque_limit,
+                                             m.torque_per_amp * m.i_peak)
     inputs = dict(plant=params.plant.as_dict(), friction=params.friction.as_dict(),
                   envelope=plan_envelope(params),
                   q0=q0.tolist(), qT=qT.tolist(), tau_max=tau_max, power=power, tmax=tmax,
                   knots=knots, time_weight=time_weight, guess_duration=guess_duration,
                   tolerance=tolerance, iterations=iterations,
                   incline_deg=params.scenario.incline_deg)
+    if minor_iterations is not None:
+        inputs["minor_iterations"] = int(minor_iterations)
     guess = None
     if initial is not None:
         guess = warm_guess(initial, q0, qT)
@@ -213,7 +218,8 @@ def plan_swing(params: BplirParams, *, power_limit: float | None = None, knots: 
 
     def solve():
         return _solve_plan(params, q0, qT, tau_max, power, tmax, knots, time_weight,
-                           guess_duration, tolerance, iterations, progress, guess)
+                           guess_duration, tolerance, iterations, progress, guess,
+                           minor_iterations)
 
     if not cache:
         return solve()
@@ -265,7 +271,8 @@ def _peak_voltage(dircol, result, env, knots) -> float:
 
 
 def _solve_plan(params, q0, qT, tau_max, power, tmax, knots, time_weight, guess_duration,
-                tolerance, iterations, progress=False, guess=None) -> SwingPlan:
+                tolerance, iterations, progress=False, guess=None,
+                minor_iterations=None) -> SwingPlan:
     """The DirectCollocation solve of :func:`plan_swing`."""
     from pydrake.all import (DirectCollocation, PiecewisePolynomial, SnoptSolver, Solve,
                              SolverOptions)
@@ -303,6 +310,8 @@ def _solve_plan(params, q0, qT, tau_max, power, tmax, knots, time_weight, guess_
     options = SolverOptions()
     snopt = SnoptSolver().solver_id()
     options.SetOption(snopt, "Major iterations limit", int(iterations))
+    if minor_iterations is not None:
+        options.SetOption(snopt, "Iterations limit", int(minor_iterations))
 
     with progress_bar(progress, desc="plan (SNOPT)", unit="evaluations") as bar:
         if progress:  # Drake calls it at every evaluation of the costs and constraints
@@ -339,15 +348,13 @@ def _solve_plan(params, q0, qT, tau_max, power, tmax, knots, time_weight, guess_
     return plan
 
 
-#: initial-guess durations (s) :func:`tracking_plan` tries in turn until a
-#: plan is feasible (on a -8 deg line 1.5 s ends 1e-4 outside the
-#: constraint tolerance and 1.0 s does not)
+#: initial-guess durations (s) :func:`tracking_plan` tries in turn until a plan
+#: is feasible (on a -8 deg line 1.5 s ends 1e-4 outside the tolerance, 1.0 s not);
+#: from hanging at rest (``scenario.start``) it pumps before it reaches (3-4 s)
 PLAN_GUESSES = (1.5, 1.0, 2.0)
-
-#: the same for a swing from hanging at rest (``scenario.start``): it pumps
-#: (link 1 reverses) before it reaches, about 3 s, on more knots
-HANGING_GUESSES = (3.0, 2.5, 4.0)
+HANGING_GUESSES = (3.0, 4.0, 5.0)
 HANGING_KNOTS = 61
+HANGING_MINOR_ITERATIONS = 150_000
 
 
 def tracking_plan(params: BplirParams):
@@ -370,7 +377,8 @@ def scenario_plan(params: BplirParams) -> SwingPlan:
     four times, 2.3 times the cost; its neighbours reverse twice) and at
     1.1 m on the -20 deg line (4.2 times the cost).  A swing from hanging
     (``scenario.start``) tries :data:`HANGING_GUESSES` on
-    :data:`HANGING_KNOTS` knots, with no warm start."""
+    :data:`HANGING_KNOTS` knots and up to :data:`HANGING_MINOR_ITERATIONS`
+    of SNOPT's minor iterations, with no warm start."""
     sc, depth, step = params.scenario, params.plan.end_depth, params.plan.spacing_step
     if step > 0:   # the measured spacing on the plans' grid
         spacing = round(round(sc.grip_spacing / step) * step, 9)
@@ -378,7 +386,8 @@ def scenario_plan(params: BplirParams) -> SwingPlan:
     hanging = params.scenario.start == "hanging"
     for guess in HANGING_GUESSES if hanging else PLAN_GUESSES:   # SNOPT sometimes stops
         plan = plan_swing(params, end_depth=depth, guess_duration=guess,   # just outside
-                          knots=HANGING_KNOTS if hanging else 41)   # the tolerance
+                          knots=HANGING_KNOTS if hanging else 41,   # the tolerance
+                          minor_iterations=HANGING_MINOR_ITERATIONS if hanging else None)
         if plan.feasible:
             break
     warm = params.plan.warm_spacing

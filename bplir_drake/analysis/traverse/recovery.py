@@ -95,9 +95,7 @@ def damping_drive(d: Damping, motor, h0: float):
 
 def can_retry(p: BplirParams) -> bool:
     """Whether the planner finds a swing from hanging for ``p`` (a
-    :func:`retry_params`) on the nominal model.  For the swapped robot,
-    whose swinging link needs more than its torque limit to be held level,
-    it finds none at 19.9 N m (which does not prove that none exists)."""
+    :func:`retry_params`) on the nominal model."""
     try:
         scenario_plan(p.resolved())
     except ParameterError:

@@ -302,6 +302,7 @@ class _Traversal:
         cur, h, elec = damping_drive(d, motor, h0)
         self.segments.append(_seg(self.t + d.t, q, base, d.torque, cur, h))
         self.h = float(h[-1]) if len(h) else h0
+        self.tripped = self.tripped and self.h > 0.0   # the driver resets at zero
         standby = self.params.drive.standby_power * d.duration
         self.energy["swing"] += elec
         self.energy["standby"] += standby

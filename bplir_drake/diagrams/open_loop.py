@@ -103,8 +103,6 @@ def build_sensor_swing(params: BplirParams, x0_estimate=(0.0, 0.0, 0.0, 0.0), *,
     return Built(diagram, plant, systems, loggers, params)
 
 
-
-
 def build_damping(params: BplirParams, kp: float, kd: float, lean: float = 0.0, *,
                   log_period: float = 0.01) -> Built:
     """The robot hanging from its holding gripper after a swing that did not

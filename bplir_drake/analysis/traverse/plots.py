@@ -61,6 +61,11 @@ def plot_line_grips(result, axes=None):
                        f"{t['energy_J']:.0f} J (seed {result.seed})")
 
 
+#: the timeline's shading (colour, alpha) of the manoeuvres without a swing
+STILL_SHADES = {"rest": ("0.5", 0.15), "calibrate": ("0.5", 0.15),
+                "recover": ("tab:red", 0.08)}
+
+
 def plot_timeline(result, axes=None):
     """The whole traversal against time (three axes): joint angles of the
     original robot (link 1 from the vertical, elbow), elbow torque, the
@@ -83,11 +88,11 @@ def plot_timeline(result, axes=None):
             for a in ax:
                 a.axvspan(r["t_start_s"], r["t_start_s"] + r["duration_s"],
                           color=GRIPPER_COLOURS[int(r["holding_gripper"])], alpha=0.12, lw=0)
-        elif r["kind"] in ("rest", "calibrate", "recover"):
-            colour = "tab:red" if r["kind"] == "recover" else "0.5"
+        elif r["kind"] in STILL_SHADES:
+            colour, alpha = STILL_SHADES[r["kind"]]
             for a in ax:
                 a.axvspan(r["t_start_s"], r["t_start_s"] + r["duration_s"], color=colour,
-                          alpha=0.15 if colour == "0.5" else 0.08, lw=0)
+                          alpha=alpha, lw=0)
     for a in ax:
         a.grid(True, alpha=0.3)
     ax[0].legend(fontsize=8)

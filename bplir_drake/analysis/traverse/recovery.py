@@ -81,16 +81,12 @@ def retry_params(p: BplirParams) -> BplirParams:
     return p.with_(scenario=sc)
 
 
-def damping_drive(d: Damping, motor, h0: float):
-    """(current A, the driver's i^2 t A^2 s, electrical energy J) along the
-    damping ``d`` from the i^2 t state ``h0``: the current of the torque
-    (within the continuous current, so i^2 t only falls) and the positive
-    mechanical work through the gear's and the motor's efficiencies."""
-    cur = d.torque / motor.torque_per_amp
-    dt = np.diff(d.t, prepend=d.t[0] if len(d.t) else 0.0)
-    h = np.maximum(0.0, h0 - np.cumsum((motor.i_cont ** 2 - cur ** 2) * dt))
-    work = float(np.sum(np.maximum(d.torque * d.states[:, 3], 0.0) * dt))
-    return cur, h, work / (motor.eta_g * motor.eta_m)
+def damping_drive(d: Damping, motor):
+    """(current A, electrical energy J) along the damping ``d``: the
+    current of the torque and the positive mechanical work through the
+    gear's and the motor's efficiencies."""
+    work = float(np.trapezoid(np.maximum(d.torque * d.states[:, 3], 0.0), d.t))
+    return d.torque / motor.torque_per_amp, work / (motor.eta_g * motor.eta_m)
 
 
 def can_retry(p: BplirParams) -> bool:

@@ -151,21 +151,24 @@ class _Traversal:
                   outcome="done")
         self.t += time
 
-    def rest(self, duration: float, obstacle: str, kind: str = "rest") -> None:
-        """Stay clamped with both grippers while the driver's i^2 t falls
-        (``kind``: ``rest``, or ``calibrate`` for the IMUs' standstill)."""
+    def rest(self, duration: float, obstacle: str, kind: str = "rest", pose=None,
+             holding: str = "both") -> None:
+        """Stay still while the driver's i^2 t falls (``kind``: ``rest``, or
+        ``calibrate`` for the IMUs' standstill): clamped with both grippers,
+        or in ``pose`` = (q, gripper 1's pose) holding with ``holding``."""
         if duration <= 0.0:
             return
-        spacing, inc = self.line.chord(self.rear, self.front)
-        b = self._base(self.pos[1])
+        if pose is None:
+            spacing, inc = self.line.chord(self.rear, self.front)
+            pose = (self._pose_both(spacing, inc), self._base(self.pos[1]))
         h0 = self.h
-        self._still(self.t, self.t + duration, self._pose_both(spacing, inc), b, b, self.h)
+        self._still(self.t, self.t + duration, pose[0], pose[1], pose[1], self.h)
         self.h = i2t_after_rest(self.h, duration, self.params.motor)
         self.tripped = self.tripped and self.h > 0.0
         standby = self.params.drive.standby_power * duration
         self.energy["standby"] += standby
-        self._row(kind, duration, obstacle=obstacle, energy_J=standby, i2t_start_A2s=h0,
-                  i2t_end_A2s=self.h, outcome="done")
+        self._row(kind, duration, obstacle=obstacle, holding_gripper=holding, energy_J=standby,
+                  i2t_start_A2s=h0, i2t_end_A2s=self.h, outcome="done")
         self.t += duration
 
     def _rest_before(self, p, obstacle: str) -> None:
@@ -199,6 +202,16 @@ class _Traversal:
         gp = np.array([gripper_position(x[:2], sim_p.l1, sim_p.l2) for x in states])
         return q, hb[None, :] + np.column_stack([gp, np.zeros(len(states))])
 
+    def _i2t_along(self, t, current):
+        """The driver's rule (:func:`i2t_trace`) on its own ticks from the
+        carried state, for the current ``current`` (A) logged at ``t`` (s):
+        (i^2 t at ``t``, i^2 t and trip flag at the end)."""
+        motor = self.params.motor
+        ticks = np.arange(0.0, t[-1] + 1e-12, motor.driver_period)
+        h, tripped = i2t_trace(self.h, np.interp(ticks, t, current), motor, self.tripped)
+        h_log = np.interp(t, np.r_[0.0, ticks + motor.driver_period], np.r_[self.h, h])
+        return h_log, float(h[-1]), bool(tripped[-1])
+
     def _record_motion(self, res, p, hold: float, hold_g: int):
         """Add a swing's motion (in the original robot's angles), current and
         i^2 t trace to the figures' segments and its energy to the totals;
@@ -208,11 +221,8 @@ class _Traversal:
         t = self.t + st.t
         q, base = self._pose_track(st.data, hold, hold_g, p.simulated_plant)
         cur = res.logs["current"].at(st.t)[:, 0]
-        # the driver's rule on its own ticks, for the figures (the driver's
-        # state is what the traversal carries)
-        ticks = np.arange(0.0, st.t[-1] + 1e-12, motor.driver_period)
-        h_ticks = i2t_trace(self.h, np.interp(ticks, st.t, cur), motor, self.tripped)[0]
-        h_log = np.interp(st.t, np.r_[0.0, ticks + motor.driver_period], np.r_[self.h, h_ticks])
+        # for the figures (the swing's own driver state is what the traversal carries)
+        h_log = self._i2t_along(st.t, cur)[0]
         self.segments.append(_seg(t, q, base, res.logs["torque"].at(st.t)[:, 0], cur, h_log))
         power = res.logs["power"].data[:, 0]
         work = float(np.trapezoid(np.maximum(power, 0.0), res.logs["power"].t))
@@ -299,10 +309,9 @@ class _Traversal:
         motor = self.params.motor
         q, base = self._pose_track(d.states, hold, hold_g, p.simulated_plant)
         h0 = self.h
-        cur, h, elec = damping_drive(d, motor, h0)
+        cur, elec = damping_drive(d, motor)
+        h, self.h, self.tripped = self._i2t_along(d.t, cur)
         self.segments.append(_seg(self.t + d.t, q, base, d.torque, cur, h))
-        self.h = float(h[-1]) if len(h) else h0
-        self.tripped = self.tripped and self.h > 0.0   # the driver resets at zero
         standby = self.params.drive.standby_power * d.duration
         self.energy["swing"] += elec
         self.energy["standby"] += standby
@@ -312,19 +321,9 @@ class _Traversal:
         self.t += d.duration
         if not d.damped:
             return None
-        calib = p.estimator.standstill_samples * p.imu.period
-        if calib > 0:   # the standstill calibration, hanging at rest
-            tt = self.t + np.array([0.0, calib])
-            qh, bh = self._pose_track(np.repeat(d.state[None, :], 2, axis=0), hold, hold_g,
-                                      p.simulated_plant)
-            self.segments.append(_seg(tt, qh, bh, np.zeros(2), np.zeros(2),
-                                      np.full(2, self.h)))
-            h0, self.h = self.h, i2t_after_rest(self.h, calib, motor)
-            standby = self.params.drive.standby_power * calib
-            self.energy["standby"] += standby
-            self._row("calibrate", calib, obstacle=obstacle, holding_gripper=str(hold_g),
-                      energy_J=standby, i2t_start_A2s=h0, i2t_end_A2s=self.h, outcome="done")
-            self.t += calib
+        qh, bh = self._pose_track(d.state, hold, hold_g, p.simulated_plant)
+        self.rest(p.estimator.standstill_samples * p.imu.period, obstacle, kind="calibrate",
+                  pose=(qh[0], bh[0]), holding=str(hold_g))   # hanging at rest
         return d.state
 
     def _land(self, s, obstacle: str, hold: float, spacing: float) -> bool:

@@ -11,7 +11,8 @@ quick benchmark's +-10 deg and 1.1 / 1.15 / 1.3 m swings (with their warm
 starts from 1.2 m), the 1.27 m warm start, every swing of the example
 lines (both robots), the default swing of a robot whose nominal link 2
 weighs 1.6 kg (the documented ``--set plant.m2=1.6``) and the flat-line
-swings tried again from hanging (both robots); gains for the swings the tests track.
+swings tried again from hanging (both robots); gains for the swings the tests track
+that the plan libraries (``scripts/plan_library.py``) do not cover.
 """
 from __future__ import annotations
 

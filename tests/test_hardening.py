@@ -540,7 +540,8 @@ def test_shipped_plans_serve_a_fresh_install(monkeypatch, tmp_path):
     from bplir_drake.analysis.traverse.run import swing_params
     from bplir_drake.params import preset
 
-    q = preset().with_(scenario=dc.replace(preset().scenario, grip_spacing=1.27))
+    q = preset().with_(scenario=dc.replace(preset().scenario, grip_spacing=1.27),
+                       plan=dc.replace(preset().plan, library=False))
     assert P.scenario_plan(q).feasible   # test_plan_tracking's warm start: three solves
     base, seen = preset(), set()
     for name in ("line_flat.toml", "line_span.toml"):
@@ -556,11 +557,12 @@ def test_shipped_plans_serve_a_fresh_install(monkeypatch, tmp_path):
 
 
 def test_shipped_gains_serve_the_tests_plans(monkeypatch, tmp_path):
-    """The LQR gains of the plans the tests and the quick start track (the
-    +-20 deg swings, the horizontal one of plan tracking, and both robots on
-    the flat example line, and its try from hanging) ship too: with
-    an empty cache they are read, never solved, and every shipped gains
-    file belongs to a shipped plan."""
+    """The LQR gains of the plans the tests and the quick start track ship
+    too (the +-20 deg swings of examples/uphill_plan.toml, the 1.6 kg link 2,
+    both robots' tries from hanging on the flat line; the default robot's
+    other swings blend theirs from the plan libraries): with an empty cache
+    they are read, never solved, and every shipped gains file belongs to a
+    plan the tests track."""
     import dataclasses as dc
 
     from bplir_drake.diagrams import plan as P
@@ -585,11 +587,15 @@ def test_shipped_gains_serve_the_tests_plans(monkeypatch, tmp_path):
                                        for g in (1, 2)] + _quick_benchmark_swings()
     from bplir_drake.analysis.traverse.recovery import retry_params
     cases += [retry_params(c) for c in cases[4:6]]   # the flat swings tried again
-    keys = set()
+    keys, blended = set(), 0
     for p in cases:
         plan, gains = P.tracking_plan(p)
         assert gains.K.get_number_of_segments() > 100
+        if plan.status == "interpolated":   # the plan library's: no file
+            blended += 1
+            continue
         keys.add(plan_cache.plan_key(P.gains_inputs(p.plant, p.friction, plan)))
+    assert blended == 10   # +-20 deg, the flat swing, both robots on the flat line, the quick five
     shipped = {f.stem.split("-", 1)[1] for f in plan_cache.PACKAGED.glob("gains-*.npz")}
     assert shipped == keys and not list(tmp_path.glob("gains-*.npz"))
 

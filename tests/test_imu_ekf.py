@@ -275,7 +275,8 @@ def test_inflation_lands_the_quick_benchmarks_torque_noise():
     inflation's 3 was chosen): without the in-flight misalignment estimate,
     inflation off crashes the 3 N m case (0.65 m/s) and ``loop_inflate_nis
     = 3`` lands it (0.18); with it (the default) both land, the inflation
-    taking the 3 N m arrival from 0.47 to 0.34 m/s."""
+    taking the 3 N m arrival from 0.45 to 0.33 m/s (the plan from the plan
+    library; 0.47 to 0.34 m/s with the solved plan)."""
     import tempfile
 
     from bplir_drake.analysis.montecarlo.benchmark import run_benchmark
@@ -294,7 +295,7 @@ def test_inflation_lands_the_quick_benchmarks_torque_noise():
             row = {r["label"]: r for r in res["rows"]}["3 N m"]
             speeds[flight, k] = (row["outcome"], row["capture_speed_mps"])
     expected = {(False, 3.0): ("captured", 0.18), (False, 0.0): ("crash", 0.65),
-                (True, 3.0): ("captured", 0.335), (True, 0.0): ("captured", 0.47)}
+                (True, 3.0): ("captured", 0.332), (True, 0.0): ("captured", 0.446)}
     for key, (outcome, speed) in expected.items():
         assert speeds[key][0] == outcome and speeds[key][1] == pytest.approx(speed, abs=0.01)
 

@@ -169,7 +169,7 @@ def test_route_grips_lie_off_obstacles_and_within_reach(name):
 
 BAD_LINES = [
     ({"length": 6.0, "start": 1.2, "obstacles": [{"position": 2.0, "width": 1.5}]},
-     "is 1.5 m wide; a swing with grip spacing 1.2 m straddles at most"),
+     "is 1.5 m wide; a swing with grip spacing 1.5 m straddles at most 1.24 m"),
     ({"length": 6.0, "start": 1.2, "obstacles": [{"position": 2.0, "width": 0.3},
                                                  {"position": 2.2, "width": 0.3}]},
      "overlap"),
@@ -179,12 +179,12 @@ BAD_LINES = [
      "lies on 'obstacle 1'"),
     ({"length": 6.0, "start": 1.2, "obstacles": [{"position": 2.0, "width": 0.3},
                                                  {"position": 3.0, "width": 0.3}]},
-     "no grip from"),
+     "the closest obstacle it passes after one 0.3 m wide starts 1.16 m after it"),
     ({"length": 6.0, "start": 1.2, "tower": 3}, "unknown key 'tower'"),
-    # the last landing would lie 4.5 cm from the stretch's end
-    ({"length": 8.0, "start": 1.2, "obstacles": [
+    # the last swing cannot land on the stretch with any spacing (0.9-1.5 m)
+    ({"length": 6.9, "start": 1.2, "obstacles": [
         {"position": 1.7, "width": 0.25}, {"position": 3.8, "width": 0.4},
-        {"position": 5.85, "width": 0.15}]}, "on the stretch (length 8 m)"),
+        {"position": 5.85, "width": 0.15}]}, "on the stretch (length 6.9 m)"),
 ]
 
 
@@ -212,12 +212,44 @@ def test_binary_line_file_exits_2(tmp_path, capsys):
 def test_widest_obstacle_is_the_documented_one():
     p = preset()
     w = max_width(p)
-    assert w == pytest.approx(1.2 - 2 * (0.05 + 0.04) - 0.08)
+    assert w == pytest.approx(1.5 - 2 * (0.05 + 0.04) - 0.08)
     line = {"length": 6.0, "start": 1.2, "obstacles": [{"position": 1.8, "width": w}]}
     plan_route(line_from_dict(line), p)                    # just fits
     line["obstacles"][0]["width"] = w + 0.01
     with pytest.raises(LineError):
         plan_route(line_from_dict(line), p)
+
+
+def test_the_route_chooses_shorter_spacings_between_close_obstacles():
+    """Two 0.3 m obstacles with a gap shorter than two set-up spacings: the
+    route passes them with shorter swings, down to the closest gap
+    ``spacing_min + 2 (clearance + gripper half-width) + landing
+    tolerance`` (0.9 + 0.18 + 0.08 = 1.16 m), and refuses a closer pair
+    naming it; with the spacing fixed at 1.2 m the closest gap is 1.54 m."""
+    import dataclasses as dc
+
+    from bplir_drake.analysis.traverse.route import closest_gap
+
+    p = preset()
+    tp = p.traverse
+    gap = closest_gap(p, 0.3, 0.3)
+    assert gap == pytest.approx(tp.spacing_min + 2 * (tp.clearance + tp.gripper_width / 2)
+                                + tp.landing_tolerance, abs=2e-3)
+    fixed = p.with_(traverse=dc.replace(tp, spacing_min=1.2, spacing_max=1.2))
+    assert closest_gap(fixed, 0.3, 0.3) == pytest.approx(1.54, abs=2e-3)
+
+    def line(g):
+        return line_from_dict({"length": 7.0, "start": 1.2, "obstacles": [
+            {"position": 2.0, "width": 0.3}, {"position": 2.3 + g, "width": 0.3}]})
+
+    first = plan_route(line(gap + 0.005), p)[0]
+    assert first.spacing2 == pytest.approx(tp.spacing_min) and first.spacing1 == 1.2
+    assert first.landing2 < 2.3 + gap + 0.005 - tp.landing_tolerance
+    with pytest.raises(LineError, match="starts 1.16 m after it"):
+        plan_route(line(gap - 0.005), p)
+    # the set-up spacing where it fits: today's routes unchanged
+    assert {(r.spacing1, r.spacing2) for r in plan_route(
+        load_line(ROOT / "examples" / "line_flat.toml"), p)} == {(1.2, 1.2)}
 
 
 # ------------------------------------------------------------- traversals
@@ -488,3 +520,44 @@ def test_the_rest_planner_budgets_the_landing_at_the_torque_limit():
     assert 0.15 < plan.duration - start < 0.35
     off = p.with_(landing=dc.replace(p.landing, landing_lead=0.0))
     np.testing.assert_array_equal(budgeted_currents(plan, off), plain)
+
+
+def test_the_motion_log_on_disk_is_the_one_in_memory(tmp_path):
+    """A traversal's motion appended to a file as it goes reads back as the
+    segments kept in memory (bit for bit), every k-th sample when a figure
+    asks for at most so many, and a study's log keeps nothing."""
+    from bplir_drake.analysis.traverse.result import MotionLog, Segment
+
+    rng = np.random.default_rng(0)
+    segs = []
+    for k, n in enumerate((5, 300, 17)):
+        t = k + np.linspace(0.0, 1.0, n)
+        segs.append(Segment(t, rng.normal(size=(n, 2)), rng.normal(size=(n, 3)),
+                            rng.normal(size=n), rng.normal(size=n), rng.normal(size=n)))
+    mem, disk, none = MotionLog(), MotionLog(tmp_path / "m.f64"), MotionLog(False)
+    for s in segs:
+        for log in (mem, disk, none):
+            log.append(s)
+    a, b = mem.arrays(), disk.arrays()
+    assert all(np.array_equal(a[k], b[k]) for k in a) and len(a["t"]) == 322 == disk.samples
+    assert (tmp_path / "m.f64").stat().st_size == 322 * 9 * 8
+    few = disk.arrays(max_samples=100)
+    assert len(few["t"]) <= 100 and np.array_equal(few["t"], a["t"][::4])
+    assert none.samples == 0 and len(none.arrays()["t"]) == 0
+
+
+def test_the_dense_example_passes_with_shorter_swings():
+    """examples/line_dense.toml (0.3 m spacer dampers every 1.65 m, closer
+    than two 1.2 m swings allow): the route sets shorter spacings and the
+    default robot passes all five (seed 0), every swing's plan from the
+    libraries."""
+    from bplir_drake.analysis.traverse.run import run_traverse
+
+    line = load_line(ROOT / "examples" / "line_dense.toml")
+    p = preset()
+    routes = plan_route(line, p)
+    assert min(min(r.spacing1, r.spacing2) for r in routes) == pytest.approx(0.9)
+    res = run_traverse(line, p, seed=0)
+    assert res.success, res.totals["outcome"]
+    swings = [r for r in res.rows if r["kind"] == "swing"]
+    assert len(swings) == 10 and res.totals["obstacles_passed"] == 5

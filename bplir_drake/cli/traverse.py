@@ -46,10 +46,13 @@ def cmd_traverse(args) -> int:
         replay_info = {"study": str(args.replay), "sample": args.sample,
                        "matches_recorded": matches}
     else:
-        res = run_traverse(line, params, seed=args.seed or 0, progress=_progress(args))
+        res = run_traverse(line, params, seed=args.seed or 0, progress=_progress(args),
+                           motion=out / "motion.f64")
     files = {"figure_line": str(_save(args, res.plot(), out / "line.png")),
              "figure_timeline": str(_save(args, plot_timeline(res), out / "timeline.png")),
              "manoeuvres_csv": str(write_rows_csv(res, out / "manoeuvres.csv"))}
+    if res.motion.path is not None:
+        files["motion_log"] = str(res.motion.path)
     table = manoeuvre_table(res)
     write_text_atomic(out / "manoeuvres.md", table + "\n")
     files["manoeuvres_md"] = str(out / "manoeuvres.md")

@@ -13,13 +13,9 @@ A plan is feasible when its constraints hold within the tolerance at the
 knots and the voltage stays within the driver's largest output everywhere
 along the reconstructed trajectory, between the knots too.
 
-This answers the incline question of chapter 7 with numbers: the
-dissertation's heuristic (maximum torque during the whole first half) needed
-~400 W for a 20 degree uphill swing; a planned swing needs far less (see the
-README).  It also shows *why* our path generator cannot climb: the planned
-uphill swing reverses link 1 at least once (a back-swing to pump energy),
-so it is not a single path ``q2 = phi(q1)`` and cannot be followed by a
-time-independent path of the passive angle.
+A planned uphill swing reverses link 1 at least once (a back-swing to pump
+energy): it is not a single path ``q2 = phi(q1)``, which is why the path
+generator cannot climb.
 
 A plan is tracked with ``path.mode = "plan"`` (indexed by the clock, or by
 the phase nearest the estimated state with ``plan.indexing =
@@ -41,116 +37,17 @@ from ..params import BplirParams, ParameterError
 from ..io import Result
 from .plan_plot import (  # noqa: F401 (re-exported)
     plot_plan)
+from .swing_plan import (  # noqa: F401 (re-exported)
+    PLAN_FRICTION_SMOOTHING, SwingPlan, plan_envelope, plan_torque_limit, planned_target)
+from .plan_library import library_plan
 from .open_loop import build_plant_with_friction
 from ..systems.plant import initial_configuration, start_configuration
 from .plan_cache import cached
 from ..systems.friction import friction_torques
 from ..progress import progress_bar
-from ..systems.plan_tracker import TrackerWeights, plan_gains
+from ..systems.plan_tracker import RICCATI_ACCURACY, TrackerWeights, plan_gains
 from .plan_status import (  # noqa: F401 (re-exported)
     SOLVER_STATUS, no_plan_message)
-
-
-#: smallest Coulomb smoothing velocity the planner uses (rad/s)
-PLAN_FRICTION_SMOOTHING = 0.2
-
-
-@dataclass
-class SwingPlan(Result):
-    """A planned swing, sampled densely from the collocation solution."""
-
-    times: np.ndarray          # (n,)
-    states: np.ndarray         # (n, 4): q1, q2, q1d, q2d
-    torque: np.ndarray         # (n,)
-    friction: np.ndarray       # (n, 2): friction torques f1, f2 of the planning model
-    solved: bool               # the solver reported optimality
-    feasible: bool             # every constraint holds within ``tolerance``
-    solver: str
-    incline_deg: float
-    torque_limit: float
-    power_limit: float
-    tolerance: float
-    voltage_limit: float = math.inf   # the driver's largest output voltage (V)
-    voltage_share: float = 1.0        # the share of it the knots may use
-    resistance: float = 0.0           # winding resistance (ohm)
-    emf_per_rate: float = 0.0         # back-EMF per elbow rate, Km N (V s/rad)
-    torque_per_amp: float = 1.0       # kt (N m/A)
-    #: how the solver ended (:data:`SOLVER_STATUS`): "solved", "infeasible"
-    #: (it proved the constraints cannot hold), "iteration limit", ...
-    status: str = ""
-
-    @property
-    def duration(self) -> float:
-        """Duration of the plan (s)."""
-        return float(self.times[-1])
-
-    @property
-    def power(self) -> np.ndarray:
-        """Mechanical elbow power along the plan (W)."""
-        return self.torque * self.states[:, 3]
-
-    @property
-    def voltage(self) -> np.ndarray:
-        """Winding voltage along the plan (V): ``R tau/kt + Km N q2'``."""
-        return (self.resistance * self.torque / self.torque_per_amp
-                + self.emf_per_rate * self.states[:, 3])
-
-    @property
-    def peak_voltage(self) -> float:
-        """Largest absolute winding voltage of the plan (V)."""
-        return float(np.max(np.abs(self.voltage)))
-
-    @property
-    def peak_torque(self) -> float:
-        """Largest absolute torque of the plan (N m)."""
-        return float(np.max(np.abs(self.torque)))
-
-    @property
-    def peak_power(self) -> float:
-        """Largest absolute power of the plan (W)."""
-        return float(np.max(np.abs(self.power)))
-
-    @property
-    def energy_in(self) -> float:
-        """Work of the elbow motor, int tau q2' dt."""
-        return float(np.trapezoid(self.power, self.times))
-
-    @property
-    def dissipated(self) -> float:
-        """Work of friction, int (f1 q1' + f2 q2') dt."""
-        f, v = self.friction, self.states[:, 2:4]
-        return float(np.trapezoid(f[:, 0] * v[:, 0] + f[:, 1] * v[:, 1], self.times))
-
-    @property
-    def link1_reversals(self) -> int:
-        """How often link 1 changes direction (0 for a single forward swing)."""
-        w = self.states[:, 2]
-        moving = w[np.abs(w) > 0.05]
-        return int(np.count_nonzero(np.diff(np.sign(moving)) != 0))
-
-    def objective(self, time_weight: float = 1.0) -> float:
-        """The planner's cost ``int tau^2 dt + time_weight T`` on the dense
-        samples (the collocation's own value up to the quadrature)."""
-        return float(np.trapezoid(self.torque ** 2, self.times)) + time_weight * self.duration
-
-    def plot(self, axes=None, *, params: BplirParams):
-        """Angles, torque and power, and the robot on the line drawn with the
-        nominal links and grip spacing of ``params`` (three axes)."""
-        return plot_plan(self, params, axes)
-
-    def summary(self) -> dict:
-        """Feasibility, duration, peaks and limits as JSON-ready data."""
-        return {"incline_deg": self.incline_deg, "solved": self.solved,
-                "feasible": self.feasible, "solver": self.solver,
-                "duration_s": self.duration, "peak_torque_Nm": self.peak_torque,
-                "peak_motor_power_W": self.peak_power, "energy_in_J": self.energy_in,
-                "friction_loss_J": self.dissipated, "link1_reversals": self.link1_reversals,
-                "torque_limit_Nm": self.torque_limit, "power_limit_W": self.power_limit,
-                "peak_voltage_V": self.peak_voltage if self.emf_per_rate else None,
-                "voltage_limit_V": (self.voltage_limit if math.isfinite(self.voltage_limit)
-                                    else None),
-                "peak_elbow_rate_rad_s": float(np.max(np.abs(self.states[:, 3]))),
-                "constraint_tolerance": self.tolerance, "solver_status": self.status}
 
 
 def plan_model(params: BplirParams):
@@ -199,9 +96,7 @@ def plan_swing(params: BplirParams, *, power_limit: float | None = None, knots: 
     q0 = start_configuration(params.scenario.start, params.scenario.grip_spacing, params.plant,
                              math.radians(params.scenario.incline_deg))
     qT = planned_target(params, end_depth)
-    m = params.motor
-    tau_max = params.plan.torque_share * min(params.controller.torque_limit, m.torque_limit,
-                                             m.torque_per_amp * m.i_peak)
+    tau_max = plan_torque_limit(params)
     inputs = dict(plant=params.plant.as_dict(), friction=params.friction.as_dict(),
                   envelope=plan_envelope(params),
                   q0=q0.tolist(), qT=qT.tolist(), tau_max=tau_max, power=power, tmax=tmax,
@@ -225,19 +120,6 @@ def plan_swing(params: BplirParams, *, power_limit: float | None = None, knots: 
         return solve()
 
     return cached(inputs, solve, make=SwingPlan)
-
-
-def plan_envelope(params: BplirParams) -> dict | None:
-    """The motor's voltage envelope as the planner holds it (``None``
-    without it): the driver's largest voltage, the share of it the knots
-    may use, the winding resistance, the back-EMF per elbow rate and the
-    torque per ampere (nominal motor)."""
-    m = params.motor
-    if not m.envelope:
-        return None
-    return dict(voltage=m.max_voltage, share=params.plan.voltage_share,
-                resistance=m.resistance, emf_per_rate=m.back_emf_constant * m.gear_ratio,
-                torque_per_amp=m.torque_per_amp)
 
 
 def warm_guess(plan: SwingPlan, q0, qT) -> tuple:
@@ -360,25 +242,30 @@ HANGING_MINOR_ITERATIONS = 150_000
 def tracking_plan(params: BplirParams):
     """(plan, tracking gains) for the scenario of ``params``: the plan of
     :func:`scenario_plan`, the gains from Drake's finite-horizon LQR on the
-    nominal model (:func:`tracking_gains`: disk cache too)."""
+    nominal model (:func:`tracking_gains`: disk cache too); from the
+    shipped library when it covers the scenario (:mod:`.plan_library`)."""
+    found = library_plan(params)
+    if found is not None:
+        return found
     plan = scenario_plan(params)
     return plan, tracking_gains(params.plant, params.friction, plan)
 
 
 def scenario_plan(params: BplirParams) -> SwingPlan:
-    """The plan for the scenario of ``params`` with ``plan.end_depth``,
-    for its grip spacing rounded to ``plan.spacing_step``: from
-    :func:`plan_swing` (disk cache), the first feasible one of the guesses
-    :data:`PLAN_GUESSES`; and, for a grip spacing other than
-    ``plan.warm_spacing``, also the plan started from that spacing's
-    plan (same line, :func:`warm_guess`), whichever has the lower
-    :meth:`SwingPlan.objective`.  The straight-line guesses alone end in
-    other local optima at 1.27 m on the horizontal line (link 1 reversing
-    four times, 2.3 times the cost; its neighbours reverse twice) and at
-    1.1 m on the -20 deg line (4.2 times the cost).  A swing from hanging
-    (``scenario.start``) tries :data:`HANGING_GUESSES` on
-    :data:`HANGING_KNOTS` knots and up to :data:`HANGING_MINOR_ITERATIONS`
-    of SNOPT's minor iterations, with no warm start."""
+    """The plan for the scenario of ``params`` with ``plan.end_depth``:
+    interpolated from the shipped library when it covers the scenario
+    (:mod:`.plan_library`), else for the grip spacing rounded to
+    ``plan.spacing_step`` the first feasible :func:`plan_swing` (disk
+    cache) of the guesses :data:`PLAN_GUESSES` and, for a spacing other
+    than ``plan.warm_spacing``, the plan started from that spacing's plan
+    (:func:`warm_guess`) if its :meth:`SwingPlan.objective` is lower (the
+    straight-line guesses alone end in other local optima at 1.27 m, 0 deg
+    and 1.1 m, -20 deg).  From hanging (``scenario.start``): the guesses
+    :data:`HANGING_GUESSES` on :data:`HANGING_KNOTS` knots with up to
+    :data:`HANGING_MINOR_ITERATIONS` minor iterations, no warm start."""
+    found = library_plan(params)
+    if found is not None:
+        return found[0]
     sc, depth, step = params.scenario, params.plan.end_depth, params.plan.spacing_step
     if step > 0:   # the measured spacing on the plans' grid
         spacing = round(round(sc.grip_spacing / step) * step, 9)
@@ -413,7 +300,7 @@ def gains_inputs(plant, friction, plan: SwingPlan) -> dict:
                                      for a in (plan.times, plan.states, plan.torque)))
     return dict(plant=plant.as_dict(), friction=friction.as_dict(),
                 smoothing=PLAN_FRICTION_SMOOTHING,
-                weights=dataclasses.asdict(TrackerWeights()),
+                weights=dataclasses.asdict(TrackerWeights()), riccati=RICCATI_ACCURACY,
                 plan=digest.hexdigest())
 
 
@@ -435,16 +322,3 @@ def tracking_gains(plant, friction, plan: SwingPlan, cache: bool = True):
 
         _GAINS[key] = cached(inputs, solve, kind="gains")
     return _GAINS[key]
-
-
-def planned_target(params: BplirParams, end_depth: float = 0.0) -> np.ndarray:
-    """The mirror target (7.1) of the nominal robot, turned about the pivot
-    so that the free gripper rests ``end_depth`` below the line at the same
-    distance along it."""
-
-    sc = params.scenario
-    D = sc.grip_spacing
-    q = initial_configuration(math.hypot(D, end_depth), params.plant, 0.0)
-    return np.array([-q[0] + math.radians(sc.incline_deg) - math.atan2(end_depth, D), -q[1]])
-
-

@@ -24,6 +24,7 @@ class PlanParams(_Block):
     voltage_share: float = _fraction(0.9, doc="share of the driver's largest voltage the plan may use at its knots (the rest is the feedback's headroom)")
     torque_share: float = _fraction(1.0, doc="share of the torque limit the plan may use (the rest is the feedback's headroom)")
     spacing_step: float = _p(0.01, "m", 0, 0.1, doc="plans are made for the measured grip spacing rounded to this step, so a study drawing the spacing solves few plans (0: exact)")
+    library: bool = field(default=True, metadata=dict(doc="a scenario the shipped plan library of its nominal robot covers gets its plan and gains interpolated from it, in milliseconds (false: every plan solved)"))
     warm_spacing: float = _p(1.2, "m", 0, 3, doc="a plan for another spacing is also solved from this spacing's plan and the cheaper one kept (0: straight-line guesses only)")
     indexing: str = field(default="time", metadata=dict(doc="time (the plan read by the clock) or state (the plan phase nearest the estimate: no clock)", allowed="time, state"))
     delay_compensation: float = _p(0.01, "s", 0, 0.1, doc="actuation delay the tracker assumes until it has identified one (whole periods; the lab firmware's 10 ms)")

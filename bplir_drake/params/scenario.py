@@ -73,6 +73,8 @@ class TraverseParams(_Block):
 
     _name = "traverse"
     grip_spacing: float = _p(1.2, "m", 0.5, 2.0, doc="grip spacing every swing is set up at (the swing lands about this far ahead of the holding gripper)")
+    spacing_min: float = _p(0.9, "m", 0.5, 2.0, doc="shortest grip spacing the route may choose for a swing where the set-up spacing does not fit between obstacles")
+    spacing_max: float = _p(1.5, "m", 0.5, 2.0, doc="longest grip spacing the route may choose for a swing (the reach; wider obstacles need it)")
     clearance: float = _p(0.05, "m", 0, 1, doc="gap kept between a clasped gripper and an obstacle")
     gripper_width: float = _p(0.08, "m", 0, 0.5, doc="length of line a clasped gripper covers")
     landing_tolerance: float = _p(0.08, "m", 0, 1, doc="planned landings lie at least this much further from obstacles (the swing's landing error)")
@@ -100,5 +102,10 @@ class TraverseParams(_Block):
     recover_lean: float = _p(-0.3, "s", -2, 2, doc="elbow angle per shoulder rate the damping law aims at (it bends the elbow against the swing)")
 
     def _check(self):
+        if not self.spacing_min <= self.grip_spacing <= self.spacing_max:
+            raise ParameterError(
+                f"traverse.grip_spacing = {self.grip_spacing:g} m is outside [spacing_min, "
+                f"spacing_max] = [{self.spacing_min:g}, {self.spacing_max:g}] m; allowed "
+                "spacing_min <= grip_spacing <= spacing_max")
         self._one_of("swapped_landing_law", LANDING_LAWS)
         self._one_of("swing_mode", TRAVERSE_SWING_MODES)

@@ -62,10 +62,19 @@ class TrackingGains:
     k0: object
 
 
+#: the error-controlled accuracy of the Riccati integration of
+#: :func:`plan_gains`: the gains differ from those at 1e-4 by 2e-5 of their
+#: largest value, at a twentieth of the time (0.25 s instead of 5.4 s)
+RICCATI_ACCURACY = 1e-2
+
+
 def plan_gains(model, times, states, torque,
-               weights: TrackerWeights = TrackerWeights()) -> TrackingGains:
+               weights: TrackerWeights = TrackerWeights(),
+               accuracy: float = RICCATI_ACCURACY) -> TrackingGains:
     """Drake's finite-horizon LQR of ``model`` (a diagram with one input, the
-    elbow torque, and the state output) along the sampled plan."""
+    elbow torque, and the state output) along the sampled plan, its Riccati
+    equation integrated backwards by RK3 to ``accuracy``."""
+    from pydrake.systems.analysis import SimulatorConfig
     from pydrake.systems.controllers import (FiniteHorizonLinearQuadraticRegulator,
                                              FiniteHorizonLinearQuadraticRegulatorOptions)
     from pydrake.trajectories import PiecewisePolynomial
@@ -77,6 +86,8 @@ def plan_gains(model, times, states, torque,
     opts.u0 = PiecewisePolynomial.FirstOrderHold(times, np.asarray(torque).reshape(1, -1))
     opts.Qf = Q * weights.final_factor
     opts.input_port_index = model.get_input_port(0).get_index()
+    opts.simulator_config = SimulatorConfig(integration_scheme="runge_kutta3",
+                                            accuracy=float(accuracy), max_step_size=0.1)
     result = FiniteHorizonLinearQuadraticRegulator(model, model.CreateDefaultContext(),
                                                    float(times[0]), float(times[-1]), Q, R,
                                                    opts)

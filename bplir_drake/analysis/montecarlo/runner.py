@@ -176,7 +176,7 @@ def replay(study_dir, index: int):
     recorded = next((r for r in rows if r["index"] == index), None)
     if study.line is not None:
 
-        return run_traverse_sample(study, p, seed), recorded
+        return run_traverse_sample(study, p, seed, motion=None), recorded
     return run_swing(p, seed=seed), recorded
 
 

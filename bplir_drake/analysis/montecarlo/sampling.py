@@ -93,14 +93,15 @@ def run_sample(study: Study, index: int) -> dict:
     return row
 
 
-def run_traverse_sample(study: Study, params: BplirParams, seed: int):
-    """The traversal of a traversal study's sample (this process's runners)."""
+def run_traverse_sample(study: Study, params: BplirParams, seed: int, motion=False):
+    """The traversal of a traversal study's sample (this process's runners;
+    ``motion`` as :func:`~..traverse.run.run_traverse`: not kept in a study)."""
 
     if not _TRAVERSE_RUNNERS:
         _TRAVERSE_RUNNERS.update({1: SwingRunner(), 2: SwingRunner()})
     line = line_from_dict(study.line, "study line",
                           max_incline_deg=params.traverse.max_incline_deg)
-    return run_traverse(line, params, seed=seed, runners=_TRAVERSE_RUNNERS)
+    return run_traverse(line, params, seed=seed, runners=_TRAVERSE_RUNNERS, motion=motion)
 
 
 def error_text(exc: BaseException) -> str:

@@ -25,6 +25,8 @@ Line file::
 """
 from __future__ import annotations
 
+import bisect
+import functools
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -93,11 +95,20 @@ class Line:
 
     def obstacle_at(self, s: float, half_width: float = 0.0) -> Obstacle | None:
         """The obstacle a clasp of half-width ``half_width`` centred at ``s``
-        touches, or ``None``."""
-        for ob in self.obstacles:
-            if s + half_width > ob.start and s - half_width < ob.end:
-                return ob
+        touches, or ``None`` (obstacles are sorted and do not overlap: a
+        bisection, so long lines stay cheap)."""
+        return self.obstacle_in(s, s, half_width)
+
+    def obstacle_in(self, a: float, b: float, margin: float = 0.0) -> Obstacle | None:
+        """The first obstacle touching ``[a - margin, b + margin]``, or ``None``."""
+        i = bisect.bisect_right(self._ends, a - margin)   # the first ending past a - margin
+        if i < len(self.obstacles) and self.obstacles[i].start < b + margin:
+            return self.obstacles[i]
         return None
+
+    @functools.cached_property
+    def _ends(self) -> list:
+        return [ob.end for ob in self.obstacles]
 
     def polyline(self, n: int = 200) -> np.ndarray:
         """``(n, 2)`` points of the stretch, for drawing."""

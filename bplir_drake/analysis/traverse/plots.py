@@ -61,6 +61,9 @@ def plot_line_grips(result, axes=None):
                        f"{t['energy_J']:.0f} J (seed {result.seed})")
 
 
+#: the most samples of the motion log a figure or a replay reads
+TIMELINE_SAMPLES = 200_000
+
 #: the timeline's shading (colour, alpha) of the manoeuvres without a swing
 STILL_SHADES = {"rest": ("0.5", 0.15), "calibrate": ("0.5", 0.15),
                 "recover": ("tab:red", 0.08)}
@@ -70,7 +73,7 @@ def plot_timeline(result, axes=None):
     """The whole traversal against time (three axes): joint angles of the
     original robot (link 1 from the vertical, elbow), elbow torque, the
     driver's i^2 t integral with its trip level; swings shaded."""
-    tl = result.timeline()
+    tl = result.timeline(TIMELINE_SAMPLES)
     fig, ax = figure_axes(axes, 3, 1, figsize=(12, 8), sharex=True)
     t = tl["t"]
     ax[0].plot(t, tl["q"][:, 0], "C0", label="q1 (link 1, unwrapped: it turns over once per swing of gripper 1)")
@@ -128,7 +131,7 @@ def traverse_replay_html(result, path, fps: float = 20.0) -> Path:
     """A self-contained HTML Meshcat replay of the whole traversal (the
     simulated robot drawn from gripper 1), written atomically to ``path``."""
 
-    tl = result.timeline()
+    tl = result.timeline(TIMELINE_SAMPLES)
     t, keep = np.unique(tl["t"], return_index=True)
     html = replay_html(result.params.simulated_plant, t, tl["q"][keep],
                        traverse_replay_scene(result), fps=fps, base=tl["base"][keep],

@@ -2,6 +2,8 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from pathlib import Path
+
 import numpy as np
 from ...params import BplirParams
 from ...io import Result
@@ -36,18 +38,70 @@ class Segment:
     i2t: np.ndarray
 
 
+#: the motion log's columns: time, angles, gripper 1's pose, torque, current, i^2 t
+MOTION_COLUMNS = ("t", "q1", "q2", "x", "y", "z", "torque", "current", "i2t")
+
+
+class MotionLog:
+    """The traversal's motion, segment by segment (:class:`Segment`): kept
+    in memory (``path=None``), appended to ``path`` as it goes (raw float64
+    rows of :data:`MOTION_COLUMNS`: memory stays bounded on any line) or
+    not kept (``path=False``: a study's traversals)."""
+
+    def __init__(self, path=None):
+        self.path = None if path is None or path is False else Path(path)
+        self.keep = path is not False
+        self._segments: list = []
+        self.samples = 0
+        if self.path is not None:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+            self.path.write_bytes(b"")
+
+    def append(self, seg: Segment) -> None:
+        """Add one manoeuvre's motion (to the file at once, when there is one)."""
+        if not self.keep:
+            return
+        self.samples += len(seg.t)
+        if self.path is None:
+            self._segments.append(seg)
+            return
+        rows = np.column_stack([seg.t, seg.q, seg.base, seg.torque, seg.current, seg.i2t])
+        try:
+            with open(self.path, "ab") as fh:
+                fh.write(np.ascontiguousarray(rows, dtype="<f8").tobytes())
+        except OSError as exc:   # a full disk: name the file
+            raise OSError(exc.errno, exc.strerror, str(self.path)) from exc
+
+    def arrays(self, max_samples: int | None = None) -> dict:
+        """``t``, ``q``, ``base``, ``torque``, ``current``, ``i2t`` of the
+        whole traversal, every k-th sample so that at most ``max_samples``
+        are read (the file is memory-mapped, not loaded)."""
+        if self.path is not None:
+            n = self.path.stat().st_size // (8 * len(MOTION_COLUMNS))
+            data = np.memmap(self.path, dtype="<f8", mode="r", shape=(n, len(MOTION_COLUMNS)))
+        elif self._segments:
+            data = np.concatenate([np.column_stack([s.t, s.q, s.base, s.torque, s.current,
+                                                    s.i2t]) for s in self._segments])
+        else:
+            data = np.zeros((0, len(MOTION_COLUMNS)))
+        step = max(1, -(-len(data) // max_samples)) if max_samples else 1
+        data = np.array(data[::step])
+        return {"t": data[:, 0], "q": data[:, 1:3], "base": data[:, 3:6],
+                "torque": data[:, 6], "current": data[:, 7], "i2t": data[:, 8]}
+
+
 @dataclass
 class TraverseResult(Result):
     """One traversal: ``rows`` (one dict per manoeuvre, :data:`ROW_FIELDS`),
-    ``totals``, the line, the parameters and seed, and the motion
-    ``segments`` (for figures and the replay)."""
+    ``totals``, the line, the parameters and seed, and the ``motion``
+    (:class:`MotionLog`, for figures and the replay)."""
 
     line: Line
     params: BplirParams
     seed: int
     rows: list
     totals: dict
-    segments: list = field(default_factory=list)
+    motion: MotionLog = field(default_factory=MotionLog)
     clamps: list = field(default_factory=list)   # (gripper, s, t_on, t_off): clamped in place
     holds: list = field(default_factory=list)    # (gripper, t_closed, t_opened): on the line
 
@@ -72,11 +126,10 @@ class TraverseResult(Result):
                            for g, at, t_on, t_off in self.clamps],
                 "line": self.line.data, "seed": self.seed}
 
-    def timeline(self) -> dict:
-        """The whole traversal's motion concatenated: ``t``, ``q``, ``base``,
-        ``torque``, ``current``, ``i2t`` arrays."""
-        keys = ("t", "q", "base", "torque", "current", "i2t")
-        out = {k: np.concatenate([getattr(s, k) for s in self.segments]) for k in keys}
+    def timeline(self, max_samples: int | None = None) -> dict:
+        """The whole traversal's motion (:meth:`MotionLog.arrays`): ``t``,
+        ``q``, ``base``, ``torque``, ``current``, ``i2t`` arrays."""
+        out = self.motion.arrays(max_samples)
         # link 1 turns over while gripper 1 swings (it hangs below the elbow
         # at the bottom of the swing): continuous angles, not wrapped ones
         out["q"] = np.unwrap(out["q"], axis=0)

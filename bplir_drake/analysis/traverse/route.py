@@ -10,18 +10,26 @@ about ``2 D`` ahead of its old grip.  Both grippers are past the obstacle
 and the robot rides on; ``F`` is the front gripper again, so swing 1 of
 every obstacle holds with the same gripper and swing 2 with the other.
 
-:func:`hold_position` picks ``F``'s grip: as close to the obstacle as the
-clearance allows, moved back until both planned landings keep the
-clearance, the gripper's half-width and the landing tolerance from every
-obstacle, the second lands before the next obstacle and on the stretch.
-:func:`plan_route` runs it over the whole line with landings where planned
-(raising :class:`~.line.LineError` for a line that cannot be crossed);
-the traversal calls :func:`hold_position` again from where the robot
-really is.  Only the nominal spacing and the line enter: never the
-simulated robot.
+:func:`hold_position` picks ``F``'s grip and the two swings' grip spacings:
+the set-up spacing ``traverse.grip_spacing`` for both where it fits, else
+the pair nearest to it within ``[traverse.spacing_min,
+traverse.spacing_max]`` (the rear gripper rolls to swing 1's spacing before
+it; the landed gripper rolls to swing 2's after it), so obstacles closer
+together than two set-up spacings are passed with shorter swings; ``F``
+as close to the obstacle as the clearance allows, moved back until both
+planned landings keep the clearance, the gripper's half-width and the
+landing tolerance from every obstacle, the second lands before the next
+obstacle and on the stretch.  :func:`closest_gap` is the shortest gap
+between two obstacles the route passes; a line with a closer pair is
+refused naming it.  :func:`plan_route` runs it over the whole line with
+landings where planned (raising :class:`~.line.LineError` for a line that
+cannot be crossed); the traversal calls :func:`hold_position` again from
+where the robot really is.  Only the nominal spacings and the line enter:
+never the simulated robot.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -35,67 +43,139 @@ SEARCH_STEP = 0.005
 
 @dataclass(frozen=True)
 class ObstaclePlan:
-    """The planned grips around one obstacle (positions along the line, m)."""
+    """The planned grips around one obstacle (positions along the line, m)
+    and the grip spacing of each of its two swings."""
 
     obstacle: Obstacle
     hold: float       # F's grip for swing 1 (before the obstacle)
-    rear: float       # the rear gripper's grip before swing 1 (hold - D)
+    rear: float       # the rear gripper's grip before swing 1 (hold - spacing1)
     landing1: float   # swing 1 lands here (past the obstacle)
     landing2: float   # swing 2 lands here (F, ahead of landing1)
+    spacing1: float = 0.0   # swing 1's grip spacing (m)
+    spacing2: float = 0.0   # swing 2's: the landed gripper rolls to hold + spacing2
+
+
+#: step of the grip spacings the route chooses from (m)
+SPACING_STEP = 0.05
 
 
 def max_width(params: BplirParams) -> float:
-    """The widest obstacle a swing of the traversal's grip spacing straddles (m)."""
+    """The widest obstacle a swing of the longest grip spacing straddles (m)."""
     tp = params.traverse
     margin = tp.clearance + tp.gripper_width / 2
-    return tp.grip_spacing - 2 * margin - tp.landing_tolerance
+    return tp.spacing_max - 2 * margin - tp.landing_tolerance
+
+
+def spacing_pairs(params: BplirParams) -> list[tuple[float, float]]:
+    """The (swing 1, swing 2) grip spacings the route tries, in
+    ``[traverse.spacing_min, traverse.spacing_max]`` on a
+    :data:`SPACING_STEP` grid: the set-up spacing for both first, then
+    pairs further from it."""
+    tp = params.traverse
+    D = tp.grip_spacing
+    grid = {D} | {round(float(d), 6) for d in
+                  np.arange(tp.spacing_min, tp.spacing_max + 1e-9, SPACING_STEP)}
+    return sorted(((a, b) for a in grid for b in grid),
+                  key=lambda p: (abs(p[0] - D) + abs(p[1] - D), abs(p[1] - D), p))
 
 
 def _clear(line: Line, s: float, margin: float) -> bool:
     return line.obstacle_at(s, margin) is None
 
 
-def hold_position(line: Line, params: BplirParams, k: int, front: float) -> ObstaclePlan:
-    """The grips to pass obstacle ``k`` (0-based) with the front gripper now
-    at ``front`` (m); :class:`LineError` when none exist."""
-    tp = params.traverse
-    D = tp.grip_spacing
+def _grips(line: Line, k: int, hi: float, behind: float, d1: float, d2: float,
+           near: float, land: float) -> ObstaclePlan | None:
+    """The grips around obstacle ``k`` with spacings ``d1``, ``d2``: F's
+    grip as close to the obstacle as allowed (at most ``hi``), or None."""
     ob = line.obstacles[k]
-    hw = tp.gripper_width / 2
-    near = tp.clearance + hw                      # a clasp next to an obstacle
-    land = near + tp.landing_tolerance            # a planned landing
-    widest = max_width(params)
-    where = f"obstacle '{ob.name}' ({ob.start:g}-{ob.end:g} m)"
-    if ob.width > widest:
-        raise LineError(
-            f"{where} is {ob.width:g} m wide; a swing with grip spacing {D:g} m straddles at most "
-            f"{widest:.3g} m (spacing - 2 x (clearance + gripper half-width) - landing tolerance); "
-            f"allowed width (0, {widest:.3g}] m or a larger traverse.grip_spacing (reach < "
-            f"{params.plant.l1 + params.plant.l2:.3g} m)")
-    hi = ob.start - near
-    # the rear gripper stays on the stretch and past the previous obstacle
-    behind = line.obstacles[k - 1].end + near if k > 0 else 0.0
-    lo = max(ob.end + land - D, behind + D)
     nxt = line.obstacles[k + 1] if k + 1 < len(line.obstacles) else None
-    if hi < front - 1e-9:
-        raise LineError(f"{where}: the front gripper is at {front:.3g} m, less than "
-                        f"{near:.3g} m before it; the obstacles are too close together for a "
-                        f"grip spacing of {D:g} m")
+    lo = max(ob.end + land - d1, behind + d1, ob.end + near - d2)
     for s in np.arange(hi, lo - 1e-12, -SEARCH_STEP):
-        l1, l2 = s + D, s + 2 * D
-        if not (_clear(line, s, near) and _clear(line, s - D, near) and _clear(line, l1, land)
-                and _clear(line, l2, land)):
-            continue
+        l1, h2, l2 = s + d1, s + d2, s + 2 * d2
         if nxt is not None and l2 > nxt.start - land:
             continue   # the second landing would pass the next obstacle with one gripper
         if l2 > line.length - land:
             continue   # the end of the stretch (a tower's clamp) is an obstacle too
-        return ObstaclePlan(ob, float(s), float(s - D), float(l1), float(l2))
+        if not (_clear(line, s, near) and _clear(line, s - d1, near) and _clear(line, l1, land)
+                and _clear(line, l2, land)):
+            continue
+        if line.obstacle_in(min(l1, h2), max(l1, h2), near) is not None:
+            continue   # the landed gripper rolls from l1 to h2: nothing on the way
+        return ObstaclePlan(ob, float(s), float(s - d1), float(l1), float(l2), d1, d2)
+    return None
+
+
+def hold_position(line: Line, params: BplirParams, k: int, front: float) -> ObstaclePlan:
+    """The grips to pass obstacle ``k`` (0-based) with the front gripper now
+    at ``front`` (m), at the first of :func:`spacing_pairs` that fits;
+    :class:`LineError` when none does."""
+    tp = params.traverse
+    ob = line.obstacles[k]
+    near = tp.clearance + tp.gripper_width / 2    # a clasp next to an obstacle
+    widest = max_width(params)
+    where = f"obstacle '{ob.name}' ({ob.start:g}-{ob.end:g} m)"
+    reach = f"grip spacings {tp.spacing_min:g}-{tp.spacing_max:g} m"
+    if ob.width > widest:
+        raise LineError(
+            f"{where} is {ob.width:g} m wide; a swing with grip spacing {tp.spacing_max:g} m "
+            f"straddles at most {widest:.3g} m (spacing - 2 x (clearance + gripper half-width) - "
+            f"landing tolerance); allowed width (0, {widest:.3g}] m or a larger "
+            f"traverse.spacing_max (reach < {params.plant.l1 + params.plant.l2:.3g} m)")
+    if ob.start - near < front - 1e-9:
+        raise LineError(f"{where}: the front gripper is at {front:.3g} m, less than "
+                        f"{near:.3g} m before it; the obstacles are too close together for "
+                        f"{reach}")
+    found = _first_fit(line, params, k)
+    if found is not None:
+        return found
+    nxt = line.obstacles[k + 1] if k + 1 < len(line.obstacles) else None
     nxt_text = f" and before '{nxt.name}' at {nxt.start:g} m" if nxt is not None else ""
-    raise LineError(f"{where}: no grip from {lo:.3g} to {hi:.3g} m lands both swings clear of "
-                    f"obstacles{nxt_text} and on the stretch (length {line.length:g} m) with "
-                    f"grip spacing {D:g} m; move the obstacles apart or change "
-                    "traverse.grip_spacing")
+    raise LineError(f"{where}: no grip before it lands both swings clear of obstacles"
+                    f"{nxt_text} and on the stretch (length {line.length:g} m) with {reach}; "
+                    f"{closest_text(params, ob.width, nxt)}")
+
+
+def _first_fit(line: Line, params: BplirParams, k: int) -> ObstaclePlan | None:
+    """The grips of the first of :func:`spacing_pairs` that fits obstacle ``k``."""
+    tp = params.traverse
+    near = tp.clearance + tp.gripper_width / 2
+    hi = line.obstacles[k].start - near
+    behind = line.obstacles[k - 1].end + near if k > 0 else 0.0
+    for d1, d2 in spacing_pairs(params):
+        found = _grips(line, k, hi, behind, d1, d2, near, near + tp.landing_tolerance)
+        if found is not None:
+            return found
+    return None
+
+
+def closest_gap(params: BplirParams, width: float, next_width: float = 0.0) -> float:
+    """The shortest gap (m) between an obstacle ``width`` wide and the next
+    one (``next_width``) that :func:`hold_position` passes on a straight
+    line, to 1 mm; ``inf`` when an obstacle that wide is never passed."""
+    if width > max_width(params):
+        return math.inf
+
+    def passes(gap: float) -> bool:
+        obs = (Obstacle(5.0, width, "a"), Obstacle(5.0 + width + gap, next_width, "b"))
+        line = Line(12.0 + width + gap, np.array([0.0, 20.0]), np.zeros(2), obs, 3.0)
+        return _first_fit(line, params, 0) is not None
+
+    lo, hi = 0.0, 2 * params.traverse.spacing_max + 1.0
+    if not passes(hi):
+        return math.inf
+    while hi - lo > 1e-3:
+        mid = 0.5 * (lo + hi)
+        lo, hi = (lo, mid) if passes(mid) else (mid, hi)
+    return hi
+
+
+def closest_text(params: BplirParams, width: float, nxt: Obstacle | None) -> str:
+    """What the route can pass next to an obstacle ``width`` wide (for errors)."""
+    gap = closest_gap(params, width, 0.0 if nxt is None else nxt.width)
+    if not math.isfinite(gap):
+        return "no obstacle this wide can be passed"
+    return (f"the closest obstacle it passes after one {width:g} m wide starts {gap:.3g} m "
+            f"after it; move the obstacles apart or change traverse.spacing_min/spacing_max")
 
 
 def plan_route(line: Line, params: BplirParams) -> list[ObstaclePlan]:
@@ -122,4 +202,5 @@ def plan_route(line: Line, params: BplirParams) -> list[ObstaclePlan]:
     return plans
 
 
-__all__ = ["ObstaclePlan", "hold_position", "plan_route", "max_width"]
+__all__ = ["ObstaclePlan", "hold_position", "plan_route", "max_width", "closest_gap",
+           "spacing_pairs"]

@@ -40,7 +40,7 @@ from .recovery import can_retry, damp, damping_drive, retry_params
 from .swing_setup import (  # noqa: F401 (re-exported)
     swing_params, learnt_landing, budgeted_currents, capture_impulse)
 from .result import (  # noqa: F401 (re-exported)
-    OUTCOMES, ROW_FIELDS, Segment, TraverseResult)
+    OUTCOMES, ROW_FIELDS, MotionLog, Segment, TraverseResult)
 from .tables import (  # noqa: F401 (re-exported)
     TABLE_COLUMNS, _cell, manoeuvre_table, totals_lines, traverse_totals, write_rows_csv)
 from ..swing.run import SwingRunner, draw_true_friction
@@ -52,7 +52,8 @@ from ...systems.plant import gripper_position
 class _Traversal:
     """The state carried from manoeuvre to manoeuvre."""
 
-    def __init__(self, line: Line, params: BplirParams, seed: int, runners=None, adjust=None):
+    def __init__(self, line: Line, params: BplirParams, seed: int, runners=None, adjust=None,
+                 motion=None):
 
         self.line, self.params, self.seed = line, params, seed
         self.adjust = adjust
@@ -60,7 +61,8 @@ class _Traversal:
         self.t = 0.0
         self.h, self.tripped = 0.0, False
         self.energy = {"ride": 0.0, "swing": 0.0, "standby": 0.0}
-        self.rows, self.segments, self.clamps, self.holds = [], [], [], []
+        self.rows, self.clamps, self.holds = [], [], []
+        self.motion = MotionLog(motion)
         self.outcome = "passed"
         tp = params.traverse
         self.front, self.rear = line.start, line.start - tp.grip_spacing
@@ -95,7 +97,7 @@ class _Traversal:
         base = np.outer(1 - w, base0) + np.outer(w, base1)
         qq = np.repeat(np.atleast_2d(q), n, axis=0)
         h = np.array([i2t_after_rest(h0, tk - t0, self.params.motor) for tk in t])
-        self.segments.append(_seg(t, qq, base, np.zeros(n), np.zeros(n), h))
+        self.motion.append(_seg(t, qq, base, np.zeros(n), np.zeros(n), h))
 
     def _pose_both(self, spacing: float, incline: float):
         """Joint angles of the original robot with both grippers on the line."""
@@ -223,7 +225,7 @@ class _Traversal:
         cur = res.logs["current"].at(st.t)[:, 0]
         # for the figures (the swing's own driver state is what the traversal carries)
         h_log = self._i2t_along(st.t, cur)[0]
-        self.segments.append(_seg(t, q, base, res.logs["torque"].at(st.t)[:, 0], cur, h_log))
+        self.motion.append(_seg(t, q, base, res.logs["torque"].at(st.t)[:, 0], cur, h_log))
         power = res.logs["power"].data[:, 0]
         work = float(np.trapezoid(np.maximum(power, 0.0), res.logs["power"].t))
         elec = work / (motor.eta_g * motor.eta_m)
@@ -233,16 +235,16 @@ class _Traversal:
         self.energy["standby"] += standby
         return t, elec, standby, duration
 
-    def swing(self, obstacle: str) -> bool:
-        """The rear gripper swings past the front one; True when it landed
-        clear.  A swing that times out is tried again from hanging, after
+    def swing(self, obstacle: str, reach: float) -> bool:
+        """The rear gripper swings past the front one to land about ``reach``
+        ahead of it (the planned spacing); True when it landed clear.  A swing that times out is tried again from hanging, after
         the robot has damped its swing (:mod:`.recovery`), up to
         ``traverse.retries`` times."""
         tp = self.params.traverse
         hold_g = self.front_gripper
         hold, start = self.front, self.rear
         spacing, _ = self.line.chord(start, hold)
-        _, inc = self.line.chord(start, min(hold + tp.grip_spacing, self.line.length))
+        _, inc = self.line.chord(start, min(hold + reach, self.line.length))
         p = learnt_landing(swing_params(self.params, hold_g, spacing, inc),
                            self.landing_errors[hold_g])
         self._rest_before(p, obstacle)
@@ -311,7 +313,7 @@ class _Traversal:
         h0 = self.h
         cur, elec = damping_drive(d, motor)
         h, self.h, self.tripped = self._i2t_along(d.t, cur)
-        self.segments.append(_seg(self.t + d.t, q, base, d.torque, cur, h))
+        self.motion.append(_seg(self.t + d.t, q, base, d.torque, cur, h))
         standby = self.params.drive.standby_power * d.duration
         self.energy["swing"] += elec
         self.energy["standby"] += standby
@@ -368,7 +370,7 @@ def _seg(t, q, base, torque, current, i2t) -> Segment:
 
 
 def run_traverse(line: Line, params: BplirParams, *, seed: int = 0, progress: bool = False,
-                 runners=None, adjust=None) -> TraverseResult:
+                 runners=None, adjust=None, motion=None) -> TraverseResult:
     """Cross ``line`` with the robot of ``params``; stops at the first
     failure.  ``seed``: the simulated robot's friction (drawn once, within
     ``scenario.friction_uncertainty``, unless ``true_friction`` is set) and
@@ -377,12 +379,13 @@ def run_traverse(line: Line, params: BplirParams, *, seed: int = 0, progress: bo
     built diagrams across traversals.  ``adjust(swing, attempt, params)``
     returns the parameters one try of a swing runs with (``swing`` counts
     every try from 0, ``attempt`` from 1): a disturbance on one swing, say.
-    Raises :class:`~.line.LineError`
+    ``motion``: where the motion is logged (:class:`~.result.MotionLog`:
+    None in memory, a file path written as it goes, False not kept).  Raises :class:`~.line.LineError`
     when the line cannot be crossed (checked before any simulation)."""
 
     plan_route(line, params)   # the whole line is crossable on paper
     params = draw_true_friction(params, seed)   # one robot for the whole traversal
-    tr = _Traversal(line, params, seed, runners, adjust)
+    tr = _Traversal(line, params, seed, runners, adjust, motion)
     tp = params.traverse
     D = tp.grip_spacing
 
@@ -391,11 +394,11 @@ def run_traverse(line: Line, params: BplirParams, *, seed: int = 0, progress: bo
         for k, ob in enumerate(line.obstacles):
             plan = hold_position(line, params, k, tr.front)
             tr.move("ride", plan.hold, plan.rear, ob.name)
-            if not tr.swing(ob.name):
+            if not tr.swing(ob.name, plan.spacing1):
                 break
-            # the gripper that landed sets the spacing back to D on its wheel
-            tr.move("adjust", tr.rear + D, tr.rear, ob.name)
-            if not tr.swing(ob.name):
+            # the gripper that landed sets swing 2's spacing on its wheel
+            tr.move("adjust", tr.rear + plan.spacing2, tr.rear, ob.name)
+            if not tr.swing(ob.name, plan.spacing2):
                 break
             bar.update(1)
         else:
@@ -404,7 +407,7 @@ def run_traverse(line: Line, params: BplirParams, *, seed: int = 0, progress: bo
     finally:
         bar.close()
     totals = tr.finish()
-    return TraverseResult(line, params, seed, tr.rows, totals, tr.segments, tr.clamps, tr.holds)
+    return TraverseResult(line, params, seed, tr.rows, totals, tr.motion, tr.clamps, tr.holds)
 
 
 __all__ = ["TraverseResult", "run_traverse", "swing_params", "budgeted_currents",

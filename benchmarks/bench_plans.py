@@ -1,0 +1,138 @@
+"""Benchmark: how long a swing, a study and a traversal of the default robot
+wait for their plans, from an empty cache (issue 44, "plans without
+waiting"), in one run.
+
+Run: python benchmarks/bench_plans.py [--solve] [--study N]
+(prints figures, not a test).
+
+- every robot the package plans for by default (the single swing, the
+  traversal holding with either gripper): plan and tracking gains for
+  random inclines in [-20, 20] deg and grip spacings in [1.0, 1.4] m,
+  cold cache, one core; goal: <= 5 s each;
+- ``--solve``: the same for one scenario solved instead (``plan.library =
+  false``), the wait the library saves;
+- ``--tower``: ``bplir traverse examples/line_tower.toml`` (a 60 m span,
+  ten obstacles) in a fresh process with an empty cache, its wall time in
+  total; goal: <= 3 min;
+- ``--study N``: the realistic study (examples/study_realistic.toml, grip
+  spacing drawn in 1.1-1.3 m) at +13 deg, N samples in this process, and
+  the share of its wall time spent getting plans; goal: <= 10 %.
+"""
+import argparse
+import dataclasses as dc
+import os
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def robots():
+    from bplir_drake.analysis.traverse.swing_setup import swing_params
+    from bplir_drake.params import preset
+
+    base = preset()
+    return {"single swing": base, "traversal, gripper 1 holding": swing_params(base, 1, 1.2, 0.0),
+            "traversal, gripper 2 holding": swing_params(base, 2, 1.2, 0.0)}
+
+
+def waits(params, n: int, rng) -> list[float]:
+    """Wall s of ``tracking_plan`` at ``n`` random scenarios of the envelope."""
+    from bplir_drake.diagrams.plan import tracking_plan
+
+    out = []
+    for _ in range(n):
+        sc = dc.replace(params.scenario, incline_deg=float(rng.uniform(-20, 20)),
+                        grip_spacing=float(rng.uniform(1.0, 1.4)))
+        t0 = time.perf_counter()
+        tracking_plan(params.with_(scenario=sc))
+        out.append(time.perf_counter() - t0)
+    return out
+
+
+def solve_wait(params) -> float:
+    """Wall s of one plan and its gains solved at +13 deg, 1.23 m."""
+    from bplir_drake.diagrams.plan import tracking_plan
+
+    p = params.with_(scenario=dc.replace(params.scenario, incline_deg=13.0, grip_spacing=1.23),
+                     plan=dc.replace(params.plan, library=False))
+    t0 = time.perf_counter()
+    tracking_plan(p)
+    return time.perf_counter() - t0
+
+
+def study_share(samples: int) -> tuple[float, float, dict]:
+    """(wall s, s spent getting plans, outcomes) of the realistic study at +13 deg."""
+    import bplir_drake.analysis.swing.run as run
+    from bplir_drake.analysis import montecarlo as mc
+
+    spent = [0.0]
+    inner = run.tracking_plan
+
+    def timed(p):
+        t0 = time.perf_counter()
+        try:
+            return inner(p)
+        finally:
+            spent[0] += time.perf_counter() - t0
+
+    run.tracking_plan = timed
+    study = mc.load_study(ROOT / "examples" / "study_realistic.toml")
+    sc = dc.replace(study.params.scenario, incline_deg=13.0)
+    study = dc.replace(study, params=study.params.with_(scenario=sc), samples=samples, seed=1)
+    with tempfile.TemporaryDirectory() as out:
+        t0 = time.perf_counter()
+        summary = mc.run_study(study, Path(out) / "study", workers=1)
+        wall = time.perf_counter() - t0
+    return wall, spent[0], summary["outcomes"]
+
+
+def tower() -> tuple[float, str]:
+    """(wall s, last line printed) of the tower-to-tower example, cold."""
+    import subprocess
+    import sys
+
+    with tempfile.TemporaryDirectory() as d:
+        env = dict(os.environ, BPLIR_CACHE_DIR=str(Path(d) / "cache"))
+        t0 = time.perf_counter()
+        out = subprocess.run([sys.executable, "-m", "bplir_drake.cli", "traverse",
+                              str(ROOT / "examples" / "line_tower.toml"), "--no-animation",
+                              "--out", str(Path(d) / "tower")], env=env, capture_output=True,
+                             text=True)
+        wall = time.perf_counter() - t0
+    lines = [x for x in out.stdout.splitlines() if x.startswith("outcome") or "passed" in x]
+    return wall, (lines[0] if lines else out.stderr.strip()[-200:])
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--solve", action="store_true")
+    ap.add_argument("--study", type=int, default=0)
+    ap.add_argument("--tower", action="store_true")
+    ap.add_argument("-n", type=int, default=20, help="scenarios per robot")
+    args = ap.parse_args()
+    os.environ["BPLIR_CACHE_DIR"] = tempfile.mkdtemp(prefix="bplir-cold-")
+    rng = np.random.default_rng(0)
+    for name, p in robots().items():
+        w = waits(p, args.n, rng)
+        print(f"{name}: {args.n} random scenarios, plan + gains in median {np.median(w)*1e3:.0f} "
+              f"ms, max {max(w)*1e3:.0f} ms (goal <= 5 s)", flush=True)
+    if args.solve:
+        s = solve_wait(robots()["single swing"])
+        print(f"solved instead (+13 deg, 1.23 m, library off): {s:.1f} s", flush=True)
+    if args.tower:
+        wall, what = tower()
+        print(f"examples/line_tower.toml, cold cache, one process: {wall:.0f} s wall "
+              f"(goal <= 180 s); {what}", flush=True)
+    if args.study:
+        wall, plans, outcomes = study_share(args.study)
+        print(f"realistic study at +13 deg, {args.study} samples, one process: {wall:.1f} s wall, "
+              f"{plans:.2f} s getting plans = {100 * plans / wall:.1f} % (goal <= 10 %); "
+              f"{outcomes}")
+
+
+if __name__ == "__main__":
+    main()

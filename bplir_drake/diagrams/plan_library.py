@@ -1,0 +1,223 @@
+"""Plans without waiting: a shipped library of swing plans and their
+tracking gains on a grid of line inclines and grip spacings, and the plan
+of any scenario inside the grid interpolated from it in milliseconds.
+
+A library belongs to one nominal robot and everything else the planner and
+the tracking gains read (:func:`model_inputs`: the nominal plant and
+friction, the motor's envelope, the torque and power limits, the timeout,
+the plan's end depth, the LQR weights); it is used only when a scenario's
+inputs match it exactly, so a plan never comes from another robot's model.
+The grid is solved by continuation (``scripts/plan_library.py``), so
+that neighbouring plans are mostly the same manoeuvre; each is sampled at
+the same fractions of its duration.  A scenario's plan is the bilinear
+blend of the four plans around it when they reverse link 1 equally often
+(else it is solved) (duration, states, torque, gain ``K`` and affine term
+``k0`` at each fraction), its angles then shifted linearly in time so that
+it starts exactly at the start pose and ends exactly at the target.  The
+blend is not itself a solution of the planner: between grid points it
+deviates from the plan the planner would find by about 0.01 rad and 0.4 N m
+(+13 deg between the +10 and +15 deg plans), which the tracking feedback
+absorbs.
+"""
+from __future__ import annotations
+
+import dataclasses
+import functools
+import json
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..params import BplirParams
+from ..systems.friction import friction_torques
+from ..systems.plan_tracker import RICCATI_ACCURACY, TrackerWeights, TrackingGains, plan_gains
+from ..systems.plant import start_configuration
+from ..io import atomic_path
+from .plan_cache import PACKAGED, plan_key
+from .swing_plan import (PLAN_FRICTION_SMOOTHING, SwingPlan, plan_envelope, plan_torque_limit,
+                         planned_target)
+
+#: the grid of the shipped libraries: line inclines (deg) and grip spacings (m)
+LIBRARY_INCLINES = tuple(float(a) for a in range(-20, 21, 5))
+LIBRARY_SPACINGS = (0.9, 1.0, 1.1, 1.2, 1.3, 1.4, 1.5)
+#: samples of each plan, at equal fractions of its duration
+LIBRARY_SAMPLES = 401
+#: the collocation knots of the library's plans (the planner's default)
+LIBRARY_KNOTS = 41
+
+
+@dataclass(frozen=True)
+class PlanLibrary:
+    """Plans on a grid: ``durations[i, j]`` of the plan at ``inclines[i]``
+    (deg) and ``spacings[j]`` (m); ``states``, ``torque``, ``gain`` (K) and
+    ``offset`` (k0) sampled at ``LIBRARY_SAMPLES`` equal fractions of it."""
+
+    key: str
+    inclines: np.ndarray      # (ni,)
+    spacings: np.ndarray      # (ns,)
+    durations: np.ndarray     # (ni, ns)
+    states: np.ndarray        # (ni, ns, n, 4)
+    torque: np.ndarray        # (ni, ns, n)
+    gain: np.ndarray          # (ni, ns, n, 4)
+    offset: np.ndarray        # (ni, ns, n)
+    reversals: np.ndarray     # (ni, ns): link-1 reversals of each plan
+
+    def covers(self, incline_deg: float, spacing: float) -> bool:
+        """Whether the grid contains the scenario (edges included)."""
+        eps = 1e-9
+        return (self.inclines[0] - eps <= incline_deg <= self.inclines[-1] + eps
+                and self.spacings[0] - eps <= spacing <= self.spacings[-1] + eps)
+
+
+def model_inputs(params: BplirParams) -> dict:
+    """Every input of a library plan and its gains other than the incline
+    and the grip spacing (the planner's defaults for the solver settings)."""
+    return dict(plant=params.plant.as_dict(), friction=params.friction.as_dict(),
+                envelope=plan_envelope(params), tau_max=plan_torque_limit(params),
+                power=params.motor.power_rating, tmax=params.scenario.max_time,
+                end_depth=params.plan.end_depth, start=params.scenario.start,
+                knots=LIBRARY_KNOTS, smoothing=PLAN_FRICTION_SMOOTHING,
+                weights=dataclasses.asdict(TrackerWeights()), riccati=RICCATI_ACCURACY,
+                inclines=list(LIBRARY_INCLINES), spacings=list(LIBRARY_SPACINGS),
+                samples=LIBRARY_SAMPLES)
+
+
+def library_path(params: BplirParams, directory: Path = PACKAGED) -> Path:
+    """Where the library for ``params``'s model would be stored."""
+    return directory / f"library-{plan_key(model_inputs(params))}.npz"
+
+
+def _resample(times, values, n: int = LIBRARY_SAMPLES) -> np.ndarray:
+    """``values`` (rows at ``times``) at ``n`` equal fractions of the span."""
+    s = np.linspace(times[0], times[-1], n)
+    values = np.asarray(values, dtype=float)
+    if values.ndim == 1:
+        return np.interp(s, times, values)
+    return np.stack([np.interp(s, times, values[:, k]) for k in range(values.shape[1])], 1)
+
+
+def build_library(params: BplirParams, plans: dict, model) -> PlanLibrary:
+    """The library of ``plans`` (``{(incline, spacing): SwingPlan or
+    None}`` on the full grid; None: the planner found none), with each
+    plan's tracking gains from Drake's finite-horizon LQR on ``model``
+    (the nominal plant with friction, :func:`~.plan.plan_model`)."""
+    ni, ns, n = len(LIBRARY_INCLINES), len(LIBRARY_SPACINGS), LIBRARY_SAMPLES
+    arr = dict(durations=np.zeros((ni, ns)), states=np.zeros((ni, ns, n, 4)),
+               torque=np.zeros((ni, ns, n)), gain=np.zeros((ni, ns, n, 4)),
+               offset=np.zeros((ni, ns, n)), reversals=np.zeros((ni, ns), dtype=int))
+    for i, a in enumerate(LIBRARY_INCLINES):
+        for j, d in enumerate(LIBRARY_SPACINGS):
+            plan = plans[a, d]
+            if plan is None:   # no plan here: blends that would weigh it are solved
+                arr["durations"][i, j], arr["reversals"][i, j] = math.nan, -1
+                continue
+            g = plan_gains(model, plan.times, plan.states, plan.torque)
+            t = np.linspace(plan.times[0], plan.times[-1], n)
+            arr["durations"][i, j] = plan.duration
+            arr["states"][i, j] = _resample(plan.times, plan.states)
+            arr["torque"][i, j] = _resample(plan.times, plan.torque)
+            arr["gain"][i, j] = np.array([g.K.value(x).ravel() for x in t])
+            arr["offset"][i, j] = np.array([g.k0.value(x).ravel()[0] for x in t])
+            arr["reversals"][i, j] = plan.link1_reversals
+    return PlanLibrary(plan_key(model_inputs(params)), np.array(LIBRARY_INCLINES),
+                       np.array(LIBRARY_SPACINGS), **arr)
+
+
+def save_library(lib: PlanLibrary, path: Path) -> None:
+    """``lib`` as a compressed ``.npz`` (written atomically), its samples
+    in single precision (1e-7 of their values: far below what the blend
+    changes between grid points)."""
+    arrays = {k: (v.astype(np.float32) if v.dtype == np.float64 and v.ndim > 2 else v)
+              for k, v in dataclasses.asdict(lib).items() if k != "key"}
+    with atomic_path(path) as tmp, open(tmp, "wb") as fh:
+        np.savez_compressed(fh, key=np.array(lib.key), **arrays)
+
+
+@functools.lru_cache(maxsize=16)
+def load_library(path: Path) -> PlanLibrary | None:
+    """The library stored at ``path``, or None when there is none."""
+    if not path.exists():
+        return None
+    with np.load(path, allow_pickle=False) as data:
+        return PlanLibrary(**{f.name: (str(data[f.name]) if f.name == "key"
+                                       else np.array(data[f.name], dtype=float
+                                                     if data[f.name].dtype.kind == "f"
+                                                     else data[f.name].dtype))
+                              for f in dataclasses.fields(PlanLibrary)})
+
+
+def _corners(axis: np.ndarray, value: float):
+    """[(index, weight)] of the two grid points around ``value``."""
+    i = int(np.clip(np.searchsorted(axis, value) - 1, 0, len(axis) - 2))
+    w = float(np.clip((value - axis[i]) / (axis[i + 1] - axis[i]), 0.0, 1.0))
+    return [(i, 1.0 - w), (i + 1, w)]
+
+
+def same_manoeuvre(lib: PlanLibrary, incline: float, spacing: float) -> bool:
+    """Whether the plans the blend of the scenario weighs exist and reverse
+    link 1 equally often (a blend of two kinds of swing is neither)."""
+    kinds = {int(lib.reversals[i, j]) for i, wi in _corners(lib.inclines, incline)
+             for j, wj in _corners(lib.spacings, spacing) if wi * wj > 0}
+    return len(kinds) == 1 and min(kinds) >= 0
+
+
+def _blend(lib: PlanLibrary, incline: float, spacing: float) -> dict:
+    """The bilinear blend of the four plans around the scenario."""
+    out = {}
+    for name in ("durations", "states", "torque", "gain", "offset"):
+        a = getattr(lib, name)
+        out[name] = sum(wi * wj * a[i, j] for i, wi in _corners(lib.inclines, incline)
+                        for j, wj in _corners(lib.spacings, spacing))
+    return out
+
+
+def library_plan(params: BplirParams):
+    """(plan, tracking gains) of the scenario of ``params`` interpolated
+    from the shipped library for its model, or None when ``plan.library``
+    is off, no library matches the model, the grid does not cover the
+    scenario or the plans around it are not the same manoeuvre
+    (:func:`same_manoeuvre`)."""
+    from pydrake.trajectories import PiecewisePolynomial
+
+    sc = params.scenario
+    if not params.plan.library or sc.start != "line":
+        return None
+    lib = load_library(library_path(params))
+    if lib is None or not lib.covers(sc.incline_deg, sc.grip_spacing) \
+            or not same_manoeuvre(lib, sc.incline_deg, sc.grip_spacing):
+        return None
+    b = _blend(lib, sc.incline_deg, sc.grip_spacing)
+    s = np.linspace(0.0, 1.0, LIBRARY_SAMPLES)
+    times = s * b["durations"]
+    states = b["states"].copy()
+    q0 = start_configuration("line", sc.grip_spacing, params.plant, math.radians(sc.incline_deg))
+    qT = planned_target(params, params.plan.end_depth)
+    states[:, :2] += np.outer(1.0 - s, q0 - states[0, :2]) + np.outer(s, qT - states[-1, :2])
+    env = plan_envelope(params)
+    electric = {} if env is None else dict(
+        voltage_limit=env["voltage"], voltage_share=env["share"], resistance=env["resistance"],
+        emf_per_rate=env["emf_per_rate"], torque_per_amp=env["torque_per_amp"])
+    friction = dataclasses.replace(params.friction,
+                                   b=max(params.friction.b, PLAN_FRICTION_SMOOTHING))
+    fr = np.array([friction_torques(x[2:4], friction) for x in states])
+    plan = SwingPlan(times, states, b["torque"], fr, True, True, "library", sc.incline_deg,
+                     plan_torque_limit(params), params.motor.power_rating, 1e-4, **electric,
+                     status="interpolated")
+    gains = TrackingGains(
+        K=PiecewisePolynomial.FirstOrderHold(times, [k.reshape(1, 4) for k in b["gain"]]),
+        x0=PiecewisePolynomial.FirstOrderHold(times, states.T),
+        u0=PiecewisePolynomial.FirstOrderHold(times, b["torque"].reshape(1, -1)),
+        k0=PiecewisePolynomial.FirstOrderHold(times, b["offset"].reshape(1, -1)))
+    return plan, gains
+
+
+def describe(lib: PlanLibrary) -> str:
+    """One line: the grid and the plans' manoeuvres."""
+    rev = sorted(set(lib.reversals.ravel().tolist()) - {-1})
+    holes = int(np.count_nonzero(lib.reversals < 0))
+    return (f"{len(lib.inclines)} inclines {lib.inclines[0]:+g}..{lib.inclines[-1]:+g} deg x "
+            f"{len(lib.spacings)} spacings {lib.spacings[0]:g}-{lib.spacings[-1]:g} m, "
+            f"{holes} without a plan, durations {np.nanmin(lib.durations):.2f}-"
+            f"{np.nanmax(lib.durations):.2f} s, link-1 reversals {json.dumps(rev)}")

@@ -1,0 +1,152 @@
+"""What a swing plan is, independent of how it was made: the sampled plan
+(:class:`SwingPlan`), the target it ends at and the limits it keeps (the
+motor's envelope as the planner holds it, the torque it may use).  The
+planner (:mod:`.plan`) and the plan libraries (:mod:`.plan_library`)
+both build on it."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..io import Result
+from ..params import BplirParams
+from ..systems.plant import initial_configuration
+from .plan_plot import plot_plan
+
+
+#: smallest Coulomb smoothing velocity the planner uses (rad/s)
+PLAN_FRICTION_SMOOTHING = 0.2
+
+
+@dataclass
+class SwingPlan(Result):
+    """A planned swing, sampled densely from the collocation solution."""
+
+    times: np.ndarray          # (n,)
+    states: np.ndarray         # (n, 4): q1, q2, q1d, q2d
+    torque: np.ndarray         # (n,)
+    friction: np.ndarray       # (n, 2): friction torques f1, f2 of the planning model
+    solved: bool               # the solver reported optimality
+    feasible: bool             # every constraint holds within ``tolerance``
+    solver: str
+    incline_deg: float
+    torque_limit: float
+    power_limit: float
+    tolerance: float
+    voltage_limit: float = math.inf   # the driver's largest output voltage (V)
+    voltage_share: float = 1.0        # the share of it the knots may use
+    resistance: float = 0.0           # winding resistance (ohm)
+    emf_per_rate: float = 0.0         # back-EMF per elbow rate, Km N (V s/rad)
+    torque_per_amp: float = 1.0       # kt (N m/A)
+    #: how the solver ended (:data:`SOLVER_STATUS`): "solved", "infeasible"
+    #: (it proved the constraints cannot hold), "iteration limit", ...
+    status: str = ""
+
+    @property
+    def duration(self) -> float:
+        """Duration of the plan (s)."""
+        return float(self.times[-1])
+
+    @property
+    def power(self) -> np.ndarray:
+        """Mechanical elbow power along the plan (W)."""
+        return self.torque * self.states[:, 3]
+
+    @property
+    def voltage(self) -> np.ndarray:
+        """Winding voltage along the plan (V): ``R tau/kt + Km N q2'``."""
+        return (self.resistance * self.torque / self.torque_per_amp
+                + self.emf_per_rate * self.states[:, 3])
+
+    @property
+    def peak_voltage(self) -> float:
+        """Largest absolute winding voltage of the plan (V)."""
+        return float(np.max(np.abs(self.voltage)))
+
+    @property
+    def peak_torque(self) -> float:
+        """Largest absolute torque of the plan (N m)."""
+        return float(np.max(np.abs(self.torque)))
+
+    @property
+    def peak_power(self) -> float:
+        """Largest absolute power of the plan (W)."""
+        return float(np.max(np.abs(self.power)))
+
+    @property
+    def energy_in(self) -> float:
+        """Work of the elbow motor, int tau q2' dt."""
+        return float(np.trapezoid(self.power, self.times))
+
+    @property
+    def dissipated(self) -> float:
+        """Work of friction, int (f1 q1' + f2 q2') dt."""
+        f, v = self.friction, self.states[:, 2:4]
+        return float(np.trapezoid(f[:, 0] * v[:, 0] + f[:, 1] * v[:, 1], self.times))
+
+    @property
+    def link1_reversals(self) -> int:
+        """How often link 1 changes direction (0 for a single forward swing)."""
+        w = self.states[:, 2]
+        moving = w[np.abs(w) > 0.05]
+        return int(np.count_nonzero(np.diff(np.sign(moving)) != 0))
+
+    def objective(self, time_weight: float = 1.0) -> float:
+        """The planner's cost ``int tau^2 dt + time_weight T`` on the dense
+        samples (the collocation's own value up to the quadrature)."""
+        return float(np.trapezoid(self.torque ** 2, self.times)) + time_weight * self.duration
+
+    def plot(self, axes=None, *, params: BplirParams):
+        """Angles, torque and power, and the robot on the line drawn with the
+        nominal links and grip spacing of ``params`` (three axes)."""
+        return plot_plan(self, params, axes)
+
+    def summary(self) -> dict:
+        """Feasibility, duration, peaks and limits as JSON-ready data."""
+        return {"incline_deg": self.incline_deg, "solved": self.solved,
+                "feasible": self.feasible, "solver": self.solver,
+                "duration_s": self.duration, "peak_torque_Nm": self.peak_torque,
+                "peak_motor_power_W": self.peak_power, "energy_in_J": self.energy_in,
+                "friction_loss_J": self.dissipated, "link1_reversals": self.link1_reversals,
+                "torque_limit_Nm": self.torque_limit, "power_limit_W": self.power_limit,
+                "peak_voltage_V": self.peak_voltage if self.emf_per_rate else None,
+                "voltage_limit_V": (self.voltage_limit if math.isfinite(self.voltage_limit)
+                                    else None),
+                "peak_elbow_rate_rad_s": float(np.max(np.abs(self.states[:, 3]))),
+                "constraint_tolerance": self.tolerance, "solver_status": self.status}
+
+
+def plan_envelope(params: BplirParams) -> dict | None:
+    """The motor's voltage envelope as the planner holds it (``None``
+    without it): the driver's largest voltage, the share of it the knots
+    may use, the winding resistance, the back-EMF per elbow rate and the
+    torque per ampere (nominal motor)."""
+    m = params.motor
+    if not m.envelope:
+        return None
+    return dict(voltage=m.max_voltage, share=params.plan.voltage_share,
+                resistance=m.resistance, emf_per_rate=m.back_emf_constant * m.gear_ratio,
+                torque_per_amp=m.torque_per_amp)
+
+
+def plan_torque_limit(params: BplirParams) -> float:
+    """The torque a plan may use (N m): ``plan.torque_share`` of the
+    smallest of the controller's limit, the motor's and its peak current's."""
+    m = params.motor
+    return params.plan.torque_share * min(params.controller.torque_limit, m.torque_limit,
+                                          m.torque_per_amp * m.i_peak)
+
+
+def planned_target(params: BplirParams, end_depth: float = 0.0) -> np.ndarray:
+    """The mirror target (7.1) of the nominal robot, turned about the pivot
+    so that the free gripper rests ``end_depth`` below the line at the same
+    distance along it."""
+
+    sc = params.scenario
+    D = sc.grip_spacing
+    q = initial_configuration(math.hypot(D, end_depth), params.plant, 0.0)
+    return np.array([-q[0] + math.radians(sc.incline_deg) - math.atan2(end_depth, D), -q[1]])
+
+

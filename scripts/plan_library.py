@@ -1,0 +1,138 @@
+"""Solve the shipped plan libraries: for each nominal robot the package
+plans for by default, the swing plans and their tracking gains on a grid of
+line inclines and grip spacings, stored in ``bplir_drake/data/plans`` (a
+maintainer's tool: run it after a change to the planner, the nominal model,
+the motor's envelope or the tracker's weights).
+
+    python scripts/plan_library.py                 # all libraries
+    python scripts/plan_library.py --only swing    # one of them
+    python scripts/plan_library.py --check         # list, solve nothing
+
+The grid is solved by continuation: the plan at 0 deg and 1.2 m first
+(the planner's own guesses, :func:`~bplir_drake.diagrams.plan.scenario_plan`),
+then outwards along the spacings at 0 deg, then outwards along the
+inclines for each spacing, every plan started from its solved neighbour,
+so that neighbouring plans are mostly the same manoeuvre (the same number
+of link-1 reversals) and can be interpolated; where the planner finds no
+plan the grid has a hole.  Plans are kept in a solve
+cache (``--cache``), so a run that stops can be resumed.
+"""
+from __future__ import annotations
+
+import argparse
+import dataclasses as dc
+import os
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def libraries():
+    """{name: parameters of the robot and scenario the library is for}:
+    the single swing of the default robot, and the traversal's swings
+    holding with either gripper."""
+    from bplir_drake.analysis.traverse.swing_setup import swing_params
+    from bplir_drake.params import preset
+
+    base = preset()
+    base = base.with_(plan=dc.replace(base.plan, library=False))   # solve, never read
+    single = base.with_(path=dc.replace(base.path, mode="plan"))
+    return {"swing": single,
+            "traverse-1": swing_params(base, 1, 1.2, 0.0),
+            "traverse-2": swing_params(base, 2, 1.2, 0.0)}
+
+
+def _at(params, incline: float, spacing: float):
+    return params.with_(scenario=dc.replace(params.scenario, incline_deg=float(incline),
+                                            grip_spacing=float(spacing)))
+
+
+def _order(values, centre):
+    """``values`` from the one nearest ``centre`` outwards, each with the
+    neighbour it continues from (None for the first)."""
+    values = sorted(values)
+    i0 = min(range(len(values)), key=lambda i: abs(values[i] - centre))
+    out = [(values[i0], None)]
+    for i in range(i0 + 1, len(values)):
+        out.append((values[i], values[i - 1]))
+    for i in range(i0 - 1, -1, -1):
+        out.append((values[i], values[i + 1]))
+    return out
+
+
+def solve_grid(params, inclines, spacings, log=print, only=None) -> dict:
+    """{(incline, spacing): plan} by continuation (module docstring);
+    ``only``: continue along the inclines for these spacings alone (a
+    share of the work for one process; the plans meet in the cache)."""
+    from bplir_drake.diagrams import plan as P
+    from bplir_drake.params import ParameterError
+
+    depth = params.plan.end_depth
+    plans = {}
+
+    def continued(incline, spacing, ref):
+        q = _at(params, incline, spacing)
+        t0 = time.perf_counter()
+        plan = P.plan_swing(q, end_depth=depth, initial=ref) if ref is not None else None
+        if plan is None or not plan.feasible:
+            try:
+                plan = P.scenario_plan(q.with_(plan=dc.replace(q.plan, spacing_step=0.0)))
+            except ParameterError as exc:   # a hole in the grid: blends around it solve
+                log(f"  {incline:+5.1f} deg {spacing:.2f} m: no plan ({exc})", flush=True)
+                return None
+        log(f"  {incline:+5.1f} deg {spacing:.2f} m: {plan.status or 'solved'}, "
+            f"{plan.duration:.2f} s, {plan.link1_reversals} reversals, "
+            f"objective {plan.objective():.2f}, {time.perf_counter() - t0:.1f} s", flush=True)
+        return plan
+
+    for spacing, prev in _order(spacings, 1.2):
+        plans[0.0, spacing] = continued(0.0, spacing, None if prev is None else plans[0.0, prev])
+    for spacing in sorted(spacings) if only is None else only:
+        last = {}
+        for incline, prev in _order(inclines, 0.0)[1:]:
+            side = incline > 0   # continue from the last plan found on this side
+            ref = plans[prev, spacing] or last.get(side)
+            plans[incline, spacing] = continued(incline, spacing, ref)
+            last[side] = plans[incline, spacing] or ref
+    return plans
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--check", action="store_true", help="list, solve nothing")
+    ap.add_argument("--only", default=None, help="one library: swing, traverse-1, traverse-2")
+    ap.add_argument("--spacings", default=None,
+                    help="solve only these spacings' inclines (comma-separated; no library is "
+                         "written: run again without it to gather them)")
+    ap.add_argument("--cache", default=str(ROOT / ".plan-library-cache"),
+                    help="the solve cache (resumable)")
+    args = ap.parse_args(argv)
+    os.environ["BPLIR_CACHE_DIR"] = args.cache
+    from bplir_drake.diagrams.plan_library import (LIBRARY_INCLINES, LIBRARY_SPACINGS,
+                                                   build_library, library_path, save_library)
+
+    libs = libraries()
+    names = [args.only] if args.only else list(libs)
+    for name in names:
+        params = libs[name]
+        print(f"{name}: {len(LIBRARY_INCLINES)} inclines x {len(LIBRARY_SPACINGS)} spacings "
+              f"-> {library_path(params).name}", flush=True)
+        if args.check:
+            continue
+        only = None if args.spacings is None else [float(x) for x in args.spacings.split(",")]
+        plans = solve_grid(params, LIBRARY_INCLINES, LIBRARY_SPACINGS, only=only)
+        if only is not None:
+            continue
+        from bplir_drake.diagrams.plan import plan_model
+
+        lib = build_library(params, plans, plan_model(params)[0])
+        save_library(lib, library_path(params))
+        print(f"{name}: stored {library_path(params)} "
+              f"({library_path(params).stat().st_size / 1e3:.0f} kB)", flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -561,3 +561,23 @@ def test_the_dense_example_passes_with_shorter_swings():
     assert res.success, res.totals["outcome"]
     swings = [r for r in res.rows if r["kind"] == "swing"]
     assert len(swings) == 10 and res.totals["obstacles_passed"] == 5
+
+
+def test_swings_in_a_replaced_worker_process_give_the_same_traversal():
+    """A long line's swings run in a forked worker replaced every few
+    swings (Drake keeps about 3 MB of every diagram built from Python
+    systems): the traversal is the same as in the process, row for row."""
+    from bplir_drake.analysis.traverse.isolated import IsolatedRunners
+    from bplir_drake.analysis.traverse.run import run_traverse
+
+    line = load_line(ROOT / "examples" / "line_flat.toml")
+    p = preset()
+    here = run_traverse(line, p, seed=1, isolate=False)
+    runners = IsolatedRunners(swings=2)
+    try:
+        away = run_traverse(line, p, seed=1, runners=runners)
+    finally:
+        runners.close()
+    assert away.totals == here.totals
+    assert [r["capture_speed_mps"] for r in away.rows] == [r["capture_speed_mps"]
+                                                          for r in here.rows]

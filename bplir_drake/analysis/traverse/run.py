@@ -44,6 +44,7 @@ from .result import (  # noqa: F401 (re-exported)
 from .tables import (  # noqa: F401 (re-exported)
     TABLE_COLUMNS, _cell, manoeuvre_table, totals_lines, traverse_totals, write_rows_csv)
 from ..swing.run import SwingRunner, draw_true_friction
+from .isolated import IsolatedRunners
 from ...diagrams.plan import tracking_plan
 from ...progress import progress_bar
 from ...systems.plant import gripper_position
@@ -369,8 +370,13 @@ def _seg(t, q, base, torque, current, i2t) -> Segment:
                    np.asarray(torque, float), np.asarray(current, float), np.asarray(i2t, float))
 
 
+#: a traversal of more obstacles than this runs its swings in a worker
+#: process replaced as it goes (:mod:`.isolated`: bounded memory)
+ISOLATE_OBSTACLES = 20
+
+
 def run_traverse(line: Line, params: BplirParams, *, seed: int = 0, progress: bool = False,
-                 runners=None, adjust=None, motion=None) -> TraverseResult:
+                 runners=None, adjust=None, motion=None, isolate=None) -> TraverseResult:
     """Cross ``line`` with the robot of ``params``; stops at the first
     failure.  ``seed``: the simulated robot's friction (drawn once, within
     ``scenario.friction_uncertainty``, unless ``true_friction`` is set) and
@@ -380,11 +386,18 @@ def run_traverse(line: Line, params: BplirParams, *, seed: int = 0, progress: bo
     returns the parameters one try of a swing runs with (``swing`` counts
     every try from 0, ``attempt`` from 1): a disturbance on one swing, say.
     ``motion``: where the motion is logged (:class:`~.result.MotionLog`:
-    None in memory, a file path written as it goes, False not kept).  Raises :class:`~.line.LineError`
+    None in memory, a file path written as it goes, False not kept).
+    ``isolate``: run the swings in a worker process replaced every 50
+    swings (:class:`~.isolated.IsolatedRunners`; default: on a line of
+    more than :data:`ISOLATE_OBSTACLES` obstacles without ``runners``).  Raises :class:`~.line.LineError`
     when the line cannot be crossed (checked before any simulation)."""
 
     plan_route(line, params)   # the whole line is crossable on paper
     params = draw_true_friction(params, seed)   # one robot for the whole traversal
+    if isolate is None:
+        isolate = runners is None and len(line.obstacles) > ISOLATE_OBSTACLES
+    if isolate:
+        runners = IsolatedRunners()
     tr = _Traversal(line, params, seed, runners, adjust, motion)
     tp = params.traverse
     D = tp.grip_spacing
@@ -406,6 +419,8 @@ def run_traverse(line: Line, params: BplirParams, *, seed: int = 0, progress: bo
             tr.move("ride", end, end - D, "")
     finally:
         bar.close()
+        if isolate:
+            runners.close()
     totals = tr.finish()
     return TraverseResult(line, params, seed, tr.rows, totals, tr.motion, tr.clamps, tr.holds)
 

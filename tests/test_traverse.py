@@ -581,3 +581,20 @@ def test_swings_in_a_replaced_worker_process_give_the_same_traversal():
     assert away.totals == here.totals
     assert [r["capture_speed_mps"] for r in away.rows] == [r["capture_speed_mps"]
                                                           for r in here.rows]
+
+
+def test_a_front_gripper_landed_close_to_the_next_obstacle_rides_back():
+    """A swing that landed 8 cm before the next obstacle (within its
+    clearance, 9 cm, but not touching it) is not the end: the route rides
+    the robot back to a grip the clearance allows (two samples of the 48 V
+    dense study ended in an error before); a gripper touching it is refused."""
+    from bplir_drake.analysis.traverse.route import hold_position
+
+    line = load_line(ROOT / "examples" / "line_dense.toml")
+    p = preset()
+    ob = line.obstacles[2]
+    plan = hold_position(line, p, 2, ob.start - 0.08)
+    near = p.traverse.clearance + p.traverse.gripper_width / 2
+    assert plan.hold <= ob.start - near < ob.start - 0.08
+    with pytest.raises(LineError, match="touches it"):
+        hold_position(line, p, 2, ob.start - 0.03)

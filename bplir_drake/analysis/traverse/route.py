@@ -121,10 +121,11 @@ def hold_position(line: Line, params: BplirParams, k: int, front: float) -> Obst
             f"straddles at most {widest:.3g} m (spacing - 2 x (clearance + gripper half-width) - "
             f"landing tolerance); allowed width (0, {widest:.3g}] m or a larger "
             f"traverse.spacing_max (reach < {params.plant.l1 + params.plant.l2:.3g} m)")
-    if ob.start - near < front - 1e-9:
-        raise LineError(f"{where}: the front gripper is at {front:.3g} m, less than "
-                        f"{near:.3g} m before it; the obstacles are too close together for "
-                        f"{reach}")
+    # a front gripper that landed within the clearance of the obstacle rides
+    # back to a grip before it; one touching it cannot
+    if front + tp.gripper_width / 2 > ob.start + 1e-9:
+        raise LineError(f"{where}: the front gripper at {front:.3g} m touches it; the "
+                        f"obstacles are too close together for {reach}")
     found = _first_fit(line, params, k)
     if found is not None:
         return found

@@ -14,7 +14,9 @@ then outwards along the spacings at 0 deg, then outwards along the
 inclines for each spacing, every plan started from its solved neighbour,
 so that neighbouring plans are mostly the same manoeuvre (the same number
 of link-1 reversals) and can be interpolated; where the planner finds no
-plan the grid has a hole.  Plans are kept in a solve
+plan the grid has a hole.  A plan costing far more than its neighbours
+(continuation stalled in a poor optimum) is then re-solved from the
+planner's own guesses (:func:`repair`).  Plans are kept in a solve
 cache (``--cache``), so a run that stops can be resumed.
 """
 from __future__ import annotations
@@ -99,6 +101,43 @@ def solve_grid(params, inclines, spacings, log=print, only=None) -> dict:
     return plans
 
 
+#: a plan costing more than this times the cheaper of its incline
+#: neighbours is re-solved from the planner's own guesses (continuation can
+#: stall in a poor local optimum)
+REPAIR_RATIO = 1.5
+
+
+def repair(params, plans: dict, log=print) -> dict:
+    """``plans`` with every outlier (:data:`REPAIR_RATIO`) replaced by the
+    planner's own plan there when that is feasible, cheaper and the same
+    manoeuvre (link-1 reversals) as the outlier's neighbours."""
+    from bplir_drake.diagrams import plan as P
+    from bplir_drake.params import ParameterError
+
+    out = dict(plans)
+    inclines = sorted({a for a, _ in plans})
+    for (a, d), plan in plans.items():
+        i = inclines.index(a)
+        near = [plans.get((inclines[k], d)) for k in (i - 1, i + 1) if 0 <= k < len(inclines)]
+        near = [p for p in near if p is not None]
+        if plan is None or not near or plan.objective() <= REPAIR_RATIO * min(
+                p.objective() for p in near):
+            continue
+        q = _at(params, a, d)
+        try:
+            own = P.scenario_plan(q.with_(plan=dc.replace(q.plan, spacing_step=0.0)))
+        except ParameterError:
+            continue
+        kinds = {p.link1_reversals for p in near}
+        better = own.objective() < plan.objective() and own.link1_reversals in kinds
+        log(f"  repair {a:+5.1f} deg {d:.2f} m: objective {plan.objective():.1f}, the "
+            f"planner's own {own.objective():.1f} ({own.link1_reversals} reversals): "
+            f"{'replaced' if better else 'kept'}", flush=True)
+        if better:
+            out[a, d] = own
+    return out
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--check", action="store_true", help="list, solve nothing")
@@ -125,6 +164,7 @@ def main(argv=None) -> int:
         plans = solve_grid(params, LIBRARY_INCLINES, LIBRARY_SPACINGS, only=only)
         if only is not None:
             continue
+        plans = repair(params, plans)
         from bplir_drake.diagrams.plan import plan_model
 
         lib = build_library(params, plans, plan_model(params)[0])

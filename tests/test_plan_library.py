@@ -59,7 +59,7 @@ def test_every_default_robot_has_a_library_that_blends_where_it_can(robots):
 
 
 #: cells (of 48) of the swapped robot's library where a scenario is blended
-SWAPPED_BLENDABLE_CELLS = 37
+SWAPPED_BLENDABLE_CELLS = 38
 
 
 def test_a_grid_point_gives_the_solved_plan_and_its_gains(robots):

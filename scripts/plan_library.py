@@ -150,7 +150,8 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     os.environ["BPLIR_CACHE_DIR"] = args.cache
     from bplir_drake.diagrams.plan_library import (LIBRARY_INCLINES, LIBRARY_SPACINGS,
-                                                   build_library, library_path, save_library)
+                                                   build_library, describe, library_path,
+                                                   save_library)
 
     libs = libraries()
     names = [args.only] if args.only else list(libs)
@@ -170,7 +171,8 @@ def main(argv=None) -> int:
         lib = build_library(params, plans, plan_model(params)[0])
         save_library(lib, library_path(params))
         print(f"{name}: stored {library_path(params)} "
-              f"({library_path(params).stat().st_size / 1e3:.0f} kB)", flush=True)
+              f"({library_path(params).stat().st_size / 1e3:.0f} kB): {describe(lib)}",
+              flush=True)
     return 0
 
 

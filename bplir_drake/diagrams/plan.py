@@ -29,19 +29,19 @@ import dataclasses
 import hashlib
 import json
 import math
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 import numpy as np
 
 from ..params import BplirParams, ParameterError
-from ..io import Result
 from .plan_plot import (  # noqa: F401 (re-exported)
     plot_plan)
 from .swing_plan import (  # noqa: F401 (re-exported)
-    PLAN_FRICTION_SMOOTHING, SwingPlan, plan_envelope, plan_torque_limit, planned_target)
+    PLAN_FRICTION_SMOOTHING, SwingPlan, plan_envelope, plan_friction, plan_torque_limit,
+    planned_target, shifted_angles)
 from .plan_library import library_plan
 from .open_loop import build_plant_with_friction
-from ..systems.plant import initial_configuration, start_configuration
+from ..systems.plant import start_configuration
 from .plan_cache import cached
 from ..systems.friction import friction_torques
 from ..progress import progress_bar
@@ -55,7 +55,7 @@ def plan_model(params: BplirParams):
     smoothing widened to ``PLAN_FRICTION_SMOOTHING``) as a diagram with the
     elbow torque as input and the state as output."""
 
-    friction = replace(params.friction, b=max(params.friction.b, PLAN_FRICTION_SMOOTHING))
+    friction = plan_friction(params.friction)
     return build_plant_with_friction(params.with_(friction=friction), nominal=True).diagram, \
         friction
 
@@ -128,9 +128,7 @@ def warm_guess(plan: SwingPlan, q0, qT) -> tuple:
     end)`` at the fraction ``s`` of its duration, its rates and torque as
     they are (a plan for a nearby grip spacing)."""
     s = (plan.times - plan.times[0]) / (plan.times[-1] - plan.times[0])
-    states = np.array(plan.states, dtype=float)
-    states[:, :2] += (np.outer(1.0 - s, np.asarray(q0) - states[0, :2])
-                      + np.outer(s, np.asarray(qT) - states[-1, :2]))
+    states = shifted_angles(s, plan.states, q0, qT)
     return np.asarray(plan.times, dtype=float), states, np.asarray(plan.torque, dtype=float)
 
 

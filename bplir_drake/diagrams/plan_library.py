@@ -15,9 +15,8 @@ blend of the four plans around it when they reverse link 1 equally often
 ``k0`` at each fraction), its angles then shifted linearly in time so that
 it starts exactly at the start pose and ends exactly at the target.  The
 blend is not itself a solution of the planner: between grid points it
-deviates from the plan the planner would find by about 0.01 rad and 0.4 N m
-(+13 deg between the +10 and +15 deg plans), which the tracking feedback
-absorbs.
+follows the plans around it, not necessarily the plan the planner would
+solve there, and the tracking feedback absorbs the difference.
 """
 from __future__ import annotations
 
@@ -36,8 +35,8 @@ from ..systems.plan_tracker import RICCATI_ACCURACY, TrackerWeights, TrackingGai
 from ..systems.plant import start_configuration
 from ..io import atomic_path
 from .plan_cache import PACKAGED, plan_key
-from .swing_plan import (PLAN_FRICTION_SMOOTHING, SwingPlan, plan_envelope, plan_torque_limit,
-                         planned_target)
+from .swing_plan import (PLAN_FRICTION_SMOOTHING, SwingPlan, plan_envelope, plan_friction,
+                         plan_torque_limit, planned_target, shifted_angles)
 
 #: the grid of the shipped libraries: line inclines (deg) and grip spacings (m)
 LIBRARY_INCLINES = tuple(float(a) for a in range(-20, 21, 5))
@@ -191,16 +190,13 @@ def library_plan(params: BplirParams):
     b = _blend(lib, sc.incline_deg, sc.grip_spacing)
     s = np.linspace(0.0, 1.0, LIBRARY_SAMPLES)
     times = s * b["durations"]
-    states = b["states"].copy()
     q0 = start_configuration("line", sc.grip_spacing, params.plant, math.radians(sc.incline_deg))
-    qT = planned_target(params, params.plan.end_depth)
-    states[:, :2] += np.outer(1.0 - s, q0 - states[0, :2]) + np.outer(s, qT - states[-1, :2])
+    states = shifted_angles(s, b["states"], q0, planned_target(params, params.plan.end_depth))
     env = plan_envelope(params)
     electric = {} if env is None else dict(
         voltage_limit=env["voltage"], voltage_share=env["share"], resistance=env["resistance"],
         emf_per_rate=env["emf_per_rate"], torque_per_amp=env["torque_per_amp"])
-    friction = dataclasses.replace(params.friction,
-                                   b=max(params.friction.b, PLAN_FRICTION_SMOOTHING))
+    friction = plan_friction(params.friction)
     fr = np.array([friction_torques(x[2:4], friction) for x in states])
     plan = SwingPlan(times, states, b["torque"], fr, True, True, "library", sc.incline_deg,
                      plan_torque_limit(params), params.motor.power_rating, 1e-4, **electric,

@@ -6,7 +6,7 @@ both build on it."""
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -129,6 +129,24 @@ def plan_envelope(params: BplirParams) -> dict | None:
     return dict(voltage=m.max_voltage, share=params.plan.voltage_share,
                 resistance=m.resistance, emf_per_rate=m.back_emf_constant * m.gear_ratio,
                 torque_per_amp=m.torque_per_amp)
+
+
+def plan_friction(friction):
+    """The friction the planner models: ``friction`` with its Coulomb
+    smoothing widened to at least :data:`PLAN_FRICTION_SMOOTHING`."""
+    return replace(friction, b=max(friction.b, PLAN_FRICTION_SMOOTHING))
+
+
+def shifted_angles(fractions, states, q0, qT) -> np.ndarray:
+    """``states`` with their angles shifted by ``(1 - s) (q0 - first) +
+    s (qT - last)`` at the fraction ``s`` of the plan's duration
+    (``fractions``, 0 to 1), so they start at ``q0`` and end at ``qT``;
+    rates as they are."""
+    s = np.asarray(fractions, dtype=float)
+    states = np.array(states, dtype=float)
+    states[:, :2] += (np.outer(1.0 - s, np.asarray(q0) - states[0, :2])
+                      + np.outer(s, np.asarray(qT) - states[-1, :2]))
+    return states
 
 
 def plan_torque_limit(params: BplirParams) -> float:

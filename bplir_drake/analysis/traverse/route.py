@@ -111,7 +111,6 @@ def hold_position(line: Line, params: BplirParams, k: int, front: float) -> Obst
     :class:`LineError` when none does."""
     tp = params.traverse
     ob = line.obstacles[k]
-    near = tp.clearance + tp.gripper_width / 2    # a clasp next to an obstacle
     widest = max_width(params)
     where = f"obstacle '{ob.name}' ({ob.start:g}-{ob.end:g} m)"
     reach = f"grip spacings {tp.spacing_min:g}-{tp.spacing_max:g} m"

@@ -104,3 +104,63 @@ def test_forward_dynamics_matches_plant(params):
     pl.get_actuation_input_port().FixValue(ctx, [3.0])
     xd = pl.EvalTimeDerivatives(ctx).CopyToVector()
     np.testing.assert_allclose(K.forward_dynamics(q, v, 3.0, [0, 0], p), xd[2:], atol=1e-10)
+
+
+#: a robot whose centres of mass sit off the links' axes (an AcroMonk-sized one)
+OFF_AXIS = PlantParams(m1=1.16, m2=0.63, l1=0.3147, l2=0.3147, lc1=0.23, lc2=0.10,
+                       oc1=0.021, oc2=-0.012, I1=0.0012, I2=0.0008)
+
+
+def test_off_axis_centres_of_mass_match_the_plant():
+    """With the centres of mass off the links' axes the closed form, the
+    predictor's folded constants and the landing's model are the
+    MultibodyPlant's dynamics."""
+    from bplir_drake.params import FrictionParams
+    from bplir_drake.systems.predictor import nominal_rates
+
+    from bplir_drake.systems.landing import ApexShot, Landing
+
+    p, fr = OFF_AXIS, FrictionParams(enabled=False)
+    pl = K.make_plant(p)
+    ctx = pl.CreateDefaultContext()
+    rates = nominal_rates(p, fr)
+    shot = ApexShot(Landing(p, 0.0, *[0.0] * 7), fr, 0.0, 0.0, 0.1, 0.0)
+    rng = np.random.default_rng(3)
+    worst = 0.0
+    for _ in range(50):
+        q, v = rng.uniform(-math.pi, math.pi, 2), rng.uniform(-6, 6, 2)
+        M, Cv, g = K.drake_manipulator_terms(pl, ctx, q, v)
+        qdd = np.linalg.solve(M, np.array([0.0, 0.4]) - Cv - g)
+        # link 1's acceleration the landing's shot predicts for the elbow's
+        link1 = shot._link1_accel(shot._model(), *q, *v, qdd[1])
+        worst = max(worst, np.abs(M - K.mass_matrix(q, p)).max(),
+                    np.abs(Cv - K.bias_term(q, v, p)).max(),
+                    np.abs(g - K.gravity_vector(q, p)).max(),
+                    np.abs(np.array(rates(*q, *v, 0.4)[2:]) - qdd).max(), abs(link1 - qdd[0]))
+        # the potential is the gravity's integral: dV/dq = g(q)
+        h = 1e-6
+        dV = [(K.potential_energy(q + h * e, p) - K.potential_energy(q - h * e, p)) / (2 * h)
+              for e in np.eye(2)]
+        assert np.allclose(dV, g, atol=1e-6)
+    assert worst < 1e-9
+    # an on-axis robot's offsets change nothing: the old formulas to the last bit
+    on = PlantParams()
+    q, v = np.array([0.4, -1.2]), np.array([1.5, -2.0])
+    s1, s12 = math.sin(q[0]), math.sin(q[0] + q[1])
+    assert K.gravity_vector(q, on)[0] == (on.m1 * on.g * on.lc1 * s1
+                                          + on.m2 * on.g * (on.l1 * s1 + on.lc2 * s12))
+
+
+def test_swapped_off_axis_robot_has_the_same_centres_of_mass():
+    """Seen from the other gripper, each link's centre of mass stays where it
+    is: the swapped plant's offsets change sign with the link's direction."""
+    from bplir_drake.params.model import swapped_plant
+
+    p = OFF_AXIS
+    ps = swapped_plant(p)
+    q = np.array([0.7, -2.1])
+    grip = K.gripper_position(q, p.l1, p.l2)
+    own = K.link_centres_of_mass(q, p)
+    seen = K.link_centres_of_mass(K.swapped_state(q), ps) + grip
+    assert np.allclose(seen[::-1], own, atol=1e-12)
+    assert swapped_plant(ps) == p

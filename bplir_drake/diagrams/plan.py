@@ -97,7 +97,7 @@ def plan_swing(params: BplirParams, *, power_limit: float | None = None, knots: 
                              math.radians(params.scenario.incline_deg))
     qT = planned_target(params, end_depth)
     tau_max = plan_torque_limit(params)
-    inputs = dict(plant=params.plant.as_dict(), friction=params.friction.as_dict(),
+    inputs = dict(plant=params.plant.key_dict(), friction=params.friction.as_dict(),
                   envelope=plan_envelope(params),
                   q0=q0.tolist(), qT=qT.tolist(), tau_max=tau_max, power=power, tmax=tmax,
                   knots=knots, time_weight=time_weight, guess_duration=guess_duration,
@@ -296,7 +296,7 @@ def gains_inputs(plant, friction, plan: SwingPlan) -> dict:
 
     digest = hashlib.sha256(b"".join(np.ascontiguousarray(a, dtype=float).tobytes()
                                      for a in (plan.times, plan.states, plan.torque)))
-    return dict(plant=plant.as_dict(), friction=friction.as_dict(),
+    return dict(plant=plant.key_dict(), friction=friction.as_dict(),
                 smoothing=PLAN_FRICTION_SMOOTHING,
                 weights=dataclasses.asdict(TrackerWeights()), riccati=RICCATI_ACCURACY,
                 plan=digest.hexdigest())

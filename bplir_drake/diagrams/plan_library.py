@@ -73,7 +73,7 @@ class PlanLibrary:
 def model_inputs(params: BplirParams) -> dict:
     """Every input of a library plan and its gains other than the incline
     and the grip spacing (the planner's defaults for the solver settings)."""
-    return dict(plant=params.plant.as_dict(), friction=params.friction.as_dict(),
+    return dict(plant=params.plant.key_dict(), friction=params.friction.as_dict(),
                 envelope=plan_envelope(params), tau_max=plan_torque_limit(params),
                 power=params.motor.power_rating, tmax=params.scenario.max_time,
                 end_depth=params.plan.end_depth, start=params.scenario.start,

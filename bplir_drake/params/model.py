@@ -131,9 +131,10 @@ def swapped_plant(p: PlantParams) -> PlantParams:
     """The plant seen from the other gripper: link 2 becomes the holding link
     and link 1 the swinging one.  Lengths, masses and inertias trade places;
     each centre of mass is measured from the other end of its link
-    (``lc1' = l2 - lc2``, ``lc2' = l1 - lc1``)."""
+    (``lc1' = l2 - lc2``, ``lc2' = l1 - lc1``), and with the link's axis
+    turned by pi an offset from the axis changes sign (``oc1' = -oc2``)."""
     return replace(p, m1=p.m2, m2=p.m1, l1=p.l2, l2=p.l1, lc1=p.l2 - p.lc2,
-                   lc2=p.l1 - p.lc1, I1=p.I2, I2=p.I1)
+                   lc2=p.l1 - p.lc1, oc1=-p.oc2, oc2=-p.oc1, I1=p.I2, I2=p.I1)
 
 
 def swapped_imu(imu: ImuParams, plant: PlantParams) -> ImuParams:

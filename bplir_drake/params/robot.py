@@ -1,6 +1,7 @@
 """The robot's body and drive: the two links (Table 4.3), the joint friction, the motor, gearbox and driver (Table 4.2)."""
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field, replace
 from .base import MAX_LENGTH, ParameterError, _Block, _fraction, _length, _p, _positive
 
@@ -17,9 +18,52 @@ class PlantParams(_Block):
     l2: float = _length(1.2451, doc="length of link 2 (elbow to free gripper)")
     lc1: float = _p(0.2167, "m", 0, MAX_LENGTH, doc="pivot to centre of mass of link 1")
     lc2: float = _p(0.5459, "m", 0, MAX_LENGTH, doc="elbow to centre of mass of link 2")
+    oc1: float = _p(0.0, "m", -MAX_LENGTH, MAX_LENGTH,
+                    doc="centre of mass of link 1 off its axis (pivot to elbow), "
+                        "positive counter-clockwise of it")
+    oc2: float = _p(0.0, "m", -MAX_LENGTH, MAX_LENGTH,
+                    doc="centre of mass of link 2 off its axis (elbow to free gripper), "
+                        "positive counter-clockwise of it")
     I1: float = _positive(0.1539, "kg m^2", doc="inertia of link 1 about its CoM")
     I2: float = _positive(0.2191, "kg m^2", doc="inertia of link 2 about its CoM")
     g: float = _p(9.81, "m/s^2", 0, 30, lo_open=True, doc="gravitational acceleration")
+
+    @property
+    def rc1(self) -> float:
+        """Distance (m) from the pivot to link 1's centre of mass."""
+        return math.hypot(self.lc1, self.oc1)
+
+    @property
+    def rc2(self) -> float:
+        """Distance (m) from the elbow to link 2's centre of mass."""
+        return math.hypot(self.lc2, self.oc2)
+
+    @property
+    def dc1(self) -> float:
+        """Angle (rad) from link 1's axis to its centre of mass, counter-clockwise."""
+        return math.atan2(self.oc1, self.lc1)
+
+    @property
+    def dc2(self) -> float:
+        """Angle (rad) from link 2's axis to its centre of mass, counter-clockwise."""
+        return math.atan2(self.oc2, self.lc2)
+
+    def gravity_link1(self) -> tuple[float, float]:
+        """``(G, phase)`` with ``G sin(q1 + phase)`` the gravity torque of
+        link 1's own mass and of link 2's mass at the elbow about the pivot
+        (N m): ``g (m1 rc1 sin(q1 + dc1) + m2 l1 sin q1)``."""
+        a = self.g * (self.m1 * self.lc1 + self.m2 * self.l1)
+        b = self.g * self.m1 * self.oc1
+        return math.hypot(a, b), math.atan2(b, a)
+
+    def key_dict(self) -> dict:
+        """The fields as a dict, the off-axis offsets only when set (the key
+        of cached plans, which predate them)."""
+        d = self.as_dict()
+        for name in ("oc1", "oc2"):
+            if d[name] == 0.0:
+                del d[name]
+        return d
 
     def _check(self):
         if self.lc1 > self.l1:

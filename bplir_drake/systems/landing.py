@@ -186,12 +186,13 @@ class ApexShot:
     def __post_init__(self):
         # the nominal model's constants, folded once (the law runs every tick)
         p, fr = self.landing.plant, self.friction
-        a = p.I2 + p.m2 * p.lc2 ** 2
+        a = p.I2 + p.m2 * p.rc2 ** 2
+        g1, p1 = p.gravity_link1()
         drag = fr.drag_coefficients() if fr.enabled else (0.0, 0.0)
         object.__setattr__(self, "_constants", dict(
-            a=a, m11=p.m1 * p.lc1 ** 2 + p.I1 + p.m2 * p.l1 ** 2 + a,
-            k12=p.m2 * p.l1 * p.lc2, g1=(p.m1 * p.lc1 + p.m2 * p.l1) * p.g,
-            g12=p.m2 * p.lc2 * p.g, on=fr.enabled, fv=(fr.fv1, fr.fv2),
+            a=a, m11=p.m1 * p.rc1 ** 2 + p.I1 + p.m2 * p.l1 ** 2 + a,
+            k12=p.m2 * p.l1 * p.rc2, g1=g1, p1=p1, d2=p.dc2,
+            g12=p.m2 * p.rc2 * p.g, on=fr.enabled, fv=(fr.fv1, fr.fv2),
             fc=(fr.fc1, fr.fc2), b=fr.b, drag=drag))
 
     def _model(self):
@@ -207,10 +208,10 @@ class ApexShot:
     def _link1_accel(self, c, q1, q2, v1, v2, a2) -> float:
         """Link 1's acceleration (passive joint) with the elbow accelerating
         at ``a2``, on the nominal model."""
-        c2, s2 = math.cos(q2), math.sin(q2)
+        c2, s2 = math.cos(q2 + c["d2"]), math.sin(q2 + c["d2"])
         m12, m11 = c["a"] + c["k12"] * c2, c["m11"] + 2.0 * c["k12"] * c2
         bias = -c["k12"] * s2 * (2.0 * v1 * v2 + v2 * v2)
-        grav = c["g1"] * math.sin(q1) + c["g12"] * math.sin(q1 + q2)
+        grav = c["g1"] * math.sin(q1 + c["p1"]) + c["g12"] * math.sin(q1 + q2 + c["d2"])
         return -(m12 * a2 + bias + grav + self._friction(c, 0, v1)) / m11
 
     def _shoot(self, c, x, T: float, q2f: float):
@@ -228,6 +229,7 @@ class ApexShot:
         # order: this runs ~50 times per shot, several shots per tick), the
         # quartic's terms evaluated once per distinct time of the RK4 stages
         a, k12, m11c, g1, g12 = c["a"], c["k12"], c["m11"], c["g1"], c["g12"]
+        p1, dc2 = c["p1"], c["d2"]
         on, fv, fc, b, drag = c["on"], c["fv"][0], c["fc"][0], c["b"], c["drag"][0]
         cos, sin, atan, pi = math.cos, math.sin, math.atan, math.pi
 
@@ -235,13 +237,13 @@ class ApexShot:
             q2t = q2 + v2 * t + k2 * t * t + k3 * t ** 3 + k4 * t ** 4
             v2t = v2 + 2 * k2 * t + 3 * k3 * t * t + 4 * k4 * t ** 3
             a2t = 2 * k2 + 6 * k3 * t + 12 * k4 * t * t
-            c2, s2 = cos(q2t), sin(q2t)
+            c2, s2 = cos(q2t + dc2), sin(q2t + dc2)
             return q2t, v2t, a2t, s2, a + k12 * c2, m11c + 2.0 * k12 * c2
 
         def accel(e, q, w):   # link 1's acceleration with the elbow at e
             q2t, v2t, a2t, s2, m12, m11 = e
             bias = -k12 * s2 * (2.0 * w * v2t + v2t * v2t)
-            grav = g1 * sin(q) + g12 * sin(q + q2t)
+            grav = g1 * sin(q + p1) + g12 * sin(q + q2t + dc2)
             fr = (fv * w + fc * (2.0 / pi) * atan(w / b) + drag * w * abs(w)) if on else 0.0
             return -(m12 * a2t + bias + grav + fr) / m11
 
@@ -331,9 +333,9 @@ class ApexShot:
                 return self.landing.torque(x)
             a2 = sol[0]
         a1 = self._link1_accel(c, q1, q2, v1, v2, a2)
-        m12 = c["a"] + c["k12"] * np.cos(q2)
-        return float(m12 * a1 + c["a"] * a2 + c["k12"] * np.sin(q2) * v1 * v1
-                     + c["g12"] * np.sin(q1 + q2) + self._friction(c, 1, v2))
+        m12 = c["a"] + c["k12"] * np.cos(q2 + c["d2"])
+        return float(m12 * a1 + c["a"] * a2 + c["k12"] * np.sin(q2 + c["d2"]) * v1 * v1
+                     + c["g12"] * np.sin(q1 + q2 + c["d2"]) + self._friction(c, 1, v2))
 
 
 def link1_share(p, alpha: float, states, depth: float) -> float:

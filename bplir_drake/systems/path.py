@@ -221,25 +221,25 @@ class ReducedDynamics:
     viscous link-1 friction ``fv1``: ``alpha(s) q1'' + beta(s) q1'^2 +
     gamma(s) = -fv1 q1'`` (vectorised over ``s``)."""
 
-    __slots__ = ("shape", "alpha", "fv1", "m11c", "a", "m2l1lc2", "g1", "g2")
+    __slots__ = ("shape", "alpha", "fv1", "m11c", "a", "m2l1lc2", "g1", "g2", "p1", "d2")
 
     def __init__(self, shape: PathShape, alpha: float, p: PlantParams, fv1: float):
         self.shape, self.alpha, self.fv1 = shape, alpha, fv1
-        self.a = p.I2 + p.m2 * p.lc2 ** 2
-        self.m11c = p.m1 * p.lc1 ** 2 + p.I1 + p.m2 * p.l1 ** 2 + self.a
-        self.m2l1lc2 = p.m2 * p.l1 * p.lc2
-        self.g1 = p.g * (p.m1 * p.lc1 + p.m2 * p.l1)
-        self.g2 = p.g * p.m2 * p.lc2
+        self.a = p.I2 + p.m2 * p.rc2 ** 2
+        self.m11c = p.m1 * p.rc1 ** 2 + p.I1 + p.m2 * p.l1 ** 2 + self.a
+        self.m2l1lc2 = p.m2 * p.l1 * p.rc2
+        self.g1, self.p1 = p.gravity_link1()
+        self.g2, self.d2 = p.g * p.m2 * p.rc2, p.dc2
 
     def coefficients(self, s, branch):
         """(P, Q, R) at the points ``s`` of one branch (``shape.rts`` ...)."""
         phi, d1, d2 = branch(s)
         q1 = s + self.alpha
-        c2, s2 = np.cos(phi), np.sin(phi)
+        c2, s2 = np.cos(phi + self.d2), np.sin(phi + self.d2)
         m12 = self.a + self.m2l1lc2 * c2
         A = self.m11c + 2.0 * self.m2l1lc2 * c2 + m12 * d1
         B = m12 * d2 - self.m2l1lc2 * s2 * (2.0 * d1 + d1 * d1)
-        gam = self.g1 * np.sin(q1) + self.g2 * np.sin(q1 + phi)
+        gam = self.g1 * np.sin(q1 + self.p1) + self.g2 * np.sin(q1 + phi + self.d2)
         return -2.0 * B / A, -2.0 * gam / A, -2.0 * self.fv1 / A
 
 

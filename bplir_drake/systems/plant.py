@@ -28,40 +28,50 @@ from ..params import ParameterError, PlantParams
 
 
 def mass_matrix(q, p: PlantParams):
-    """M(q) of (4.6), corrected to be symmetric."""
-    c2 = dmath.cos(q[1])
-    a = p.I2 + p.m2 * p.lc2 ** 2
-    m12 = a + p.m2 * p.l1 * p.lc2 * c2
-    m11 = (p.m1 * p.lc1 ** 2 + p.I1 + p.m2 * p.l1 ** 2 + a
-           + 2.0 * p.m2 * p.l1 * p.lc2 * c2)
+    """M(q) of (4.6), corrected to be symmetric; a centre of mass off its
+    link's axis (``oc1``, ``oc2``) turns its term by ``dc1``/``dc2``."""
+    c2 = dmath.cos(q[1] + p.dc2)
+    r1, r2 = p.rc1, p.rc2
+    a = p.I2 + p.m2 * r2 ** 2
+    m12 = a + p.m2 * p.l1 * r2 * c2
+    m11 = (p.m1 * r1 ** 2 + p.I1 + p.m2 * p.l1 ** 2 + a
+           + 2.0 * p.m2 * p.l1 * r2 * c2)
     return np.array([[m11, m12], [m12, a]])
 
 
 def coriolis_matrix(q, v, p: PlantParams):
     """C(q, v) of (4.7)."""
-    h = -p.m2 * p.l1 * p.lc2 * dmath.sin(q[1])
+    h = -p.m2 * p.l1 * p.rc2 * dmath.sin(q[1] + p.dc2)
     return np.array([[h * v[1], h * (v[0] + v[1])], [-h * v[0], 0.0 * h]])
 
 
 def bias_term(q, v, p: PlantParams):
     """C(q, v) v: Coriolis and centrifugal generalized forces."""
-    h = p.m2 * p.l1 * p.lc2 * dmath.sin(q[1])
+    h = p.m2 * p.l1 * p.rc2 * dmath.sin(q[1] + p.dc2)
     return np.array([-h * (2.0 * v[0] * v[1] + v[1] ** 2), h * v[0] ** 2])
 
 
 def gravity_vector(q, p: PlantParams):
     """g(q) of (4.8): M qdd + C qd + g = tau - f."""
-    s1 = dmath.sin(q[0])
-    s12 = dmath.sin(q[0] + q[1])
-    return np.array([p.m1 * p.g * p.lc1 * s1 + p.m2 * p.g * (p.l1 * s1 + p.lc2 * s12),
-                     p.m2 * p.g * p.lc2 * s12])
+    s1, s1c = dmath.sin(q[0]), dmath.sin(q[0] + p.dc1)
+    s12 = dmath.sin(q[0] + q[1] + p.dc2)
+    return np.array([p.m1 * p.g * p.rc1 * s1c + p.m2 * p.g * (p.l1 * s1 + p.rc2 * s12),
+                     p.m2 * p.g * p.rc2 * s12])
 
 
 def potential_energy(q, p: PlantParams):
     """V(q) of (4.4), zero with the links on the line's height."""
-    c1 = dmath.cos(q[0])
-    c12 = dmath.cos(q[0] + q[1])
-    return -p.m1 * p.g * p.lc1 * c1 - p.m2 * p.g * (p.l1 * c1 + p.lc2 * c12)
+    c1, c1c = dmath.cos(q[0]), dmath.cos(q[0] + p.dc1)
+    c12 = dmath.cos(q[0] + q[1] + p.dc2)
+    return -p.m1 * p.g * p.rc1 * c1c - p.m2 * p.g * (p.l1 * c1 + p.rc2 * c12)
+
+
+def link_centres_of_mass(q, p: PlantParams):
+    """Both links' centres of mass (x, y) in m in the line frame (rows)."""
+    e = elbow_position(q, p.l1)
+    t1, t12 = q[0] + p.dc1, q[0] + q[1] + p.dc2
+    return np.array([[p.rc1 * dmath.sin(t1), -p.rc1 * dmath.cos(t1)],
+                     [e[0] + p.rc2 * dmath.sin(t12), e[1] - p.rc2 * dmath.cos(t12)]])
 
 
 def kinetic_energy(q, v, p: PlantParams):
@@ -219,17 +229,17 @@ def make_plant(p: PlantParams):
     return plant
 
 
-def _link_inertia(m, lc, I):
+def _link_inertia(m, lc, I, oc=0.0):
     from pydrake.multibody.tree import RotationalInertia, SpatialInertia
 
     # a slender link along -y: inertia I about x and z, small about y
     Irot = RotationalInertia(I, 1e-4 * I, I)
-    return SpatialInertia.MakeFromCentralInertia(m, [0.0, -lc, 0.0], Irot)
+    return SpatialInertia.MakeFromCentralInertia(m, [oc, -lc, 0.0], Irot)
 
 
 #: the plant fields a context can change (the links' inertial parameters);
 #: lengths and gravity are fixed when the plant is built
-INERTIAL_FIELDS = ("m1", "m2", "lc1", "lc2", "I1", "I2")
+INERTIAL_FIELDS = ("m1", "m2", "lc1", "lc2", "oc1", "oc2", "I1", "I2")
 
 
 def set_inertial_parameters(plant, context, p: PlantParams) -> None:
@@ -238,16 +248,18 @@ def set_inertial_parameters(plant, context, p: PlantParams) -> None:
     root context of a diagram holding ``plant``): the simulated robot of
     another Monte Carlo sample without rebuilding the diagram."""
     own = plant.GetMyMutableContextFromRoot(context)
-    for name, (m, lc, inertia) in (("link1", (p.m1, p.lc1, p.I1)), ("link2", (p.m2, p.lc2, p.I2))):
-        plant.GetBodyByName(name).SetSpatialInertiaInBodyFrame(own, _link_inertia(m, lc, inertia))
+    for name, (m, lc, inertia, oc) in (("link1", (p.m1, p.lc1, p.I1, p.oc1)),
+                                       ("link2", (p.m2, p.lc2, p.I2, p.oc2))):
+        plant.GetBodyByName(name).SetSpatialInertiaInBodyFrame(
+            own, _link_inertia(m, lc, inertia, oc))
 
 
 def _populate(plant, p: PlantParams, scene_graph) -> None:
     from pydrake.multibody.tree import RevoluteJoint
 
     plant.mutable_gravity_field().set_gravity_vector([0.0, -p.g, 0.0])
-    link1 = plant.AddRigidBody("link1", _link_inertia(p.m1, p.lc1, p.I1))
-    link2 = plant.AddRigidBody("link2", _link_inertia(p.m2, p.lc2, p.I2))
+    link1 = plant.AddRigidBody("link1", _link_inertia(p.m1, p.lc1, p.I1, p.oc1))
+    link2 = plant.AddRigidBody("link2", _link_inertia(p.m2, p.lc2, p.I2, p.oc2))
     world = plant.world_frame()
     j1 = plant.AddJoint(RevoluteJoint("gripper_joint", world, link1.body_frame(),
                                       [0.0, 0.0, 1.0], damping=0.0))

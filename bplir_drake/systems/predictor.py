@@ -28,18 +28,18 @@ def nominal_rates(plant: PlantParams, friction: FrictionParams):
     on plain floats, its constants folded once: the predictor's hot path
     (every tick integrates it 4 x 2 x D times).  Tested against the numpy
     functions to rounding."""
-    m1, m2, l1, lc1, lc2, g = plant.m1, plant.m2, plant.l1, plant.lc1, plant.lc2, plant.g
-    a = plant.I2 + m2 * lc2 ** 2
-    m11c = m1 * lc1 ** 2 + plant.I1 + m2 * l1 ** 2 + a
-    k12 = m2 * l1 * lc2
-    g1c, g12c = m1 * g * lc1 + m2 * g * l1, m2 * g * lc2
+    m1, m2, l1, rc1, rc2, g = plant.m1, plant.m2, plant.l1, plant.rc1, plant.rc2, plant.g
+    a = plant.I2 + m2 * rc2 ** 2
+    m11c = m1 * rc1 ** 2 + plant.I1 + m2 * l1 ** 2 + a
+    k12 = m2 * l1 * rc2
+    (g1c, p1), g12c, dc2 = plant.gravity_link1(), m2 * g * rc2, plant.dc2
     on = friction.enabled
     (d1, d2), cf = friction.drag_coefficients(), 2.0 / math.pi
     fv1, fc1, fv2, fc2, b = friction.fv1, friction.fc1, friction.fv2, friction.fc2, friction.b
 
     def f(q1, q2, v1, v2, tau):
-        c2, s2 = math.cos(q2), math.sin(q2)
-        s1, s12 = math.sin(q1), math.sin(q1 + q2)
+        c2, s2 = math.cos(q2 + dc2), math.sin(q2 + dc2)
+        s1, s12 = math.sin(q1 + p1), math.sin(q1 + q2 + dc2)
         m12 = a + k12 * c2
         m11 = m11c + 2.0 * k12 * c2
         h = k12 * s2

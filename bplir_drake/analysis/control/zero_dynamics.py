@@ -15,7 +15,7 @@ from scipy.integrate import solve_ivp
 
 from ...params import FrictionParams, PlantParams
 from ...systems.friction import friction_torques
-from ...systems.plant import gravity_vector, mass_matrix
+from ...systems.plant import gravity_vector, mass_matrix, potential_energy
 
 
 @dataclass
@@ -41,8 +41,7 @@ class PhasePortrait:
 
 
 def _potential(q1, q2, p):
-    c1, c12 = np.cos(q1), np.cos(q1 + q2)
-    return -p.m1 * p.g * p.lc1 * c1 - p.m2 * p.g * (p.l1 * c1 + p.lc2 * c12)
+    return potential_energy([q1, q2], p)
 
 
 def zero_dynamics_portrait(p: PlantParams, friction: FrictionParams | None, *, q2_star=0.0,

@@ -10,10 +10,12 @@ with about 2.4 s.
 from __future__ import annotations
 
 import math
+
+import numpy as np
 from dataclasses import dataclass
 
 from ...params import PlantParams
-from ...systems.plant import mass_matrix
+from ...systems.plant import link_centres_of_mass, mass_matrix
 
 
 def simple_pendulum_period(r_com: float, g: float) -> float:
@@ -23,9 +25,8 @@ def simple_pendulum_period(r_com: float, g: float) -> float:
 
 def com_radius(p: PlantParams, q2: float) -> float:
     """Distance pivot-CoM with the elbow at ``q2`` (6.12)-(6.13), q1 = 0."""
-    x = p.m2 * p.lc2 * math.sin(q2)
-    y = p.m1 * p.lc1 + p.m2 * (p.l1 + p.lc2 * math.cos(q2))
-    return math.hypot(x, y) / (p.m1 + p.m2)
+    com = link_centres_of_mass([0.0, q2], p)
+    return float(np.hypot(*(p.m1 * com[0] + p.m2 * com[1]))) / (p.m1 + p.m2)
 
 
 def compound_pendulum_period(p: PlantParams, q2: float) -> float:

@@ -10,7 +10,8 @@ the +-20 deg and 0 deg swings, the 20 deg swing resting on the line, the
 quick benchmark's +-10 deg and 1.1 / 1.15 / 1.3 m swings (with their warm
 starts from 1.2 m), the 1.27 m warm start, every swing of the example
 lines (both robots), the default swing of a robot whose nominal link 2
-weighs 1.6 kg (the documented ``--set plant.m2=1.6``) and the flat-line
+weighs 1.6 kg (the documented ``--set plant.m2=1.6``), the swing of
+``examples/acromonk.toml`` and the flat-line
 swings tried again from hanging (both robots); gains for the swings the tests track
 that the plan libraries (``scripts/plan_library.py``) do not cover.
 """
@@ -48,6 +49,9 @@ def scenarios():
              + [at(base, grip_spacing=d) for d in (1.1, 1.15, 1.3)])
     tracked += quick + [swing_params(base, g, base.traverse.grip_spacing, 0.0) for g in (1, 2)]
     tracked.append(base.with_(plant=dc.replace(base.plant, m2=1.6)))   # --set plant.m2=1.6
+    acromonk = load_toml(ROOT / "examples" / "acromonk.toml")   # another robot: its swing
+    tracked.append(acromonk)                                     # and its `bplir plan`
+    plans.append(lambda: P.plan_swing(acromonk, power_limit=None, knots=41))
     # the flat-line swings tried again from hanging (the traversal's recovery)
     from bplir_drake.analysis.traverse.recovery import retry_params
     tracked += [retry_params(swing_params(base, g, base.traverse.grip_spacing, 0.0))
@@ -87,9 +91,9 @@ def main(argv=None) -> int:
     for p in tracked:
         plan, _ = P.tracking_plan(p)
         print(f"gains {plan.incline_deg:+.1f} deg, {p.scenario.grip_spacing:g} m", flush=True)
-    for old in PACKAGED.glob("*.npz"):
-        old.unlink()
-    for f in sorted(cache.glob("*.npz")):
+    for old in [*PACKAGED.glob("plan-*.npz"), *PACKAGED.glob("gains-*.npz")]:
+        old.unlink()   # the libraries are scripts/plan_library.py's
+    for f in sorted([*cache.glob("plan-*.npz"), *cache.glob("gains-*.npz")]):
         shutil.copy2(f, PACKAGED / f.name)
     print(f"shipped {len(list(PACKAGED.glob('plan-*.npz')))} plans and "
           f"{len(list(PACKAGED.glob('gains-*.npz')))} gains in {PACKAGED}")

@@ -72,7 +72,8 @@ HEADER = "t,q1,q2,tau\n"
 @pytest.mark.parametrize("text, words", [
     ("t,q1,tau\n0,0,0\n", "lacks column(s) q2"),
     ("t,q1,q2\n0,0,0\n", "tau or i_cmd"),
-    (HEADER + "".join(f"{k * 0.01},{0.1},{0.0},0\n" for k in range(30)), "too short"),
+    (HEADER + "".join(f"{k * 0.01},{0.1},{0.0},0\n" for k in range(15)), "too short"),
+    (HEADER + "".join(f"{k * 0.005},{0.1},{0.0},0\n" for k in range(30)), "too short"),
     (HEADER + "".join(f"{k * 0.01},{0.1},{0.0},0\n" for k in range(400)), "no excitation"),
     (HEADER + "0,x,0,0\n", "non-numeric"),
     (HEADER + "-inf,0.1,0,0\n" + "".join(f"{k * 0.01},{0.1},{0.0},0\n" for k in range(1, 30))

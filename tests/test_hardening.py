@@ -516,8 +516,9 @@ def test_shipped_plans_serve_a_fresh_install(monkeypatch, tmp_path):
     # 1.2 m plan, plan.warm_spacing), the 1.27 m plans of the warm start's test and
     # the default swing with a 1.6 kg link 2 (the documented --set plant.m2=1.6) and the
     # flat-line swings tried again from hanging (the traversal's recovery, both robots;
-    # the swapped robot's first guess too, which SNOPT does not solve)
-    assert len(shipped) == 29
+    # the swapped robot's first guess too, which SNOPT does not solve), and
+    # examples/acromonk.toml's swing (its guesses and warm start) and `bplir plan`
+    assert len(shipped) == 33
     monkeypatch.setenv("BPLIR_CACHE_DIR", str(tmp_path))
 
     def no_solve(*a, **k):
@@ -553,6 +554,9 @@ def test_shipped_plans_serve_a_fresh_install(monkeypatch, tmp_path):
                 assert plan.feasible and plan.peak_voltage <= base.motor.max_voltage
                 seen.add((g, plan.incline_deg))
     assert len(seen) == 8
+    acromonk = load_toml(Path(__file__).resolve().parents[1] / "examples" / "acromonk.toml")
+    assert P.scenario_plan(acromonk).feasible
+    assert P.plan_swing(acromonk, knots=41).status == "iteration limit"   # `bplir plan`'s
     assert not list(tmp_path.glob("plan-*.npz"))     # read in place, not copied
 
 
@@ -587,6 +591,7 @@ def test_shipped_gains_serve_the_tests_plans(monkeypatch, tmp_path):
                                        for g in (1, 2)] + _quick_benchmark_swings()
     from bplir_drake.analysis.traverse.recovery import retry_params
     cases += [retry_params(c) for c in cases[4:6]]   # the flat swings tried again
+    cases.append(load_toml(Path(__file__).resolve().parents[1] / "examples" / "acromonk.toml"))
     keys, blended = set(), 0
     for p in cases:
         plan, gains = P.tracking_plan(p)
@@ -594,7 +599,8 @@ def test_shipped_gains_serve_the_tests_plans(monkeypatch, tmp_path):
         if plan.status == "interpolated":   # the plan library's: no file
             blended += 1
             continue
-        keys.add(plan_cache.plan_key(P.gains_inputs(p.plant, p.friction, plan)))
+        keys.add(plan_cache.plan_key(P.gains_inputs(p.plant, p.friction, plan,
+                                                    P.TrackerWeights.of(p.plan))))
     assert blended == 10   # +-20 deg, the flat swing, both robots on the flat line, the quick five
     shipped = {f.stem.split("-", 1)[1] for f in plan_cache.PACKAGED.glob("gains-*.npz")}
     assert shipped == keys and not list(tmp_path.glob("gains-*.npz"))

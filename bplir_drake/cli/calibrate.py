@@ -18,7 +18,7 @@ def cmd_calibrate(args) -> int:
         raise InputError(f"--fit names {', '.join(twice)} more than once; name each "
                          "parameter once")
     params = _load_params(args)
-    log = read_calibration_csv(args.log, params.motor.torque_per_amp)
+    log = read_calibration_csv(args.log, params.motor.torque_per_amp, min_duration=0.2)
     out_dir = _out_dir(args.out)   # after the log's checks: a refusal writes nothing
     res = calibrate(params, log, fit, progress=_progress(args))
     summary = res.summary() | {

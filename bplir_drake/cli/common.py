@@ -37,7 +37,8 @@ def _load_params(args):
         if args.preset:  # the file's tables override the named preset
             from ..params import from_dict, read_toml
 
-            params = from_dict(read_toml(args.config) | {"preset": args.preset})
+            params = from_dict(read_toml(args.config) | {"preset": args.preset},
+                               base_dir=Path(args.config).parent)
         else:
             params = load_toml(args.config)
     else:
@@ -70,6 +71,11 @@ def _with_settings(params, args):
             value = tomllib.loads(f"v = {text.strip()}")["v"]
         except tomllib.TOMLDecodeError:
             value = text.strip()
+        if block == "robot":   # a description file gives the plant
+            from ..params import from_dict
+
+            params = from_dict({"robot": {name: value}}, base=params, base_dir=Path.cwd())
+            continue
         base = getattr(params, block)
         if base is None:   # true_plant / true_friction start from the nominal blocks
             base = getattr(params, block.removeprefix("true_"))

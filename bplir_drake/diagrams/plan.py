@@ -246,7 +246,8 @@ def tracking_plan(params: BplirParams):
     if found is not None:
         return found
     plan = scenario_plan(params)
-    return plan, tracking_gains(params.plant, params.friction, plan)
+    return plan, tracking_gains(params.plant, params.friction, plan,
+                                weights=TrackerWeights.of(params.plan))
 
 
 def scenario_plan(params: BplirParams) -> SwingPlan:
@@ -276,6 +277,8 @@ def scenario_plan(params: BplirParams) -> SwingPlan:
         if plan.feasible:
             break
     warm = params.plan.warm_spacing
+    if step > 0:   # on the same grid (else the warm plan's own warm start recurses)
+        warm = round(round(warm / step) * step, 9)
     if warm > 0 and not hanging and abs(params.scenario.grip_spacing - warm) > 1e-9:
         ref = scenario_plan(params.with_(scenario=replace(params.scenario, grip_spacing=warm)))
         started = plan_swing(params, end_depth=depth, initial=ref)
@@ -289,7 +292,8 @@ def scenario_plan(params: BplirParams) -> SwingPlan:
 _GAINS: dict = {}
 
 
-def gains_inputs(plant, friction, plan: SwingPlan) -> dict:
+def gains_inputs(plant, friction, plan: SwingPlan,
+                 weights: TrackerWeights = TrackerWeights()) -> dict:
     """Every input of the tracking gains of ``plan``: the nominal model
     (plant, friction), the LQR weights (:class:`TrackerWeights`, as
     :func:`plan_gains` uses them) and the plan's samples (by digest)."""
@@ -298,20 +302,21 @@ def gains_inputs(plant, friction, plan: SwingPlan) -> dict:
                                      for a in (plan.times, plan.states, plan.torque)))
     return dict(plant=plant.key_dict(), friction=friction.as_dict(),
                 smoothing=PLAN_FRICTION_SMOOTHING,
-                weights=dataclasses.asdict(TrackerWeights()), riccati=RICCATI_ACCURACY,
+                weights=dataclasses.asdict(weights), riccati=RICCATI_ACCURACY,
                 plan=digest.hexdigest())
 
 
-def tracking_gains(plant, friction, plan: SwingPlan, cache: bool = True):
+def tracking_gains(plant, friction, plan: SwingPlan, cache: bool = True,
+                   weights: TrackerWeights = TrackerWeights()):
     """Finite-horizon LQR gains along ``plan`` on the nominal model (plant,
-    friction): kept in this process per input, and with ``cache`` on disk
-    (:mod:`.plan_cache`, keyed by :func:`gains_inputs`)."""
+    friction) with the LQR ``weights``: kept in this process per input, and
+    with ``cache`` on disk (:mod:`.plan_cache`, keyed by :func:`gains_inputs`)."""
 
-    inputs = gains_inputs(plant, friction, plan)
+    inputs = gains_inputs(plant, friction, plan, weights)
 
     def solve():
         model, _ = plan_model(BplirParams.of_plant(plant, friction))   # any link lengths
-        return plan_gains(model, plan.times, plan.states, plan.torque)
+        return plan_gains(model, plan.times, plan.states, plan.torque, weights)
 
     if not cache:
         return solve()

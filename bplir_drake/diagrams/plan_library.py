@@ -78,7 +78,7 @@ def model_inputs(params: BplirParams) -> dict:
                 power=params.motor.power_rating, tmax=params.scenario.max_time,
                 end_depth=params.plan.end_depth, start=params.scenario.start,
                 knots=LIBRARY_KNOTS, smoothing=PLAN_FRICTION_SMOOTHING,
-                weights=dataclasses.asdict(TrackerWeights()), riccati=RICCATI_ACCURACY,
+                weights=dataclasses.asdict(TrackerWeights.of(params.plan)), riccati=RICCATI_ACCURACY,
                 inclines=list(LIBRARY_INCLINES), spacings=list(LIBRARY_SPACINGS),
                 samples=LIBRARY_SAMPLES)
 
@@ -112,7 +112,8 @@ def build_library(params: BplirParams, plans: dict, model) -> PlanLibrary:
             if plan is None:   # no plan here: blends that would weigh it are solved
                 arr["durations"][i, j], arr["reversals"][i, j] = math.nan, -1
                 continue
-            g = plan_gains(model, plan.times, plan.states, plan.torque)
+            g = plan_gains(model, plan.times, plan.states, plan.torque,
+                           TrackerWeights.of(params.plan))
             t = np.linspace(plan.times[0], plan.times[-1], n)
             arr["durations"][i, j] = plan.duration
             arr["states"][i, j] = _resample(plan.times, plan.states)

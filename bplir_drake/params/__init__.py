@@ -35,6 +35,7 @@ from .base import (  # noqa: F401
     _Block)
 from .robot import (  # noqa: F401
     PlantParams,
+    RobotFileParams,
     FrictionParams,
     MotorParams)
 from .sensing import (  # noqa: F401

@@ -8,15 +8,20 @@ from typing import Any
 from .base import ParameterError
 from .plan import split_path_table
 from .model import BLOCKS, BplirParams, preset
+from .robot import RobotFileParams
+from .robot_file import SHIPPED_ROBOTS, describe_robot, resolve_robot_file
 from ..io import read_text, write_text_atomic
 
 
 # ---------------------------------------------------------------- TOML
-def from_dict(data: dict[str, Any], base: BplirParams | None = None) -> BplirParams:
+def from_dict(data: dict[str, Any], base: BplirParams | None = None,
+              base_dir: Path | None = None) -> BplirParams:
     """Build parameters from a nested dict (as read from TOML).
 
     A top-level ``preset = "name"`` selects the base; every table overrides
-    fields of the block of the same name.
+    fields of the block of the same name.  A ``[robot]`` table naming a
+    description file gives the ``[plant]`` block (a relative path from
+    ``base_dir``); fields of a ``[plant]`` table override the file's.
     """
     if not isinstance(data, dict):
         raise ParameterError("parameter data must be a table of tables")
@@ -25,7 +30,7 @@ def from_dict(data: dict[str, Any], base: BplirParams | None = None) -> BplirPar
     if name is not None and not isinstance(name, str):
         raise ParameterError(f"preset = {name!r} must be a string naming a preset")
     params = preset(name) if name else (base or preset("dissertation"))
-    updates: dict[str, Any] = {}
+    updates: dict[str, Any] = robot_file_updates(params, data, base_dir)
     for key, table in data.items():
         if key not in BLOCKS:
             raise ParameterError(
@@ -33,10 +38,13 @@ def from_dict(data: dict[str, Any], base: BplirParams | None = None) -> BplirPar
         if not isinstance(table, dict):
             raise ParameterError(f"'{key}' must be a table ([{key}]), got {table!r}")
         cls = BLOCKS[key]
+        if key == "robot":
+            continue   # robot_file_updates read it
         if key.startswith("true_"):
-            current = getattr(params, key) or getattr(params, key[len("true_"):])
+            current = getattr(params, key) or updates.get(key[len("true_"):],
+                                                         getattr(params, key[len("true_"):]))
         else:
-            current = getattr(params, key)
+            current = updates.get(key, getattr(params, key))
         try:
             updates[key] = cls.from_dict(table, base=current)
         except ParameterError as exc:  # name the table the user wrote ([true_plant] ...)
@@ -45,11 +53,25 @@ def from_dict(data: dict[str, Any], base: BplirParams | None = None) -> BplirPar
             raise
         except TypeError as exc:  # pragma: no cover - defensive
             raise ParameterError(f"[{key}]: {exc}") from None
-    updates = follow_the_links(params, updates, data)
+    updates = follow_the_motor(params, follow_the_links(params, updates, data), data)
     try:
         return replace(params, **updates)
     except TypeError as exc:  # pragma: no cover - defensive
         raise ParameterError(str(exc)) from None
+
+
+def robot_file_updates(params: BplirParams, data: dict, base_dir: Path | None) -> dict:
+    """``{"robot": ..., "plant": ...}`` when ``data``'s ``[robot]`` table
+    names a description file (its path made absolute), else ``{}``."""
+    table = data.get("robot")
+    if not isinstance(table, dict) or not table:
+        return {}
+    robot = RobotFileParams.from_dict(table, base=params.robot)
+    if not robot.file:
+        return {"robot": robot}
+    if robot.file not in SHIPPED_ROBOTS:
+        robot = replace(robot, file=str(resolve_robot_file(robot.file, base_dir)))
+    return {"robot": robot, "plant": describe_robot(robot, base_dir).plant}
 
 
 def follow_the_links(params: BplirParams, updates: dict, data: dict) -> dict:
@@ -70,7 +92,43 @@ def follow_the_links(params: BplirParams, updates: dict, data: dict) -> dict:
     est_scaled = {n: v for n, v in (("r1", params.estimator.r1 * k1),
                                     ("r2", params.estimator.r2 * k2), ("l1", plant.l1))
                   if n not in given.get("estimator", ())}
-    return updates | {"imu": replace(imu, **scaled), "estimator": replace(est, **est_scaled)}
+    updates = updates | {"imu": replace(imu, **scaled), "estimator": replace(est, **est_scaled)}
+    # the grip spacings and the landing laws' take-over depths keep their share of the reach
+    k = (plant.l1 + plant.l2) / (params.plant.l1 + params.plant.l2)
+    for block, names in SPACING_FIELDS.items():
+        current = updates.get(block, getattr(params, block))
+        spaced = {n: round(getattr(getattr(params, block), n) * k, 3) for n in names
+                  if n not in given.get(block, ())}
+        updates[block] = replace(current, **spaced)
+    return updates
+
+
+#: the grip spacings of a robot and the depths at which its landing laws take over,
+#: which follow its reach (l1 + l2) when a file gives other links
+SPACING_FIELDS = {"scenario": ("grip_spacing",), "plan": ("warm_spacing",),
+                  "traverse": ("grip_spacing", "spacing_min", "spacing_max"),
+                  "landing": ("reach_depth", "landing_depth", "shoot_depth")}
+
+
+def follow_the_motor(params: BplirParams, updates: dict, data: dict) -> dict:
+    """When a file gives the motor another torque limit but not the
+    controller's, the controller saturates at the motor's, and the delay
+    probe (half the limit by default) follows it."""
+    motor = updates.get("motor")
+    if motor is None or motor.torque_limit == params.motor.torque_limit:
+        return updates
+    given = {b: set(t) if isinstance(t, dict) else set() for b, t in data.items()}
+    out = dict(updates)
+    if "torque_limit" not in given.get("controller", ()):
+        out["controller"] = replace(updates.get("controller", params.controller),
+                                    torque_limit=motor.torque_limit)
+    k = motor.torque_limit / params.motor.torque_limit
+    plan = updates.get("plan", params.plan)
+    if "delay_probe" not in given.get("plan", ()):
+        plan = replace(plan, delay_probe=params.plan.delay_probe * k)
+    if "lqr_torque" not in given.get("plan", ()):   # the same weight on a torque's share
+        plan = replace(plan, lqr_torque=params.plan.lqr_torque / k ** 2)
+    return out | {"plan": plan}
 
 
 def read_toml(path: str | Path, what: str = "parameter file", error=ParameterError) -> dict:
@@ -88,7 +146,7 @@ def read_toml(path: str | Path, what: str = "parameter file", error=ParameterErr
 
 def load_toml(path: str | Path) -> BplirParams:
     """Read a parameter file; errors name the file and the problem."""
-    return from_dict(read_toml(path))
+    return from_dict(read_toml(path), base_dir=Path(path).parent)
 
 
 def to_dict(params: BplirParams) -> dict[str, Any]:

@@ -4,7 +4,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field, fields, replace
 from typing import Any
 from .base import ParameterError, _is_plugin, _range_text
-from .robot import FrictionParams, MotorParams, PlantParams
+from .robot import FrictionParams, MotorParams, PlantParams, RobotFileParams
 from .sensing import EstimatorParams, ImuParams, LineSensorParams
 from .control import CONTROLLER_PRESETS, ControllerParams, current_preset_name, HARDWARE_OPTIONS, IMU_ONLY_TUNING, LINE_SENSOR_OPTION, PathParams
 from .plan import LandingParams, PlanParams
@@ -16,6 +16,7 @@ class BplirParams:
     """Everything one run needs.  ``plant``/``friction`` are the nominal
     model; ``true_plant``/``true_friction`` (optional) are the simulated robot."""
 
+    robot: RobotFileParams = field(default_factory=RobotFileParams)
     plant: PlantParams = field(default_factory=PlantParams)
     friction: FrictionParams = field(default_factory=FrictionParams)
     motor: MotorParams = field(default_factory=MotorParams)
@@ -195,7 +196,7 @@ def parameter_reference(blocks=None) -> list[dict[str, Any]]:
 
 
 BLOCKS = {
-    "plant": PlantParams, "friction": FrictionParams, "motor": MotorParams,
+    "robot": RobotFileParams, "plant": PlantParams, "friction": FrictionParams, "motor": MotorParams,
     "imu": ImuParams, "estimator": EstimatorParams, "controller": ControllerParams,
     "path": PathParams, "plan": PlanParams, "landing": LandingParams,
     "scenario": ScenarioParams, "drive": DriveParams,

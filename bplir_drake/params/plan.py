@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field, fields
 
-from .base import ParameterError, _Block, _count, _fraction, _p, _positive
+from .base import MAX_LENGTH, ParameterError, _Block, _count, _fraction, _p, _positive
 import warnings
 
 PLAN_INDEXING = ("time", "state")
@@ -25,16 +25,24 @@ class PlanParams(_Block):
     torque_share: float = _fraction(1.0, doc="share of the torque limit the plan may use (the rest is the feedback's headroom)")
     spacing_step: float = _p(0.01, "m", 0, 0.1, doc="plans are made for the measured grip spacing rounded to this step, so a study drawing the spacing solves few plans (0: exact)")
     library: bool = field(default=True, metadata=dict(doc="a scenario the shipped plan library of its nominal robot covers gets its plan and gains interpolated from it, in milliseconds (false: every plan solved)"))
-    warm_spacing: float = _p(1.2, "m", 0, 3, doc="a plan for another spacing is also solved from this spacing's plan and the cheaper one kept (0: straight-line guesses only)")
+    warm_spacing: float = _p(1.2, "m", 0, 2 * MAX_LENGTH, doc="a plan for another spacing is also solved from this spacing's plan and the cheaper one kept (0: straight-line guesses only)")
     indexing: str = field(default="time", metadata=dict(doc="time (the plan read by the clock) or state (the plan phase nearest the estimate: no clock)", allowed="time, state"))
     delay_compensation: float = _p(0.01, "s", 0, 0.1, doc="actuation delay the tracker assumes until it has identified one (whole periods; the lab firmware's 10 ms)")
     delay_probe: float = _p(10.0, "N m", 0, 20, doc="amplitude of the delay probe, two opposite doublets on the first eight commands whose gyro echo identifies the delay (0: none)")
     delay_max: float = _p(0.03, "s", 0.01, 0.1, doc="with delay_probe: the longest actuation delay the identification considers (whole periods)")
     delay_window: int = _count(12, "ticks", 8, 50, doc="with delay_probe: the ticks of gyro samples the identification fits (12: 120 ms from the release)")
     delay_min_ratio: float = _p(1.25, "", 1, 100, doc="the identified delay is used only if the runner-up candidate fits the gyros this many times worse")
+    lqr_state: tuple = field(default=(100.0, 100.0, 10.0, 10.0), metadata=dict(doc="the tracking LQR's weights on the errors of q1, q2 (1/rad^2) and q1', q2' (s^2/rad^2)", allowed="four numbers >= 0"))
+    lqr_torque: float = _p(0.1, "1/(N m)^2", 0, lo_open=True, doc="the tracking LQR's weight on the torque")
+    lqr_final: float = _p(10.0, "", 0, doc="the tracking LQR's weight on the plan's final state, times lqr_state")
 
     def _check(self):
         self._one_of("indexing", PLAN_INDEXING)
+        w = self.lqr_state
+        if len(w) != 4 or not all(isinstance(v, (int, float)) and not isinstance(v, bool)
+                                  and 0 <= v < float("inf") for v in w):
+            raise ParameterError(f"plan.lqr_state = {list(w)} must be four numbers; allowed: "
+                                 "each >= 0 and finite")
 
 
 @dataclass(frozen=True)

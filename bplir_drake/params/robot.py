@@ -174,3 +174,26 @@ class MotorParams(_Block):
     def torque_per_amp(self) -> float:
         """(4.12): tau = Km N eta_g eta_m i."""
         return self.km * self.gear_ratio * self.eta_g * self.eta_m
+
+
+# ---------------------------------------------------------------- robot file
+@dataclass(frozen=True)
+class RobotFileParams(_Block):
+    """The robot's description file: with ``file`` set, the ``[plant]``
+    block is read from it (lengths, masses, centres of mass, inertias,
+    gravity); fields a config's ``[plant]`` table gives override the file's."""
+
+    _name = "robot"
+    file: str = field(default="", metadata=dict(
+        doc="URDF or SDFormat file of the robot (relative to the config file), or the name of "
+            "a shipped one ('bplir'); '' : the [plant] block alone",
+        allowed="a .urdf or .sdf path, bplir or ''"))
+    pivot_joint: str = field(default="gripper_joint", metadata=dict(
+        doc="revolute joint at the holding gripper (the passive joint, q1)",
+        allowed="a revolute joint of the file"))
+    elbow_joint: str = field(default="elbow_joint", metadata=dict(
+        doc="revolute joint at the elbow (the actuated joint, q2)",
+        allowed="a revolute joint of the file"))
+    free_gripper: str = field(default="free_gripper", metadata=dict(
+        doc="frame (or link) of the free gripper at the end of link 2",
+        allowed="a frame of the file"))

@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from .base import ParameterError, _Block, _count, _fraction, _p, _positive
+from .base import MAX_LENGTH, ParameterError, _Block, _count, _fraction, _p, _positive
 from .plan import LANDING_LAWS
 
 
@@ -72,9 +72,9 @@ class TraverseParams(_Block):
     are controlled and when the robot rests for the driver's i^2 t budget."""
 
     _name = "traverse"
-    grip_spacing: float = _p(1.2, "m", 0.5, 2.0, doc="grip spacing every swing is set up at (the swing lands about this far ahead of the holding gripper)")
-    spacing_min: float = _p(0.9, "m", 0.5, 2.0, doc="shortest grip spacing the route may choose for a swing where the set-up spacing does not fit between obstacles")
-    spacing_max: float = _p(1.5, "m", 0.5, 2.0, doc="longest grip spacing the route may choose for a swing (the reach; wider obstacles need it)")
+    grip_spacing: float = _p(1.2, "m", 0, 2 * MAX_LENGTH, lo_open=True, doc="grip spacing every swing is set up at (the swing lands about this far ahead of the holding gripper)")
+    spacing_min: float = _p(0.9, "m", 0, 2 * MAX_LENGTH, lo_open=True, doc="shortest grip spacing the route may choose for a swing where the set-up spacing does not fit between obstacles")
+    spacing_max: float = _p(1.5, "m", 0, 2 * MAX_LENGTH, lo_open=True, doc="longest grip spacing the route may choose for a swing (the reach; wider obstacles need it)")
     clearance: float = _p(0.05, "m", 0, 1, doc="gap kept between a clasped gripper and an obstacle")
     gripper_width: float = _p(0.08, "m", 0, 0.5, doc="length of line a clasped gripper covers")
     landing_tolerance: float = _p(0.08, "m", 0, 1, doc="planned landings lie at least this much further from obstacles (the swing's landing error)")

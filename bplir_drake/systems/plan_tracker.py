@@ -49,6 +49,13 @@ class TrackerWeights:
     torque: float = 0.1
     final_factor: float = 10.0
 
+    @classmethod
+    def of(cls, plan) -> "TrackerWeights":
+        """The weights of a ``plan`` parameter block (``lqr_state``,
+        ``lqr_torque``, ``lqr_final``)."""
+        return cls(state=tuple(float(v) for v in plan.lqr_state), torque=float(plan.lqr_torque),
+                   final_factor=float(plan.lqr_final))
+
 
 @dataclass(frozen=True)
 class TrackingGains:

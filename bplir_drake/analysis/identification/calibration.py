@@ -113,8 +113,12 @@ MAX_LOG_TORQUE, MAX_LOG_ANGLE, MAX_LOG_RATE, MAX_LOG_DURATION = 200.0, 50.0, 100
 
 def check_calibration_log(t, q, tau, qd0=None, *, min_duration: float = 2.0) -> CalibrationLog:
     """A :class:`CalibrationLog` from arrays, checked: at least 20 finite samples over
-    ``min_duration`` seconds with increasing times."""
+    ``min_duration`` seconds with increasing times (a row repeated whole counts once)."""
     t, q, tau = np.asarray(t, float), np.asarray(q, float), np.asarray(tau, float)
+    if len(t) > 1:   # a row repeated whole (a logger's last sample written twice) is one row
+        again = np.concatenate([[False], (np.diff(t) == 0) & np.all(np.diff(q, axis=0) == 0, axis=1)
+                                & (np.diff(tau) == 0)])
+        t, q, tau = t[~again], q[~again], tau[~again]
     if not (np.all(np.isfinite(t)) and np.all(np.isfinite(q)) and np.all(np.isfinite(tau))):
         raise CalibrationError("log has missing or non-finite values")
     for name, values, limit, unit in (("tau", tau, MAX_LOG_TORQUE, "N m"),

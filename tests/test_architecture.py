@@ -118,7 +118,7 @@ def test_every_public_definition_has_a_docstring():
 LAYERS = {"io": set(), "progress": set(), "csvfile": {"io"}, "plotting": {"io"},
           "params": {"io"},
           "systems": {"params", "io"},
-          "diagrams": {"params", "io", "progress", "plotting", "systems"},
+          "diagrams": {"params", "io", "csvfile", "progress", "plotting", "systems"},
           "simulate": {"params", "io", "systems"},
           "estimation": {"params", "io", "csvfile", "progress", "systems"},
           "analysis": {"params", "io", "csvfile", "progress", "plotting", "systems", "diagrams",

@@ -40,6 +40,7 @@ from .swing_plan import (  # noqa: F401 (re-exported)
     PLAN_FRICTION_SMOOTHING, SwingPlan, plan_envelope, plan_friction, plan_torque_limit,
     planned_target, shifted_angles)
 from .plan_library import library_plan
+from .plan_file import read_plan_file
 from .open_loop import build_plant_with_friction
 from ..systems.plant import start_configuration
 from .plan_cache import cached
@@ -93,6 +94,9 @@ def plan_swing(params: BplirParams, *, power_limit: float | None = None, knots: 
     if not 0.0 <= end_depth < params.scenario.capture_distance:
         raise ParameterError(f"end depth = {end_depth:g} m is out of range; allowed "
                              f"[0, {params.scenario.capture_distance:g}) m (the capture band)")
+    if params.scenario.start == "plan":
+        raise ParameterError("scenario.start = 'plan' tracks plan.file; the planner plans from "
+                             "line or hanging")
     q0 = start_configuration(params.scenario.start, params.scenario.grip_spacing, params.plant,
                              math.radians(params.scenario.incline_deg))
     qT = planned_target(params, end_depth)
@@ -242,7 +246,7 @@ def tracking_plan(params: BplirParams):
     :func:`scenario_plan`, the gains from Drake's finite-horizon LQR on the
     nominal model (:func:`tracking_gains`: disk cache too); from the
     shipped library when it covers the scenario (:mod:`.plan_library`)."""
-    found = library_plan(params)
+    found = None if params.plan.file else library_plan(params)
     if found is not None:
         return found
     plan = scenario_plan(params)
@@ -262,6 +266,8 @@ def scenario_plan(params: BplirParams) -> SwingPlan:
     and 1.1 m, -20 deg).  From hanging (``scenario.start``): the guesses
     :data:`HANGING_GUESSES` on :data:`HANGING_KNOTS` knots with up to
     :data:`HANGING_MINOR_ITERATIONS` minor iterations, no warm start."""
+    if params.plan.file:   # a plan made elsewhere
+        return read_plan_file(params)
     found = library_plan(params)
     if found is not None:
         return found[0]

@@ -58,6 +58,7 @@ from ..systems.path import PathGeometry
 from ..systems.plant import start_configuration, target_configuration
 from .plugin import make_plugin
 from .plan import tracking_plan
+from .plan_file import read_plan_file
 
 #: the parameter fields a context carries (:func:`set_swing_sample`), by
 #: block (the disturbance fields only when the built swing has disturbances)
@@ -82,7 +83,8 @@ def swing_geometry(params: BplirParams):
     sc = params.scenario
     alpha = math.radians(sc.incline_deg)
     true_p = params.simulated_plant
-    q0 = start_configuration(sc.start, sc.grip_spacing, true_p, alpha)
+    q0 = (start_state(params)[:2] if sc.start == "plan"
+          else start_configuration(sc.start, sc.grip_spacing, true_p, alpha))
     qT = target_configuration(sc.grip_spacing, true_p, alpha)
     believed_start(params)  # the robot's own start pose: validates the scenario for the model too
     pg = PathGeometry.from_scenario(params.plant, sc.grip_spacing, alpha, sc.capture_distance)
@@ -171,8 +173,23 @@ def believed_start(params: BplirParams) -> np.ndarray:
     (:func:`swing_geometry`), a few mrad away with 2 mm length errors."""
 
     sc = params.scenario
+    if sc.start == "plan":
+        return start_state(params)[:2]
     return start_configuration(sc.start, sc.grip_spacing, params.plant,
                                math.radians(sc.incline_deg))
+
+
+def start_state(params: BplirParams) -> np.ndarray:
+    """The swing's start state (q1, q2, q1', q2'): the first state of
+    ``plan.file`` with ``scenario.start = "plan"`` (the robot starts, and
+    believes it starts, moving as the plan does), else at rest in
+    :func:`believed_start`'s pose."""
+    if params.scenario.start != "plan":
+        return np.r_[believed_start(params), 0.0, 0.0]
+    if not params.plan.file:
+        raise ParameterError("scenario.start = 'plan' needs plan.file; allowed: line or "
+                             "hanging without one")
+    return np.asarray(read_plan_file(params).states[0], dtype=float)
 
 
 def standstill_calibration(params: BplirParams, q0, seed: int) -> ImuCalibration:
@@ -213,8 +230,7 @@ def add_sensing(builder, params: BplirParams, robot: Robot, q0, seed: int, estim
         builder.Connect(sampler.get_output_port(0), user.GetInputPort("imu"))
         return sampler, user, user.GetOutputPort("state")
     est = params.estimator.for_loop()
-    qb = believed_start(params)
-    x0_abs = absolute_from_relative(np.array([qb[0], qb[1], 0.0, 0.0]))
+    x0_abs = absolute_from_relative(start_state(params))
     ls = params.line_sensor
     alpha = math.radians(params.scenario.incline_deg)
     line = (params.plant.l1, params.plant.l2, alpha, ls.filter_sigma) if ls.range > 0 else None

@@ -54,6 +54,9 @@ def from_dict(data: dict[str, Any], base: BplirParams | None = None,
         except TypeError as exc:  # pragma: no cover - defensive
             raise ParameterError(f"[{key}]: {exc}") from None
     updates = follow_the_motor(params, follow_the_links(params, updates, data), data)
+    plan = updates.get("plan")
+    if plan is not None and plan.file and base_dir is not None and "file" in data.get("plan", {}):
+        updates["plan"] = replace(plan, file=str((Path(base_dir) / plan.file).resolve()))
     try:
         return replace(params, **updates)
     except TypeError as exc:  # pragma: no cover - defensive

@@ -8,6 +8,7 @@ from .base import MAX_LENGTH, ParameterError, _Block, _count, _fraction, _p, _po
 import warnings
 
 PLAN_INDEXING = ("time", "state")
+PLAN_FILE_ANGLES = ("package", "robot")
 LANDING_LAWS = ("aim", "shoot", "auto")
 
 
@@ -32,12 +33,20 @@ class PlanParams(_Block):
     delay_max: float = _p(0.03, "s", 0.01, 0.1, doc="with delay_probe: the longest actuation delay the identification considers (whole periods)")
     delay_window: int = _count(12, "ticks", 8, 50, doc="with delay_probe: the ticks of gyro samples the identification fits (12: 120 ms from the release)")
     delay_min_ratio: float = _p(1.25, "", 1, 100, doc="the identified delay is used only if the runner-up candidate fits the gyros this many times worse")
+    file: str = field(default="", metadata=dict(doc="CSV of a plan made elsewhere (time, state, torque) the swing tracks instead of the planner's (relative to the config file; '' : the planner's)", allowed="a CSV path or ''"))
+    file_columns: tuple = field(default=("t", "q1", "q2", "q1d", "q2d", "tau"), metadata=dict(doc="the plan file's columns of time (s), q1, q2 (rad), q1', q2' (rad/s) and elbow torque (N m), in that order", allowed="six column names"))
+    file_angles: str = field(default="package", metadata=dict(doc="the plan file's angles, rates and torque are the package's (package) or the joint coordinates of the robot description (robot)", allowed="package, robot"))
     lqr_state: tuple = field(default=(100.0, 100.0, 10.0, 10.0), metadata=dict(doc="the tracking LQR's weights on the errors of q1, q2 (1/rad^2) and q1', q2' (s^2/rad^2)", allowed="four numbers >= 0"))
     lqr_torque: float = _p(0.1, "1/(N m)^2", 0, lo_open=True, doc="the tracking LQR's weight on the torque")
     lqr_final: float = _p(10.0, "", 0, doc="the tracking LQR's weight on the plan's final state, times lqr_state")
 
     def _check(self):
         self._one_of("indexing", PLAN_INDEXING)
+        self._one_of("file_angles", PLAN_FILE_ANGLES)
+        if len(self.file_columns) != 6 or not all(isinstance(c, str) and c
+                                                  for c in self.file_columns):
+            raise ParameterError(f"plan.file_columns = {list(self.file_columns)} must be six "
+                                 "column names (time, q1, q2, q1', q2', torque)")
         w = self.lqr_state
         if len(w) != 4 or not all(isinstance(v, (int, float)) and not isinstance(v, bool)
                                   and 0 <= v < float("inf") for v in w):

@@ -8,7 +8,7 @@ from .plan import LANDING_LAWS
 
 # ---------------------------------------------------------------- scenario
 #: where a swing starts (``scenario.start``)
-SWING_STARTS = ("line", "hanging")
+SWING_STARTS = ("line", "hanging", "plan")
 
 
 @dataclass(frozen=True)
@@ -34,7 +34,7 @@ class ScenarioParams(_Block):
     seed: int = field(default=0, metadata=dict(doc="seed of the swing's random draws (sensor noise, gusts, the simulated friction)", allowed="[0, 2^32)"))
     use_estimator: bool = field(default=True, metadata=dict(doc="the controller reads the EKF's estimate (false: the true state sampled at its tick)"))
     wall_limit: float = _p(300.0, "s", 0, 86400, lo_open=True, doc="wall-clock time one swing may take before it is stopped as a fault (a hung plug-in); not physics")
-    start: str = field(default="line", metadata=dict(doc="where the swing starts: line (both grippers on the line) or hanging (at rest below the holding gripper; plan tracking only)", allowed="line, hanging"))
+    start: str = field(default="line", metadata=dict(doc="where the swing starts: line (both grippers on the line), hanging (at rest below the holding gripper; plan tracking only) or plan (the first state of plan.file, rates included)", allowed="line, hanging, plan"))
 
     def _check(self):
         self._one_of("start", SWING_STARTS)

@@ -28,6 +28,7 @@ from .summary import SwingSummary
 from .plots import plot_swing
 from ...systems.plan_tracker import height_rates
 from ...diagrams.plan import tracking_plan
+from ...diagrams.swing import start_state as plan_start_state
 
 
 def draw_true_friction(params: BplirParams, seed: int) -> BplirParams:
@@ -152,6 +153,8 @@ class SwingRunner:
             if driver_state is not None:
                 driver.set_interlock_state(driver.GetMyMutableContextFromRoot(ctx), *driver_state)
 
+        if start_state is None and sc.start == "plan":   # the plan's first state, moving
+            start_state = plan_start_state(p)
         x0 = np.r_[built.q0, 0.0, 0.0] if start_state is None else np.asarray(start_state, float)
         sim = make_simulator(built, x0[:2], x0[2:], accuracy=accuracy, integrator=integrator,
                              set_context=set_context)

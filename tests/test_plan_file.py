@@ -1,0 +1,106 @@
+"""Plans made elsewhere (plan.file): a swing tracks a plan from its CSV as
+it tracks the same plan from memory, the robot file's joint angles map to
+the package's, and a bad file is one line."""
+import dataclasses as dc
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from bplir_drake.diagrams.plan import tracking_plan
+from bplir_drake.diagrams.plan_file import read_plan_file
+from bplir_drake.params import ParameterError, RobotFileParams, load_toml
+from bplir_drake.params.robot_file import describe_robot
+
+from test_hardening import assert_one_line_error, bplir
+from test_robot_file import _write
+
+ACROMONK = Path(__file__).resolve().parents[1] / "examples" / "acromonk.toml"
+
+
+def _csv(path, header, rows):
+    np.savetxt(path, rows, delimiter=",", header=",".join(header), comments="")
+    return path
+
+
+def test_a_plan_from_its_csv_is_tracked_as_the_same_plan_in_memory(tmp_path):
+    """AcroMonk's swing (examples/acromonk.toml, its shipped plan): the plan
+    written to a CSV with other column names and tracked from it gives the
+    swing of the plan from memory, every number within 1e-9."""
+    from bplir_drake.analysis.swing.run import SwingRunner
+
+    p = load_toml(ACROMONK)
+    plan = tracking_plan(p)[0]
+    names = ("time", "shoulder_pos", "elbow_pos", "shoulder_vel", "elbow_vel", "elbow_torque")
+    path = _csv(tmp_path / "plan.csv", ("extra",) + names,
+                np.c_[np.zeros(len(plan.times)), plan.times, plan.states, plan.torque])
+    ext = p.with_(plan=dc.replace(p.plan, file=str(path), file_columns=names))
+    read = read_plan_file(ext)
+    assert np.array_equal(read.times, plan.times)
+    assert np.array_equal(read.states, plan.states) and read.status == "external"
+    runner = SwingRunner()
+    a, b = runner.run(p, seed=1).summary, runner.run(ext, seed=1).summary
+    numbers = [k for k, v in a.items() if isinstance(v, float)]
+    for k in numbers:
+        assert b[k] == pytest.approx(a[k], abs=1e-9, nan_ok=True), k
+
+
+def test_a_plan_in_the_robot_files_joint_angles_is_mapped(tmp_path):
+    """plan.file_angles = "robot": the file's angles (the description's
+    joints, an elbow turning the other way) come back as the package's, its
+    clock from 0."""
+    robot = RobotFileParams(file=str(_write(tmp_path, "-1 0 0")), pivot_joint="pivot",
+                            elbow_joint="elbow", free_gripper="hook2")
+    d = describe_robot(robot)
+    t = np.linspace(0.0, 1.0, 21)
+    x = np.c_[0.5 * np.sin(t), -2.0 + t, 0.5 * np.cos(t), np.ones_like(t)]
+    tau = 0.3 * np.sin(3 * t)
+    path = _csv(tmp_path / "plan.csv", ("t", "q1", "q2", "q1d", "q2d", "tau"),
+                np.c_[t + 5.0, d.to_file_state(x), d.sign2 * tau])
+    p = load_toml(ACROMONK)
+    p = p.with_(robot=robot, plan=dc.replace(p.plan, file=str(path), file_angles="robot"))
+    read = read_plan_file(p)
+    assert d.sign2 == -1.0
+    assert np.allclose(read.states, x, atol=1e-12) and np.allclose(read.torque, tau, atol=1e-12)
+    assert np.allclose(read.times, t, atol=1e-12)   # from 0, whatever the file's clock
+
+
+def test_a_bad_plan_file_is_one_line(tmp_path):
+    t = np.linspace(0.0, 1.0, 21)
+    ok = np.c_[t, np.zeros((21, 4)), 0.1 * np.ones(21)]
+    _csv(tmp_path / "cols.csv", ("t", "q1", "q2", "q1d", "q2d", "torque"), ok)
+    rc, _, err = bplir("swing", "--config", ACROMONK, "--set", f"plan.file={tmp_path / 'cols.csv'}",
+                       "--out", tmp_path / "o")
+    assert_one_line_error(rc, err, "lacks column(s) tau")
+    strong = ok.copy()
+    strong[:, 5] = 5.0
+    _csv(tmp_path / "strong.csv", ("t", "q1", "q2", "q1d", "q2d", "tau"), strong)
+    rc, _, err = bplir("swing", "--config", ACROMONK, "--set",
+                       f"plan.file={tmp_path / 'strong.csv'}", "--out", tmp_path / "o")
+    assert_one_line_error(rc, err, "torque up to 5 N m", "controller.torque_limit = 3 N m")
+    with pytest.raises(ParameterError, match="needs plan.file"):
+        from bplir_drake.diagrams.swing import start_state
+
+        p = load_toml(ACROMONK)
+        start_state(p.with_(scenario=dc.replace(p.scenario, start="plan")))
+
+
+def test_a_swing_can_start_where_the_plan_starts(tmp_path):
+    """scenario.start = "plan": the simulated robot starts in the plan
+    file's first state, moving (a plan cut 0.2 s into AcroMonk's swing),
+    and the filter starts believing it."""
+    from bplir_drake.analysis.swing.run import SwingRunner
+
+    p = load_toml(ACROMONK)
+    plan = tracking_plan(p)[0]
+    k = int(np.searchsorted(plan.times, 0.2))
+    path = _csv(tmp_path / "cut.csv", ("t", "q1", "q2", "q1d", "q2d", "tau"),
+                np.c_[plan.times[k:], plan.states[k:], plan.torque[k:]])
+    q = p.with_(plan=dc.replace(p.plan, file=str(path)),
+                scenario=dc.replace(p.scenario, start="plan"))
+    res = SwingRunner().run(q, seed=0)
+    state = res.logs["state"]
+    assert np.abs(plan.states[k, 2:]).min() > 0.5   # moving
+    assert np.allclose(state.data[0], plan.states[k], atol=1e-9)
+    est = res.logs["estimate"]
+    assert np.allclose(est.data[0], plan.states[k], atol=0.05)

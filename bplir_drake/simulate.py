@@ -110,9 +110,10 @@ def make_simulator(built, q0, v0=(0.0, 0.0), *, accuracy: float = 1e-6,
     ctx = sim.get_mutable_context()
     if set_context is not None:
         set_context(ctx)
-    pctx = built.plant.GetMyMutableContextFromRoot(ctx)
-    built.plant.SetPositions(pctx, np.asarray(q0, dtype=float))
-    built.plant.SetVelocities(pctx, np.asarray(v0, dtype=float))
+    if hasattr(built.plant, "SetPositions"):   # a MultibodyPlant (else set_context sets it)
+        pctx = built.plant.GetMyMutableContextFromRoot(ctx)
+        built.plant.SetPositions(pctx, np.asarray(q0, dtype=float))
+        built.plant.SetVelocities(pctx, np.asarray(v0, dtype=float))
     ResetIntegratorFromFlags(sim, integrator, max_step)
     integ = sim.get_mutable_integrator()
     integ.set_target_accuracy(accuracy)

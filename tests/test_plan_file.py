@@ -104,3 +104,68 @@ def test_a_swing_can_start_where_the_plan_starts(tmp_path):
     assert np.allclose(state.data[0], plan.states[k], atol=1e-9)
     est = res.logs["estimate"]
     assert np.allclose(est.data[0], plan.states[k], atol=0.05)
+
+
+def test_a_log_in_the_robot_files_coordinates_replays_beside_drakes_acrobot(tmp_path):
+    """bplir replay on a log written the way a robot's firmware writes it
+    (its own column names, its joint angles, its clock): mapped to the
+    package's angles the model replays the torque that made the log to
+    1e-5 rad; Drake's AcrobotPlant with the same links but the centres of
+    mass on the axes (it has no offset) leaves the log by 0.1 rad within
+    0.5 s; read as the package's angles the log is refused by nothing but
+    replays wrong."""
+    import json
+
+    from bplir_drake.analysis.identification import calibration as C
+
+    _write(tmp_path)
+    cfg = tmp_path / "small.toml"
+    cfg.write_text('[robot]\nfile = "small.urdf"\npivot_joint = "pivot"\nelbow_joint = "elbow"\n'
+                   'free_gripper = "hook2"\n[friction]\nfv1 = 0.044\nfv2 = 0.06\nfc1 = 0.0\n'
+                   'fc2 = 0.0\n')
+    p = load_toml(cfg)
+    d = describe_robot(p.robot)
+    t = np.arange(0.0, 3.0, 0.005)
+    tau = 0.8 * np.sin(5 * t) * (t < 1.5)
+    log = C.CalibrationLog(t, np.tile([0.2, -0.3], (len(t), 1)), tau, np.zeros(2))
+    q = C.simulate_log(p, log, accuracy=1e-10)
+    x = d.to_file_state(np.c_[q, np.zeros_like(q)])   # at rest at the start
+    names = "meas_time,shoulder_pos,elbow_pos,shoulder_vel,elbow_vel,elbow_tau"
+    _csv(tmp_path / "log.csv", names.split(","), np.c_[t + 10.0, x, d.sign2 * tau])
+    cols = ("t=meas_time,q1=shoulder_pos,q2=elbow_pos,q1d=shoulder_vel,q2d=elbow_vel,"
+            "tau=elbow_tau")
+    rc, out, err = bplir("replay", tmp_path / "log.csv", "--config", cfg, "--columns", cols,
+                         "--angles", "robot", "--acrobot", "--json", "--out", tmp_path / "r")
+    assert rc == 0, err
+    res = json.loads(out)
+    assert max(res["rmse_rad"]) < 1e-5 and res["divergence_time_s"] is None
+    assert res["acrobot"]["divergence_time_s"] < 0.5
+    assert res["acrobot"]["largest_difference_from_model_rad"] > 0.1
+    rc, out, err = bplir("replay", tmp_path / "log.csv", "--config", cfg, "--columns", cols,
+                         "--json", "--out", tmp_path / "r2", "--span", "10.5,12")
+    assert rc == 0 and json.loads(out)["samples"] == 301
+    assert json.loads(out)["divergence_time_s"] is not None
+    rc, _, err = bplir("replay", tmp_path / "log.csv", "--columns", "t=meas_time,q9=x")
+    assert_one_line_error(rc, err, "unknown name(s) q9", "allowed")
+    rc, _, err = bplir("replay", tmp_path / "log.csv", "--columns", "t=clock")
+    assert_one_line_error(rc, err, "no column(s) clock", "meas_time")
+
+
+def test_our_plant_is_drakes_acrobot_when_the_centres_of_mass_are_on_axis():
+    """The BPLIR's links with viscous friction only, a torque held over 5 ms
+    samples for 2 s: our MultibodyPlant with its friction system and Drake's
+    AcrobotPlant stay within 1e-6 rad (the integrator's steps at the
+    torque's jumps; 1e-9 with the torque linear between samples)."""
+    from bplir_drake.analysis.identification import calibration as C
+    from bplir_drake.params import BplirParams
+
+    p = BplirParams()
+    p = p.with_(friction=dc.replace(p.friction, fc1=0.0, fc2=0.0))
+    t = np.arange(0.0, 2.0, 0.005)
+    log = C.CalibrationLog(t, np.tile([0.3, -0.5], (len(t), 1)), 3 * np.sin(4 * t),
+                           np.array([0.5, 0.0]))
+    for interpolation, tol in (("zoh", 1e-6), ("linear", 1e-9)):
+        ours = C.simulate_log(p, log, accuracy=1e-8, interpolation=interpolation)
+        drake = C.acrobot_log_angles(p, log, interpolation=interpolation)
+        assert np.abs(ours - drake).max() < tol
+        assert np.abs(ours - log.q).max() > 0.5   # it moved

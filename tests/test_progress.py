@@ -14,7 +14,8 @@ import termios
 import numpy as np
 
 from bplir_drake.analysis.control.qft import QftSpecs, design_qft, dissertation_family
-from bplir_drake.analysis.identification.calibration import calibrate, synthetic_log
+from bplir_drake.analysis.identification.calibration import synthetic_log
+from bplir_drake.analysis.identification.fit import calibrate
 from bplir_drake.diagrams.plan import plan_swing
 from bplir_drake.params import preset
 from bplir_drake.progress import progress_bar

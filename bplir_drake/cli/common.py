@@ -48,11 +48,15 @@ def _load_params(args):
 
 def _with_settings(params, args):
     """``params`` with every ``--set block.field=value`` (a TOML value;
-    bare words are strings)."""
+    bare words are strings), read as one table of tables
+    (:func:`~bplir_drake.params.from_dict`: a robot file read, and other
+    links or another motor move the defaults that follow them unless also
+    set)."""
     import tomllib
 
-    from ..params import BLOCKS, ParameterError, moved_field
+    from ..params import BLOCKS, ParameterError, from_dict, moved_field
 
+    data: dict = {}
     for item in getattr(args, "set", None) or []:
         key, sep, text = item.partition("=")
         block, dot, name = key.strip().partition(".")
@@ -71,16 +75,8 @@ def _with_settings(params, args):
             value = tomllib.loads(f"v = {text.strip()}")["v"]
         except tomllib.TOMLDecodeError:
             value = text.strip()
-        if block == "robot":   # a description file gives the plant
-            from ..params import from_dict
-
-            params = from_dict({"robot": {name: value}}, base=params, base_dir=Path.cwd())
-            continue
-        base = getattr(params, block)
-        if base is None:   # true_plant / true_friction start from the nominal blocks
-            base = getattr(params, block.removeprefix("true_"))
-        params = params.with_(**{block: BLOCKS[block].from_dict({name: value}, base=base)})
-    return params
+        data.setdefault(block, {})[name] = value
+    return from_dict(data, base=params, base_dir=Path.cwd()) if data else params
 
 
 def _with_hardware(params, args):

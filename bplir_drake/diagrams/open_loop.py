@@ -14,11 +14,13 @@ from dataclasses import replace
 
 
 def build_free_swing(params: BplirParams, elbow_torque=0.0, *, friction: bool = True,
-                     motor: bool = False, log_period: float = 0.001) -> Built:
+                     motor: bool = False, log_period: float = 0.001,
+                     interpolation: str = "zoh") -> Built:
     """Free swing: plant + friction with a constant or scheduled elbow torque.
 
-    ``elbow_torque`` is a float or a ``(times, values)`` zero-order-hold
-    schedule (N m).  With ``motor=True`` the command passes through the motor
+    ``elbow_torque`` is a float or a ``(times, values)`` schedule (N m), held
+    between its samples (``interpolation = "zoh"``) or linear between them
+    (``"linear"``).  With ``motor=True`` the command passes through the motor
     and driver model.  Loggers: ``state`` (q1, q2, q1d, q2d), ``friction``
     (generalized friction force, = -f), ``torque`` (elbow torque applied).
     """
@@ -28,7 +30,7 @@ def build_free_swing(params: BplirParams, elbow_torque=0.0, *, friction: bool = 
 
         fp = replace(fp, enabled=False)
     plant, fr = add_plant_with_friction(builder, params.simulated_plant, fp)
-    src = torque_source(builder, elbow_torque)
+    src = torque_source(builder, elbow_torque, interpolation)
     src.set_name("torque_command")
     systems = {"friction": fr, "source": src}
     if motor:
@@ -138,3 +140,35 @@ def build_damping(params: BplirParams, kp: float, kd: float, lean: float = 0.0, 
     diagram = builder.Build()
     diagram.set_name("damping")
     return Built(diagram, plant, {"friction": fr, "damping": pd}, loggers, params)
+
+
+def build_acrobot(params: BplirParams, elbow_torque, *, log_period: float = 0.001,
+                  interpolation: str = "zoh") -> Built:
+    """Drake's own ``AcrobotPlant`` (its closed-form acrobot, the cross-check
+    of ours) driven by ``elbow_torque`` as in :func:`build_free_swing`: the
+    nominal links with the centres of mass on their axes (``lc1``, ``lc2``;
+    it has no ``oc``) and viscous joint damping (``fv1``, ``fv2``; it has no
+    Coulomb or drag term).  Logger: ``state``."""
+    from pydrake.examples import AcrobotPlant
+
+    builder = DiagramBuilder()
+    acrobot = builder.AddNamedSystem("acrobot", AcrobotPlant())
+    src = torque_source(builder, elbow_torque, interpolation)
+    builder.Connect(src.get_output_port(0), acrobot.get_input_port(0))
+    logger = LogVectorOutput(acrobot.get_output_port(0), builder, log_period)
+    diagram = builder.Build()
+    return Built(diagram, acrobot, {"source": src}, {"state": logger}, params)
+
+
+def set_acrobot(built: Built, context, x0) -> None:
+    """Write the :func:`build_acrobot` robot's parameters and the start
+    state ``x0`` (q1, q2, q1', q2') into ``context`` (the diagram's root)."""
+    acrobot, p, f = built.plant, built.params.plant, built.params.friction
+    own = acrobot.GetMyMutableContextFromRoot(context)
+    values = acrobot.get_mutable_parameters(own)
+    for name, value in (("m1", p.m1), ("m2", p.m2), ("l1", p.l1), ("lc1", p.lc1),
+                        ("lc2", p.lc2), ("Ic1", p.I1), ("Ic2", p.I2), ("gravity", p.g),
+                        ("b1", f.fv1 if f.enabled else 0.0),
+                        ("b2", f.fv2 if f.enabled else 0.0)):
+        getattr(values, f"set_{name}")(value)
+    own.SetContinuousState(list(map(float, x0)))

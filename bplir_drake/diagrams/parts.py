@@ -50,15 +50,21 @@ def sampled(builder, port, period: float):
     return hold.get_output_port(0)
 
 
-def torque_source(builder, elbow_torque):
+def torque_source(builder, elbow_torque, interpolation: str = "zoh"):
     """A constant (float) or a schedule ``(times, values)``: ``values[i]``
-    holds from ``times[i]`` until ``times[i + 1]``; the last value holds on."""
+    holds from ``times[i]`` until ``times[i + 1]`` (``interpolation =
+    "zoh"``), or runs linearly to ``values[i + 1]`` (``"linear"``); the last
+    value holds on."""
     if isinstance(elbow_torque, tuple):
         from pydrake.trajectories import PiecewisePolynomial
 
         times, values = (np.asarray(a, dtype=float) for a in elbow_torque)
         if times.size == 1:
             return builder.AddSystem(ConstantVectorSource([float(values[0])]))
+        if interpolation == "linear":
+            times, values = np.append(times, times[-1] + 1e6), np.append(values, values[-1])
+            traj = PiecewisePolynomial.FirstOrderHold(times, values.reshape(1, -1))
+            return builder.AddSystem(TrajectorySource(traj))
         # Drake's zero-order hold ignores the value at the final break
         times = np.append(times, times[-1] + 1e6)
         values = np.append(values, values[-1])

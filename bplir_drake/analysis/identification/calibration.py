@@ -1,12 +1,11 @@
 """System identification (4.5)-(4.7): calibrate the plant to logged runs,
 identify the dead-band, identify the CPFL plant family.
 
-* :func:`calibrate` fits friction (and optionally inertias, CoM distances,
-  masses within bounds) to a logged run -- a free swing followed by elbow
-  torque, as in Fig. 4.7 -- by least squares (scipy) on the joint angles of
-  Drake simulations driven by the logged torque.  Approximate standard errors
-  come from the Jacobian at the optimum: ``cov = s^2 (J^T J)^-1`` with
-  ``s^2 = SSR / (N - p)``.
+* the logs (:func:`read_calibration_csv`) and the model driven by their
+  torque (:func:`simulate_log`, :func:`acrobot_log_angles`); the fit of
+  friction, inertias, centres of mass and masses to one log or several --
+  a free swing followed by elbow torque, as in Fig. 4.7 -- is
+  :func:`.fit.calibrate`, with :func:`.fit.cross_validate`.
 * :func:`identify_deadband` ramps the elbow torque command slowly through the
   motor/driver model and reports the command at which the elbow starts to
   move, forward and reverse (4.6).
@@ -28,7 +27,6 @@ the initial rates (otherwise a quadratic fit over the first 0.15 s).
 from __future__ import annotations
 
 import dataclasses as dc
-import math
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -38,15 +36,11 @@ from ...csvfile import csv_rows
 from ...io import atomic_path
 
 from ...params import BplirParams
-from ...io import Result
 from .deadband import (  # noqa: F401 (re-exported)
     identify_deadband, cpfl_step_response, damped_integrator_response, fit_step, PlantFamilyFit, identify_plant_family)
 from ...diagrams import build_free_swing
+from ...diagrams.open_loop import build_acrobot, set_acrobot
 from ...simulate import Log, logs, make_simulator, run
-from ...systems.plant import bias_term, gravity_vector, mass_matrix
-from ...progress import progress_bar
-from ...params import save_toml
-from ...plotting import figure_axes, finish
 from .errors import CalibrationError  # noqa: F401 (re-exported)
 
 CALIBRATION_COLUMNS = ("t", "q1", "q2")
@@ -74,13 +68,18 @@ class CalibrationLog:
 
 
 def read_calibration_csv(path, torque_per_amp: float, *, min_duration: float = 2.0,
-                         torque_sign: float = 1.0) -> CalibrationLog:
+                         torque_sign: float = 1.0, columns: dict | None = None,
+                         span: tuple | None = None) -> CalibrationLog:
     """A calibration CSV (t, q1, q2 and tau in N m or i_cmd in A, converted with
     ``torque_per_amp``, times ``torque_sign``) as a checked
     :class:`CalibrationLog` spanning at least ``min_duration`` s; a bad file
-    raises :class:`CalibrationError`."""
+    raises :class:`CalibrationError`.  ``columns`` names the file's column
+    of each of t, q1, q2, q1d, q2d, tau, i_cmd it gives another name;
+    ``span = (start, end)`` keeps the rows of that stretch of the log's
+    clock (s; the first kept row's rates start the replay)."""
     path = Path(path)
     header, body = csv_rows(path, "log", CalibrationError)
+    header = _renamed(header, columns or {}, path)
     missing = [c for c in CALIBRATION_COLUMNS if c not in header]
     if missing or not ({"tau", "i_cmd"} & set(header)):
         need = missing + ([] if {"tau", "i_cmd"} & set(header) else ["tau or i_cmd"])
@@ -97,6 +96,8 @@ def read_calibration_csv(path, torque_per_amp: float, *, min_duration: float = 2
                                    f"in {', '.join(used)}") from None
     data = np.array(data) if data else np.zeros((0, len(used)))
     idx = {h: i for i, h in enumerate(used)}
+    if span is not None and len(data):
+        data = data[(data[:, idx["t"]] >= span[0]) & (data[:, idx["t"]] <= span[1])]
     t = data[:, idx["t"]] if len(data) else np.zeros(0)
     q = data[:, [idx["q1"], idx["q2"]]] if len(data) else np.zeros((0, 2))
     tau = (data[:, idx["tau"]] if "tau" in idx else data[:, idx["i_cmd"]] * torque_per_amp) \
@@ -104,6 +105,36 @@ def read_calibration_csv(path, torque_per_amp: float, *, min_duration: float = 2
     qd0 = (np.array([data[0, idx["q1d"]], data[0, idx["q2d"]]])
            if {"q1d", "q2d"} <= set(idx) and len(data) else None)
     return check_calibration_log(t, q, torque_sign * tau, qd0, min_duration=min_duration)
+
+
+def _renamed(header: list, columns: dict, path) -> list:
+    """``header`` with the file's columns named in ``columns`` (our name ->
+    the file's) given our names; a column of the file already called by one
+    of those names is set aside."""
+    unknown = sorted(set(columns) - LOG_COLUMNS)
+    if unknown:
+        raise CalibrationError(f"log columns: unknown name(s) {', '.join(unknown)}; allowed: "
+                               + ", ".join(sorted(LOG_COLUMNS)))
+    absent = [f for f in columns.values() if f not in header]
+    if absent:
+        raise CalibrationError(f"log {path} has no column(s) {', '.join(absent)}; its columns: "
+                               + ", ".join(header))
+    ours = {f: n for n, f in columns.items()}
+    return [ours[h] if h in ours else (f"_{h}" if h in columns else h) for h in header]
+
+
+#: the columns a log may give (joint angles, rates, time, torque or current)
+LOG_COLUMNS = {"t", "q1", "q2", "q1d", "q2d", "tau", "i_cmd"}
+
+
+def in_package_angles(log: CalibrationLog, description) -> CalibrationLog:
+    """A log in a robot description's joint coordinates
+    (:class:`~bplir_drake.params.robot_file.RobotDescription`) in the
+    package's angles, rates and torque."""
+    x = description.from_file_state(np.c_[log.q, np.zeros((len(log.t), 2))])
+    qd0 = None if log.qd0 is None else description.from_file_state(
+        np.r_[log.q[0], log.qd0])[2:]
+    return dc.replace(log, q=x[:, :2], tau=description.sign2 * log.tau, qd0=qd0)
 
 
 #: plausible values of a calibration log: the elbow torque (10x the motor's
@@ -150,15 +181,37 @@ def check_calibration_log(t, q, tau, qd0=None, *, min_duration: float = 2.0) -> 
     return CalibrationLog(t - t[0], q, tau, np.asarray(qd0, float))
 
 
-def simulate_log(params: BplirParams, log: CalibrationLog, *, accuracy: float = 1e-6) -> np.ndarray:
-    """Joint angles of the (nominal) model driven by the logged torque."""
+def simulate_log(params: BplirParams, log: CalibrationLog, *, accuracy: float = 1e-6,
+                 interpolation: str = "zoh") -> np.ndarray:
+    """Joint angles of the (nominal) model driven by the logged torque (held
+    between samples, or ``interpolation = "linear"``)."""
 
     p = params.with_(true_plant=None, true_friction=None)
     period = float(np.median(np.diff(log.t)))
-    built = build_free_swing(p, (log.t, log.tau), log_period=period)
-    sim = make_simulator(built, log.q[0], log.qd0, accuracy=accuracy)
+    built = build_free_swing(p, (log.t, log.tau), log_period=period,
+                             interpolation=interpolation)
+    return _sampled_angles(built, log, period, accuracy)
+
+
+def _sampled_angles(built, log: CalibrationLog, period: float, accuracy: float,
+                    set_context=None) -> np.ndarray:
+    sim = make_simulator(built, log.q[0], log.qd0, accuracy=accuracy, set_context=set_context)
     run(sim, float(log.t[-1]) + period)   # a logged sample past the log's last time
     return Log.from_logger(built.loggers["state"], sim.get_context()).at(log.t)[:, :2]
+
+
+def acrobot_log_angles(params: BplirParams, log: CalibrationLog, *, accuracy: float = 1e-8,
+                       interpolation: str = "zoh") -> np.ndarray:
+    """Joint angles of Drake's ``AcrobotPlant`` with the nominal links
+    (centres of mass on the axes, viscous damping only:
+    :func:`~bplir_drake.diagrams.open_loop.build_acrobot`) driven by the
+    logged torque from the log's first state."""
+    period = float(np.median(np.diff(log.t)))
+    built = build_acrobot(params, (log.t, log.tau), log_period=period,
+                          interpolation=interpolation)
+    x0 = np.r_[log.q[0], log.qd0]
+    return _sampled_angles(built, log, period, accuracy,
+                           set_context=lambda ctx: set_acrobot(built, ctx, x0))
 
 
 def _with(params: BplirParams, names, values) -> BplirParams:
@@ -169,156 +222,10 @@ def _with(params: BplirParams, names, values) -> BplirParams:
                         plant=dc.replace(params.plant, **p))
 
 
-@dataclass
-class CalibrationResult(Result):
-    """A fit of model parameters to a log: the parameters before and after, the fitted values, RMSE
-    (rad) before and after, and the simulated angles to plot."""
-    names: tuple
-    values: np.ndarray
-    std_errors: np.ndarray
-    rmse_before: float
-    rmse_after: float
-    params: BplirParams
-    t: np.ndarray
-    logged: np.ndarray
-    before: np.ndarray
-    after: np.ndarray
-    nfev: int
-
-    def plot(self, axes=None):
-        """The log against the simulation before and after the fit (two axes)."""
-        return plot_calibration(self, axes)
-
-    def summary(self) -> dict:
-        """Fitted values and RMSE before and after as JSON-ready data."""
-        return {"fitted": {n: float(v) for n, v in zip(self.names, self.values)},
-                "std_errors": {n: float(s) for n, s in zip(self.names, self.std_errors)},
-                "rmse_before_rad": self.rmse_before, "rmse_after_rad": self.rmse_after,
-                "simulations": self.nfev}
-
-
-def friction_from_inverse_dynamics(params: BplirParams, log: CalibrationLog,
-                                   window: float = 0.15) -> dict:
-    """Linear least squares for (fv1, fv2, fc1, fc2): friction enters
-    ``M q'' + C q' + g = tau - f`` linearly, so with q', q'' from a
-    Savitzky-Golay filter of the logged angles the coefficients follow from
-    one linear solve (the classic inverse-dynamics identification).  Used as
-    the start of :func:`calibrate`."""
-    from scipy.signal import savgol_filter
-
-
-    dt = float(np.median(np.diff(log.t)))
-    w = max(5, int(round(window / dt)) | 1)
-    q = savgol_filter(log.q, w, 3, axis=0)
-    qd = savgol_filter(log.q, w, 3, deriv=1, delta=dt, axis=0)
-    qdd = savgol_filter(log.q, w, 3, deriv=2, delta=dt, axis=0)
-    p, b = params.plant, params.friction.b
-    rows, rhs = [], []
-    for k in range(w, len(log.t) - w):
-        M = mass_matrix(q[k], p)
-        r = np.array([0.0, log.tau[k]]) - M @ qdd[k] - bias_term(q[k], qd[k], p) \
-            - gravity_vector(q[k], p)          # = f(qd)
-        a1, a2 = qd[k]
-        rows.append([a1, 0, 2 / math.pi * math.atan(a1 / b), 0])
-        rhs.append(r[0])
-        rows.append([0, a2, 0, 2 / math.pi * math.atan(a2 / b)])
-        rhs.append(r[1])
-    theta = np.linalg.lstsq(np.array(rows), np.array(rhs), rcond=None)[0]
-    return dict(zip(("fv1", "fv2", "fc1", "fc2"), np.maximum(theta, 0.0)))
-
-
-def calibrate(params: BplirParams, log: CalibrationLog, fit=DEFAULT_FIT, *,
-              accuracy: float = 1e-5, progress: bool = False) -> CalibrationResult:
-    """Least squares on the joint angles (4.5); ``params`` is the start.
-    ``accuracy``: the integrator's relative accuracy during the fit (1e-5
-    gives the 1e-6 fit in 85 simulations instead of 100, each about 40 %
-    faster; at 1e-4 the finite-difference Jacobian sees the integrator's
-    error and fc1 comes out 25 % off); the final residual is at 1e-6.
-    ``progress``: count the simulations (residual evaluations, Jacobian
-    columns included) on standard error."""
-    from scipy.optimize import least_squares
-
-    fit = tuple(fit)
-    bad = [n for n in fit if n not in FITTABLE]
-    if bad or not fit:
-        raise CalibrationError(f"cannot fit {', '.join(bad) or 'nothing'}; allowed: "
-                               + ", ".join(FITTABLE))
-    before = simulate_log(params, log, accuracy=accuracy)   # the given model
-    if {"fv1", "fv2", "fc1", "fc2"} <= set(fit):   # linear pre-fit of the friction
-        start = friction_from_inverse_dynamics(params, log)
-        params = params.with_(friction=dc.replace(params.friction, **{
-            k: float(v) for k, v in start.items() if v > 0}))
-    x0 = np.array([getattr(params.friction if FITTABLE[n][0] == "friction" else params.plant, n)
-                   for n in fit])
-    lo = np.array([x * RELATIVE_BOUNDS[0] if FITTABLE[n][1] == "rel" else FITTABLE[n][1]
-                   for n, x in zip(fit, x0)])
-    hi = np.array([x * RELATIVE_BOUNDS[1] if FITTABLE[n][2] == "rel"
-                   else FITTABLE[n][2] if FITTABLE[n][2] is not None
-                   else getattr(params.plant, "l1" if n == "lc1" else "l2")
-                   for n, x in zip(fit, x0)])
-    scale = np.maximum(np.abs(x0), 1e-3)
-    count = [0]
-    bar = progress_bar(progress, desc="calibrate", unit="simulations")
-
-    def residuals(z):
-        count[0] += 1
-        bar.update()
-        try:
-            sim = simulate_log(_with(params, fit, z * scale), log, accuracy=accuracy)
-        except Exception:  # an impossible parameter set: a large, finite residual
-            return np.full(2 * len(log.t), 10.0)
-        return (sim - log.q).ravel()
-
-    with bar:
-        # dogbox: trf's scaling near the bounds (fc1 sits near 0) zig-zags
-        # here, 51 iterations and 239 simulations against dogbox's 100
-        res = least_squares(residuals, x0 / scale, bounds=(lo / scale, hi / scale),
-                            method="dogbox", x_scale="jac", diff_step=1e-3, xtol=1e-6,
-                            ftol=1e-8, max_nfev=60)
-    values = res.x * scale
-    J = res.jac / scale
-    dof = max(1, res.fun.size - len(fit))
-    s2 = float(res.fun @ res.fun) / dof
-    try:
-        cov = s2 * np.linalg.inv(J.T @ J)
-        se = np.sqrt(np.clip(np.diag(cov), 0, None))
-    except np.linalg.LinAlgError:
-        se = np.full(len(fit), math.inf)
-    fitted = _with(params, fit, values)
-    after = simulate_log(fitted, log)
-    rm = lambda d: float(np.sqrt(np.mean(d ** 2)))  # noqa: E731
-    return CalibrationResult(fit, values, se, rm(before - log.q), rm(after - log.q), fitted,
-                             log.t, log.q, before, after, count[0])
-
-
 # ----------------------------------------------------------- dead-band (4.6)
 
 
 # ----------------------------------------------------------- plant family (4.7)
-
-
-def write_calibrated_toml(result: CalibrationResult, path) -> Path:
-    """The calibrated parameters as a TOML parameter file at ``path`` (atomic)."""
-
-    path = Path(path)
-    save_toml(result.params, path)
-    return path
-
-
-def plot_calibration(result: CalibrationResult, axes=None):
-    """The logged angles against the simulation before and after the fit (two axes); returns the
-    figure."""
-    fig, ax = figure_axes(axes, 2, 1, figsize=(10, 6), sharex=True)
-    for i, a in enumerate(ax):
-        a.plot(result.t, result.logged[:, i], "k", lw=2, alpha=0.4, label="logged")
-        a.plot(result.t, result.before[:, i], "C3:", lw=1, label="model before")
-        a.plot(result.t, result.after[:, i], "C0", lw=1, label="calibrated model")
-        a.set_ylabel(f"q{i + 1} [rad]")
-        a.grid(True, alpha=0.3)
-        a.legend(fontsize=8, loc="upper right")
-    ax[1].set_xlabel("time [s]")
-    return finish(fig, f"Calibration (Fig. 4.7 style): RMSE {result.rmse_before:.4f} -> "
-                            f"{result.rmse_after:.4f} rad")
 
 
 def synthetic_log(params: BplirParams, *, q0=(0.8, 0.3), free_time: float = 6.0,

@@ -19,19 +19,21 @@ import numpy as np
 from ...io import Result
 from ...params import BplirParams
 from ...plotting import figure_axes, finish
-from .calibration import CalibrationLog, simulate_log
+from .calibration import CalibrationLog, acrobot_log_angles, simulate_log
 
 
 @dataclass
 class TorqueReplay(Result):
     """A log replayed: times (s), logged and simulated angles (N, 2) rad, the
-    divergence threshold (rad) and the RMSE window (s)."""
+    divergence threshold (rad) and the RMSE window (s); optionally the angles
+    of Drake's ``AcrobotPlant`` driven by the same torque (``acrobot``)."""
 
     t: np.ndarray
     logged: np.ndarray
     simulated: np.ndarray
     threshold: float
     window: float
+    acrobot: np.ndarray | None = None
 
     @property
     def error(self) -> np.ndarray:
@@ -47,7 +49,10 @@ class TorqueReplay(Result):
     def divergence_time(self) -> float | None:
         """The first time (s) either joint differs by more than ``threshold``;
         None when it never does."""
-        beyond = np.any(np.abs(self.error) > self.threshold, axis=1)
+        return self._first_beyond(self.error)
+
+    def _first_beyond(self, error) -> float | None:
+        beyond = np.any(np.abs(error) > self.threshold, axis=1)
         return float(self.t[np.argmax(beyond)]) if beyond.any() else None
 
     def window_rmse(self) -> list[dict]:
@@ -63,10 +68,17 @@ class TorqueReplay(Result):
     def summary(self) -> dict:
         """Samples, span, RMSE per joint (whole log and per window), the
         divergence threshold and time."""
-        return {"samples": int(len(self.t)), "duration_s": float(self.t[-1] - self.t[0]),
-                "rmse_rad": self.rmse.tolist(), "divergence_threshold_rad": self.threshold,
-                "divergence_time_s": self.divergence_time, "window_s": self.window,
-                "windows": self.window_rmse()}
+        out = {"samples": int(len(self.t)), "duration_s": float(self.t[-1] - self.t[0]),
+               "rmse_rad": self.rmse.tolist(), "divergence_threshold_rad": self.threshold,
+               "divergence_time_s": self.divergence_time, "window_s": self.window,
+               "windows": self.window_rmse()}
+        if self.acrobot is not None:
+            err = self.acrobot - self.logged
+            out["acrobot"] = {"rmse_rad": np.sqrt(np.mean(err ** 2, axis=0)).tolist(),
+                              "divergence_time_s": self._first_beyond(err),
+                              "largest_difference_from_model_rad":
+                                  float(np.abs(self.acrobot - self.simulated).max())}
+        return out
 
     def plot(self, axes=None):
         """Logged and simulated q1 and q2, and their differences with the
@@ -75,10 +87,16 @@ class TorqueReplay(Result):
         for i in range(2):
             ax[i].plot(self.t, self.logged[:, i], "k", lw=2, alpha=0.4, label="logged")
             ax[i].plot(self.t, self.simulated[:, i], "C0", lw=1, label="model, logged torque")
+            if self.acrobot is not None:
+                ax[i].plot(self.t, self.acrobot[:, i], "C1", lw=1, ls="--",
+                           label="Drake AcrobotPlant")
             ax[i].set_ylabel(f"q{i + 1} [rad]")
             ax[i].legend(fontsize=8, loc="upper right")
         for i in range(2):
             ax[2].plot(self.t, self.error[:, i], f"C{i}", lw=1, label=f"q{i + 1}")
+            if self.acrobot is not None:
+                ax[2].plot(self.t, self.acrobot[:, i] - self.logged[:, i], f"C{i}", lw=0.8,
+                           ls="--", label=f"q{i + 1}, AcrobotPlant")
         for sign in (-1, 1):
             ax[2].axhline(sign * self.threshold, color="0.5", ls="--", lw=0.8)
         td = self.divergence_time
@@ -96,12 +114,17 @@ class TorqueReplay(Result):
 
 
 def replay_torque(params: BplirParams, log: CalibrationLog, *, threshold: float = 0.1,
-                  window: float = 0.5, accuracy: float = 1e-8) -> TorqueReplay:
+                  window: float = 0.5, accuracy: float = 1e-8, interpolation: str = "zoh",
+                  acrobot: bool = False) -> TorqueReplay:
     """Drive the nominal model of ``params`` (plant and friction) with the
     log's torque from its first state (error-controlled RK3 at
-    ``accuracy``); ``threshold`` (rad) marks the divergence, ``window`` (s)
-    the RMSE windows."""
+    ``accuracy``; the torque held between samples or ``interpolation =
+    "linear"``); ``threshold`` (rad) marks the divergence, ``window`` (s)
+    the RMSE windows; ``acrobot``: Drake's ``AcrobotPlant`` beside it
+    (:func:`~.calibration.acrobot_log_angles`)."""
     if not (threshold > 0 and math.isfinite(threshold)):
         raise ValueError(f"threshold = {threshold!r} rad must be positive")
-    sim = simulate_log(params, log, accuracy=accuracy)
-    return TorqueReplay(log.t, log.q, sim, float(threshold), float(window))
+    sim = simulate_log(params, log, accuracy=accuracy, interpolation=interpolation)
+    other = (acrobot_log_angles(params, log, accuracy=accuracy, interpolation=interpolation)
+             if acrobot else None)
+    return TorqueReplay(log.t, log.q, sim, float(threshold), float(window), other)

@@ -112,8 +112,8 @@ def test_a_log_in_the_robot_files_coordinates_replays_beside_drakes_acrobot(tmp_
     package's angles the model replays the torque that made the log to
     1e-5 rad; Drake's AcrobotPlant with the same links but the centres of
     mass on the axes (it has no offset) leaves the log by 0.1 rad within
-    0.5 s; read as the package's angles the log is refused by nothing but
-    replays wrong."""
+    0.5 s; read as the package's angles the log replays wrong; calibrate
+    reads it with the same options."""
     import json
 
     from bplir_drake.analysis.identification import calibration as C
@@ -145,6 +145,13 @@ def test_a_log_in_the_robot_files_coordinates_replays_beside_drakes_acrobot(tmp_
                          "--json", "--out", tmp_path / "r2", "--span", "10.5,12")
     assert rc == 0 and json.loads(out)["samples"] == 301
     assert json.loads(out)["divergence_time_s"] is not None
+    # calibrate reads the same log with the same options: the elbow's damping
+    # set wrong is found again
+    rc, out, err = bplir("calibrate", tmp_path / "log.csv", "--config", cfg, "--columns", cols,
+                         "--angles", "robot", "--fit", "fv2", "--set", "friction.fv2=0.03",
+                         "--json", "--out", tmp_path / "c")
+    assert rc == 0, err
+    assert json.loads(out)["fitted"]["fv2"] == pytest.approx(0.06, rel=0.01)
     rc, _, err = bplir("replay", tmp_path / "log.csv", "--columns", "t=meas_time,q9=x")
     assert_one_line_error(rc, err, "unknown name(s) q9", "allowed")
     rc, _, err = bplir("replay", tmp_path / "log.csv", "--columns", "t=clock")

@@ -2,14 +2,14 @@
 from __future__ import annotations
 
 from .common import InputError, _emit, _load_params, _out_dir, _progress, _save, _write_json
+from .logs import add_log_options, read_logs
 from .options import command, option
 
 
 # ------------------------------------------------------------------ calibrate
 def cmd_calibrate(args) -> int:
     """``bplir calibrate``: fit the model to a logged run."""
-    from ..analysis.identification.calibration import (identify_deadband, identify_plant_family,
-                                                       read_calibration_csv)
+    from ..analysis.identification.calibration import identify_deadband, identify_plant_family
     from ..analysis.identification.fit import (calibrate, check_bounds, cross_validate,
                                                write_calibrated_toml)
 
@@ -22,8 +22,7 @@ def cmd_calibrate(args) -> int:
     bounds = check_bounds(_pair(args.bounds))
     if args.cv and len(args.log) < 2:
         raise InputError(f"--cv needs at least 2 logs; given {len(args.log)}")
-    logs = [read_calibration_csv(path, params.motor.torque_per_amp, min_duration=0.2)
-            for path in args.log]
+    logs = read_logs(args, params, args.log)
     out_dir = _out_dir(args.out)   # after the logs' checks: a refusal writes nothing
     res = calibrate(params, logs, fit, bounds=bounds, progress=_progress(args))
     summary = res.summary() | {
@@ -59,6 +58,7 @@ def add_parser(sub) -> None:
                    "several logs are fitted jointly")
     option(p, "--fit", None, "fv1,fv2,fc1,fc2",
            "parameters to fit (fv1,fv2,fc1,fc2,I1,I2,lc1,lc2,m1,m2)")
+    add_log_options(p)
     option(p, "--bounds", None, "0.1,10", "LOW,HIGH: masses and inertias are fitted within "
            "these factors of their starting values (default 0.1,10)")
     option(p, "--cv", bool, help="also cross-validate: fit all logs but one, each in turn, and "

@@ -54,7 +54,7 @@ def _with_settings(params, args):
     set)."""
     import tomllib
 
-    from ..params import BLOCKS, ParameterError, from_dict, moved_field
+    from ..params import BLOCKS, from_dict, moved_field
 
     data: dict = {}
     for item in getattr(args, "set", None) or []:

@@ -1,33 +1,19 @@
 """``bplir replay``: a logged torque replayed into the model."""
 from __future__ import annotations
 
-import math
-
-from .common import InputError, _emit, _in_range, _load_params, _out_dir, _save, _write_json
+from .common import _emit, _in_range, _load_params, _out_dir, _save, _write_json
+from .logs import add_log_options, read_logs
 from .options import command, option
 
 
 def cmd_replay(args) -> int:
     """``bplir replay``: drive the model with a log's torque and compare."""
-    from ..analysis.identification.calibration import read_calibration_csv
     from ..analysis.identification.torque_replay import replay_torque
 
     params = _load_params(args)
     _in_range("--threshold", args.threshold, 0.0, 10.0, lo_open=True, unit="rad")
     _in_range("--window", args.window, 0.0, 600.0, lo_open=True, unit="s")
-    if args.torque_sign not in (-1.0, 1.0):
-        raise InputError(f"--torque-sign = {args.torque_sign:g} must be 1 or -1")
-    log = read_calibration_csv(args.log, params.motor.torque_per_amp, min_duration=0.2,
-                               torque_sign=args.torque_sign, columns=_columns(args.columns),
-                               span=_span(args.span))
-    if args.angles == "robot":
-        if not params.robot.file:
-            raise InputError("--angles robot needs a robot description (robot.file); "
-                             "allowed: package without one")
-        from ..analysis.identification.calibration import in_package_angles
-        from ..params.robot_file import describe_robot
-
-        log = in_package_angles(log, describe_robot(params.robot))
+    log, = read_logs(args, params, [args.log])
     out = _out_dir(args.out)
     res = replay_torque(params, log, threshold=args.threshold, window=args.window,
                         interpolation=args.interpolation, acrobot=args.acrobot)
@@ -50,32 +36,6 @@ def _when(t) -> str:
     return "never" if t is None else f"at {t:.3f} s"
 
 
-def _columns(text):
-    """``--columns`` as {our name: the file's}: ``t=meas_time,q1=...``."""
-    if not text:
-        return None
-    out = {}
-    for item in text.split(","):
-        ours, eq, theirs = (s.strip() for s in item.partition("="))
-        if not (eq and ours and theirs):
-            raise InputError(f"--columns '{item}' must be name=column (e.g. t=meas_time)")
-        out[ours] = theirs
-    return out
-
-
-def _span(text):
-    """``--span START,END`` (s of the log's clock) as a pair."""
-    if not text:
-        return None
-    try:
-        start, end = (float(v) for v in text.split(","))
-    except ValueError:
-        raise InputError(f"--span '{text}' must be START,END in s (e.g. 0.5,2.0)") from None
-    if not (math.isfinite(start) and math.isfinite(end) and start < end):
-        raise InputError(f"--span {text}: allowed finite START < END")
-    return start, end
-
-
 def add_parser(sub) -> None:
     """Declare ``bplir replay`` and its options."""
     p = command(sub, "replay", cmd_replay, "drive the model with a logged elbow torque from the "
@@ -85,17 +45,9 @@ def add_parser(sub) -> None:
                    "q1d,q2d (the first row's rates); other names with --columns")
     option(p, "--threshold", float, 0.1, "divergence threshold in rad (default 0.1)")
     option(p, "--window", float, 0.5, "RMSE windows in s (default 0.5)")
-    option(p, "--torque-sign", float, 1.0, "1, or -1 when the log's torque sign is the "
-           "opposite of the model's")
-    option(p, "--columns", str, None, "the log's names of its columns, e.g. "
-           "t=meas_time,q1=shoulder_meas_pos,q2=elbow_meas_pos,tau=elbow_meas_tau "
-           "(names: t, q1, q2, q1d, q2d, tau, i_cmd)")
-    p.add_argument("--angles", choices=("package", "robot"), default="package",
-                   help="the log's angles, rates and torque are the package's, or the joint "
-                   "coordinates of the robot description (robot.file)")
+    add_log_options(p)
     p.add_argument("--interpolation", choices=("zoh", "linear"), default="zoh",
                    help="the logged torque between samples: held (zoh) or linear")
-    option(p, "--span", str, None, "START,END: replay this stretch of the log's clock (s)")
     p.add_argument("--acrobot", action="store_true",
                    help="also drive Drake's AcrobotPlant (centres of mass on the links' axes, "
                    "viscous damping only) with the torque, beside the model")

@@ -149,8 +149,12 @@ def test_a_short_link_robot_runs_every_command(tmp_path, monkeypatch):
 
     monkeypatch.setenv("BPLIR_CACHE_DIR", str(tmp_path / "cache"))
     cfg = Path(__file__).resolve().parents[1] / "examples" / "acromonk.toml"
-    rc, out, err = bplir("model", "--config", cfg, "--out", tmp_path / "model")
+    rc, out, err = bplir("model", "--config", cfg, "--out", tmp_path / "model", "--json")
     assert rc == 0, err
+    model = json.loads(out)   # the dissertation's Table 4.1 and the BPLIR's voltage are not its
+    assert "friction_rmse_published" not in model
+    assert model["envelope"] == {"voltage_envelope": False, "current_limit_torque_Nm": 3.0,
+                                 "swing_peak_rate_rad_s": pytest.approx(11.3, abs=0.5)}
     rc, out, err = bplir("plan", "--config", cfg, "--out", tmp_path / "plan", "--json")
     plan = json.loads(out)
     assert plan["peak_torque_Nm"] <= 3.0 + 1e-6 and plan["torque_limit_Nm"] == 3.0

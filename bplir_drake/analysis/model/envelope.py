@@ -37,14 +37,17 @@ class EnvelopeResult(Result):
     swing_rate: np.ndarray = field(default_factory=lambda: np.zeros(0))    # (N,) rad/s
     swing_torque: np.ndarray = field(default_factory=lambda: np.zeros(0))  # (N,) N m
     swing_label: str = ""
+    voltage_limited: bool = True  # the motor's voltage envelope is modelled (motor.envelope)
 
     def summary(self) -> dict:
         """The envelope's figures and the swing's peak rate and voltage margin."""
-        out = {"supply_voltage_V": self.supply_voltage, "max_voltage_V": self.max_voltage,
-               "no_load_speed_rad_s": self.no_load_speed,
-               "current_limit_torque_Nm": self.current_torque,
-               "corner_speed_rad_s": self.corner_speed(),
-               "max_mechanical_power_W": self.max_power()}
+        out = {"voltage_envelope": self.voltage_limited,
+               "current_limit_torque_Nm": self.current_torque}
+        if self.voltage_limited:
+            out |= {"supply_voltage_V": self.supply_voltage, "max_voltage_V": self.max_voltage,
+                    "no_load_speed_rad_s": self.no_load_speed,
+                    "corner_speed_rad_s": self.corner_speed(),
+                    "max_mechanical_power_W": self.max_power()}
         if len(self.swing_rate):
             out["swing_peak_rate_rad_s"] = float(np.max(np.abs(self.swing_rate)))
         return out
@@ -88,7 +91,7 @@ def torque_envelope(params: BplirParams, other_voltage: float = 48.0,
     return EnvelopeResult(speeds, envelope_curve(m, speeds), envelope_curve(other, speeds),
                           m.supply_voltage, other_voltage, m.max_voltage,
                           min(limit, m.torque_per_amp * m.i_peak), m.power_rating,
-                          no_load_speed(m), rate, torque, label)
+                          no_load_speed(m), rate, torque, label, bool(m.envelope))
 
 
 __all__ = ["EnvelopeResult", "torque_envelope"]

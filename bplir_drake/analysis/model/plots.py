@@ -30,6 +30,21 @@ def plot_free_swing(result, axes=None):
 
 
 
+def _voltage_lines(ax, result, w, top) -> None:
+    """The envelope at the other voltage, the power rating and the no-load rate."""
+    ax.plot(w, result.other_torque[:, 1], "--", color="tab:gray",
+            label=f"envelope at {result.other_voltage:g} V")
+    ax.plot(w, result.other_torque[:, 0], "--", color="tab:gray")
+    fast = np.abs(w) > 1e-6
+    rating = np.where(fast, result.power_rating / np.where(fast, np.abs(w), 1.0), np.nan)
+    rating[rating > top] = np.nan
+    ax.plot(w, np.sign(w) * rating, ":", color="tab:red",
+            label=f"{result.power_rating:g} W rating")
+    ax.axvline(result.no_load_speed, color="tab:blue", lw=0.8, alpha=0.6)
+    ax.annotate(f"no-load {result.no_load_speed:.1f} rad/s", (result.no_load_speed, 0.0),
+                xytext=(4, 6), textcoords="offset points", fontsize=8, color="tab:blue")
+
+
 def plot_envelope(result, axes=None):
     """The elbow's torque-speed envelope (data from ``torque_envelope``):
     the deliverable torque at the supply voltage (shaded), at the other
@@ -38,25 +53,17 @@ def plot_envelope(result, axes=None):
 
     fig, ax = figure_axes(axes, 1, 1, figsize=(7.5, 5.5))
     w, lo, hi = result.speeds, result.torque[:, 0], result.torque[:, 1]
+    top = 1.15 * result.current_torque
     ax.fill_between(w, lo, hi, color="tab:blue", alpha=0.12, lw=0)
     ax.plot(w, hi, color="tab:blue", lw=2,
-            label=f"envelope at {result.supply_voltage:g} V supply")
+            label=(f"envelope at {result.supply_voltage:g} V supply" if result.voltage_limited
+                   else "torque limit (no voltage envelope modelled)"))
     ax.plot(w, lo, color="tab:blue", lw=2)
-    ax.plot(w, result.other_torque[:, 1], "--", color="tab:gray",
-            label=f"envelope at {result.other_voltage:g} V")
-    ax.plot(w, result.other_torque[:, 0], "--", color="tab:gray")
-    fast = np.abs(w) > 1e-6
-    rating = np.where(fast, result.power_rating / np.where(fast, np.abs(w), 1.0), np.nan)
-    top = 1.15 * result.current_torque
-    rating[rating > top] = np.nan
-    ax.plot(w, np.sign(w) * rating, ":", color="tab:red",
-            label=f"{result.power_rating:g} W rating")
+    if result.voltage_limited:
+        _voltage_lines(ax, result, w, top)
     if len(result.swing_rate):
         ax.plot(result.swing_rate, result.swing_torque, ".", ms=3, color="tab:orange",
                 label=result.swing_label or "swing")
-    ax.axvline(result.no_load_speed, color="tab:blue", lw=0.8, alpha=0.6)
-    ax.annotate(f"no-load {result.no_load_speed:.1f} rad/s", (result.no_load_speed, 0.0),
-                xytext=(4, 6), textcoords="offset points", fontsize=8, color="tab:blue")
     ax.axhline(0.0, color="k", lw=0.5)
     ax.axvline(0.0, color="k", lw=0.5)
     ax.set_ylim(-top, top)

@@ -39,7 +39,7 @@ def _parameters_page() -> str:
              "and describe the simulated robot.", ""]
     rows = parameter_reference()
     for block in [b for b in BLOCKS if not b.startswith("true_")]:
-        doc = (BLOCKS[block].__doc__ or "").strip().split("\n\n")[0].replace("\n", " ")
+        doc = " ".join((BLOCKS[block].__doc__ or "").strip().split("\n\n")[0].split())
         lines += [f"## `[{block}]`", "", doc, "",
                   "| name | unit | range | default | meaning |", "| --- | --- | --- | --- | --- |"]
         for r in rows:

@@ -181,3 +181,47 @@ def test_a_short_link_robot_runs_every_command(tmp_path, monkeypatch):
     # pivot: the log's 5 ms torque samples leave it within 15 %
     assert cal["fitted"]["I1"] == pytest.approx(0.0017085, rel=0.15)
     assert cal["rmse_after_rad"] < min(0.01, cal["rmse_before_rad"] / 20)
+
+
+def test_an_sdformat_description_is_read_as_the_urdf_is(tmp_path):
+    """The BPLIR written in SDFormat (the free gripper a frame, not a link)
+    reads as the same plant as its URDF and the hand-built one."""
+    path = tmp_path / "bplir.sdf"
+    path.write_text(SDF)
+    d = describe_robot(RobotFileParams(file=str(path)))
+    assert d.plant == PlantParams() and d.offset == (0.0, 0.0)
+    assert description_residual(d) < 1e-12
+
+
+SDF = """<?xml version="1.0"?>
+<sdf version="1.7">
+  <model name="bplir_sdf">
+    <link name="link1">
+      <inertial>
+        <pose>0 0 -0.2167 0 0 0</pose>
+        <mass>3.2287</mass>
+        <inertia><ixx>0.1539</ixx><iyy>0.1539</iyy><izz>1.539e-05</izz>
+          <ixy>0</ixy><ixz>0</ixz><iyz>0</iyz></inertia>
+      </inertial>
+    </link>
+    <link name="link2">
+      <pose>0 0 -0.9091 0 0 0</pose>
+      <inertial>
+        <pose>0 0 -0.5459 0 0 0</pose>
+        <mass>1.5155</mass>
+        <inertia><ixx>0.2191</ixx><iyy>0.2191</iyy><izz>2.191e-05</izz>
+          <ixy>0</ixy><ixz>0</ixz><iyz>0</iyz></inertia>
+      </inertial>
+    </link>
+    <frame name="free_gripper" attached_to="link2"><pose>0 0 -1.2451 0 0 0</pose></frame>
+    <joint name="gripper_joint" type="revolute">
+      <parent>world</parent><child>link1</child>
+      <axis><xyz>0 -1 0</xyz><limit><lower>-1e16</lower><upper>1e16</upper></limit></axis>
+    </joint>
+    <joint name="elbow_joint" type="revolute">
+      <parent>link1</parent><child>link2</child>
+      <axis><xyz>0 -1 0</xyz><limit><lower>-1e16</lower><upper>1e16</upper></limit></axis>
+    </joint>
+  </model>
+</sdf>
+"""

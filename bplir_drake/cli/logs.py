@@ -22,8 +22,9 @@ def add_log_options(p) -> None:
     option(p, "--span", str, None, "START,END: use this stretch of the log's clock (s)")
 
 
-def read_logs(args, params, paths):
-    """The logs at ``paths`` read with the log options of ``args`` (checked)."""
+def read_logs(args, params, paths, torque: bool = True):
+    """The logs at ``paths`` read with the log options of ``args`` (checked;
+    ``torque = False``: the angles alone will do)."""
     from ..analysis.identification.calibration import in_package_angles, read_calibration_csv
 
     if args.torque_sign not in (-1.0, 1.0):
@@ -40,7 +41,8 @@ def read_logs(args, params, paths):
     logs = []
     for path in paths:
         log = read_calibration_csv(path, params.motor.torque_per_amp, min_duration=0.2,
-                                   torque_sign=args.torque_sign, columns=columns, span=span)
+                                   torque_sign=args.torque_sign, columns=columns, span=span,
+                                   torque=torque)
         logs.append(log if description is None else in_package_angles(log, description))
     return logs
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 from pathlib import Path
 from ..io import write_text_atomic
 from .common import _plugin_args_need_a_plugin, InputError, _check_plugin, _emit, _load_params, _out_dir, _same, _save, _study_of, _with_path_mode, _write_json
+from .logs import add_log_options, read_logs
 from .options import command, option, shared
 
 
@@ -48,6 +49,8 @@ def cmd_swing(args) -> int:
     params = None if replaying else _swing_params(args)   # bad options: nothing written
     if replaying:
         _replay_check(args)
+    against = (read_logs(args, params, [args.against], torque=False)[0]
+               if args.against else None)   # checked before anything is written
     out_dir = _out_dir(args.out)
     if replaying:
         res, replay_info = _replay(args)
@@ -70,7 +73,20 @@ def cmd_swing(args) -> int:
         files["animation"] = str(animate_swing(res, out_dir / "swing.gif"))
     if args.html:
         files["replay_html"] = str(replay_swing_html(res, out_dir / "swing.html"))
-    extra = {"files": files} | ({"replay": replay_info} if replay_info else {})
+    against_line = []
+    if against is not None:
+        from ..analysis.swing.against import compare_with_log
+
+        cmp = compare_with_log(res, against, Path(args.against).name)
+        files["against"] = str(_save(args, cmp.plot(), out_dir / "against.png"))
+        extra_against = {"against": cmp.summary()}
+        r = cmp.rmse
+        against_line = [f"against {Path(args.against).name}: RMSE q1 {r[0]:.3f} rad, q2 "
+                        f"{r[1]:.3f} rad over {cmp.t[-1] - cmp.t[0]:.2f} s"]
+    else:
+        extra_against = {}
+    extra = ({"files": files} | extra_against
+             | ({"replay": replay_info} if replay_info else {}))
     summary = summary_with_params(res) | extra
     _write_json(out_dir / "summary.json", summary)
     s = res.summary
@@ -79,7 +95,7 @@ def cmd_swing(args) -> int:
                        False: "DIFFERS from the recorded result",
                        None: "no recorded result to compare"}[replay_info["matches_recorded"]]]
                    if replay_info else [])
-    _emit(res.summary | extra, args.json, replay_line + [
+    _emit(res.summary | extra, args.json, replay_line + against_line + [
         f"{s['outcome']}: t = {s['swing_time_s']:.3f} s, capture speed "
         f"{s['capture_speed_mps']:.3f} m/s (limit {s['thresholds']['capture_speed_mps']}), "
         f"distance {s['capture_distance_m']:.4f} m",
@@ -102,7 +118,8 @@ def _replay_check(args):
     clash = [f"--{n.replace('_', '-')}" for n in ("preset", "config", "incline", "controller",
                                                    "estimator", "seed")
              if getattr(args, n, None) is not None and getattr(args, n) != plugins.get(n)]
-    clash += ["--true-state"] * args.true_state + ["--compare"] * args.compare
+    clash += (["--true-state"] * args.true_state + ["--compare"] * args.compare
+              + ["--against"] * bool(args.against))
     if clash:
         raise InputError(f"--replay takes every parameter from the study; drop {clash[0]}")
     for kind, spec in plugins.items():   # code named by a file runs only when the user names it
@@ -138,3 +155,7 @@ def add_parser(sub) -> None:
     option(p, "--replay", None, None, "re-run one sample of a Monte Carlo study (with --sample)",
            metavar="STUDY_DIR")
     option(p, "--sample", int, None, "sample index to replay", metavar="K")
+    option(p, "--against", None, None, "a logged run of the robot (CSV) to compare the swing "
+           "with: RMSE per joint over the time both cover and a figure of both; the log's "
+           "clock starts with the swing (see --columns, --angles, --span)", metavar="LOG")
+    add_log_options(p)

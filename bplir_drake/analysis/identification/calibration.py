@@ -69,18 +69,22 @@ class CalibrationLog:
 
 def read_calibration_csv(path, torque_per_amp: float, *, min_duration: float = 2.0,
                          torque_sign: float = 1.0, columns: dict | None = None,
-                         span: tuple | None = None) -> CalibrationLog:
+                         span: tuple | None = None, torque: bool = True) -> CalibrationLog:
     """A calibration CSV (t, q1, q2 and tau in N m or i_cmd in A, converted with
     ``torque_per_amp``, times ``torque_sign``) as a checked
     :class:`CalibrationLog` spanning at least ``min_duration`` s; a bad file
     raises :class:`CalibrationError`.  ``columns`` names the file's column
     of each of t, q1, q2, q1d, q2d, tau, i_cmd it gives another name;
     ``span = (start, end)`` keeps the rows of that stretch of the log's
-    clock (s; the first kept row's rates start the replay)."""
+    clock (s; the first kept row's rates start the replay).  ``torque =
+    False``: a log of the angles alone will do (its torque read as 0)."""
     path = Path(path)
     header, body = csv_rows(path, "log", CalibrationError)
     header = _renamed(header, columns or {}, path)
     missing = [c for c in CALIBRATION_COLUMNS if c not in header]
+    if not torque and not ({"tau", "i_cmd"} & set(header)):
+        header = header + ["tau"]   # a column of zeros
+        body = [(lineno, row + ["0"]) for lineno, row in body]
     if missing or not ({"tau", "i_cmd"} & set(header)):
         need = missing + ([] if {"tau", "i_cmd"} & set(header) else ["tau or i_cmd"])
         raise CalibrationError(f"log {path} lacks column(s) {', '.join(need)}; required: "

@@ -1,0 +1,61 @@
+"""A swing against a logged run of the robot: the simulated joint angles
+at the log's times (its clock from 0 at the swing's start), each joint's
+RMSE over the time both cover, and a figure of both -- how closely the
+closed loop reproduces a hardware run."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ...io import Result
+from ...plotting import figure_axes, finish
+
+
+@dataclass
+class LogComparison(Result):
+    """Times (s), logged and simulated angles (N, 2) rad over the time the
+    log and the swing both cover, and what the log is called."""
+
+    t: np.ndarray
+    logged: np.ndarray
+    simulated: np.ndarray
+    label: str = "logged run"
+
+    @property
+    def rmse(self) -> np.ndarray:
+        """Each joint's RMSE (rad)."""
+        return np.sqrt(np.mean((self.simulated - self.logged) ** 2, axis=0))
+
+    def summary(self) -> dict:
+        """Samples, span, RMSE and largest difference per joint."""
+        err = np.abs(self.simulated - self.logged)
+        return {"log": self.label, "samples": int(len(self.t)),
+                "duration_s": float(self.t[-1] - self.t[0]), "rmse_rad": self.rmse.tolist(),
+                "largest_difference_rad": err.max(axis=0).tolist()}
+
+    def plot(self, axes=None):
+        """Both runs' q1 and q2 (two axes)."""
+        fig, ax = figure_axes(axes, 2, 1, figsize=(9, 6), sharex=True)
+        for i, a in enumerate(ax):
+            a.plot(self.t, self.logged[:, i], "k", lw=2, alpha=0.4, label=self.label)
+            a.plot(self.t, self.simulated[:, i], "C0", lw=1, label="simulated closed loop")
+            a.set_ylabel(f"q{i + 1} [rad]")
+            a.grid(True, alpha=0.3)
+            a.legend(fontsize=8, loc="upper right")
+        ax[1].set_xlabel("time [s]")
+        return finish(fig, f"Swing against {self.label}: RMSE {self.rmse[0]:.3f} / "
+                           f"{self.rmse[1]:.3f} rad")
+
+
+def compare_with_log(result, log, label: str = "logged run") -> LogComparison:
+    """``result`` (a swing) against ``log`` (a
+    :class:`~bplir_drake.analysis.identification.calibration.CalibrationLog`,
+    its clock from 0) over the time both cover."""
+    state = result.logs["state"]
+    inside = log.t <= state.t[-1]
+    if inside.sum() < 2:
+        raise ValueError(f"the log and the swing share less than two samples "
+                         f"(the swing lasts {state.t[-1]:.3g} s)")
+    t = log.t[inside]
+    return LogComparison(t, log.q[inside], state.at(t)[:, :2], label)

@@ -300,3 +300,19 @@ def test_the_command_line_starts_without_pydrake():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True).stdout.strip()
     assert out == "[]"
+
+
+def test_every_data_file_is_installed_with_the_package():
+    """Each file under bplir_drake/data matches a package-data pattern of
+    pyproject.toml, so an installed package (pip install ., not editable)
+    has its plans and its robot descriptions."""
+    import tomllib
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    patterns = tomllib.loads((root / "pyproject.toml").read_text())["tool"]["setuptools"][
+        "package-data"]["bplir_drake"]
+    package = root / "bplir_drake"
+    covered = {p for pattern in patterns for p in package.glob(pattern)}
+    data = {p for p in (package / "data").rglob("*") if p.is_file() and "__pycache__" not in p.parts}
+    assert data and data <= covered, sorted(str(p.relative_to(package)) for p in data - covered)

@@ -225,3 +225,32 @@ SDF = """<?xml version="1.0"?>
   </model>
 </sdf>
 """
+
+
+def test_a_files_joint_damping_is_the_viscous_friction_and_a_rotor_inertia_is_refused(
+        tmp_path):
+    """The elbow's <dynamics damping> of the file becomes friction.fv2 unless
+    the config gives fv2; a motor's reflected rotor inertia (which the two
+    links cannot carry) is refused with one line."""
+    from bplir_drake.params import from_dict
+
+    text = OFF_AXIS_URDF.replace("AXIS", "1 0 0").replace(
+        '<origin xyz="0.022 0.314 -0.02"/><axis xyz="1 0 0"/>',
+        '<origin xyz="0.022 0.314 -0.02"/><axis xyz="1 0 0"/><dynamics damping="0.05"/>')
+    path = tmp_path / "damped.urdf"
+    path.write_text(text)
+    robot = {"file": str(path), "pivot_joint": "pivot", "elbow_joint": "elbow",
+             "free_gripper": "hook2"}
+    p = from_dict({"robot": robot})
+    assert p.friction.fv2 == 0.05 and p.friction.fv1 == BplirParams().friction.fv1
+    assert from_dict({"robot": robot, "friction": {"fv2": 0.07}}).friction.fv2 == 0.07
+    geared = text.replace("</robot>", """
+  <transmission name="t"><type>transmission_interface/SimpleTransmission</type>
+    <joint name="elbow"><hardwareInterface>EffortJointInterface</hardwareInterface></joint>
+    <actuator name="motor"><drake:rotor_inertia value="0.001"/>
+      <drake:gear_ratio value="6.0"/></actuator></transmission>
+</robot>""").replace('<robot name="small">',
+                     '<robot name="small" xmlns:drake="http://drake.mit.edu">')
+    path.write_text(geared)
+    with pytest.raises(ParameterError, match="reflected rotor inertia .0.036 kg m.2."):
+        describe_robot(RobotFileParams(**robot))

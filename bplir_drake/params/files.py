@@ -74,7 +74,14 @@ def robot_file_updates(params: BplirParams, data: dict, base_dir: Path | None) -
         return {"robot": robot}
     if robot.file not in SHIPPED_ROBOTS:
         robot = replace(robot, file=str(resolve_robot_file(robot.file, base_dir)))
-    return {"robot": robot, "plant": describe_robot(robot, base_dir).plant}
+    described = describe_robot(robot, base_dir)
+    out = {"robot": robot, "plant": described.plant}
+    given = set(data.get("friction") or ())
+    damping = {n: d for n, d in zip(("fv1", "fv2"), described.damping)
+               if d > 0.0 and n not in given}   # the file's joint damping: viscous friction
+    if damping:
+        out["friction"] = replace(params.friction, **damping)
+    return out
 
 
 def follow_the_links(params: BplirParams, updates: dict, data: dict) -> dict:

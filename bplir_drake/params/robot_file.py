@@ -14,7 +14,9 @@ parameters with the parsed plant's mass matrix, bias and gravity terms.
 
 Everything a link carries welded to it (a hook, an IMU board) counts as
 part of that link; a body welded to the world does not move and is
-ignored.  Lengths, masses and inertias are rounded to 12 significant
+ignored.  A joint's damping is its viscous friction (``friction.fv1``,
+``fv2`` unless the config gives them); joint limits are not modelled (a
+swing does not reach them); a reflected rotor inertia is refused.  Lengths, masses and inertias are rounded to 12 significant
 digits: a description's numbers are decimal, and the rounding removes
 the ~1e-16 noise of the frame transforms, so a robot read from a file
 and the same robot typed into ``[plant]`` are one model (and share cached
@@ -73,6 +75,7 @@ class RobotDescription:
     plant: PlantParams
     offset: tuple[float, float]
     sign2: float
+    damping: tuple[float, float] = (0.0, 0.0)   # the joints' viscous damping (N m s/rad)
 
     def from_file_state(self, x):
         """Rows ``(q1, q2[, q1d, q2d])`` in the file's joint coordinates -> the package's."""
@@ -194,9 +197,24 @@ def read_description(path: Path, pivot_joint: str, elbow_joint: str,
     values = dict(m1=m1, m2=m2, l1=l1, l2=l2, lc1=lc1, lc2=lc2, oc1=oc1, oc2=oc2, I1=I1, I2=I2,
                   g=g)
     plant_params = PlantParams(**{k: _round(v) for k, v in values.items()})
+    _refuse_rotor_inertia(plant, path)
     return RobotDescription(str(path), plant_params,
                             (_round(theta1), _round(math.remainder(theta2 - theta1, 2 * math.pi))),
-                            float(np.sign(axis @ axis2)))
+                            float(np.sign(axis @ axis2)),
+                            (float(pivot.default_damping()), float(elbow.default_damping())))
+
+
+def _refuse_rotor_inertia(plant, path) -> None:
+    """A motor's reflected rotor inertia (``drake:rotor_inertia``) adds to
+    the elbow's inertia alone, which the two links' parameters cannot
+    express: refused rather than dropped."""
+    for i in plant.GetJointActuatorIndices():
+        actuator = plant.get_joint_actuator(i)
+        reflected = actuator.default_rotor_inertia() * actuator.default_gear_ratio() ** 2
+        if reflected != 0.0:
+            raise ParameterError(f"robot.file {path}: actuator '{actuator.name()}' has a "
+                                 f"reflected rotor inertia ({reflected:g} kg m^2), which the "
+                                 "package does not model; allowed: none")
 
 
 @functools.lru_cache(maxsize=16)

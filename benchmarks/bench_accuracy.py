@@ -10,7 +10,7 @@ the capture speed, and the wall time per swing of each.  With
 (RK5 at 1e-10): the median per-swing capture-speed error of each setting.
 
 Run: python benchmarks/bench_accuracy.py [-n N] [--accuracy 1e-3]
-     [--integrator runge_kutta3] [--study examples/study_realistic.toml]
+     [--integrator runge_kutta3] [--study examples/study_realistic.toml|default]
      [--inclines 0,20,-20] [--seed ROOT] [--reference K]
 (prints figures, not a test; 2 worker processes).
 """
@@ -79,10 +79,12 @@ def main(argv=None) -> int:
     ap.add_argument("--seed", type=int, default=300, help="root seed of the draws")
     ap.add_argument("--reference", type=int, default=0, help="swings also run at RK5 1e-10")
     args = ap.parse_args(argv)
-    base = load_study(args.study)
+    from bplir_drake.analysis.montecarlo.study import Study
+
+    base = Study() if args.study == "default" else load_study(args.study)
     settings = {"swing": (SWING_INTEGRATOR, SWING_ACCURACY),
                 "candidate": (args.integrator, args.accuracy)}
-    print(f"{args.n} swings per line of {Path(args.study).name}, root seed {args.seed}: "
+    print(f"{args.n} swings per line of {Path(args.study).name} study, root seed {args.seed}: "
           f"{SWING_INTEGRATOR} {SWING_ACCURACY:g} against {args.integrator} {args.accuracy:g}")
     with multiprocessing.get_context("fork").Pool(2) as pool:
         for incline in (float(v) for v in args.inclines.split(",")):

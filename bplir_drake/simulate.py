@@ -98,7 +98,7 @@ class Log:
 def make_simulator(built, q0, v0=(0.0, 0.0), *, accuracy: float = 1e-6,
                    integrator: str = "runge_kutta3", max_step: float = 0.01, set_context=None):
     """A simulator of ``built`` on a fresh context, with the plant at
-    (q0, v0) (rad, rad/s).
+    (q0, v0) (rad, rad/s; ``q0 = None``: ``set_context`` sets the state).
 
     ``set_context(context)``, when given, writes anything else into the
     fresh context (e.g. a Monte Carlo sample) before the simulator is
@@ -110,7 +110,7 @@ def make_simulator(built, q0, v0=(0.0, 0.0), *, accuracy: float = 1e-6,
     ctx = sim.get_mutable_context()
     if set_context is not None:
         set_context(ctx)
-    if hasattr(built.plant, "SetPositions"):   # a MultibodyPlant (else set_context sets it)
+    if q0 is not None:   # else set_context wrote the state (a plant other than a MultibodyPlant)
         pctx = built.plant.GetMyMutableContextFromRoot(ctx)
         built.plant.SetPositions(pctx, np.asarray(q0, dtype=float))
         built.plant.SetVelocities(pctx, np.asarray(v0, dtype=float))

@@ -1,7 +1,7 @@
 """``bplir calibrate``: fit the plant model to a logged run."""
 from __future__ import annotations
 
-from .common import InputError, _emit, _load_params, _out_dir, _progress, _save, _write_json
+from .common import InputError, _emit, _floats, _load_params, _out_dir, _progress, _save, _write_json
 from .logs import add_log_options, read_logs
 from .options import command, option
 
@@ -19,7 +19,7 @@ def cmd_calibrate(args) -> int:
         raise InputError(f"--fit names {', '.join(twice)} more than once; name each "
                          "parameter once")
     params = _load_params(args)
-    bounds = check_bounds(_pair(args.bounds))
+    bounds = check_bounds(_floats(args.bounds, 2, "--bounds"))
     if args.cv and len(args.log) < 2:
         raise InputError(f"--cv needs at least 2 logs; given {len(args.log)}")
     logs = read_logs(args, params, args.log)
@@ -67,11 +67,3 @@ def add_parser(sub) -> None:
     option(p, "--family", bool,
            help="also identify the CPFL plant family of the calibrated model (4.7)")
 
-
-def _pair(text: str) -> tuple[float, float]:
-    """``--bounds LOW,HIGH`` as two numbers."""
-    try:
-        lo, hi = (float(v) for v in text.split(","))
-    except ValueError:
-        raise InputError(f"--bounds '{text}' must be LOW,HIGH (e.g. 0.1,10)") from None
-    return lo, hi

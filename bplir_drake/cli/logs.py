@@ -3,9 +3,7 @@
 a stretch of its clock; and the logs read with them."""
 from __future__ import annotations
 
-import math
-
-from .common import InputError
+from .common import InputError, _floats
 from .options import option
 
 
@@ -64,10 +62,7 @@ def _span(text):
     """``--span START,END`` (s of the log's clock) as a pair."""
     if not text:
         return None
-    try:
-        start, end = (float(v) for v in text.split(","))
-    except ValueError:
-        raise InputError(f"--span '{text}' must be START,END in s (e.g. 0.5,2.0)") from None
-    if not (math.isfinite(start) and math.isfinite(end) and start < end):
-        raise InputError(f"--span {text}: allowed finite START < END")
+    start, end = _floats(text, 2, "--span")
+    if not start < end:
+        raise InputError(f"--span {text}: allowed START < END (s)")
     return start, end

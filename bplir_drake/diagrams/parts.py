@@ -61,15 +61,13 @@ def torque_source(builder, elbow_torque, interpolation: str = "zoh"):
         times, values = (np.asarray(a, dtype=float) for a in elbow_torque)
         if times.size == 1:
             return builder.AddSystem(ConstantVectorSource([float(values[0])]))
-        if interpolation == "linear":
-            times, values = np.append(times, times[-1] + 1e6), np.append(values, values[-1])
-            traj = PiecewisePolynomial.FirstOrderHold(times, values.reshape(1, -1))
-            return builder.AddSystem(TrajectorySource(traj))
-        # Drake's zero-order hold ignores the value at the final break
+        # Drake's zero-order hold ignores the value at the final break: the last
+        # value held on a million seconds (linear: flat past the last sample)
         times = np.append(times, times[-1] + 1e6)
         values = np.append(values, values[-1])
-        traj = PiecewisePolynomial.ZeroOrderHold(times, values.reshape(1, -1))
-        return builder.AddSystem(TrajectorySource(traj))
+        hold = (PiecewisePolynomial.FirstOrderHold if interpolation == "linear"
+                else PiecewisePolynomial.ZeroOrderHold)
+        return builder.AddSystem(TrajectorySource(hold(times, values.reshape(1, -1))))
     return builder.AddSystem(ConstantVectorSource([float(elbow_torque)]))
 
 

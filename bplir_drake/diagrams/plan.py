@@ -254,6 +254,11 @@ def tracking_plan(params: BplirParams):
                                 weights=TrackerWeights.of(params.plan))
 
 
+def _on_grid(spacing: float, step: float) -> float:
+    """``spacing`` rounded to the plans' grid of ``step`` (m)."""
+    return round(round(spacing / step) * step, 9)
+
+
 def scenario_plan(params: BplirParams) -> SwingPlan:
     """The plan for the scenario of ``params`` with ``plan.end_depth``:
     interpolated from the shipped library when it covers the scenario
@@ -273,7 +278,7 @@ def scenario_plan(params: BplirParams) -> SwingPlan:
         return found[0]
     sc, depth, step = params.scenario, params.plan.end_depth, params.plan.spacing_step
     if step > 0:   # the measured spacing on the plans' grid
-        spacing = round(round(sc.grip_spacing / step) * step, 9)
+        spacing = _on_grid(sc.grip_spacing, step)
         params = params.with_(scenario=replace(sc, grip_spacing=spacing))
     hanging = params.scenario.start == "hanging"
     for guess in HANGING_GUESSES if hanging else PLAN_GUESSES:   # SNOPT sometimes stops
@@ -284,7 +289,7 @@ def scenario_plan(params: BplirParams) -> SwingPlan:
             break
     warm = params.plan.warm_spacing
     if step > 0:   # on the same grid (else the warm plan's own warm start recurses)
-        warm = round(round(warm / step) * step, 9)
+        warm = _on_grid(warm, step)
     if warm > 0 and not hanging and abs(params.scenario.grip_spacing - warm) > 1e-9:
         ref = scenario_plan(params.with_(scenario=replace(params.scenario, grip_spacing=warm)))
         started = plan_swing(params, end_depth=depth, initial=ref)

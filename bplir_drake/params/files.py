@@ -76,12 +76,17 @@ def robot_file_updates(params: BplirParams, data: dict, base_dir: Path | None) -
         robot = replace(robot, file=str(resolve_robot_file(robot.file, base_dir)))
     described = describe_robot(robot, base_dir)
     out = {"robot": robot, "plant": described.plant}
-    given = set(data.get("friction") or ())
+    given = given_fields(data).get("friction", set())
     damping = {n: d for n, d in zip(("fv1", "fv2"), described.damping)
                if d > 0.0 and n not in given}   # the file's joint damping: viscous friction
     if damping:
         out["friction"] = replace(params.friction, **damping)
     return out
+
+
+def given_fields(data: dict) -> dict[str, set]:
+    """The fields each table of ``data`` gives, by block."""
+    return {b: set(t) if isinstance(t, dict) else set() for b, t in data.items()}
 
 
 def follow_the_links(params: BplirParams, updates: dict, data: dict) -> dict:
@@ -94,7 +99,7 @@ def follow_the_links(params: BplirParams, updates: dict, data: dict) -> dict:
     if plant is None or (plant.l1, plant.l2) == (params.plant.l1, params.plant.l2):
         return updates
     k1, k2 = plant.l1 / params.plant.l1, plant.l2 / params.plant.l2
-    given = {b: set(t) if isinstance(t, dict) else set() for b, t in data.items()}
+    given = given_fields(data)
     imu = updates.get("imu", params.imu)
     scaled = {n: getattr(params.imu, n) * k for n, k in (("r1", k1), ("r2", k2))
               if n not in given.get("imu", ())}
@@ -127,7 +132,7 @@ def follow_the_motor(params: BplirParams, updates: dict, data: dict) -> dict:
     motor = updates.get("motor")
     if motor is None or motor.torque_limit == params.motor.torque_limit:
         return updates
-    given = {b: set(t) if isinstance(t, dict) else set() for b, t in data.items()}
+    given = given_fields(data)
     out = dict(updates)
     if "torque_limit" not in given.get("controller", ()):
         out["controller"] = replace(updates.get("controller", params.controller),

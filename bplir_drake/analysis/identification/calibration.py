@@ -82,11 +82,9 @@ def read_calibration_csv(path, torque_per_amp: float, *, min_duration: float = 2
     header, body = csv_rows(path, "log", CalibrationError)
     header = _renamed(header, columns or {}, path)
     missing = [c for c in CALIBRATION_COLUMNS if c not in header]
-    if not torque and not ({"tau", "i_cmd"} & set(header)):
-        header = header + ["tau"]   # a column of zeros
-        body = [(lineno, row + ["0"]) for lineno, row in body]
-    if missing or not ({"tau", "i_cmd"} & set(header)):
-        need = missing + ([] if {"tau", "i_cmd"} & set(header) else ["tau or i_cmd"])
+    if missing or (torque and not ({"tau", "i_cmd"} & set(header))):
+        need = missing + ([] if not torque or {"tau", "i_cmd"} & set(header)
+                          else ["tau or i_cmd"])
         raise CalibrationError(f"log {path} lacks column(s) {', '.join(need)}; required: "
                                "t,q1,q2 and tau (N m) or i_cmd (A)")
     used = [h for h in ("t", "q1", "q2", "tau", "i_cmd", "q1d", "q2d") if h in header]
@@ -104,8 +102,9 @@ def read_calibration_csv(path, torque_per_amp: float, *, min_duration: float = 2
         data = data[(data[:, idx["t"]] >= span[0]) & (data[:, idx["t"]] <= span[1])]
     t = data[:, idx["t"]] if len(data) else np.zeros(0)
     q = data[:, [idx["q1"], idx["q2"]]] if len(data) else np.zeros((0, 2))
-    tau = (data[:, idx["tau"]] if "tau" in idx else data[:, idx["i_cmd"]] * torque_per_amp) \
-        if len(data) else np.zeros(0)
+    tau = (data[:, idx["tau"]] if "tau" in idx
+           else data[:, idx["i_cmd"]] * torque_per_amp if "i_cmd" in idx
+           else np.zeros(len(data)))   # a log of the angles alone (torque = False)
     qd0 = (np.array([data[0, idx["q1d"]], data[0, idx["q2d"]]])
            if {"q1d", "q2d"} <= set(idx) and len(data) else None)
     return check_calibration_log(t, q, torque_sign * tau, qd0, min_duration=min_duration)
@@ -199,7 +198,10 @@ def simulate_log(params: BplirParams, log: CalibrationLog, *, accuracy: float = 
 
 def _sampled_angles(built, log: CalibrationLog, period: float, accuracy: float,
                     set_context=None) -> np.ndarray:
-    sim = make_simulator(built, log.q[0], log.qd0, accuracy=accuracy, set_context=set_context)
+    """The angles of ``built`` at the log's times, started at its first state
+    (by ``set_context`` when given, else the plant's positions and rates)."""
+    start = (None, None) if set_context else (log.q[0], log.qd0)
+    sim = make_simulator(built, *start, accuracy=accuracy, set_context=set_context)
     run(sim, float(log.t[-1]) + period)   # a logged sample past the log's last time
     return Log.from_logger(built.loggers["state"], sim.get_context()).at(log.t)[:, :2]
 

@@ -195,10 +195,11 @@ def test_interlock_locates_the_arrival_between_ticks_exactly():
 
 
 def test_fast_swing_matches_an_accurate_reference():
-    """The default integrator (error-controlled RK3 at 1e-4) against RK5 at
-    1e-10 on the same diagram, seeds 0-19: every swing captured by both,
-    capture speeds within the 1e-3 m/s the speed work asks for (2.9e-4
-    measured), and the run ends at the tick after the interlock decided."""
+    """The default integrator (error-controlled RK3 at 1e-4): seeds 0-19
+    all captured, each run ending at the tick after the interlock decided;
+    against RK5 at 1e-10 on the same diagram (seeds 0-9, the reference costs
+    2.5 swings each) the same outcome and capture speeds within the 1e-3 m/s
+    the speed work asks for (2.9e-4 measured on seeds 0-19)."""
     from bplir_drake.analysis.swing.run import SwingRunner
 
     params = preset()
@@ -206,10 +207,12 @@ def test_fast_swing_matches_an_accurate_reference():
     worst = 0.0
     for seed in range(20):
         fast = runner.run(params, seed=seed)
-        ref = runner.run(params, seed=seed, accuracy=1e-10, integrator="runge_kutta5")
-        assert fast.summary["outcome"] == ref.summary["outcome"] == "captured"
-        worst = max(worst, abs(fast.summary["capture_speed_mps"]
-                               - ref.summary["capture_speed_mps"]))
+        assert fast.summary["outcome"] == "captured", seed
         t_end = fast.logs["state"].t[-1]
         assert fast.summary["swing_time_s"] < t_end <= fast.summary["swing_time_s"] + 0.0101
+        if seed < 10:
+            ref = runner.run(params, seed=seed, accuracy=1e-10, integrator="runge_kutta5")
+            assert ref.summary["outcome"] == "captured", seed
+            worst = max(worst, abs(fast.summary["capture_speed_mps"]
+                                   - ref.summary["capture_speed_mps"]))
     assert worst <= 1e-3

@@ -102,11 +102,21 @@ def cmd_swing(args) -> int:
         f"peak torque {s['peak_torque_Nm']:.2f} N m, peak motor power "
         f"{s['peak_motor_power_W']:.1f} W (rating {s['motor_power_rating_W']:.0f} W), "
         f"max estimation error {s['max_estimation_error_rad']:.4f} rad, seed {s['seed']}",
-        f"motor: peak winding voltage {s['peak_voltage_V']:.1f} V of the driver's "
-        f"{s['max_voltage_V']:.1f} V ({s['supply_voltage_V']:g} V supply), "
-        f"{s['on_envelope_s']:.3f} s on the envelope, {s['electrical_energy_J']:.1f} J drawn",
+        _motor_line(res),
         f"files in {out_dir}: " + ", ".join(Path(f).name for f in files.values())])
     return 0
+
+
+def _motor_line(res) -> str:
+    """The motor's voltage figures, or, when the config models no voltage
+    envelope (another robot's motor, say), that the current had none."""
+    s = res.summary
+    if not res.params.motor.envelope:
+        return ("motor: no voltage envelope (motor.envelope = false): the driver gave any "
+                "current within its limits at any speed")
+    return (f"motor: peak winding voltage {s['peak_voltage_V']:.1f} V of the driver's "
+            f"{s['max_voltage_V']:.1f} V ({s['supply_voltage_V']:g} V supply), "
+            f"{s['on_envelope_s']:.3f} s on the envelope, {s['electrical_energy_J']:.1f} J drawn")
 
 
 def _tracked_plan(res):

@@ -62,6 +62,24 @@ def test_the_back_forth_tvlqr_hardware_run_is_reproduced(tmp_path):
     assert (tmp_path / "against.png").stat().st_size > 10_000
 
 
+def test_the_hardwares_own_controller_model_reproduces_it_too(tmp_path):
+    """The TVLQR the hardware ran was computed on a model without joint
+    damping: with that as the controller's model and the damping left in
+    the simulated robot, the run is still reproduced within 0.13 rad (the
+    elbow, whose friction the controller no longer knows, at 0.124)."""
+    rc, out, err = bplir("swing", "--config", EXAMPLES / "acromonk_bf.toml",
+                         "--set", "friction.fv1=0", "--set", "friction.fv2=0",
+                         "--set", "true_friction.fv1=0.044", "--set", "true_friction.fv2=0.06",
+                         "--against", HARDWARE / "BF_tvlqr_hardware.csv", "--angles", "robot",
+                         "--columns", LOG_COLUMNS, "--span", "0.0987,2.03",
+                         "--no-animation", "--json", "--out", tmp_path)
+    assert rc == 0, err
+    summary = json.loads(out)
+    assert summary["true_friction"]["fv2"] == 0.06 and summary["outcome"] == "captured"
+    rmse = summary["against"]["rmse_rad"]
+    assert max(rmse) <= 0.13 and rmse[1] > 0.1, rmse
+
+
 def test_the_zf_pd_log_replayed_beside_drakes_acrobot(tmp_path):
     """bplir replay of ZF_pd's first 0.5 s (the measured elbow torque from
     rest): the package's model (centres of mass off the axes) leaves the

@@ -40,16 +40,22 @@ def test_the_shipped_runs_are_consistent(name, columns, tolerance):
         assert _integration_residual(t, data[q], data[qd]) < tolerance, (name, q)
 
 
+def _bf_swing(out, *options):
+    """``bplir swing`` of examples/acromonk_bf.toml against the BF_tvlqr
+    hardware log from the start of its TVLQR (0.0987 s) to contact."""
+    return bplir("swing", "--config", EXAMPLES / "acromonk_bf.toml", *options,
+                 "--against", HARDWARE / "BF_tvlqr_hardware.csv", "--angles", "robot",
+                 "--columns", LOG_COLUMNS, "--span", "0.0987,2.03", "--no-animation",
+                 "--out", out)
+
+
 def test_the_back_forth_tvlqr_hardware_run_is_reproduced(tmp_path):
     """bplir swing on examples/acromonk_bf.toml (the URDF, the plan the
     hardware tracked, its LQR weights) against the hardware log from the
     start of TVLQR to contact: each joint within 0.13 rad RMSE over 1.8 s
     and more, and the bar caught within 0.1 s of the hardware's 1.92 s.  Its
     motor is not the BPLIR's: no voltage figures are printed for it."""
-    rc, out, err = bplir("swing", "--config", EXAMPLES / "acromonk_bf.toml",
-                         "--against", HARDWARE / "BF_tvlqr_hardware.csv", "--angles", "robot",
-                         "--columns", LOG_COLUMNS, "--span", "0.0987,2.03",
-                         "--no-animation", "--out", tmp_path)
+    rc, out, err = _bf_swing(tmp_path)
     assert rc == 0, err
     assert "motor: no voltage envelope (motor.envelope = false)" in out
     assert "winding voltage" not in out
@@ -67,12 +73,9 @@ def test_the_hardwares_own_controller_model_reproduces_it_too(tmp_path):
     damping: with that as the controller's model and the damping left in
     the simulated robot, the run is still reproduced within 0.13 rad (the
     elbow, whose friction the controller no longer knows, at 0.124)."""
-    rc, out, err = bplir("swing", "--config", EXAMPLES / "acromonk_bf.toml",
-                         "--set", "friction.fv1=0", "--set", "friction.fv2=0",
-                         "--set", "true_friction.fv1=0.044", "--set", "true_friction.fv2=0.06",
-                         "--against", HARDWARE / "BF_tvlqr_hardware.csv", "--angles", "robot",
-                         "--columns", LOG_COLUMNS, "--span", "0.0987,2.03",
-                         "--no-animation", "--json", "--out", tmp_path)
+    rc, out, err = _bf_swing(tmp_path, "--set", "friction.fv1=0", "--set", "friction.fv2=0",
+                             "--set", "true_friction.fv1=0.044",
+                             "--set", "true_friction.fv2=0.06", "--json")
     assert rc == 0, err
     summary = json.loads(out)
     assert summary["true_friction"]["fv2"] == 0.06 and summary["outcome"] == "captured"

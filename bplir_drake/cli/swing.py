@@ -77,7 +77,7 @@ def cmd_swing(args) -> int:
     if against is not None:
         from ..analysis.swing.against import compare_with_log
 
-        cmp = compare_with_log(res, against, Path(args.against).name, _tracked_plan(res))
+        cmp = compare_with_log(res, against, Path(args.against).name)
         files["against"] = str(_save(args, cmp.plot(), out_dir / "against.png"))
         extra_against = {"against": cmp.summary()}
         r = cmp.rmse
@@ -117,15 +117,6 @@ def _motor_line(res) -> str:
     return (f"motor: peak winding voltage {s['peak_voltage_V']:.1f} V of the driver's "
             f"{s['max_voltage_V']:.1f} V ({s['supply_voltage_V']:g} V supply), "
             f"{s['on_envelope_s']:.3f} s on the envelope, {s['electrical_energy_J']:.1f} J drawn")
-
-
-def _tracked_plan(res):
-    """The plan file the swing tracked (its clock the swing's), else None."""
-    if not res.params.plan.file or res.params.resolved().path.mode != "plan":
-        return None
-    from ..diagrams.plan import tracking_plan
-
-    return tracking_plan(res.params)[0]
 
 
 def _replay_check(args):

@@ -9,6 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ...diagrams.plan_file import read_plan_file
 from ...io import Result
 from ...plotting import figure_axes, finish
 
@@ -53,18 +54,26 @@ class LogComparison(Result):
                            f"{self.rmse[1]:.3f} rad")
 
 
-def compare_with_log(result, log, label: str = "logged run", plan=None) -> LogComparison:
+def compare_with_log(result, log, label: str = "logged run") -> LogComparison:
     """``result`` (a swing) against ``log`` (a
     :class:`~bplir_drake.analysis.identification.calibration.CalibrationLog`,
-    its clock from 0) over the time both cover; ``plan`` (a
-    :class:`~bplir_drake.diagrams.swing_plan.SwingPlan`, its clock the
-    swing's) adds the tracked plan's angles."""
+    its clock from 0) over the time both cover, with the angles of the plan
+    file the swing tracked (:func:`tracked_plan_file`), if any."""
     state = result.logs["state"]
     inside = log.t <= state.t[-1]
     if inside.sum() < 2:
         raise ValueError(f"the log and the swing share less than two samples "
                          f"(the swing lasts {state.t[-1]:.3g} s)")
     t = log.t[inside]
+    plan = tracked_plan_file(result.params)
     reference = None if plan is None else np.column_stack(
         [np.interp(t, plan.times, plan.states[:, i], right=np.nan) for i in (0, 1)])
     return LogComparison(t, log.q[inside], state.at(t)[:, :2], label, reference)
+
+
+def tracked_plan_file(params):
+    """The plan of ``plan.file`` when the swing of ``params`` tracked it (its
+    clock the swing's), else None."""
+    if not params.plan.file or params.resolved().path.mode != "plan":
+        return None
+    return read_plan_file(params)

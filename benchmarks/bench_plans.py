@@ -15,6 +15,8 @@ Run: python benchmarks/bench_plans.py [--solve] [--study N]
 - ``--tower``: ``bplir traverse examples/line_tower.toml`` (a 60 m span,
   ten obstacles) in a fresh process with an empty cache, its wall time in
   total; goal: <= 3 min;
+- ``--hardware 48v``: the robots with a hardware option (as ``bplir
+  --hardware``), for all of the above;
 - ``--study N``: the realistic study (examples/study_realistic.toml, grip
   spacing drawn in 1.1-1.3 m) at +13 deg, N samples in this process, and
   the share of its wall time spent getting plans; goal: <= 10 %.
@@ -31,11 +33,11 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def robots():
+def robots(hardware=()):
     from bplir_drake.analysis.traverse.swing_setup import swing_params
     from bplir_drake.params import preset
 
-    base = preset()
+    base = preset().with_hardware(*hardware)
     return {"single swing": base, "traversal, gripper 1 holding": swing_params(base, 1, 1.2, 0.0),
             "traversal, gripper 2 holding": swing_params(base, 2, 1.2, 0.0)}
 
@@ -98,7 +100,7 @@ def study_share(samples: int) -> tuple[float, float, dict]:
     return wall, spent[0], summary["outcomes"]
 
 
-def tower() -> tuple[float, str]:
+def tower(hardware=()) -> tuple[float, str]:
     """(wall s, last line printed) of the tower-to-tower example, cold."""
     import subprocess
     import sys
@@ -108,7 +110,9 @@ def tower() -> tuple[float, str]:
         t0 = time.perf_counter()
         out = subprocess.run([sys.executable, "-m", "bplir_drake.cli", "traverse",
                               str(ROOT / "examples" / "line_tower.toml"), "--no-animation",
-                              "--out", str(Path(d) / "tower")], env=env, capture_output=True,
+                              "--out", str(Path(d) / "tower")]
+                             + (["--hardware", ",".join(hardware)] if hardware else []),
+                             env=env, capture_output=True,
                              text=True)
         wall = time.perf_counter() - t0
     lines = [x for x in out.stdout.splitlines() if x.startswith("outcome") or "passed" in x]
@@ -121,21 +125,25 @@ def main():
     ap.add_argument("--study", type=int, default=0)
     ap.add_argument("--tower", action="store_true")
     ap.add_argument("-n", type=int, default=20, help="scenarios per robot")
+    ap.add_argument("--hardware", default="", help="hardware options, comma-separated")
     args = ap.parse_args()
+    hardware = [h for h in args.hardware.split(",") if h]
     os.environ["BPLIR_CACHE_DIR"] = tempfile.mkdtemp(prefix="bplir-cold-")
     rng = np.random.default_rng(0)
-    for name, p in robots().items() if args.n > 0 else ():
+    for name, p in robots(hardware).items() if args.n > 0 else ():
         w = waits(p, args.n, rng)
-        t = [x for x, ok in w if ok] or [float("nan")]
-        print(f"{name}: {len(t)} of {args.n} random scenarios blended from the library, plan + "
-              f"gains in median {np.median(t)*1e3:.1f} ms, max {max(t)*1e3:.1f} ms (goal <= 5 s);"
-              f" the other {args.n - len(t)} are solved (15-90 s)", flush=True)
+        t = [x for x, ok in w if ok]
+        wait = (f", plan + gains in median {np.median(t)*1e3:.1f} ms, max {max(t)*1e3:.1f} ms"
+                if t else "")
+        print(f"{name}: {len(t)} of {args.n} random scenarios blended from the library{wait} "
+              f"(goal <= 5 s); the other {args.n - len(t)} are solved (15-90 s)", flush=True)
     if args.solve:
-        s = solve_wait(robots()["single swing"])
+        s = solve_wait(robots(hardware)["single swing"])
         print(f"solved instead (+13 deg, 1.23 m, library off): {s:.1f} s", flush=True)
     if args.tower:
-        wall, what = tower()
-        print(f"examples/line_tower.toml, cold cache, one process: {wall:.0f} s wall "
+        wall, what = tower(hardware)
+        print(f"examples/line_tower.toml{' at ' + args.hardware if hardware else ''}, cold "
+              f"cache, one process: {wall:.0f} s wall "
               f"(goal <= 180 s); {what}", flush=True)
     if args.study:
         wall, plans, outcomes = study_share(args.study)

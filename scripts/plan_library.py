@@ -7,6 +7,8 @@ the motor's envelope or the tracker's weights).
     python scripts/plan_library.py                 # all libraries
     python scripts/plan_library.py --only swing    # one of them
     python scripts/plan_library.py --check         # list, solve nothing
+    python scripts/plan_library.py --hardware 48v --only traverse-2
+                                                   # a hardware option's robot
 
 The grid is solved by continuation: the plan at 0 deg and 1.2 m first
 (the planner's own guesses, :func:`~bplir_drake.diagrams.plan.scenario_plan`),
@@ -31,14 +33,14 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def libraries():
+def libraries(hardware=()):
     """{name: parameters of the robot and scenario the library is for}:
-    the single swing of the default robot, and the traversal's swings
-    holding with either gripper."""
+    the single swing of the default robot (with the ``hardware`` options),
+    and the traversal's swings holding with either gripper."""
     from bplir_drake.analysis.traverse.swing_setup import swing_params
     from bplir_drake.params import preset
 
-    base = preset()
+    base = preset().with_hardware(*hardware)
     base = base.with_(plan=dc.replace(base.plan, library=False))   # solve, never read
     single = base.with_(path=dc.replace(base.path, mode="plan"))
     return {"swing": single,
@@ -142,6 +144,8 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--check", action="store_true", help="list, solve nothing")
     ap.add_argument("--only", default=None, help="one library: swing, traverse-1, traverse-2")
+    ap.add_argument("--hardware", default="",
+                    help="hardware options of the robot (comma-separated, as bplir --hardware)")
     ap.add_argument("--spacings", default=None,
                     help="solve only these spacings' inclines (comma-separated; no library is "
                          "written: run again without it to gather them)")
@@ -153,7 +157,7 @@ def main(argv=None) -> int:
                                                    build_library, describe, library_path,
                                                    save_library)
 
-    libs = libraries()
+    libs = libraries([h for h in args.hardware.split(",") if h])
     names = [args.only] if args.only else list(libs)
     for name in names:
         params = libs[name]

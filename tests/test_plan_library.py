@@ -131,3 +131,33 @@ def test_a_swing_at_an_incline_off_the_grid_captures(robots):
     assert [r["outcome"] for r in out] == ["captured"] * 3
     assert max(r["capture_speed_mps"] for r in out) < 0.5
     assert max(r["peak_voltage_V"] for r in out) <= out[0]["max_voltage_V"]
+
+
+def test_the_tower_span_at_48v_plans_every_swing_from_the_libraries():
+    """examples/line_tower.toml (a 60 m span, -10.5..+9.7 deg chords) with
+    the 48 V supply it needs (docs/hardware.md): every swing of its route,
+    holding with either gripper, has its plan and tracking gains blended
+    from the shipped 48 V traversal libraries, so the span waits for no
+    planner; at 30 V the swapped robot's swings on its steepest uphill
+    chords are not blended (its plans there change manoeuvre)."""
+    from pathlib import Path
+
+    from bplir_drake.analysis.traverse.line import load_line
+    from bplir_drake.analysis.traverse.route import plan_route
+
+    line = load_line(Path(__file__).resolve().parents[1] / "examples" / "line_tower.toml")
+
+    def swings(p):
+        for r in plan_route(line, p):
+            for holding, start, hold, reach in ((1, r.rear, r.hold, r.spacing1),
+                                                (2, r.hold, r.hold + r.spacing2, r.spacing2)):
+                spacing, _ = line.chord(start, hold)
+                _, incline = line.chord(start, min(hold + reach, line.length))
+                yield swing_params(p, holding, spacing, incline)
+
+    at48 = list(swings(preset().with_hardware("48v")))
+    assert len(at48) == 20
+    assert max(q.scenario.incline_deg for q in at48) > 9.5
+    assert all(library_plan(q) is not None for q in at48)
+    at30 = [q for q in swings(preset()) if library_plan(q) is None]
+    assert at30 and all(q.scenario.incline_deg > 5.0 for q in at30)

@@ -598,3 +598,20 @@ def test_a_front_gripper_landed_close_to_the_next_obstacle_rides_back():
     assert plan.hold <= ob.start - near < ob.start - 0.08
     with pytest.raises(LineError, match="touches it"):
         hold_position(line, p, 2, ob.start - 0.03)
+
+
+def test_the_tower_span_passes_at_48v():
+    """examples/line_tower.toml (a 60 m span, ten obstacles, chords from
+    -10.5 to +9.7 deg) with the 48 V supply: all ten obstacles passed in
+    20 swings (seed 0), every plan blended from the shipped libraries
+    (tests/test_plan_library.py); at 30 V it crashes at the ninth
+    (docs/hardware.md)."""
+    from bplir_drake.analysis.traverse.run import run_traverse
+
+    line = load_line(ROOT / "examples" / "line_tower.toml")
+    res = run_traverse(line, preset().with_hardware("48v"), seed=0)
+    assert res.success, res.totals["outcome"]
+    swings = [r for r in res.rows if r["kind"] == "swing"]
+    assert len(swings) == 20 and res.totals["obstacles_passed"] == 10
+    assert max(r["peak_voltage_V"] for r in swings) > 30.0   # it needs the supply
+    assert max(r["capture_speed_mps"] for r in swings) < 0.5

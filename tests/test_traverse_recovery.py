@@ -112,3 +112,54 @@ def test_a_swing_from_hanging_needs_plan_tracking():
         build_swing(p.with_(path=dc.replace(p.path, mode="adaptive")))
     with pytest.raises(ParameterError, match="scenario.start"):
         BplirParams(scenario=dc.replace(BplirParams().scenario, start="upside down"))
+
+
+def test_a_swing_that_trips_the_driver_is_tried_again():
+    """The first try of the second swing (the swapped robot's, about 300
+    A^2 s) with a driver that holds its peak current for 0.2 s only (an
+    i^2 t budget of 40 A^2 s instead of 535): the interlock trips during
+    the swing; the robot damps (at the tripped driver's continuous current:
+    long enough for the driver to reset, so no rest is added) and the try
+    from hanging (the driver as it is) lands."""
+    def weak_driver(k, attempt, p):
+        if k == 1 and attempt == 1:
+            return p.with_(motor=dc.replace(p.motor, t_peak=0.2))
+        return p
+
+    res = run_traverse(load_line(LINE), BplirParams(), seed=0, adjust=weak_driver)
+    first = [i for i, r in enumerate(res.rows) if r["kind"] == "swing"][1]
+    rows = res.rows[first:]
+    kinds = [(r["kind"], r["outcome"], r["attempt"]) for r in rows[:4]]
+    assert kinds[0] == ("swing", "fault", 1)
+    assert kinds[1][:2] == ("recover", "damped") and kinds[2][:2] == ("calibrate", "done")
+    assert kinds[3] == ("swing", "captured", 2) and rows[3]["robot"] == "swapped"
+    assert rows[1]["i2t_start_A2s"] >= 40.0 * 0.99     # tripped at its budget
+    assert rows[3]["i2t_start_A2s"] == 0.0              # reset before the try
+    assert rows[3]["capture_speed_mps"] < 0.5
+    assert res.totals["outcome"] == "passed" and res.totals["retries"] == 1
+
+
+def test_the_48v_robot_tries_again_at_the_30v_pace():
+    """The 48 V option keeps a swing from hanging to the pace the 30 V
+    envelope gives it: a pump within 10 rad/s of elbow rate at the knots
+    and 9 s to arrive (the 48 V envelope alone allows 21 rad/s, and its
+    plans flip the elbow faster than the tracker follows).  The first
+    swing's first try in a -6 N m headwind times out; the try from hanging
+    lands (its winding voltage within 30 V) and the line is passed."""
+    from bplir_drake.diagrams.plan import tracking_plan
+
+    p = BplirParams().with_hardware("48v")
+    assert p.motor.supply_voltage == 48.0
+    assert p.plan.hanging_rate_limit == 10.0 and p.traverse.retry_max_time == 9.0
+    assert BplirParams().plan.hanging_rate_limit == 0.0      # 30 V: the envelope's
+    res = run_traverse(load_line(LINE), p, seed=0, adjust=headwind(0, -6.0))
+    swings = [r for r in res.rows if r["kind"] == "swing"]
+    assert [(r["outcome"], r["attempt"]) for r in swings[:2]] == [("timeout", 1),
+                                                                  ("captured", 2)]
+    # at that pace the pump needs no more voltage than the 30 V supply gives
+    assert swings[1]["capture_speed_mps"] < 0.5 and swings[1]["peak_voltage_V"] < 29.4
+    assert res.totals["outcome"] == "passed" and res.totals["retries"] == 1
+    from bplir_drake.analysis.traverse.run import swing_params
+    plan = tracking_plan(retry_params(swing_params(p, 1, 1.2, 0.0)))[0]
+    assert 3.0 < plan.duration <= 9.0
+    assert np.max(np.abs(plan.states[:, 3])) < 14.0   # 10 at the knots, a little more between

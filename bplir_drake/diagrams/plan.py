@@ -66,7 +66,8 @@ def plan_swing(params: BplirParams, *, power_limit: float | None = None, knots: 
                guess_duration: float = 1.5, tolerance: float = 1e-4,
                iterations: int = 1500, end_depth: float = 0.0,
                initial: SwingPlan | None = None, minor_iterations: int | None = None,
-               cache: bool = True, progress: bool = False) -> SwingPlan:
+               rate_limit: float = 0.0, cache: bool = True,
+               progress: bool = False) -> SwingPlan:
     """Plan the scenario's swing on the nominal model, from the nominal start
     pose (what the controller knows; the simulated robot never enters).
     ``power_limit`` defaults to the motor's rating, the torque limit to the
@@ -83,7 +84,8 @@ def plan_swing(params: BplirParams, *, power_limit: float | None = None, knots: 
     minute).  ``progress``: count SNOPT's evaluations on standard error
     while it solves.  ``minor_iterations``: SNOPT's limit on all its
     (minor) iterations (default SNOPT's own, which a swing from hanging
-    exceeds)."""
+    exceeds).  ``rate_limit``: the largest elbow rate (rad/s) at the knots
+    (0: none but the voltage envelope's)."""
 
     if not 5 <= knots <= 400:
         raise ParameterError(f"knots = {knots} is out of range; allowed [5, 400]")
@@ -109,6 +111,8 @@ def plan_swing(params: BplirParams, *, power_limit: float | None = None, knots: 
                   incline_deg=params.scenario.incline_deg)
     if minor_iterations is not None:
         inputs["minor_iterations"] = int(minor_iterations)
+    if rate_limit > 0:
+        inputs["rate_limit"] = float(rate_limit)
     guess = None
     if initial is not None:
         guess = warm_guess(initial, q0, qT)
@@ -118,7 +122,7 @@ def plan_swing(params: BplirParams, *, power_limit: float | None = None, knots: 
     def solve():
         return _solve_plan(params, q0, qT, tau_max, power, tmax, knots, time_weight,
                            guess_duration, tolerance, iterations, progress, guess,
-                           minor_iterations)
+                           minor_iterations, rate_limit)
 
     if not cache:
         return solve()
@@ -156,7 +160,7 @@ def _peak_voltage(dircol, result, env, knots) -> float:
 
 def _solve_plan(params, q0, qT, tau_max, power, tmax, knots, time_weight, guess_duration,
                 tolerance, iterations, progress=False, guess=None,
-                minor_iterations=None) -> SwingPlan:
+                minor_iterations=None, rate_limit=0.0) -> SwingPlan:
     """The DirectCollocation solve of :func:`plan_swing`."""
     from pydrake.all import (DirectCollocation, PiecewisePolynomial, SnoptSolver, Solve,
                              SolverOptions)
@@ -175,6 +179,9 @@ def _solve_plan(params, q0, qT, tau_max, power, tmax, knots, time_weight, guess_
     dircol.AddConstraintToAllKnotPoints(u[0] >= -tau_max)
     dircol.AddConstraintToAllKnotPoints(u[0] * x[3] <= power)
     dircol.AddConstraintToAllKnotPoints(u[0] * x[3] >= -power)
+    if rate_limit > 0:
+        dircol.AddConstraintToAllKnotPoints(x[3] <= rate_limit)
+        dircol.AddConstraintToAllKnotPoints(x[3] >= -rate_limit)
     env = plan_envelope(params)
     volts = []
     if env is not None:   # the winding voltage, linear in the torque and the elbow rate
@@ -236,7 +243,7 @@ def _solve_plan(params, q0, qT, tau_max, power, tmax, knots, time_weight, guess_
 #: is feasible (on a -8 deg line 1.5 s ends 1e-4 outside the tolerance, 1.0 s not);
 #: from hanging at rest (``scenario.start``) it pumps before it reaches (3-4 s)
 PLAN_GUESSES = (1.5, 1.0, 2.0)
-HANGING_GUESSES = (3.0, 4.0, 5.0)
+HANGING_GUESSES = (3.0, 4.0, 5.0, 6.0)
 HANGING_KNOTS = 61
 HANGING_MINOR_ITERATIONS = 150_000
 
@@ -269,8 +276,7 @@ def scenario_plan(params: BplirParams) -> SwingPlan:
     (:func:`warm_guess`) if its :meth:`SwingPlan.objective` is lower (the
     straight-line guesses alone end in other local optima at 1.27 m, 0 deg
     and 1.1 m, -20 deg).  From hanging (``scenario.start``): the guesses
-    :data:`HANGING_GUESSES` on :data:`HANGING_KNOTS` knots with up to
-    :data:`HANGING_MINOR_ITERATIONS` minor iterations, no warm start."""
+    :func:`hanging_plan`."""
     if params.plan.file:   # a plan made elsewhere
         return read_plan_file(params)
     found = library_plan(params)
@@ -281,10 +287,10 @@ def scenario_plan(params: BplirParams) -> SwingPlan:
         spacing = _on_grid(sc.grip_spacing, step)
         params = params.with_(scenario=replace(sc, grip_spacing=spacing))
     hanging = params.scenario.start == "hanging"
-    for guess in HANGING_GUESSES if hanging else PLAN_GUESSES:   # SNOPT sometimes stops
-        plan = plan_swing(params, end_depth=depth, guess_duration=guess,   # just outside
-                          knots=HANGING_KNOTS if hanging else 41,   # the tolerance
-                          minor_iterations=HANGING_MINOR_ITERATIONS if hanging else None)
+    if hanging:
+        return hanging_plan(params)
+    for guess in PLAN_GUESSES:   # SNOPT sometimes stops just outside the tolerance
+        plan = plan_swing(params, end_depth=depth, guess_duration=guess)
         if plan.feasible:
             break
     warm = params.plan.warm_spacing
@@ -298,6 +304,22 @@ def scenario_plan(params: BplirParams) -> SwingPlan:
     if not plan.feasible:
         raise ParameterError(no_plan_message(plan))
     return plan
+
+
+def hanging_plan(params: BplirParams) -> SwingPlan:
+    """The plan from hanging at rest (``scenario.start = "hanging"``): the
+    first feasible of the guesses :data:`HANGING_GUESSES` on
+    :data:`HANGING_KNOTS` knots with up to :data:`HANGING_MINOR_ITERATIONS`
+    minor iterations, the elbow rate within ``plan.hanging_rate_limit`` at
+    the knots (a pump of several swings the tracker can follow), no warm
+    start."""
+    for guess in HANGING_GUESSES:
+        plan = plan_swing(params, end_depth=params.plan.end_depth, guess_duration=guess,
+                          knots=HANGING_KNOTS, minor_iterations=HANGING_MINOR_ITERATIONS,
+                          rate_limit=params.plan.hanging_rate_limit)
+        if plan.feasible:
+            return plan
+    raise ParameterError(no_plan_message(plan))
 
 
 _GAINS: dict = {}

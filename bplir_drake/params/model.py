@@ -6,7 +6,7 @@ from typing import Any
 from .base import ParameterError, _is_plugin, _range_text
 from .robot import FrictionParams, MotorParams, PlantParams, RobotFileParams
 from .sensing import EstimatorParams, ImuParams, LineSensorParams
-from .control import CONTROLLER_PRESETS, ControllerParams, current_preset_name, HARDWARE_OPTIONS, IMU_ONLY_TUNING, LINE_SENSOR_OPTION, PathParams
+from .control import CONTROLLER_PRESETS, ControllerParams, current_preset_name, HARDWARE_OPTIONS, IMU_ONLY_TUNING, LINE_SENSOR_OPTION, PathParams, SUPPLY_48V_OPTION
 from .plan import LandingParams, PlanParams
 from .scenario import DriveParams, ScenarioParams, TraverseParams
 
@@ -105,7 +105,8 @@ class BplirParams:
     def with_hardware(self, *names: str) -> "BplirParams":
         """The robot with the named hardware options (:data:`HARDWARE_OPTIONS`):
         ``"line-sensor"`` (the jaw's line range sensor and the landing's aim
-        with it, :data:`LINE_SENSOR_OPTION`), ``"48v"`` (a 48 V supply)."""
+        with it, :data:`LINE_SENSOR_OPTION`), ``"48v"`` (a 48 V supply and
+        the pace of a swing from hanging, :data:`SUPPLY_48V_OPTION`)."""
         p = self
         for name in names:
             if name == "line-sensor":
@@ -114,7 +115,10 @@ class BplirParams:
                             landing=replace(p.landing,
                                             **{k: v for k, v in o.items() if k != "range"}))
             elif name == "48v":
-                p = replace(p, motor=replace(p.motor, supply_voltage=48.0))
+                o = SUPPLY_48V_OPTION
+                p = replace(p, motor=replace(p.motor, supply_voltage=o["supply_voltage"]),
+                            plan=replace(p.plan, hanging_rate_limit=o["hanging_rate_limit"]),
+                            traverse=replace(p.traverse, retry_max_time=o["retry_max_time"]))
             else:
                 raise ParameterError(f"unknown hardware option '{name}'; allowed: "
                                      + ", ".join(HARDWARE_OPTIONS))

@@ -238,9 +238,11 @@ class _Traversal:
 
     def swing(self, obstacle: str, reach: float) -> bool:
         """The rear gripper swings past the front one to land about ``reach``
-        ahead of it (the planned spacing); True when it landed clear.  A swing that times out is tried again from hanging, after
-        the robot has damped its swing (:mod:`.recovery`), up to
-        ``traverse.retries`` times."""
+        ahead of it (the planned spacing); True when it landed clear.  A
+        swing that times out or trips the driver's i^2 t interlock is tried
+        again from hanging, after the robot has damped its swing
+        (:mod:`.recovery`) and rested until the driver allows the new try, up
+        to ``traverse.retries`` times; a crash ends the traversal."""
         tp = self.params.traverse
         hold_g = self.front_gripper
         hold, start = self.front, self.rear
@@ -252,16 +254,16 @@ class _Traversal:
         x_start, attempt = None, 1
         while True:
             s, x_end = self._attempt(p, obstacle, attempt, x_start)
-            if s["outcome"] != "timeout" or s["driver_tripped"] or attempt > tp.retries:
+            if s["outcome"] not in ("timeout", "fault") or attempt > tp.retries:
                 break
             if not can_retry(retry_params(p)):
                 self._row("recover", 0.0, obstacle=obstacle, holding_gripper=str(hold_g),
                           hold_m=hold, outcome="no plan from hanging")
                 break
+            p, attempt = retry_params(p), attempt + 1
             x_start = self._recover(p, obstacle, x_end)
             if x_start is None:
                 break
-            p, attempt = retry_params(p), attempt + 1
         return self._land(s, obstacle, hold, spacing)
 
     def _attempt(self, p, obstacle: str, attempt: int, x_start):
@@ -304,9 +306,10 @@ class _Traversal:
         return s, x_end
 
     def _recover(self, p, obstacle: str, x_end):
-        """Damp the swing hanging from the holding gripper, then calibrate
-        the IMUs hanging at rest; the state to try again from (None: the
-        swing could not be damped)."""
+        """Damp the swing hanging from the holding gripper, rest until the
+        driver's i^2 t allows the try ``p`` (a tripped driver first resets),
+        then calibrate the IMUs hanging at rest; the state to try again from
+        (None: the swing could not be damped)."""
         hold_g, hold = self.front_gripper, self.front
         d = damp(p, x_end)
         motor = self.params.motor
@@ -325,8 +328,12 @@ class _Traversal:
         if not d.damped:
             return None
         qh, bh = self._pose_track(d.state, hold, hold_g, p.simulated_plant)
-        self.rest(p.estimator.standstill_samples * p.imu.period, obstacle, kind="calibrate",
-                  pose=(qh[0], bh[0]), holding=str(hold_g))   # hanging at rest
+        pose, calib = (qh[0], bh[0]), p.estimator.standstill_samples * p.imu.period
+        need = rest_for(self.h, self.tripped, budgeted_currents(tracking_plan(p)[0], p), motor,
+                        self.params.traverse.i2t_margin)   # the try's nominal plan
+        self.rest(need - calib, obstacle, pose=pose, holding=str(hold_g))
+        self.rest(calib, obstacle, kind="calibrate", pose=pose,
+                  holding=str(hold_g))   # hanging at rest
         return d.state
 
     def _land(self, s, obstacle: str, hold: float, spacing: float) -> bool:

@@ -82,19 +82,24 @@ def plot_success_vs_parameters(study: Study, rows: list[dict], axes=None):
 def plot_histograms(study: Study, rows: list[dict], axes=None):
     """Histograms of capture speed, swing time, peak torque and peak power (2 x 2 axes); returns
     the figure."""
-    fields = [("capture_speed_mps", "capture speed [m/s]", study.params.scenario.capture_speed),
-              ("swing_time_s", "swing time [s]", None),
-              ("peak_torque_Nm", "peak torque [N m]", None),
-              ("peak_motor_power_W", "peak motor power [W]", study.params.motor.power_rating)]
+    every = study.line is not None   # a traversal's figures: its worst swing, its swings' sum
+    fields = [("capture_speed_mps", "capture speed [m/s]", study.params.scenario.capture_speed,
+               "limit"),
+              ("swing_time_s", "time swinging, all swings [s]" if every else "swing time [s]",
+               None, ""),
+              ("peak_torque_Nm", "peak torque [N m]", None, ""),
+              ("peak_motor_power_W", "peak motor power [W]", study.params.motor.power_rating,
+               "rating")]
     fig, axes = figure_axes(axes, 2, 2, figsize=(10, 7))
-    for ax, (f, label, limit) in zip(axes.flat, fields):
+    for ax, (f, label, limit, name) in zip(axes.flat, fields):
         v = np.array([r[f] for r in rows if r["outcome"] != "error"], dtype=float)
         v = v[np.isfinite(v)]
         if v.size:
             ax.hist(v, bins=min(40, max(5, v.size // 5)), color="tab:blue", alpha=0.8)
         if limit is not None:
-            ax.axvline(limit, color="tab:red", ls="--", label="limit")
+            ax.axvline(limit, color="tab:red", ls="--", label=name)
             ax.legend(loc="upper right", fontsize=8)
+        ax.ticklabel_format(axis="x", useOffset=False)   # values at a limit: no "+1.989e1"
         ax.set_xlabel(label)
         ax.set_ylabel("samples")
     return finish(fig, "Monte Carlo distributions")

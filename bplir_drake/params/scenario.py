@@ -90,7 +90,7 @@ class TraverseParams(_Block):
     swapped_line_range: float = _p(0.0, "m", 0, 1, doc="the largest line_sensor.range of the swings holding with gripper 2 (0: they estimate with the IMUs alone)")
     swapped_inflate_nis: float = _p(0.0, "", 0, 1000, doc="estimator.loop_inflate_nis of the swings holding with gripper 2 (0: no inflation; its large landing corrections read as model error)")
     landing_learning: float = _p(0.5, "", 0, 1, doc="each swing aims this share of the mean landing height error of the earlier captures holding with the same gripper higher (0: no learning)")
-    rest: bool = field(default=True, metadata=dict(doc="rest before a swing until the driver's i^2 t state allows the planned swing"))
+    rest: bool = field(default=True, metadata=dict(doc="rest before a swing, and before a try again, until the driver's i^2 t state allows the planned swing"))
     i2t_margin: float = _p(0.2, "", 0, 0.9, doc="share of the driver's i^2 t budget a swing may not use: the planner rests until the planned swing keeps this share free")
     max_incline_deg: float = _p(25.0, "deg", 0, 60, doc="steepest line incline accepted in a line file")
     retries: int = _count(2, "", 0, 5, doc="swings tried again after a timeout, each from hanging at rest (0: a timeout ends the traversal)")

@@ -329,8 +329,9 @@ class _Traversal:
             return None
         qh, bh = self._pose_track(d.state, hold, hold_g, p.simulated_plant)
         pose, calib = (qh[0], bh[0]), p.estimator.standstill_samples * p.imu.period
-        need = rest_for(self.h, self.tripped, budgeted_currents(tracking_plan(p)[0], p), motor,
-                        self.params.traverse.i2t_margin)   # the try's nominal plan
+        tp = self.params.traverse
+        need = 0.0 if not tp.rest else rest_for(   # the try's nominal plan
+            self.h, self.tripped, budgeted_currents(tracking_plan(p)[0], p), motor, tp.i2t_margin)
         self.rest(need - calib, obstacle, pose=pose, holding=str(hold_g))
         self.rest(calib, obstacle, kind="calibrate", pose=pose,
                   holding=str(hold_g))   # hanging at rest

@@ -103,7 +103,8 @@ def plot_timeline(result, axes=None):
     recovered = any(r["kind"] == "recover" for r in result.rows)
     return finish(fig, "traversal: swings shaded (blue: gripper 1 holds, orange: gripper 2 "
                        "holds, grey: rest or IMU calibration"
-                       + (", red: damping after a timeout)" if recovered else ")"))
+                       + (", red: damping after a timeout or a driver trip)" if recovered
+                          else ")"))
 
 
 def traverse_replay_scene(result):

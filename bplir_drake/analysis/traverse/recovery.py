@@ -1,4 +1,4 @@
-"""After a swing that did not arrive (a timeout): the robot hangs from its
+"""After a swing that did not arrive (a timeout, a driver trip): the robot hangs from its
 holding gripper, drains the swing with the elbow until it hangs at rest,
 and swings again from there.
 
@@ -28,7 +28,7 @@ from ...diagrams.open_loop import build_damping
 
 @dataclass
 class Damping:
-    """The damping after a timeout: ``damped`` (came to rest within the
+    """The damping after a timeout or a driver trip: ``damped`` (came to rest within the
     limit), its duration (s), the energy above hanging at rest at its start
     and end (J), the state it ended in and its logs (times, states, torque)."""
 

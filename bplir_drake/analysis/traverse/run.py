@@ -174,9 +174,11 @@ class _Traversal:
                   i2t_start_A2s=h0, i2t_end_A2s=self.h, outcome="done")
         self.t += duration
 
-    def _rest_before(self, p, obstacle: str) -> None:
+    def _rest_before(self, p, obstacle: str, pose=None, holding: str = "both") -> None:
         """Rest before a swing when the planned swing would eat into the i^2 t
-        margin (nominal plan only), then calibrate the IMUs standing still."""
+        margin (nominal plan only; a tripped driver first resets), then
+        calibrate the IMUs standing still: clamped with both grippers, or in
+        ``pose`` holding with ``holding`` (as :meth:`rest`)."""
 
         tp = self.params.traverse
         # the standstill calibration of the IMUs (estimator.standstill_samples)
@@ -190,8 +192,8 @@ class _Traversal:
                             tp.i2t_margin)
         elif tp.rest and self.tripped:
             need = self.h / motor.i_cont ** 2
-        self.rest(need - calib, obstacle)
-        self.rest(calib, obstacle, kind="calibrate")
+        self.rest(need - calib, obstacle, pose=pose, holding=holding)
+        self.rest(calib, obstacle, kind="calibrate", pose=pose, holding=holding)
 
     def _pose_track(self, states, hold: float, hold_g: int, sim_p):
         """(q, base) for the figures of a motion of the robot holding with
@@ -328,13 +330,8 @@ class _Traversal:
         if not d.damped:
             return None
         qh, bh = self._pose_track(d.state, hold, hold_g, p.simulated_plant)
-        pose, calib = (qh[0], bh[0]), p.estimator.standstill_samples * p.imu.period
-        tp = self.params.traverse
-        need = 0.0 if not tp.rest else rest_for(   # the try's nominal plan
-            self.h, self.tripped, budgeted_currents(tracking_plan(p)[0], p), motor, tp.i2t_margin)
-        self.rest(need - calib, obstacle, pose=pose, holding=str(hold_g))
-        self.rest(calib, obstacle, kind="calibrate", pose=pose,
-                  holding=str(hold_g))   # hanging at rest
+        self._rest_before(p, obstacle, pose=(qh[0], bh[0]),
+                          holding=str(hold_g))   # hanging at rest
         return d.state
 
     def _land(self, s, obstacle: str, hold: float, spacing: float) -> bool:

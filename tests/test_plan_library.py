@@ -6,7 +6,7 @@ import dataclasses as dc
 import numpy as np
 import pytest
 
-from bplir_drake.analysis.traverse.swing_setup import swing_params
+from bplir_drake.analysis.traverse.swing_setup import swing_chord, swing_params
 from bplir_drake.diagrams import plan as P
 from bplir_drake.diagrams.plan_library import (LIBRARY_INCLINES, LIBRARY_SPACINGS,
                                                library_path, library_plan, load_library)
@@ -151,9 +151,7 @@ def test_the_tower_span_at_48v_plans_every_swing_from_the_libraries():
         for r in plan_route(line, p):
             for holding, start, hold, reach in ((1, r.rear, r.hold, r.spacing1),
                                                 (2, r.hold, r.hold + r.spacing2, r.spacing2)):
-                spacing, _ = line.chord(start, hold)
-                _, incline = line.chord(start, min(hold + reach, line.length))
-                yield swing_params(p, holding, spacing, incline)
+                yield swing_params(p, holding, *swing_chord(line, start, hold, reach))
 
     at48 = list(swings(preset().with_hardware("48v")))
     assert len(at48) == 20

@@ -241,7 +241,7 @@ def _solve_plan(params, q0, qT, tau_max, power, tmax, knots, time_weight, guess_
 
 #: initial-guess durations (s) :func:`tracking_plan` tries in turn until a plan
 #: is feasible (on a -8 deg line 1.5 s ends 1e-4 outside the tolerance, 1.0 s not);
-#: from hanging at rest (``scenario.start``) it pumps before it reaches (3-4 s)
+#: from hanging at rest (``scenario.start``) it pumps before it reaches (3-6 s)
 PLAN_GUESSES = (1.5, 1.0, 2.0)
 HANGING_GUESSES = (3.0, 4.0, 5.0, 6.0)
 HANGING_KNOTS = 61

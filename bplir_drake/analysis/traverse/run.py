@@ -38,7 +38,7 @@ from .line import Line
 from .route import hold_position, plan_route
 from .recovery import can_retry, damp, damping_drive, retry_params
 from .swing_setup import (  # noqa: F401 (re-exported)
-    swing_params, learnt_landing, budgeted_currents, capture_impulse)
+    swing_params, swing_chord, learnt_landing, budgeted_currents, capture_impulse)
 from .result import (  # noqa: F401 (re-exported)
     OUTCOMES, ROW_FIELDS, MotionLog, Segment, TraverseResult)
 from .tables import (  # noqa: F401 (re-exported)
@@ -248,8 +248,7 @@ class _Traversal:
         tp = self.params.traverse
         hold_g = self.front_gripper
         hold, start = self.front, self.rear
-        spacing, _ = self.line.chord(start, hold)
-        _, inc = self.line.chord(start, min(hold + reach, self.line.length))
+        spacing, inc = swing_chord(self.line, start, hold, reach)
         p = learnt_landing(swing_params(self.params, hold_g, spacing, inc),
                            self.landing_errors[hold_g])
         self._rest_before(p, obstacle)

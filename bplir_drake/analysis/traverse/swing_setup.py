@@ -11,6 +11,16 @@ from ...systems.plan_tracker import height_rates, landing_law
 from ...systems.plant import gripper_velocity, mass_matrix
 
 
+def swing_chord(line, start: float, hold: float, reach: float) -> tuple[float, float]:
+    """(grip spacing m, incline rad) of the swing on ``line`` from the rear
+    grip at ``start`` past the holding gripper at ``hold`` to land about
+    ``reach`` ahead of it: the chord between its two grips, and the incline
+    of the chord from ``start`` to where it lands (the line's end at most)."""
+    spacing, _ = line.chord(start, hold)
+    _, incline = line.chord(start, min(hold + reach, line.length))
+    return spacing, incline
+
+
 def swing_params(params: BplirParams, holding: int, spacing: float,
                  incline: float) -> BplirParams:
     """The parameters of a traversal swing holding with gripper ``holding``

@@ -12,7 +12,7 @@ import pytest
 from bplir_drake.analysis.traverse.line import load_line
 from bplir_drake.analysis.traverse.recovery import damp, retry_params, swing_energy
 from bplir_drake.analysis.traverse.run import run_traverse
-from bplir_drake.params import BplirParams, ParameterError
+from bplir_drake.params import BplirParams, ParameterError, swapped
 
 LINE = Path(__file__).resolve().parents[1] / "examples" / "line_flat.toml"
 
@@ -102,6 +102,22 @@ def test_damping_drains_the_swing_to_rest():
     assert 10.0 < d.duration < 60.0
     assert swing_energy(d.state, p.simulated_plant) == pytest.approx(d.energy_end)
     assert np.max(np.abs(d.torque)) <= p.motor.torque_per_amp * p.motor.i_cont + 1e-9
+
+
+def test_an_elbow_that_swung_over_the_top_is_damped_a_turn_on():
+    """The swapped robot's shot that gave up with its elbow folded (q2 = -3.0
+    rad, -2.5 rad/s: the state a timed-out swing of line_dense ended in):
+    the elbow swings over the top, and its law settles it a whole turn on
+    (the angle wrapped) instead of stalling at the continuous current's
+    torque with its heavy link short of the top (1.5 J left after 240 s,
+    the traversal ended).  Damped; the state to try from is hanging."""
+    p = swapped(BplirParams())
+    d = damp(p, np.array([-0.033, -2.997, -0.012, -2.471]))
+    assert d.states[:, 1].min() < -2.0 * np.pi   # it went over the top
+    assert d.damped and d.energy_end <= p.traverse.recover_energy
+    assert d.duration == pytest.approx(134.0, abs=2.0)
+    assert d.states[-1, 1] == pytest.approx(-2.0 * np.pi, abs=0.05)
+    assert np.abs(d.state[:2]).max() < 0.05 and np.all(np.abs(d.state[:2]) < np.pi)
 
 
 def test_a_swing_from_hanging_needs_plan_tracking():

@@ -2,6 +2,7 @@
 with friction to linearise, and the sensor chain (IMUs + EKF) on a swing."""
 from __future__ import annotations
 
+import math
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import LogVectorOutput
 
@@ -110,13 +111,15 @@ def build_damping(params: BplirParams, kp: float, kd: float, lean: float = 0.0, 
     """The robot hanging from its holding gripper after a swing that did not
     arrive, its elbow draining the swing: ``tau = kp (lean q1' - q2) - kd
     q2'`` (Drake's ``PidController`` on the elbow encoder's angle and rate,
-    aiming the elbow against the shoulder's swing), within the torque of the
+    aiming the elbow against the shoulder's swing; the angle wrapped to
+    [-pi, pi) by a ``WrapToSystem``, so an elbow that swung over the top
+    settles a turn on instead of lifting its link back over), within the torque of the
     driver's continuous current (a ``Saturation``: the law's torques stay
     small and slow, so the dead-band, the current loop and the voltage
     envelope are left out).  The simulated plant with its friction; only
     C++ systems.  Loggers ``state`` and ``torque``."""
     from pydrake.systems.controllers import PidController
-    from pydrake.systems.primitives import MatrixGain, Saturation
+    from pydrake.systems.primitives import MatrixGain, Saturation, WrapToSystem
 
     builder = DiagramBuilder()
     plant, fr = add_plant_with_friction(builder, params.simulated_plant,
@@ -124,6 +127,8 @@ def build_damping(params: BplirParams, kp: float, kd: float, lean: float = 0.0, 
     encoder = builder.AddNamedSystem("elbow_encoder", MatrixGain(
         [[0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0]]))
     aim = builder.AddNamedSystem("aim", MatrixGain([[0.0, 0.0, lean, 0.0], [0.0] * 4]))
+    wrap = builder.AddNamedSystem("elbow_wrap", WrapToSystem(2))
+    wrap.set_interval(0, -math.pi, math.pi)
     pd = builder.AddNamedSystem("damping", PidController([kp], [0.0], [kd]))
     m = params.motor
     limit = min(m.torque_limit, params.controller.torque_limit, m.torque_per_amp * m.i_cont)
@@ -131,7 +136,8 @@ def build_damping(params: BplirParams, kp: float, kd: float, lean: float = 0.0, 
     state = plant.get_state_output_port()
     builder.Connect(state, encoder.get_input_port(0))
     builder.Connect(state, aim.get_input_port(0))
-    builder.Connect(encoder.get_output_port(0), pd.get_input_port_estimated_state())
+    builder.Connect(encoder.get_output_port(0), wrap.get_input_port(0))
+    builder.Connect(wrap.get_output_port(0), pd.get_input_port_estimated_state())
     builder.Connect(aim.get_output_port(0), pd.get_input_port_desired_state())
     builder.Connect(pd.get_output_port_control(), sat.get_input_port())
     builder.Connect(sat.get_output_port(), plant.get_actuation_input_port())

@@ -85,7 +85,7 @@ class TraverseParams(_Block):
     landing: bool = field(default=True, metadata=dict(doc="traversal swings end with the single swing's landing law"))
     swapped_landing_margin: float = _p(0.0, "m", 0, 0.1, doc="landing.landing_margin of the swings holding with gripper 2")
     swapped_landing_law: str = field(default="shoot", metadata=dict(doc="landing.landing_law of the swings holding with gripper 2 (the swapped robot)", allowed="auto, shoot, aim"))
-    swapped_shoot_min_time: float = _p(0.06, "s", 0.02, 0.5, doc="landing.shoot_min_time of the swings holding with gripper 2")
+    swapped_shoot_min_time: float = _p(0.04, "s", 0.02, 0.5, doc="landing.shoot_min_time of the swings holding with gripper 2")
     swapped_shoot_height: float = _p(-0.015, "m", -0.02, 0, doc="landing.shoot_height of the swings holding with gripper 2")
     swapped_line_range: float = _p(0.0, "m", 0, 1, doc="the largest line_sensor.range of the swings holding with gripper 2 (0: they estimate with the IMUs alone)")
     swapped_inflate_nis: float = _p(0.0, "", 0, 1000, doc="estimator.loop_inflate_nis of the swings holding with gripper 2 (0: no inflation; its large landing corrections read as model error)")

@@ -30,7 +30,8 @@ from ...diagrams.open_loop import build_damping
 class Damping:
     """The damping after a timeout or a driver trip: ``damped`` (came to rest within the
     limit), its duration (s), the energy above hanging at rest at its start
-    and end (J), the state it ended in and its logs (times, states, torque)."""
+    and end (J), the state it ended in (its angles wrapped to [-pi, pi): the
+    same pose, as the IMUs read it) and its logs (times, states, torque)."""
 
     damped: bool
     duration: float
@@ -69,9 +70,10 @@ def damp(params: BplirParams, x0) -> Damping:
     ctx = sim.get_context()
     st = built.loggers["state"].FindLog(ctx)
     tq = built.loggers["torque"].FindLog(ctx)
-    return Damping(energy <= tp.recover_energy, t, e0, energy,
-                   plant.GetPositionsAndVelocities(pctx), st.sample_times(), st.data().T,
-                   tq.data()[0])
+    end = plant.GetPositionsAndVelocities(pctx).copy()
+    end[:2] = (end[:2] + np.pi) % (2.0 * np.pi) - np.pi
+    return Damping(energy <= tp.recover_energy, t, e0, energy, end,
+                   st.sample_times(), st.data().T, tq.data()[0])
 
 
 def retry_params(p: BplirParams) -> BplirParams:

@@ -71,7 +71,7 @@ def stopped_work(monkeypatch, tmp_path):
     monkeypatch.setenv("BPLIR_CACHE_DIR", str(tmp_path / "cache"))
 
 
-@settings(max_examples=250, deadline=None, derandomize=True,
+@settings(max_examples=150, deadline=None, derandomize=True,
           suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
 @given(argv=command_lines())
 def test_no_command_line_ends_in_a_traceback(stopped_work, argv):

@@ -195,24 +195,23 @@ def test_interlock_locates_the_arrival_between_ticks_exactly():
 
 
 def test_fast_swing_matches_an_accurate_reference():
-    """The default integrator (error-controlled RK3 at 1e-4): seeds 0-19
+    """The default integrator (error-controlled RK3 at 1e-4): seeds 0-9
     all captured, each run ending at the tick after the interlock decided;
-    against RK5 at 1e-10 on the same diagram (seeds 0-9, the reference costs
-    2.5 swings each) the same outcome and capture speeds within the 1e-3 m/s
+    against RK5 at 1e-10 on the same diagram (the reference costs 2.5
+    swings each) the same outcome and capture speeds within the 1e-3 m/s
     the speed work asks for (2.9e-4 measured on seeds 0-19)."""
     from bplir_drake.analysis.swing.run import SwingRunner
 
     params = preset()
     runner = SwingRunner()
     worst = 0.0
-    for seed in range(20):
+    for seed in range(10):
         fast = runner.run(params, seed=seed)
         assert fast.summary["outcome"] == "captured", seed
         t_end = fast.logs["state"].t[-1]
         assert fast.summary["swing_time_s"] < t_end <= fast.summary["swing_time_s"] + 0.0101
-        if seed < 10:
-            ref = runner.run(params, seed=seed, accuracy=1e-10, integrator="runge_kutta5")
-            assert ref.summary["outcome"] == "captured", seed
-            worst = max(worst, abs(fast.summary["capture_speed_mps"]
-                                   - ref.summary["capture_speed_mps"]))
+        ref = runner.run(params, seed=seed, accuracy=1e-10, integrator="runge_kutta5")
+        assert ref.summary["outcome"] == "captured", seed
+        worst = max(worst, abs(fast.summary["capture_speed_mps"]
+                               - ref.summary["capture_speed_mps"]))
     assert worst <= 1e-3

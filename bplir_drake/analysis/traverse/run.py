@@ -257,11 +257,12 @@ class _Traversal:
             s, x_end = self._attempt(p, obstacle, attempt, x_start)
             if s["outcome"] not in ("timeout", "fault") or attempt > tp.retries:
                 break
-            if not can_retry(retry_params(p)):
+            retry = retry_params(p)
+            if not can_retry(retry):
                 self._row("recover", 0.0, obstacle=obstacle, holding_gripper=str(hold_g),
                           hold_m=hold, outcome="no plan from hanging")
                 break
-            p, attempt = retry_params(p), attempt + 1
+            p, attempt = retry, attempt + 1
             x_start = self._recover(p, obstacle, x_end)
             if x_start is None:
                 break

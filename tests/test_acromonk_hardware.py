@@ -73,7 +73,7 @@ def test_the_hardwares_own_controller_model_reproduces_it_too(tmp_path):
     damping: with that as the controller's model and the damping left in
     the simulated robot, the run is still reproduced within 0.13 rad (the
     elbow, whose friction the controller no longer knows, at 0.124)."""
-    rc, out, err = _bf_swing(tmp_path, "--set", "friction.fv1=0", "--set", "friction.fv2=0",
+    rc, out, err = _bf_swing(tmp_path, "--no-plots", "--set", "friction.fv1=0", "--set", "friction.fv2=0",
                              "--set", "true_friction.fv1=0.044",
                              "--set", "true_friction.fv2=0.06", "--json")
     assert rc == 0, err

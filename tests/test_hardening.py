@@ -213,7 +213,7 @@ def test_interrupted_render_leaves_no_truncated_file(monkeypatch, tmp_path):
     from PIL import Image
 
     out = tmp_path / "swing"
-    assert bplir("swing", "--out", out, "--json")[0] == 0
+    assert bplir("swing", "--no-plots", "--out", out, "--json")[0] == 0
     before = {p.name: p.read_bytes() for p in out.iterdir()}
 
     real_save = Image.Image.save
@@ -225,7 +225,7 @@ def test_interrupted_render_leaves_no_truncated_file(monkeypatch, tmp_path):
         return real_save(self, fp, *a, **k)
 
     monkeypatch.setattr(Image.Image, "save", interrupted)
-    rc, _, err = bplir("swing", "--out", out, "--seed", "3")
+    rc, _, err = bplir("swing", "--no-plots", "--out", out, "--seed", "3")
     assert rc == 130
     assert err.strip() == "bplir: interrupted; no output file was left half-written"
     after = {p.name: p.read_bytes() for p in out.iterdir()}
@@ -357,7 +357,7 @@ def test_every_json_output_is_strict(tmp_path):
             ("estimate", log),
             ("observability", "--duration", "1", "--out", tmp_path / "ob"),
             ("swing", "--incline", "20", "--controller", "cpfl-qft", "--no-animation",
-             "--out", tmp_path / "sw"),
+             "--no-plots", "--out", tmp_path / "sw"),
             ("montecarlo", "-n", "2", "--workers", "1", "--no-plots", "--out", tmp_path / "mc")]
     for argv in runs:
         rc, out, _ = bplir(*argv, "--json")
@@ -774,8 +774,8 @@ def test_a_chatty_plugin_leaves_json_output_json(tmp_path, capsys):
         "def make(p):\n"
         "    print('hello from the plug-in')\n"
         "    return ex.make(p)\n")
-    assert main(["swing", "--controller", f"{plugin}:make", "--no-animation", "--json",
-                 "--out", str(tmp_path / "out")]) == 0
+    assert main(["swing", "--controller", f"{plugin}:make", "--no-animation", "--no-plots",
+                 "--json", "--out", str(tmp_path / "out")]) == 0
     captured = capsys.readouterr()
     assert json.loads(captured.out)["controller"] == "chatty:make"
     assert "hello from the plug-in" in captured.err

@@ -130,7 +130,7 @@ def test_replaying_a_study_runs_its_plugin_only_when_the_user_names_it(tmp_path)
                                          f"--controller {spec}")
     assert not (tmp_path / "r").exists()
     rc, out, err = run("swing", "--replay", tmp_path / "mc", "--sample", "0", "--controller",
-                       spec, "--no-animation", "--out", tmp_path / "r")
+                       spec, "--no-animation", "--no-plots", "--out", tmp_path / "r")
     assert rc == 0 and "matches the recorded result exactly" in out
 
 
@@ -287,7 +287,7 @@ def test_a_resumed_study_keeps_each_row_once_and_replays_any_kept_row(tmp_path):
     study[2] = "2"
     assert run(*study)[0] == 0
     rc, out, err = run("swing", "--replay", mcdir, "--sample", "2", "--no-animation",
-                       "--out", tmp_path / "r")
+                       "--no-plots", "--out", tmp_path / "r")
     assert rc == 0 and "replay of sample 2" in out and "matches the recorded result" in out
 
 
@@ -325,7 +325,7 @@ def test_an_unusable_cache_directory_still_swings_on_the_shipped_plans(where, tm
     if where == "a file":
         where = tmp_path / "not-a-directory"
         where.write_text("")
-    p = _bplir_with_solver("refuse", where, "swing", "--no-animation", "--json",
+    p = _bplir_with_solver("refuse", where, "swing", "--no-animation", "--no-plots", "--json",
                            "--out", tmp_path / "out")
     assert p.returncode == 0, p.stderr
     assert '"outcome": "captured"' in p.stdout

@@ -138,7 +138,7 @@ def test_replay_reproduces_a_sample_exactly(two_worker_dir, tmp_path, capsys):
     out2, _ = two_worker_dir
     k = 2
     assert main(["swing", "--replay", str(out2), "--sample", str(k), "--no-animation",
-                 "--out", str(tmp_path), "--json"]) == 0
+                 "--no-plots", "--out", str(tmp_path), "--json"]) == 0
     got = json.loads(capsys.readouterr().out)
     assert got["replay"]["matches_recorded"] is True
     row = mc.read_results(out2 / mc.RESULTS_FILE)[k]

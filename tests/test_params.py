@@ -204,7 +204,7 @@ def test_the_console_script_versions_lists_sets_and_passes_plugin_arguments(tmp_
     assert bplir("--version").startswith("bplir ")
     rows = json.loads(bplir("params", "--json"))["parameters"]
     assert {"block", "name", "unit", "range", "value", "doc"} <= set(rows[0])
-    swing = json.loads(bplir("swing", "--set", "plant.m2=1.6", "--no-animation", "--json",
+    swing = json.loads(bplir("swing", "--set", "plant.m2=1.6", "--no-animation", "--no-plots", "--json",
                              "--out", tmp_path / "s"))
     saved = json.loads((tmp_path / "s" / "summary.json").read_text())
     assert swing["outcome"] in ("captured", "crash", "short", "fall", "timeout")
@@ -220,7 +220,7 @@ def test_the_console_script_versions_lists_sets_and_passes_plugin_arguments(tmp_
         "def make(params, torque=0.0):\n"
         "    return Hold(torque)\n")
     held = json.loads(bplir("swing", "--controller", f"{plugin}:make", "--controller-arg",
-                            "torque=1.25", "--no-animation", "--json", "--out", tmp_path / "p"))
+                            "torque=1.25", "--no-animation", "--no-plots", "--json", "--out", tmp_path / "p"))
     assert held["controller"] == "hold:make" and abs(held["peak_torque_Nm"] - 1.25) < 1e-9
 
 

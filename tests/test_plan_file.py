@@ -187,7 +187,7 @@ def test_a_swing_against_a_logged_run(tmp_path):
     import json
 
     rc, out, err = bplir("swing", "--config", ACROMONK, "--seed", "1", "--no-animation",
-                         "--out", tmp_path / "run")
+                         "--no-plots", "--out", tmp_path / "run")
     assert rc in (0, 1), err
     with open(tmp_path / "run" / "swing_log.csv") as f:
         rows = list(csv.DictReader(f))

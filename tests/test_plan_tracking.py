@@ -148,7 +148,7 @@ def test_quick_start_captures_on_a_20_degree_line_without_a_config(tmp_path, cap
 
     from bplir_drake.cli import main
 
-    argv = ["swing", "--incline", f"{incline:g}", "--no-animation", "--json"]
+    argv = ["swing", "--incline", f"{incline:g}", "--no-animation", "--no-plots", "--json"]
     assert main(argv + ["--out", str(tmp_path / "a")]) == 0
     s = json.loads(capsys.readouterr().out)
     assert s["outcome"] == "captured" and s["path_mode"] == "plan"
@@ -327,7 +327,7 @@ def test_landing_law_option(tmp_path, capsys):
                              ("-20", "auto", "line-sensor")):
         extra = ["--hardware", hw] if hw else []
         assert main(["swing", "--incline", incline, "--landing-law", law, "--no-animation",
-                     "--json", "--out", str(tmp_path / f"{law}{incline}{hw}"), *extra]) == 0
+                     "--no-plots", "--json", "--out", str(tmp_path / f"{law}{incline}{hw}"), *extra]) == 0
         runs[incline, law, hw] = json.loads(capsys.readouterr().out)
     assert all(r["outcome"] == "captured" for r in runs.values())
     assert runs["0", "auto", ""]["capture_speed_mps"] == runs["0", "shoot", ""]["capture_speed_mps"]

@@ -123,9 +123,12 @@ def test_a_broken_plugin_is_refused_naming_the_port(bad, factory, message, capsy
 
 
 def test_the_example_plugin_through_the_command_line(tmp_path, capsys, strict_json):
-    assert main(["swing", "--controller", EXAMPLE, "--no-animation", "--json",
+    assert main(["swing", "--controller", EXAMPLE, "--no-animation", "--no-plots", "--json",
                  "--out", str(tmp_path / "swing")]) == 0
-    assert json.loads(capsys.readouterr().out)["outcome"] == "timeout"
+    swing = json.loads(capsys.readouterr().out)
+    assert swing["outcome"] == "timeout"
+    # --no-plots: the log and the summary, no figure
+    assert set(swing["files"]) == {"log_csv"} and not list((tmp_path / "swing").glob("*.png"))
     assert main(["montecarlo", "--controller", EXAMPLE, "-n", "2", "--workers", "1",
                  "--no-plots", "--json", "--out", str(tmp_path / "mc")]) == 0
     summary = json.loads(capsys.readouterr().out)
@@ -190,8 +193,8 @@ def test_the_example_estimator_runs_a_swing_from_python():
 
 
 def test_the_example_estimator_through_the_command_line(tmp_path, capsys):
-    assert main(["swing", "--estimator", EXAMPLE_EST, "--no-animation", "--json", "--seed", "0",
-                 "--out", str(tmp_path / "swing")]) == 0
+    assert main(["swing", "--estimator", EXAMPLE_EST, "--no-animation", "--no-plots", "--json",
+                 "--seed", "0", "--out", str(tmp_path / "swing")]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["outcome"] == "captured"
     assert out["max_estimation_error_rad"] == pytest.approx(0.0591, abs=0.003)
@@ -270,8 +273,8 @@ def test_a_plugin_takes_its_factorys_arguments_from_the_command_line(tmp_path):
     (tmp_path / "const.py").write_text(CONSTANT_TORQUE)
     spec = f"{tmp_path / 'const.py'}:make"
     rc, out, err = _bplir("swing", "--controller", spec, "--controller-arg", "torque=1.5",
-                          "--controller-arg", "note=hello", "--no-animation", "--json",
-                          "--out", tmp_path / "out")
+                          "--controller-arg", "note=hello", "--no-animation", "--no-plots",
+                          "--json", "--out", tmp_path / "out")
     assert rc == 0, err
     summary = parse_strict_json(out)
     assert summary["controller"] == "const:make"
@@ -307,7 +310,7 @@ def test_an_installed_package_registers_a_plugin_under_a_stable_name(tmp_path):
         [str(site)] + [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p]))
     rc, out, err = _bplir("swing", "--controller", "const-torque", "--controller-arg",
                           "torque=2.0", "--controller-arg", "note=hello", "--no-animation",
-                          "--json", "--out", tmp_path / "out", env=env)
+                          "--no-plots", "--json", "--out", tmp_path / "out", env=env)
     assert rc == 0, err
     summary = parse_strict_json(out)
     assert summary["controller"] == "const-torque"

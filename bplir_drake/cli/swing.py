@@ -58,17 +58,20 @@ def cmd_swing(args) -> int:
         from ..analysis.swing.compare import comparison_table, compare_presets, plot_comparison
 
         rows = compare_presets(params)
-        fig = _save(args, plot_comparison(rows), out_dir / "comparison.png")
         table = comparison_table(rows)
         write_text_atomic(out_dir / "comparison.md", table + "\n")
         data = [{k: v for k, v in r.items() if k != "_result"} for r in rows]
         _write_json(out_dir / "comparison.json", data)
+        if args.no_plots:
+            _emit({"comparison": data}, args.json, [table])
+            return 0
+        fig = _save(args, plot_comparison(rows), out_dir / "comparison.png")
         _emit({"comparison": data, "figure": str(fig)}, args.json, [table, f"figure: {fig}"])
         return 0
     if replay_info is None:
         res = run_swing(params)
-    files = {"figure": str(_save(args, res.plot(), out_dir / "swing.png")),
-             "log_csv": str(write_log_csv(res, out_dir / "swing_log.csv"))}
+    files = ({} if args.no_plots else {"figure": str(_save(args, res.plot(), out_dir / "swing.png"))})
+    files["log_csv"] = str(write_log_csv(res, out_dir / "swing_log.csv"))
     if not args.no_animation:
         files["animation"] = str(animate_swing(res, out_dir / "swing.gif"))
     if args.html:
@@ -78,7 +81,8 @@ def cmd_swing(args) -> int:
         from ..analysis.swing.against import compare_with_log
 
         cmp = compare_with_log(res, against, Path(args.against).name)
-        files["against"] = str(_save(args, cmp.plot(), out_dir / "against.png"))
+        if not args.no_plots:
+            files["against"] = str(_save(args, cmp.plot(), out_dir / "against.png"))
         extra_against = {"against": cmp.summary()}
         r = cmp.rmse
         against_line = [f"against {Path(args.against).name}: RMSE q1 {r[0]:.3f} rad, q2 "
@@ -159,6 +163,8 @@ def add_parser(sub) -> None:
     option(p, "--seed", int, None, "seed of friction draw and sensor noise")
     option(p, "--true-state", bool, help="control from the true state")
     option(p, "--no-animation", bool, help="skip the GIF")
+    option(p, "--no-plots", bool, help="skip the figures (swing.png, against.png, "
+           "comparison.png); the log and the summary are written")
     option(p, "--html", bool, help="also write swing.html: a Meshcat 3-D replay to open in a "
            "browser (self-contained, works offline)")
     option(p, "--compare", bool, help="run the swing with each controller preset and the true state")

@@ -48,9 +48,10 @@ def cmd_traverse(args) -> int:
     else:
         res = run_traverse(line, params, seed=args.seed or 0, progress=_progress(args),
                            motion=out / "motion.f64")
-    files = {"figure_line": str(_save(args, res.plot(), out / "line.png")),
-             "figure_timeline": str(_save(args, plot_timeline(res), out / "timeline.png")),
-             "manoeuvres_csv": str(write_rows_csv(res, out / "manoeuvres.csv"))}
+    files = ({} if args.no_plots else
+             {"figure_line": str(_save(args, res.plot(), out / "line.png")),
+              "figure_timeline": str(_save(args, plot_timeline(res), out / "timeline.png"))})
+    files["manoeuvres_csv"] = str(write_rows_csv(res, out / "manoeuvres.csv"))
     if res.motion.path is not None:
         files["motion_log"] = str(res.motion.path)
     table = manoeuvre_table(res)
@@ -79,6 +80,7 @@ def add_parser(sub) -> None:
     option(p, "--seed", int, None, "seed of the robot's friction draw and of every swing's "
            "sensor noise and disturbances")
     option(p, "--no-animation", bool, help="skip traverse.html (the Meshcat replay)")
+    option(p, "--no-plots", bool, help="skip the figures (line.png, timeline.png)")
     option(p, "--replay", None, None, "re-run one sample of a traversal study (with --sample)",
            metavar="STUDY_DIR")
     option(p, "--sample", int, None, "sample index to replay", metavar="K")

@@ -55,16 +55,18 @@ def command_lines(draw):
 
 @pytest.fixture
 def stopped_work(monkeypatch, tmp_path):
-    """Simulations, plan solves, studies and filters stop where they start;
+    """Simulations, plan solves, QFT designs, studies and filters stop where they start;
     outputs land in a temporary directory."""
     from pydrake.systems.analysis import Simulator
 
     from bplir_drake import estimation
     from bplir_drake.analysis import montecarlo
+    from bplir_drake.analysis.control import report
     from bplir_drake.diagrams import plan
 
     monkeypatch.setattr(Simulator, "AdvanceTo", _stop)
     monkeypatch.setattr(plan, "_solve_plan", _stop)
+    monkeypatch.setattr(report, "qft_report", _stop)   # a QFT design simulates nothing
     monkeypatch.setattr(montecarlo, "run_study", _stop)
     monkeypatch.setattr(estimation, "estimate", _stop)
     monkeypatch.chdir(tmp_path)

@@ -92,20 +92,20 @@ def test_a_hung_plugin_is_stopped_by_the_wall_clock_limit(tmp_path):
     plugin = tmp_path / "hang.py"
     plugin.write_text(plugin_source("while True: time.sleep(0.01)"))
     spec = f"{plugin}:make"
-    rc, _, err = run("swing", "--controller", spec, "--set", "scenario.wall_limit=1.5",
+    rc, _, err = run("swing", "--controller", spec, "--set", "scenario.wall_limit=1",
                      "--no-animation", "--out", tmp_path / "out")
     assert rc == 1
     assert one_line(err) == ("bplir: error: swing failed: WallClockLimit: the swing of seed 0 "
-                             "ran past its wall-clock limit of 1.5 s (scenario.wall_limit; a "
+                             "ran past its wall-clock limit of 1 s (scenario.wall_limit; a "
                              "hung controller or plug-in?)")
-    rc, out, err = run("montecarlo", "-n", "3", "--workers", "2", "--controller", spec,
-                       "--set", "scenario.wall_limit=1.5", "--no-plots", "--json",
+    rc, out, err = run("montecarlo", "-n", "2", "--workers", "2", "--controller", spec,
+                       "--set", "scenario.wall_limit=1", "--no-plots", "--json",
                        "--out", tmp_path / "mc")
     from bplir_drake.analysis import montecarlo as mc
 
     assert rc == 0, err
     rows = mc.read_results(tmp_path / "mc" / "results.csv")
-    assert len(rows) == 3 and all("wall-clock limit of 1.5 s" in r["error"] for r in rows)
+    assert len(rows) == 2 and all("wall-clock limit of 1 s" in r["error"] for r in rows)
 
 
 def test_the_default_wall_clock_limit_is_far_beyond_an_honest_swing():

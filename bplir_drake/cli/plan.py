@@ -13,14 +13,20 @@ def cmd_plan(args) -> int:
 
     import numpy as np
 
-    from ..diagrams.plan import plan_swing, plot_plan
+    from ..diagrams.plan import HANGING_KNOTS, hanging_plan, plan_swing, plot_plan
 
     params = _load_params(args)
     if args.incline is not None:
         params = params.with_(scenario=dc.replace(params.scenario, incline_deg=args.incline))
     out = _out_dir(args.out)
     # plan_swing validates the scenario, the power limit and the knots
-    plan = plan_swing(params, power_limit=args.power, knots=args.knots, progress=_progress(args))
+    hanging = params.scenario.start == "hanging"   # the pump a swing from hanging tracks
+    knots = args.knots if args.knots is not None else HANGING_KNOTS if hanging else 41
+    if hanging:
+        plan = hanging_plan(params, power_limit=args.power, knots=knots,
+                            progress=_progress(args), strict=False)
+    else:
+        plan = plan_swing(params, power_limit=args.power, knots=knots, progress=_progress(args))
     figure = _save(args, plot_plan(plan, params), out / "plan.png")
     summary = plan.summary() | {"figure": str(figure)}
     _write_json(out / "plan.json", summary)
@@ -48,4 +54,5 @@ def add_parser(sub) -> None:
                 "plan a swing by trajectory optimisation (torque and power limits)", "out/plan")
     shared(p, "incline")
     option(p, "--power", float, None, "motor power limit in W (default: rating)")
-    option(p, "--knots", int, 41, "collocation knots")
+    option(p, "--knots", int, None, "collocation knots (default 41; 61 from hanging, "
+           "scenario.start = hanging, where the guesses of a swing from hanging are tried)")

@@ -306,20 +306,26 @@ def scenario_plan(params: BplirParams) -> SwingPlan:
     return plan
 
 
-def hanging_plan(params: BplirParams) -> SwingPlan:
+def hanging_plan(params: BplirParams, *, power_limit: float | None = None,
+                 knots: int = HANGING_KNOTS, progress: bool = False,
+                 strict: bool = True) -> SwingPlan:
     """The plan from hanging at rest (``scenario.start = "hanging"``): the
-    first feasible of the guesses :data:`HANGING_GUESSES` on
-    :data:`HANGING_KNOTS` knots with up to :data:`HANGING_MINOR_ITERATIONS`
+    first feasible of the guesses :data:`HANGING_GUESSES` on ``knots``
+    (:data:`HANGING_KNOTS`) with up to :data:`HANGING_MINOR_ITERATIONS`
     minor iterations, the elbow rate within ``plan.hanging_rate_limit`` at
     the knots (a pump of several swings the tracker can follow), no warm
-    start."""
+    start.  When none is feasible: ``ParameterError`` naming why, or with
+    ``strict=False`` the last guess's plan (``bplir plan`` reports it)."""
     for guess in HANGING_GUESSES:
-        plan = plan_swing(params, end_depth=params.plan.end_depth, guess_duration=guess,
-                          knots=HANGING_KNOTS, minor_iterations=HANGING_MINOR_ITERATIONS,
-                          rate_limit=params.plan.hanging_rate_limit)
+        plan = plan_swing(params, power_limit=power_limit, end_depth=params.plan.end_depth,
+                          guess_duration=guess, knots=knots,
+                          minor_iterations=HANGING_MINOR_ITERATIONS,
+                          rate_limit=params.plan.hanging_rate_limit, progress=progress)
         if plan.feasible:
             return plan
-    raise ParameterError(no_plan_message(plan))
+    if strict:
+        raise ParameterError(no_plan_message(plan))
+    return plan
 
 
 _GAINS: dict = {}

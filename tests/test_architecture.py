@@ -287,6 +287,20 @@ def test_function_local_imports_only_where_they_save_start_up():
     assert not wrong, "\n".join(sorted(set(wrong)))
 
 
+def test_calibration_loads_without_python_control():
+    """``bplir calibrate`` (and a refusal of its log) does not wait for
+    python-control, which only the QFT family of the step fits needs (it
+    made the command start 2 s later)."""
+    import subprocess
+    import sys
+
+    code = ("import sys, bplir_drake.analysis.identification.calibration\n"
+            "print('control' in sys.modules, 'scipy.signal' in sys.modules)\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout.strip()
+    assert out == "False False"
+
+
 def test_the_command_line_starts_without_pydrake():
     """``bplir --help``/``--version`` load the parser alone: importing the
     command line loads neither pydrake, nor matplotlib, scipy or

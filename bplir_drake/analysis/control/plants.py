@@ -3,7 +3,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-import control
 import numpy as np
 from .errors import QftError
 from dataclasses import replace
@@ -25,6 +24,8 @@ class Plant:
 
     def rational(self, pade_order: int = 6) -> control.TransferFunction:
         """The plant with its delay replaced by a Pade approximation."""
+        import control   # python-control where it is used: calibration needs the plants alone
+
         if self.delay <= 0:
             return self.tf
         num, den = control.pade(self.delay, pade_order)
@@ -63,6 +64,8 @@ def dissertation_family(k=(0.013, 0.035), a=(0.19, 0.22), td=(0.15, 0.3), n: int
                         sign: float = -1.0) -> PlantFamily:
     """(4.16): ``-k e^{-s Td}/(a s + 1)`` on an n x n x n grid (Td = 0 if
     ``td`` is None)."""
+    import control
+
     ks = np.linspace(*k, n)
     as_ = np.linspace(*a, n)
     tds = np.linspace(*td, n) if td is not None else [0.0]
@@ -74,6 +77,8 @@ def dissertation_family(k=(0.013, 0.035), a=(0.19, 0.22), td=(0.15, 0.3), n: int
 
 
 def _s():
+    import control
+
     return control.tf("s")
 
 
@@ -110,8 +115,8 @@ def linearized_cpfl_plant(params, x0) -> control.TransferFunction:
     zero dynamics (Figs 6.2-6.3), which the outer loop neither can nor should
     act on (at non-equilibrium points their local Jacobian can be unstable,
     e.g. with link 1 falling near the horizontal)."""
+    import control
     from pydrake.systems.primitives import FirstOrderTaylorApproximation
-
 
     built = build_cpfl_plant(params)
     ctx = built.diagram.CreateDefaultContext()
@@ -138,6 +143,8 @@ def diagram_family(params, n_samples: int = 60, seed: int = 0, *, friction_sprea
     integrator of K handles, not as damping of the plant.  With
     ``actuator`` the motor's current lag and the half-sample delay of the
     zero-order hold (6.21) are appended."""
+    import control
+
     if n_samples < 1:
         raise QftError(f"n_samples = {n_samples} must be at least 1")
     rng = np.random.default_rng(seed)

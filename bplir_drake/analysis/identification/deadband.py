@@ -7,7 +7,7 @@ import numpy as np
 from ...params import BplirParams
 from ...diagrams import build_cpfl_step, build_free_swing
 from ...simulate import logs, make_simulator, run
-from ..control.qft import Plant, PlantFamily
+from ..control.plants import Plant, PlantFamily
 from ..swing.run import draw_true_friction
 
 
@@ -104,8 +104,7 @@ class PlantFamilyFit:
     def qft_family(self):
         """The identified family as QFT plants ``g e^{-s Td}/(s (s + c))``
         on the corners of the ranges."""
-        import control
-
+        import control   # python-control only where a family is asked for
 
         plants = [Plant(control.tf([g], [1.0, c, 0.0]), d, f"g={g:.3g} c={c:.3g} Td={d:.3g}")
                   for g in self.ranges["g"] for c in self.ranges["c"] for d in self.ranges["Td"]]

@@ -257,12 +257,16 @@ def test_a_plan_solve_ends_at_ctrl_c_with_130(tmp_path):
     import os
     import time
 
-    env = dict(os.environ, BPLIR_CACHE_DIR=str(tmp_path / "cache"))
+    cache = tmp_path / "cache"
+    env = dict(os.environ, BPLIR_CACHE_DIR=str(cache))
     proc = subprocess.Popen([sys.executable, "-m", "bplir_drake.cli", "plan", "--incline", "9",
                              "--out", str(tmp_path / "out")], env=env, stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True,
                             preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
-    time.sleep(5.0)   # pydrake is loaded and SNOPT is iterating
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline and not (cache.is_dir() and any(cache.iterdir())):
+        time.sleep(0.02)   # the plan's lock: pydrake is loaded and the solve starts
+    time.sleep(1.5)   # the collocation problem is built (~0.2 s) and SNOPT iterates
     proc.send_signal(signal.SIGINT)
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 130, err

@@ -58,8 +58,20 @@ def test_uphill_plan_needs_a_back_swing(uphill):
 
 def test_plan_figure_and_cli_errors(uphill, tmp_path, capsys):
     p, plan = uphill
-    path = save_figure(plan.plot(params=p), tmp_path / "plan.png")
+    fig = plan.plot(params=p)
+    path = save_figure(fig, tmp_path / "plan.png")
     assert path.stat().st_size > 20_000
+    # the limits are named in the legend, which sits clear of their lines
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    FigureCanvasAgg(fig).draw()
+    ax, renderer = fig.axes[1], fig.canvas.get_renderer()
+    legend = ax.get_legend()
+    assert {"torque limit", "power limit / 10"} <= {t.get_text() for t in legend.get_texts()}
+    box = legend.get_window_extent(renderer)
+    limits = [line for line in ax.get_lines() if len(set(line.get_ydata())) == 1]
+    assert len(limits) == 4 and not any(box.overlaps(line.get_window_extent(renderer))
+                                        for line in limits)
     assert main(["plan", "--incline", "95", "--out", str(tmp_path)]) == 2
     assert main(["plan", "--knots", "2", "--out", str(tmp_path)]) == 2
     err = capsys.readouterr().err.strip().splitlines()

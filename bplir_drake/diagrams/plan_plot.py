@@ -22,11 +22,15 @@ def plot_plan(plan: SwingPlan, params: BplirParams, axes=None):
     ax[0].legend()
     ax[1].plot(t, plan.torque, label="torque (N m)")
     ax[1].plot(t, plan.power / 10.0, label="power / 10 (W)")
-    for lim, style in ((plan.torque_limit, "k--"), (plan.power_limit / 10.0, "r:")):
-        ax[1].axhline(lim, color=style[0], ls=style[1:])
+    limits = ((plan.torque_limit, "k--", "torque limit"),
+              (plan.power_limit / 10.0, "r:", "power limit / 10"))
+    for lim, style, name in limits:
+        ax[1].axhline(lim, color=style[0], ls=style[1:], label=name)
         ax[1].axhline(-lim, color=style[0], ls=style[1:])
+    top = max(lim for lim, _, _ in limits)
+    ax[1].set_ylim(-1.15 * top, 1.6 * top)   # the legend above the limits, clear of them
     ax[1].set(xlabel="t (s)", title=f"peak {plan.peak_torque:.1f} N m, {plan.peak_power:.0f} W")
-    ax[1].legend()
+    ax[1].legend(loc="upper center", ncol=2, fontsize=8)
     alpha = math.radians(plan.incline_deg)
     D = params.scenario.grip_spacing
     ax[2].plot([-1.3 * D * math.cos(alpha), 1.3 * D * math.cos(alpha)],

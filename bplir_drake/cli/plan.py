@@ -13,20 +13,19 @@ def cmd_plan(args) -> int:
 
     import numpy as np
 
-    from ..diagrams.plan import HANGING_KNOTS, hanging_plan, plan_swing, plot_plan
+    from ..diagrams.plan import hanging_plan, plan_swing, plot_plan
 
     params = _load_params(args)
     if args.incline is not None:
         params = params.with_(scenario=dc.replace(params.scenario, incline_deg=args.incline))
     out = _out_dir(args.out)
     # plan_swing validates the scenario, the power limit and the knots
-    hanging = params.scenario.start == "hanging"   # the pump a swing from hanging tracks
-    knots = args.knots if args.knots is not None else HANGING_KNOTS if hanging else 41
-    if hanging:
-        plan = hanging_plan(params, power_limit=args.power, knots=knots,
-                            progress=_progress(args), strict=False)
+    given = {} if args.knots is None else {"knots": args.knots}   # else each planner's own
+    if params.scenario.start == "hanging":   # the pump a swing from hanging tracks
+        plan = hanging_plan(params, power_limit=args.power, progress=_progress(args),
+                            strict=False, **given)
     else:
-        plan = plan_swing(params, power_limit=args.power, knots=knots, progress=_progress(args))
+        plan = plan_swing(params, power_limit=args.power, progress=_progress(args), **given)
     figure = _save(args, plot_plan(plan, params), out / "plan.png")
     summary = plan.summary() | {"figure": str(figure)}
     _write_json(out / "plan.json", summary)

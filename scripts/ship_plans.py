@@ -2,7 +2,8 @@
 ``bplir_drake/data/plans`` (a maintainer's tool: run it after a change to
 the planner, the nominal model or the motor's envelope).
 
-    python scripts/ship_plans.py            # solve into a fresh cache, then copy
+    python scripts/ship_plans.py            # solve what is not shipped yet into a fresh
+                                            # cache, then copy the files the set used
     python scripts/ship_plans.py --check    # list what would ship, solve nothing
 
 The shipped set is what the quick start, the examples and the tests use:
@@ -78,9 +79,11 @@ def main(argv=None) -> int:
     cache.mkdir(parents=True, exist_ok=True)
     os.environ["BPLIR_CACHE_DIR"] = str(cache)
     from bplir_drake.diagrams import plan as P
+    from bplir_drake.diagrams import plan_cache
     from bplir_drake.diagrams.plan_cache import PACKAGED
 
     plans, tracked = scenarios()
+    plan_cache.USED = set()   # every file the set reads or solves
     if args.check:
         print(f"{len(plans)} plans, {len(tracked)} tracked swings")
         return 0
@@ -91,10 +94,15 @@ def main(argv=None) -> int:
     for p in tracked:
         plan, _ = P.tracking_plan(p)
         print(f"gains {plan.incline_deg:+.1f} deg, {p.scenario.grip_spacing:g} m", flush=True)
-    for old in [*PACKAGED.glob("plan-*.npz"), *PACKAGED.glob("gains-*.npz")]:
-        old.unlink()   # the libraries are scripts/plan_library.py's
-    for f in sorted([*cache.glob("plan-*.npz"), *cache.glob("gains-*.npz")]):
-        shutil.copy2(f, PACKAGED / f.name)
+    used = {f.name: f for f in plan_cache.USED}
+    for name, f in sorted(used.items()):
+        if f.parent != PACKAGED:
+            shutil.copy2(f, PACKAGED / name)
+    # a shipped file the set reads only where no library covers it is not
+    # seen here, so nothing is removed: list the candidates for a maintainer
+    idle = sorted(f.name for f in [*PACKAGED.glob("plan-*.npz"), *PACKAGED.glob("gains-*.npz")]
+                  if f.name not in used)
+    print(f"not read by the set (where a library covered it, or no longer used): {len(idle)}")
     print(f"shipped {len(list(PACKAGED.glob('plan-*.npz')))} plans and "
           f"{len(list(PACKAGED.glob('gains-*.npz')))} gains in {PACKAGED}")
     if not args.cache:

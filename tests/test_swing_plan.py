@@ -128,10 +128,10 @@ def test_the_plan_command_plans_a_swing_from_hanging_as_the_swing_does(monkeypat
                                                                        capsys):
     """``bplir plan --set scenario.start=hanging`` solves as a swing from
     hanging does -- the guesses of 3-6 s in turn on 61 knots, SNOPT's
-    150 000 minor iterations, the elbow rate within plan.hanging_rate_limit
-    at the knots (10 rad/s at 48 V), from the hanging pose -- and with none
-    feasible reports the last one, exit 1 (the solver is replaced by one
-    that stops at once)."""
+    150 000 minor iterations, the torque within plan.hanging_torque_share of
+    its limit, at 48 V the 30 V envelope (plan.hanging_supply), from the
+    hanging pose -- and with none feasible reports the last one, exit 1 (the
+    solver is replaced by one that stops at once)."""
     import numpy as np
 
     from bplir_drake.diagrams import plan as P
@@ -143,23 +143,27 @@ def test_the_plan_command_plans_a_swing_from_hanging_as_the_swing_does(monkeypat
     def stops(params, q0, qT, tau_max, power, tmax, knots, time_weight, guess_duration,
               tolerance, iterations, progress=False, guess=None, minor_iterations=None,
               rate_limit=0.0):
-        calls.append((knots, guess_duration, minor_iterations, rate_limit, tuple(q0)))
+        calls.append((knots, guess_duration, minor_iterations, rate_limit, tuple(q0), tau_max,
+                      params.motor.supply_voltage))
         t = np.linspace(0.0, guess_duration, 5)
         return P.SwingPlan(t, np.zeros((5, 4)), np.zeros(5), np.zeros((5, 2)), False, False,
                            "stub", params.scenario.incline_deg, 20.0, 220.0, 1e-4,
                            status="iteration limit")
 
     monkeypatch.setattr(P, "_solve_plan", stops)
-    p = BplirParams().with_hardware("48v")   # its tries from hanging are paced
+    p = BplirParams().with_hardware("48v")   # its tries from hanging are planned at 30 V
     hanging = tuple(start_configuration("hanging", p.scenario.grip_spacing, p.plant, 0.0))
     assert main(["plan", "--hardware", "48v", "--set", "scenario.start=hanging", "--out",
                  str(tmp_path / "h"), "--json"]) == 1
     assert [c[1] for c in calls] == [3.0, 4.0, 5.0, 6.0]
     assert {c[0] for c in calls} == {61} and {c[2] for c in calls} == {150_000}
-    assert {c[3] for c in calls} == {p.plan.hanging_rate_limit} == {10.0}
+    assert {c[3] for c in calls} == {p.plan.hanging_rate_limit} == {0.0}
+    limit = P.plan_torque_limit(p)   # the torque_share of line swings: all of it
+    assert [c[5] for c in calls] == pytest.approx([0.85 * limit] * 4) and limit > 19.0
+    assert {c[6] for c in calls} == {30.0} and p.motor.supply_voltage == 48.0
     assert all(np.allclose(c[4], hanging) for c in calls)
     out = json.loads(capsys.readouterr().out)
     assert out["feasible"] is False and out["duration_s"] == pytest.approx(6.0)
     calls.clear()   # a line start: one solve on 41 knots, no rate limit, as before
     assert main(["plan", "--out", str(tmp_path / "l"), "--json"]) == 1
-    assert [(c[0], c[1], c[3]) for c in calls] == [(41, 1.5, 0.0)]
+    assert [(c[0], c[1], c[3], c[5]) for c in calls] == [(41, 1.5, 0.0, limit)]

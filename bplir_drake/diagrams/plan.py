@@ -313,9 +313,13 @@ def hanging_plan(params: BplirParams, *, power_limit: float | None = None,
     first feasible of the guesses :data:`HANGING_GUESSES` on ``knots``
     (:data:`HANGING_KNOTS`) with up to :data:`HANGING_MINOR_ITERATIONS`
     minor iterations, the elbow rate within ``plan.hanging_rate_limit`` at
-    the knots (a pump of several swings the tracker can follow), no warm
-    start.  When none is feasible: ``ParameterError`` naming why, or with
-    ``strict=False`` the last guess's plan (``bplir plan`` reports it)."""
+    the knots, the torque within ``plan.hanging_torque_share`` of its limit
+    and the voltage within the envelope of ``plan.hanging_supply``
+    (:func:`hanging_planned`: a pump of several swings the tracker can
+    follow with headroom), no warm start.  When none is feasible:
+    ``ParameterError`` naming why, or with ``strict=False`` the last
+    guess's plan (``bplir plan`` reports it)."""
+    params = hanging_planned(params)
     for guess in HANGING_GUESSES:
         plan = plan_swing(params, power_limit=power_limit, end_depth=params.plan.end_depth,
                           guess_duration=guess, knots=knots,
@@ -326,6 +330,18 @@ def hanging_plan(params: BplirParams, *, power_limit: float | None = None,
     if strict:
         raise ParameterError(no_plan_message(plan))
     return plan
+
+
+def hanging_planned(params: BplirParams) -> BplirParams:
+    """``params`` as a plan from hanging is made with: ``plan.torque_share``
+    at most ``plan.hanging_torque_share``, and the motor at
+    ``plan.hanging_supply`` when that is set (the robot swings at its own
+    supply; only the plan keeps to the other's envelope)."""
+    pl, motor = params.plan, params.motor
+    if pl.hanging_supply > 0:
+        motor = replace(motor, supply_voltage=pl.hanging_supply)
+    return params.with_(motor=motor, plan=replace(
+        pl, torque_share=min(pl.torque_share, pl.hanging_torque_share)))
 
 
 _GAINS: dict = {}

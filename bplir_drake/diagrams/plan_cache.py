@@ -182,6 +182,16 @@ def _read(load, path: Path):
         return None
 
 
+#: when a set: every file :func:`cached` answers from, or writes, is added
+#: to it (``scripts/ship_plans.py`` ships exactly the files its set used)
+USED: set | None = None
+
+
+def _used(path: Path) -> None:
+    if USED is not None:
+        USED.add(Path(path))
+
+
 def cached(inputs: dict, solve, kind: str = "plan", make=None):
     """The plan (``kind="gains"``: the tracking gains) for ``inputs``: the
     shipped one when the package has it (whatever state the cache is in),
@@ -194,6 +204,7 @@ def cached(inputs: dict, solve, kind: str = "plan", make=None):
     load, save = (_loader(make), _save) if kind == "plan" else (load_gains, save_gains)
     shipped = _read(load, packaged_plan_path(inputs, kind))
     if shipped is not None:
+        _used(packaged_plan_path(inputs, kind))
         return shipped
     path = plan_cache_path(inputs, kind)
     try:
@@ -208,6 +219,8 @@ def cached(inputs: dict, solve, kind: str = "plan", make=None):
             result = solve()
             with contextlib.suppress(OSError):
                 save(result, path)
+        if path.exists():
+            _used(path)
         return result
     finally:
         lock.__exit__(None, None, None)

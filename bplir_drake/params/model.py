@@ -106,7 +106,7 @@ class BplirParams:
         """The robot with the named hardware options (:data:`HARDWARE_OPTIONS`):
         ``"line-sensor"`` (the jaw's line range sensor and the landing's aim
         with it, :data:`LINE_SENSOR_OPTION`), ``"48v"`` (a 48 V supply and
-        the pace of a swing from hanging, :data:`SUPPLY_48V_OPTION`)."""
+        its swings from hanging planned within the 30 V envelope, :data:`SUPPLY_48V_OPTION`)."""
         p = self
         for name in names:
             if name == "line-sensor":
@@ -117,8 +117,7 @@ class BplirParams:
             elif name == "48v":
                 o = SUPPLY_48V_OPTION
                 p = replace(p, motor=replace(p.motor, supply_voltage=o["supply_voltage"]),
-                            plan=replace(p.plan, hanging_rate_limit=o["hanging_rate_limit"]),
-                            traverse=replace(p.traverse, retry_max_time=o["retry_max_time"]))
+                            plan=replace(p.plan, hanging_supply=o["hanging_supply"]))
             else:
                 raise ParameterError(f"unknown hardware option '{name}'; allowed: "
                                      + ", ".join(HARDWARE_OPTIONS))

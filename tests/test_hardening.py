@@ -516,10 +516,11 @@ def test_shipped_plans_serve_a_fresh_install(monkeypatch, tmp_path):
     # 1.2 m plan, plan.warm_spacing), the 1.27 m plans of the warm start's test and
     # the default swing with a 1.6 kg link 2 (the documented --set plant.m2=1.6) and the
     # flat-line swings tried again from hanging (the traversal's recovery, both robots;
-    # the swapped robot's first two guesses too, which SNOPT does not solve; the 48 V
-    # robot's are the same plans), and examples/acromonk.toml's swing (its guesses and
-    # warm start) and `bplir plan`
-    assert len(shipped) == 34
+    # the swapped robot's first guess too, which SNOPT does not solve), the 48 V robot's
+    # (planned within the 30 V envelope and 85 % of the torque limit; the swapped
+    # robot's first two guesses too), and examples/acromonk.toml's swing (its guesses
+    # and warm start) and `bplir plan`
+    assert len(shipped) == 37
     monkeypatch.setenv("BPLIR_CACHE_DIR", str(tmp_path))
 
     def no_solve(*a, **k):
@@ -597,7 +598,7 @@ def test_shipped_gains_serve_the_tests_plans(monkeypatch, tmp_path):
     from bplir_drake.analysis.traverse.recovery import retry_params
     cases += [retry_params(c) for c in cases[4:6]]   # the flat swings tried again
     cases += [retry_params(swing_params(base.with_hardware("48v"), g, 1.2, 0.0))
-              for g in (1, 2)]   # the 30 V robot's plans and gains
+              for g in (1, 2)]   # planned within the 30 V envelope
     cases.append(load_toml(Path(__file__).resolve().parents[1] / "examples" / "acromonk.toml"))
     keys, blended = set(), 0
     for p in cases:

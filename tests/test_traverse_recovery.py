@@ -66,10 +66,7 @@ def test_the_swapped_robot_is_tried_again_too():
     """-10 N m of headwind on the second swing (the swapped robot: its
     swinging link, 3.23 kg with its centre of mass 0.69 m out, needs
     21.9 N m to be held level, the driver gives 19.9): it times out, damps
-    for over a minute and its swing from hanging lands clear of the
-    obstacles (a swing from hanging lands within about 0.12 m of its planned
-    grip, where a swing from the line lands within a few centimetres: here
-    0.1 m short of it, its clasp 0.23 m clear of the vibration damper)."""
+    for over a minute and its swing from hanging lands on the planned grip."""
     res = run_traverse(load_line(LINE), BplirParams(), seed=0, adjust=headwind(1, -10.0))
     swing = [i for i, r in enumerate(res.rows) if r["kind"] == "swing"][1]
     kinds = [(r["kind"], r["outcome"], r["attempt"]) for r in res.rows[swing:swing + 4]]
@@ -79,9 +76,7 @@ def test_the_swapped_robot_is_tried_again_too():
     assert res.rows[swing + 1]["duration_s"] > 60.0
     retry = res.rows[swing + 3]
     assert retry["robot"] == "swapped" and retry["capture_speed_mps"] < 0.5
-    line, half = load_line(LINE), BplirParams().traverse.gripper_width / 2
-    assert retry["to_m"] == pytest.approx(retry["hold_m"] + 1.2, abs=0.12)
-    assert line.obstacle_at(retry["to_m"], half) is None
+    assert retry["to_m"] == pytest.approx(retry["hold_m"] + 1.2, abs=0.03)
     assert res.totals["outcome"] == "passed" and res.totals["retries"] == 1
 
 
@@ -160,19 +155,21 @@ def test_a_swing_that_trips_the_driver_is_tried_again():
     assert res.totals["outcome"] == "passed" and res.totals["retries"] == 1
 
 
-def test_the_48v_robot_tries_again_on_the_30v_robots_plan():
+def test_the_48v_robot_tries_again_on_a_plan_within_the_30v_envelope():
     """The 48 V option plans a swing from hanging within the 30 V envelope
     (plan.hanging_supply; the 48 V envelope alone lets the pump flip the
-    elbow at 21 rad/s, faster than the tracker follows): the 30 V robot's
-    own plan, within plan.hanging_torque_share of the torque limit.  The
-    first swing's first try in a -6 N m headwind times out; the try from
-    hanging lands (its winding voltage within 30 V) and the line is
-    passed."""
+    elbow at 21 rad/s, faster than the tracker follows) and 85 % of the
+    torque limit (plan.hanging_torque_share): the plan a 30 V robot with
+    that share would make, a slower pump the 48 V robot follows with
+    voltage and torque to spare.  The first swing's first try in a -6 N m
+    headwind times out; the try from hanging lands (its winding voltage
+    within 30 V) and the line is passed."""
     from bplir_drake.diagrams.plan import plan_torque_limit, tracking_plan
     from bplir_drake.analysis.traverse.run import swing_params
 
     p = BplirParams().with_hardware("48v")
     assert p.motor.supply_voltage == 48.0 and p.plan.hanging_supply == 30.0
+    assert p.plan.hanging_torque_share == 0.85 and BplirParams().plan.hanging_torque_share == 1.0
     assert p.traverse.retry_max_time == BplirParams().traverse.retry_max_time == 6.0
     res = run_traverse(load_line(LINE), p, seed=0, adjust=headwind(0, -6.0))
     swings = [r for r in res.rows if r["kind"] == "swing"]
@@ -183,7 +180,9 @@ def test_the_48v_robot_tries_again_on_the_30v_robots_plan():
     assert res.totals["outcome"] == "passed" and res.totals["retries"] == 1
     for g in (1, 2):
         plan = tracking_plan(retry_params(swing_params(p, g, 1.2, 0.0)))[0]
-        at30 = tracking_plan(retry_params(swing_params(BplirParams(), g, 1.2, 0.0)))[0]
+        b = BplirParams()
+        at30 = b.with_(plan=dc.replace(b.plan, hanging_torque_share=0.85))
+        at30 = tracking_plan(retry_params(swing_params(at30, g, 1.2, 0.0)))[0]
         assert np.array_equal(plan.torque, at30.torque)
         assert 3.0 < plan.duration <= 6.0
         assert np.max(np.abs(plan.torque)) <= 0.85 * plan_torque_limit(p) + 1e-9

@@ -28,10 +28,12 @@ LINE_SENSOR_OPTION = {"range": 0.2, "shoot_height": -0.018, "shoot_min_time": 0.
 
 
 #: the 48 V supply as a hardware option: the supply, and the swing tried again
-#: from hanging planned within the 30 V envelope (the 48 V envelope alone lets
-#: the plan flip the elbow at 23 rad/s, which the tracker cannot follow; the
-#: 30 V robot's plan is one it follows, with voltage to spare)
-SUPPLY_48V_OPTION = {"supply_voltage": 48.0, "hanging_supply": 30.0}
+#: from hanging planned within the 30 V envelope and 85 % of the torque limit
+#: (the 48 V envelope alone lets the plan flip the elbow at 23 rad/s, which the
+#: tracker cannot follow; on the slower plan the tracker has voltage and torque
+#: to spare)
+SUPPLY_48V_OPTION = {"supply_voltage": 48.0, "hanging_supply": 30.0,
+                     "hanging_torque_share": 0.85}
 
 
 #: named hardware options on top of a preset (:meth:`BplirParams.with_hardware`)

@@ -106,7 +106,8 @@ class BplirParams:
         """The robot with the named hardware options (:data:`HARDWARE_OPTIONS`):
         ``"line-sensor"`` (the jaw's line range sensor and the landing's aim
         with it, :data:`LINE_SENSOR_OPTION`), ``"48v"`` (a 48 V supply and
-        its swings from hanging planned within the 30 V envelope, :data:`SUPPLY_48V_OPTION`)."""
+        its swings from hanging planned within the 30 V envelope and 85 % of the torque
+        limit, :data:`SUPPLY_48V_OPTION`)."""
         p = self
         for name in names:
             if name == "line-sensor":
@@ -117,7 +118,8 @@ class BplirParams:
             elif name == "48v":
                 o = SUPPLY_48V_OPTION
                 p = replace(p, motor=replace(p.motor, supply_voltage=o["supply_voltage"]),
-                            plan=replace(p.plan, hanging_supply=o["hanging_supply"]))
+                            plan=replace(p.plan, hanging_supply=o["hanging_supply"],
+                                         hanging_torque_share=o["hanging_torque_share"]))
             else:
                 raise ParameterError(f"unknown hardware option '{name}'; allowed: "
                                      + ", ".join(HARDWARE_OPTIONS))

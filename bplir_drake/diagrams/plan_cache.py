@@ -188,7 +188,8 @@ USED: set | None = None
 
 
 def _used(path: Path) -> None:
-    if USED is not None:
+    """Add ``path`` to :data:`USED` when that is a set and the file exists."""
+    if USED is not None and path.exists():
         USED.add(Path(path))
 
 
@@ -202,9 +203,10 @@ def cached(inputs: dict, solve, kind: str = "plan", make=None):
     if kind == "plan" and make is None:
         raise TypeError("cached(kind='plan') needs make=, the plan's class")
     load, save = (_loader(make), _save) if kind == "plan" else (load_gains, save_gains)
-    shipped = _read(load, packaged_plan_path(inputs, kind))
+    packaged = packaged_plan_path(inputs, kind)
+    shipped = _read(load, packaged)
     if shipped is not None:
-        _used(packaged_plan_path(inputs, kind))
+        _used(packaged)
         return shipped
     path = plan_cache_path(inputs, kind)
     try:
@@ -219,8 +221,7 @@ def cached(inputs: dict, solve, kind: str = "plan", make=None):
             result = solve()
             with contextlib.suppress(OSError):
                 save(result, path)
-        if path.exists():
-            _used(path)
+        _used(path)
         return result
     finally:
         lock.__exit__(None, None, None)

@@ -121,6 +121,22 @@ def _signals_held():
         signal.pthread_sigmask(signal.SIG_SETMASK, before)
 
 
+#: temporary files of atomic writes now in progress (see :func:`remove_unfinished`)
+_UNFINISHED: set[str] = set()
+
+
+def remove_unfinished() -> None:
+    """Remove the temporary file of every atomic write still in progress.
+
+    A signal can end a command at a moment when the write's own clean-up
+    does not run (between making the file and entering the ``with`` block);
+    the command line calls this when a signal or a fault ends a command."""
+    for tmp in list(_UNFINISHED):
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        _UNFINISHED.discard(tmp)
+
+
 @contextlib.contextmanager
 def atomic_path(path):
     """Yield a temporary path beside ``path`` (same suffix) to write to; on
@@ -133,6 +149,7 @@ def atomic_path(path):
         with _signals_held():
             fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}-",
                                        suffix=path.suffix)
+            _UNFINISHED.add(tmp)
             os.close(fd)
             # mkstemp makes the file private (0600); outputs get the usual mode
             umask = os.umask(0)
@@ -140,10 +157,12 @@ def atomic_path(path):
         yield Path(tmp)
         os.chmod(tmp, 0o666 & ~umask)
         os.replace(tmp, path)
+        _UNFINISHED.discard(tmp)
     except BaseException as exc:
         if tmp is not None:
             with contextlib.suppress(OSError):
                 os.unlink(tmp)
+            _UNFINISHED.discard(tmp)
         if isinstance(exc, OSError) and exc.errno and exc.filename in (None, tmp, str(tmp)):
             # a full disk while writing: name the file the user asked for
             raise OSError(exc.errno, exc.strerror, str(path)) from exc

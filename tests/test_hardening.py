@@ -805,6 +805,39 @@ def test_sigterm_and_sighup_end_a_swing_like_ctrl_c(sig, code, tmp_path):
     assert not [p for p in out.iterdir() if p.name.startswith(".")]
 
 
+def test_a_write_ended_before_its_with_block_leaves_no_temporary_file(tmp_path, monkeypatch):
+    """A signal between an atomic write's temporary file and its ``with``
+    block skips the write's own clean-up; the command line's clean-up
+    removes the file, and a finished write is not touched."""
+    from bplir_drake import io
+    from bplir_drake.cli import main
+
+    done = tmp_path / "done.txt"
+    io.write_text_atomic(done, "finished\n")
+    cut = io.atomic_path(tmp_path / "cut.png")
+    tmp = cut.__enter__()          # made, then ended before the with-block ran
+    assert tmp.exists() and tmp.name.startswith(".cut-")
+
+    def interrupted(args):
+        raise KeyboardInterrupt
+    monkeypatch.setattr(sys.modules["bplir_drake.cli.main"], "build_parser",
+                        lambda: _OneCommand(interrupted))
+    assert main(["swing"]) == 130
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["done.txt"]
+    assert done.read_text() == "finished\n"
+
+
+class _OneCommand:
+    """A parser whose one command is ``func``."""
+
+    def __init__(self, func):
+        self.func = func
+
+    def parse_args(self, argv):
+        import argparse
+        return argparse.Namespace(func=self.func, command=argv[0], debug=False, json=False)
+
+
 def test_kill_9_of_a_study_leaves_no_worker_running(tmp_path):
     """``kill -9`` of a 2-worker study's parent: its pool workers die with it
     (none is left orphaned under PID 1)."""

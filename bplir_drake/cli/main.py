@@ -9,6 +9,7 @@ import warnings
 from ..analysis.control.errors import QftError
 from ..analysis.identification.errors import CalibrationError
 from ..csvfile import LogError
+from ..io import remove_unfinished
 from ..params import ParameterError
 from .common import _OUT, InputError, Terminated, _terminate
 from .parser import build_parser
@@ -73,6 +74,7 @@ def main(argv=None) -> int:
                          f"{text[:400]}\n")
         return 1
     finally:
+        remove_unfinished()   # a signal between a temporary file and its with-block
         _OUT[0] = None
         warnings.showwarning = shown
         for sig, handler in previous.items():

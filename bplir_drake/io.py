@@ -103,22 +103,49 @@ def dumps_strict(obj, indent: int | None = 2) -> str:
     return json.dumps(_finite(plain), indent=indent, allow_nan=False)
 
 
+#: how deep in sections a signal must not cut (``depth``), and the raise a
+#: signal asked for meanwhile (``pending``), run when the last one ends
+_HELD = {"depth": 0, "pending": None}
+
+
+def hold_or_run(action) -> None:
+    """Run ``action`` (a signal handler's raise) now, or, inside a section
+    an atomic write must finish (its temporary file made and named), when
+    that section ends.  Blocking the signal is not enough: another thread
+    (Drake's, a plotting library's) can take it, and Python then runs the
+    handler in the main thread wherever that thread is."""
+    if _HELD["depth"]:
+        _HELD["pending"] = action
+    else:
+        action()
+
+
 @contextlib.contextmanager
 def _signals_held():
     """Hold Ctrl-C, SIGTERM and SIGHUP until the block ends (they are
-    delivered then), where the platform allows it."""
+    delivered then): the command line's handlers wait through
+    :func:`hold_or_run`, and the main thread blocks them where the
+    platform allows."""
     import signal
 
+    _HELD["depth"] += 1
     held = {signal.SIGINT, signal.SIGTERM, signal.SIGHUP}
     try:
-        before = signal.pthread_sigmask(signal.SIG_BLOCK, held)
-    except (AttributeError, ValueError, OSError):   # not POSIX
-        yield
-        return
-    try:
-        yield
+        try:
+            before = signal.pthread_sigmask(signal.SIG_BLOCK, held)
+        except (AttributeError, ValueError, OSError):   # not POSIX
+            before = None
+        try:
+            yield
+        finally:
+            if before is not None:
+                signal.pthread_sigmask(signal.SIG_SETMASK, before)
     finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, before)
+        _HELD["depth"] -= 1
+        pending = _HELD["pending"]
+        if pending is not None and not _HELD["depth"]:
+            _HELD["pending"] = None
+            pending()
 
 
 #: temporary files of atomic writes now in progress (see :func:`remove_unfinished`)

@@ -827,6 +827,32 @@ def test_a_write_ended_before_its_with_block_leaves_no_temporary_file(tmp_path, 
     assert done.read_text() == "finished\n"
 
 
+def test_a_signal_handled_while_the_temporary_file_is_made_waits_for_its_name(tmp_path,
+                                                                              monkeypatch):
+    """Python runs a signal's handler in the main thread even while that
+    thread blocks the signal (another thread took it): a SIGTERM handled
+    inside ``mkstemp`` is held until the file has a name, then ends the
+    write and removes the file."""
+    import tempfile
+
+    from bplir_drake import io
+    from bplir_drake.cli.common import Terminated, _terminate
+
+    real = tempfile.mkstemp
+
+    def mkstemp_then_signal(**kw):
+        made = real(**kw)
+        _terminate(signal.SIGTERM, None)     # the handler, mid-way through mkstemp
+        return made
+    monkeypatch.setattr(tempfile, "mkstemp", mkstemp_then_signal)
+    with pytest.raises(Terminated):
+        with io.atomic_path(tmp_path / "swing.png") as tmp:
+            tmp.write_text("never finished")
+    assert list(tmp_path.iterdir()) == []
+    with pytest.raises(Terminated):          # outside a write it ends the command at once
+        _terminate(signal.SIGTERM, None)
+
+
 class _OneCommand:
     """A parser whose one command is ``func``."""
 

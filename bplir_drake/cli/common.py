@@ -6,7 +6,7 @@ import math
 import sys
 from pathlib import Path
 from ..plotting import save_figure
-from ..io import check_output_dir, dumps_strict, write_json_atomic
+from ..io import check_output_dir, dumps_strict, hold_or_run, write_json_atomic
 from ..params import ParameterError
 
 
@@ -123,7 +123,18 @@ class Terminated(KeyboardInterrupt):
 
 
 def _terminate(signum, frame):
-    raise Terminated(signum)
+    """SIGTERM, SIGHUP: end the command (after an atomic write's critical
+    section, :func:`~bplir_drake.io.hold_or_run`)."""
+    def stop():
+        raise Terminated(signum)
+    hold_or_run(stop)
+
+
+def _interrupt(signum, frame):
+    """Ctrl-C: ``KeyboardInterrupt``, held as :func:`_terminate` holds."""
+    def stop():
+        raise KeyboardInterrupt
+    hold_or_run(stop)
 
 
 #: where the command's own output goes: standard output as ``main`` found it

@@ -11,7 +11,7 @@ from ..analysis.identification.errors import CalibrationError
 from ..csvfile import LogError
 from ..io import remove_unfinished
 from ..params import ParameterError
-from .common import _OUT, InputError, Terminated, _terminate
+from .common import _OUT, InputError, Terminated, _interrupt, _terminate
 from .parser import build_parser
 
 
@@ -36,8 +36,10 @@ def main(argv=None) -> int:
         else contextlib.nullcontext()
     previous = {}
     try:
-        for sig in (signal.SIGTERM, signal.SIGHUP):
-            previous[sig] = signal.signal(sig, _terminate)
+        for sig, handler in ((signal.SIGTERM, _terminate), (signal.SIGHUP, _terminate),
+                             (signal.SIGINT, _interrupt)):
+            if signal.getsignal(sig) is not signal.SIG_IGN:   # nohup's, a background job's
+                previous[sig] = signal.signal(sig, handler)
     except ValueError:   # not the main thread: leave the signals alone
         pass
     try:

@@ -12,14 +12,17 @@ quick benchmark's +-10 deg and 1.1 / 1.15 / 1.3 m swings (with their warm
 starts from 1.2 m), the 1.27 m warm start, every swing of the example
 lines (both robots), the default swing of a robot whose nominal link 2
 weighs 1.6 kg (the documented ``--set plant.m2=1.6``), the swing of
-``examples/acromonk.toml`` and the flat-line
-swings tried again from hanging (both robots); gains for the swings the tests track
+``examples/acromonk.toml``, the flat-line swings tried again from hanging
+(both robots, 30 V and 48 V) and the 48 V swapped robot's on the span's
++2.6 deg chord (the plans its guesses gave before one heated the driver
+little enough); gains for the swings the tests track
 that the plan libraries (``scripts/plan_library.py``) do not cover.
 """
 from __future__ import annotations
 
 import argparse
 import dataclasses as dc
+import math
 import os
 import shutil
 import sys
@@ -53,10 +56,15 @@ def scenarios():
     acromonk = load_toml(ROOT / "examples" / "acromonk.toml")   # another robot: its swing
     tracked.append(acromonk)                                     # and its `bplir plan`
     plans.append(lambda: P.plan_swing(acromonk, power_limit=None, knots=41))
-    # the flat-line swings tried again from hanging (the traversal's recovery)
+    # the flat-line swings tried again from hanging (the traversal's recovery),
+    # at 30 V and with the 48v option, and the 48 V swapped robot's try on the
+    # span's +2.6 deg chord, whose first guess heats the driver too much
     from bplir_drake.analysis.traverse.recovery import retry_params
-    tracked += [retry_params(swing_params(base, g, base.traverse.grip_spacing, 0.0))
-                for g in (1, 2)]
+    b48 = base.with_hardware("48v")
+    tracked += [retry_params(swing_params(b, g, b.traverse.grip_spacing, 0.0))
+                for b in (base, b48) for g in (1, 2)]
+    tracked.append(retry_params(swing_params(b48, 2, b48.traverse.grip_spacing,
+                                             math.radians(2.6))))
     q127 = at(base, grip_spacing=1.27)   # the warm start's test: its cold solve too
     plans += [lambda: P.scenario_plan(q127),
               lambda: P.plan_swing(q127, end_depth=q127.plan.end_depth, guess_duration=1.0)]

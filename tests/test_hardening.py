@@ -518,9 +518,11 @@ def test_shipped_plans_serve_a_fresh_install(monkeypatch, tmp_path):
     # flat-line swings tried again from hanging (the traversal's recovery, both robots;
     # the swapped robot's first guess too, which SNOPT does not solve), the 48 V robot's
     # (planned within the 30 V envelope and 85 % of the torque limit; the swapped
-    # robot's first two guesses too), and examples/acromonk.toml's swing (its guesses
-    # and warm start) and `bplir plan`
-    assert len(shipped) == 37
+    # robot's first two guesses too), the 48 V swapped robot's on the span's +2.6 deg
+    # chord (its four guesses: the first heats the driver too much, the next two are
+    # infeasible), and examples/acromonk.toml's swing (its guesses and warm start) and
+    # `bplir plan`
+    assert len(shipped) == 41
     monkeypatch.setenv("BPLIR_CACHE_DIR", str(tmp_path))
 
     def no_solve(*a, **k):
@@ -560,6 +562,8 @@ def test_shipped_plans_serve_a_fresh_install(monkeypatch, tmp_path):
     volt48 = base.with_hardware("48v")
     for g in (1, 2):
         assert P.scenario_plan(retry_params(swing_params(volt48, g, 1.2, 0.0))).feasible
+    assert P.scenario_plan(retry_params(swing_params(volt48, 2, 1.2, math.radians(2.6)))
+                           ).duration > 4.5   # the fourth guess's
     acromonk = load_toml(Path(__file__).resolve().parents[1] / "examples" / "acromonk.toml")
     assert P.scenario_plan(acromonk).feasible
     assert P.plan_swing(acromonk, knots=41).status == "iteration limit"   # `bplir plan`'s
@@ -569,7 +573,8 @@ def test_shipped_plans_serve_a_fresh_install(monkeypatch, tmp_path):
 def test_shipped_gains_serve_the_tests_plans(monkeypatch, tmp_path):
     """The LQR gains of the plans the tests and the quick start track ship
     too (the +-20 deg swings of examples/uphill_plan.toml, the 1.6 kg link 2,
-    both robots' tries from hanging on the flat line; the default robot's
+    both robots' tries from hanging on the flat line at 30 V and 48 V, the
+    48 V swapped robot's on the span's +2.6 deg chord; the default robot's
     other swings blend theirs from the plan libraries): with an empty cache
     they are read, never solved, and every shipped gains file belongs to a
     plan the tests track."""
@@ -599,6 +604,8 @@ def test_shipped_gains_serve_the_tests_plans(monkeypatch, tmp_path):
     cases += [retry_params(c) for c in cases[4:6]]   # the flat swings tried again
     cases += [retry_params(swing_params(base.with_hardware("48v"), g, 1.2, 0.0))
               for g in (1, 2)]   # planned within the 30 V envelope
+    cases.append(retry_params(swing_params(base.with_hardware("48v"), 2, 1.2,
+                                           math.radians(2.6))))   # the span's chord
     cases.append(load_toml(Path(__file__).resolve().parents[1] / "examples" / "acromonk.toml"))
     keys, blended = set(), 0
     for p in cases:

@@ -167,3 +167,55 @@ def test_the_plan_command_plans_a_swing_from_hanging_as_the_swing_does(monkeypat
     calls.clear()   # a line start: one solve on 41 knots, no rate limit, as before
     assert main(["plan", "--out", str(tmp_path / "l"), "--json"]) == 1
     assert [(c[0], c[1], c[3], c[5]) for c in calls] == [(41, 1.5, 0.0, limit)]
+
+
+def test_a_plan_from_hanging_that_heats_the_driver_gives_way_to_a_cooler_guess(monkeypatch,
+                                                                                tmp_path):
+    """With ``plan.hanging_i2t_share`` (the 48v option's 0.4) a feasible plan
+    from hanging whose torque alone uses more of the driver's i^2 t budget
+    gives way to the next guess; the least heating feasible plan is kept if
+    none keeps to it; without it (the 30 V robot) the first feasible guess
+    is the plan.  The heat is the driver's rule in closed form: a constant
+    current i for n driver ticks of dt gives n dt (i^2 - i_cont^2)."""
+    import numpy as np
+
+    from bplir_drake.diagrams import plan as P
+    from bplir_drake.systems.motor import interlock_budget
+
+    monkeypatch.setenv("BPLIR_CACHE_DIR", str(tmp_path / "cache"))
+    p48 = BplirParams().with_hardware("48v")
+    m = p48.motor
+    budget = interlock_budget(m)
+    assert p48.plan.hanging_i2t_share == 0.4 and BplirParams().plan.hanging_i2t_share == 0.0
+
+    def torque_heating(share, duration):   # the constant torque whose plan uses share
+        i2 = share * budget / (len(np.arange(0.0, duration + 1e-12, m.driver_period))
+                               * m.driver_period) + m.i_cont ** 2
+        return math.sqrt(i2) * m.torque_per_amp
+
+    heat = {}   # guess duration -> share of the budget its plan uses
+    calls = []
+
+    def solves(params, q0, qT, tau_max, power, tmax, knots, time_weight, guess_duration,
+               tolerance, iterations, progress=False, guess=None, minor_iterations=None,
+               rate_limit=0.0):
+        calls.append(guess_duration)
+        t = np.linspace(0.0, guess_duration, 50)
+        tau = np.full(50, torque_heating(heat[guess_duration], guess_duration))
+        return P.SwingPlan(t, np.zeros((50, 4)), tau, np.zeros((50, 2)), True, True, "stub",
+                           params.scenario.incline_deg, 20.0, 220.0, 1e-4, status="solved")
+
+    monkeypatch.setattr(P, "_solve_plan", solves)
+    hanging = dc.replace(p48.scenario, start="hanging")
+    heat.update({3.0: 0.45, 4.0: 0.2, 5.0: 0.1, 6.0: 0.1})
+    plan = P.hanging_plan(p48.with_(scenario=hanging))
+    assert calls == [3.0, 4.0] and plan.duration == pytest.approx(4.0)
+    assert P.planned_i2t(plan, m) == pytest.approx(0.2 * budget, rel=1e-9)
+    calls.clear()   # none keeps to 0.4: the least heating of the four
+    heat.update({3.0: 0.9, 4.0: 0.6, 5.0: 0.45, 6.0: 0.7})
+    plan = P.hanging_plan(p48.with_(scenario=dc.replace(hanging, incline_deg=1.0)))
+    assert calls == [3.0, 4.0, 5.0, 6.0] and plan.duration == pytest.approx(5.0)
+    calls.clear()   # the 30 V robot: the first feasible guess, however hot
+    p30 = BplirParams()
+    plan = P.hanging_plan(p30.with_(scenario=dc.replace(p30.scenario, start="hanging")))
+    assert calls == [3.0] and P.planned_i2t(plan, p30.motor) == pytest.approx(0.9 * budget)

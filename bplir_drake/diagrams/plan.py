@@ -45,6 +45,7 @@ from .open_loop import build_plant_with_friction
 from ..systems.plant import start_configuration
 from .plan_cache import cached
 from ..systems.friction import friction_torques
+from ..systems.motor import i2t_trace, interlock_budget
 from ..progress import progress_bar
 from ..systems.plan_tracker import RICCATI_ACCURACY, TrackerWeights, plan_gains
 from .plan_status import (  # noqa: F401 (re-exported)
@@ -316,20 +317,41 @@ def hanging_plan(params: BplirParams, *, power_limit: float | None = None,
     the knots, the torque within ``plan.hanging_torque_share`` of its limit
     and the voltage within the envelope of ``plan.hanging_supply``
     (:func:`hanging_planned`: a pump of several swings the tracker can
-    follow with headroom), no warm start.  When none is feasible:
-    ``ParameterError`` naming why, or with ``strict=False`` the last
-    guess's plan (``bplir plan`` reports it)."""
+    follow with headroom), no warm start.  With ``plan.hanging_i2t_share``
+    a feasible plan that by itself uses more of the driver's i^2 t budget
+    (:func:`planned_i2t`) gives way to the next guess, and the least
+    heating feasible plan is kept if none keeps to it.  When none is
+    feasible: ``ParameterError`` naming why, or with ``strict=False`` the
+    last guess's plan (``bplir plan`` reports it)."""
     params = hanging_planned(params)
+    share = params.plan.hanging_i2t_share
+    kept = None   # (i^2 t, plan) of the least heating feasible plan
     for guess in HANGING_GUESSES:
         plan = plan_swing(params, power_limit=power_limit, end_depth=params.plan.end_depth,
                           guess_duration=guess, knots=knots,
                           minor_iterations=HANGING_MINOR_ITERATIONS,
                           rate_limit=params.plan.hanging_rate_limit, progress=progress)
-        if plan.feasible:
+        if not plan.feasible:
+            continue
+        heat = planned_i2t(plan, params.motor)
+        if share <= 0.0 or heat <= share * interlock_budget(params.motor):
             return plan
+        if kept is None or heat < kept[0]:
+            kept = (heat, plan)
+    if kept is not None:
+        return kept[1]
     if strict:
         raise ParameterError(no_plan_message(plan))
     return plan
+
+
+def planned_i2t(plan: SwingPlan, motor) -> float:
+    """The most of the driver's i^2 t (A^2 s) the planned torque alone uses,
+    from a reset driver (:func:`~bplir_drake.systems.motor.i2t_trace` of the
+    plan's current on the driver's ticks)."""
+    t = np.arange(0.0, plan.duration + 1e-12, motor.driver_period)
+    current = np.abs(np.interp(t, plan.times, plan.torque)) / motor.torque_per_amp
+    return float(np.max(i2t_trace(0.0, current, motor)[0], initial=0.0))
 
 
 def hanging_planned(params: BplirParams) -> BplirParams:

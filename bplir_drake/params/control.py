@@ -31,9 +31,11 @@ LINE_SENSOR_OPTION = {"range": 0.2, "shoot_height": -0.018, "shoot_min_time": 0.
 #: from hanging planned within the 30 V envelope and 85 % of the torque limit
 #: (the 48 V envelope alone lets the plan flip the elbow at 23 rad/s, which the
 #: tracker cannot follow; on the slower plan the tracker has voltage and torque
-#: to spare)
+#: to spare), a plan that by itself uses at most 40 % of the driver's i^2 t
+#: budget where a guess gives one (the tracker's feedback heats the driver
+#: about as much again, and a shorter pump of 45 % trips it)
 SUPPLY_48V_OPTION = {"supply_voltage": 48.0, "hanging_supply": 30.0,
-                     "hanging_torque_share": 0.85}
+                     "hanging_torque_share": 0.85, "hanging_i2t_share": 0.4}
 
 
 #: named hardware options on top of a preset (:meth:`BplirParams.with_hardware`)

@@ -119,7 +119,8 @@ class BplirParams:
                 o = SUPPLY_48V_OPTION
                 p = replace(p, motor=replace(p.motor, supply_voltage=o["supply_voltage"]),
                             plan=replace(p.plan, hanging_supply=o["hanging_supply"],
-                                         hanging_torque_share=o["hanging_torque_share"]))
+                                         hanging_torque_share=o["hanging_torque_share"],
+                                         hanging_i2t_share=o["hanging_i2t_share"]))
             else:
                 raise ParameterError(f"unknown hardware option '{name}'; allowed: "
                                      + ", ".join(HARDWARE_OPTIONS))

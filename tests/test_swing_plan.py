@@ -219,3 +219,44 @@ def test_a_plan_from_hanging_that_heats_the_driver_gives_way_to_a_cooler_guess(m
     p30 = BplirParams()
     plan = P.hanging_plan(p30.with_(scenario=dc.replace(p30.scenario, start="hanging")))
     assert calls == [3.0] and P.planned_i2t(plan, p30.motor) == pytest.approx(0.9 * budget)
+
+
+def test_a_plan_from_hanging_no_guess_finds_starts_from_the_level_lines(monkeypatch, tmp_path):
+    """On an inclined line where none of the straight-line guesses is
+    feasible (SNOPT's iteration limit: the 48 V swapped robot's +13 deg
+    chord), the solver starts from the level line's plan from hanging,
+    its angles moved onto the inclined line's start and end
+    (:func:`warm_guess`); on a level line there is nothing to start from."""
+    import numpy as np
+
+    from bplir_drake.diagrams import plan as P
+
+    monkeypatch.setenv("BPLIR_CACHE_DIR", str(tmp_path / "cache"))
+    calls, level_fails = [], False
+
+    def solves(params, q0, qT, tau_max, power, tmax, knots, time_weight, guess_duration,
+               tolerance, iterations, progress=False, guess=None, minor_iterations=None,
+               rate_limit=0.0):
+        inc = params.scenario.incline_deg
+        calls.append((inc, guess_duration if guess is None else "warm"))
+        ok = (inc == 0.0 and guess_duration == 4.0 and not level_fails) or guess is not None
+        t = np.linspace(0.0, 4.5, 30) if guess is None else guess[0]
+        states = np.tile(np.r_[q0, 0.0, 0.0], (len(t), 1)) if guess is None else guess[1]
+        if guess is not None:
+            assert np.allclose(guess[1][0, :2], q0) and np.allclose(guess[1][-1, :2], qT)
+        return P.SwingPlan(t, states, np.zeros(len(t)), np.zeros((len(t), 2)), ok, ok, "stub",
+                           inc, 20.0, 220.0, 1e-4, status="solved" if ok else "iteration limit")
+
+    monkeypatch.setattr(P, "_solve_plan", solves)
+    p = BplirParams().with_hardware("48v")
+    up = p.with_(scenario=dc.replace(p.scenario, start="hanging", incline_deg=13.0))
+    plan = P.hanging_plan(up)
+    assert plan.feasible and plan.incline_deg == 13.0
+    assert calls == [(13.0, 3.0), (13.0, 4.0), (13.0, 5.0), (13.0, 6.0),
+                     (0.0, 3.0), (0.0, 4.0), (13.0, "warm")]
+    calls.clear()   # a level line with no feasible guess: no plan, nothing to start from
+    level_fails = True
+    with pytest.raises(P.ParameterError, match="no plan found"):
+        P.hanging_plan(p.with_(scenario=dc.replace(p.scenario, start="hanging",
+                                                   grip_spacing=1.1)))
+    assert calls == [(0.0, 3.0), (0.0, 4.0), (0.0, 5.0), (0.0, 6.0)]

@@ -320,9 +320,13 @@ def hanging_plan(params: BplirParams, *, power_limit: float | None = None,
     follow with headroom), no warm start.  With ``plan.hanging_i2t_share``
     a feasible plan that by itself uses more of the driver's i^2 t budget
     (:func:`planned_i2t`) gives way to the next guess, and the least
-    heating feasible plan is kept if none keeps to it.  When none is
-    feasible: ``ParameterError`` naming why, or with ``strict=False`` the
-    last guess's plan (``bplir plan`` reports it)."""
+    heating feasible plan is kept if none keeps to it.  Where no guess is
+    feasible on an inclined line, the solver starts from the level line's
+    plan from hanging instead (SNOPT's straight-line guesses stop at its
+    iteration limit there; at 48 V on a +13 deg chord it found one in
+    about 90 s).  When none is feasible: ``ParameterError`` naming why, or
+    with ``strict=False`` the last guess's plan (``bplir plan`` reports
+    it)."""
     params = hanging_planned(params)
     share = params.plan.hanging_i2t_share
     kept = None   # (i^2 t, plan) of the least heating feasible plan
@@ -340,9 +344,29 @@ def hanging_plan(params: BplirParams, *, power_limit: float | None = None,
             kept = (heat, plan)
     if kept is not None:
         return kept[1]
+    warm = _warm_from_level(params, power_limit, knots, progress)
+    if warm is not None:
+        return warm
     if strict:
         raise ParameterError(no_plan_message(plan))
     return plan
+
+
+def _warm_from_level(params: BplirParams, power_limit, knots: int, progress: bool):
+    """The plan from hanging on an inclined line started from the level
+    line's (:func:`warm_guess`), when the straight-line guesses found none;
+    None where that fails too, or the line is level."""
+    sc = params.scenario
+    if sc.incline_deg == 0.0:
+        return None
+    level = hanging_plan(params.with_(scenario=replace(sc, incline_deg=0.0)), knots=knots,
+                         power_limit=power_limit, strict=False)
+    if not level.feasible:
+        return None
+    plan = plan_swing(params, power_limit=power_limit, end_depth=params.plan.end_depth,
+                      initial=level, knots=knots, minor_iterations=HANGING_MINOR_ITERATIONS,
+                      rate_limit=params.plan.hanging_rate_limit, progress=progress)
+    return plan if plan.feasible else None
 
 
 def planned_i2t(plan: SwingPlan, motor) -> float:

@@ -169,13 +169,13 @@ def test_the_plan_command_plans_a_swing_from_hanging_as_the_swing_does(monkeypat
     assert [(c[0], c[1], c[3], c[5]) for c in calls] == [(41, 1.5, 0.0, limit)]
 
 
-def test_a_plan_from_hanging_that_heats_the_driver_gives_way_to_a_cooler_guess(monkeypatch,
-                                                                                tmp_path):
+def test_a_plan_from_hanging_that_heats_the_driver_gives_way_to_a_cooler_guess(
+        monkeypatch, tmp_path, capsys):
     """With ``plan.hanging_i2t_share`` (the 48v option's 0.4) a feasible plan
     from hanging whose torque alone uses more of the driver's i^2 t budget
     gives way to the next guess; the least heating feasible plan is kept if
     none keeps to it; without it (the 30 V robot) the first feasible guess
-    is the plan.  The heat is the driver's rule in closed form: a constant
+    is the plan.  ``bplir plan`` reports the kept plan's share.  The heat is the driver's rule in closed form: a constant
     current i for n driver ticks of dt gives n dt (i^2 - i_cont^2)."""
     import numpy as np
 
@@ -211,6 +211,10 @@ def test_a_plan_from_hanging_that_heats_the_driver_gives_way_to_a_cooler_guess(m
     plan = P.hanging_plan(p48.with_(scenario=hanging))
     assert calls == [3.0, 4.0] and plan.duration == pytest.approx(4.0)
     assert P.planned_i2t(plan, m) == pytest.approx(0.2 * budget, rel=1e-9)
+    # `bplir plan` reports the kept plan and its share of the budget
+    assert main(["plan", "--hardware", "48v", "--set", "scenario.start=hanging", "--json",
+                 "--out", str(tmp_path / "plan")]) == 0
+    assert json.loads(capsys.readouterr().out)["i2t_share"] == pytest.approx(0.2, rel=1e-9)
     calls.clear()   # none keeps to 0.4: the least heating of the four
     heat.update({3.0: 0.9, 4.0: 0.6, 5.0: 0.45, 6.0: 0.7})
     plan = P.hanging_plan(p48.with_(scenario=dc.replace(hanging, incline_deg=1.0)))

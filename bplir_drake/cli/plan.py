@@ -13,7 +13,8 @@ def cmd_plan(args) -> int:
 
     import numpy as np
 
-    from ..diagrams.plan import hanging_plan, plan_swing, plot_plan
+    from ..diagrams.plan import hanging_plan, plan_swing, planned_i2t, plot_plan
+    from ..systems.motor import interlock_budget
 
     params = _load_params(args)
     if args.incline is not None:
@@ -27,7 +28,8 @@ def cmd_plan(args) -> int:
     else:
         plan = plan_swing(params, power_limit=args.power, progress=_progress(args), **given)
     figure = _save(args, plot_plan(plan, params), out / "plan.png")
-    summary = plan.summary() | {"figure": str(figure)}
+    heat = planned_i2t(plan, params.motor) / interlock_budget(params.motor)
+    summary = plan.summary() | {"i2t_share": heat, "figure": str(figure)}
     _write_json(out / "plan.json", summary)
     with atomic_path(out / "plan.csv") as tmp:
         np.savetxt(tmp, np.c_[plan.times, plan.states, plan.torque],
@@ -43,6 +45,8 @@ def cmd_plan(args) -> int:
         f"peak power {plan.peak_power:.0f} W (limit {plan.power_limit:g} W)",
         f"  motor work {plan.energy_in:.1f} J, friction loss {plan.dissipated:.1f} J, "
         f"link 1 reverses {plan.link1_reversals}x",
+        f"  the planned torque alone uses {100 * heat:.0f} % of the driver's i^2 t budget "
+        "(from a reset driver)",
         f"  wrote {out}/plan.png, plan.csv, plan.json"])
     return 0 if plan.feasible else 1
 

@@ -189,8 +189,8 @@ def test_a_plan_from_hanging_that_heats_the_driver_gives_way_to_a_cooler_guess(
     assert p48.plan.hanging_i2t_share == 0.4 and BplirParams().plan.hanging_i2t_share == 0.0
 
     def torque_heating(share, duration):   # the constant torque whose plan uses share
-        i2 = share * budget / (len(np.arange(0.0, duration + 1e-12, m.driver_period))
-                               * m.driver_period) + m.i_cont ** 2
+        ticks = int(duration / m.driver_period) + 1   # the driver's ticks from 0
+        i2 = share * budget / (ticks * m.driver_period) + m.i_cont ** 2
         return math.sqrt(i2) * m.torque_per_amp
 
     heat = {}   # guess duration -> share of the budget its plan uses

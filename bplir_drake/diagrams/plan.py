@@ -372,9 +372,8 @@ def _warm_from_level(params: BplirParams, power_limit, knots: int, progress: boo
 def planned_i2t(plan: SwingPlan, motor) -> float:
     """The most of the driver's i^2 t (A^2 s) the planned torque alone uses,
     from a reset driver (:func:`~bplir_drake.systems.motor.i2t_trace` of the
-    plan's current on the driver's ticks)."""
-    t = np.arange(0.0, plan.duration + 1e-12, motor.driver_period)
-    current = np.abs(np.interp(t, plan.times, plan.torque)) / motor.torque_per_amp
+    plan's current on the driver's ticks, :meth:`SwingPlan.torque_on_ticks`)."""
+    current = np.abs(plan.torque_on_ticks(motor.driver_period)[1]) / motor.torque_per_amp
     return float(np.max(i2t_trace(0.0, current, motor)[0], initial=0.0))
 
 

@@ -98,6 +98,12 @@ class SwingPlan(Result):
         samples (the collocation's own value up to the quadrature)."""
         return float(np.trapezoid(self.torque ** 2, self.times)) + time_weight * self.duration
 
+    def torque_on_ticks(self, period: float) -> tuple[np.ndarray, np.ndarray]:
+        """(times s, planned torque N m) every ``period`` from the start, as
+        a driver of that period sees the plan."""
+        t = np.arange(int(self.duration / period) + 1) * period
+        return t, np.interp(t, self.times, self.torque)
+
     def plot(self, axes=None, *, params: BplirParams):
         """Angles, torque and power, and the robot on the line drawn with the
         nominal links and grip spacing of ``params`` (three axes)."""

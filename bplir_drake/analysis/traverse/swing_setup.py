@@ -91,8 +91,7 @@ def budgeted_currents(plan, p: BplirParams) -> np.ndarray:
     ticks."""
 
     motor, landing = p.motor, p.landing
-    t = np.arange(int(plan.duration / motor.driver_period) + 1) * motor.driver_period
-    tq = np.interp(t, plan.times, plan.torque)
+    t, tq = plan.torque_on_ticks(motor.driver_period)
     probe = planned_probe(p.path, p.plan, p.controller)   # on the plan tracker's first ticks
     ticks = np.floor(t / p.controller.period + 1e-9).astype(int)
     tq = tq + np.array([probe[k] if k < len(probe) else 0.0 for k in ticks])

@@ -277,6 +277,44 @@ def test_the_shooting_landing_gives_up_rather_than_chase_the_line():
     assert not law.gives_up(rising) and law.torque(rising) == chase.torque(rising)
 
 
+def test_a_shot_far_out_of_the_motors_reach_brakes_the_elbow():
+    """With ``shoot_brake_ratio`` (the 48v option's 1.6) a shot asking for
+    more than that multiple of the torque the motor gives brakes the elbow:
+    the returned torque gives the elbow an acceleration of ``-landing_rate_gain
+    * q2'`` on the robot's dynamics (Drake's plant, friction off), link 1
+    passive.  The state is the -20 deg swing's where the held shot asks for
+    over 900 N m; a shot within the ratio is left as it was."""
+    from bplir_drake.params import FrictionParams
+    from bplir_drake.systems import plant as K
+    from bplir_drake.systems.plan_tracker import ApexShot
+
+    p = preset()
+    assert preset().with_hardware("48v").landing.shoot_brake_ratio == 1.6
+    assert p.landing.shoot_brake_ratio == 0.0
+    fr = FrictionParams(enabled=False)
+    path = dc.replace(p.landing, landing_law="shoot", shoot_min_time=0.04,
+                      shoot_height=-0.018, shoot_min_rate=0.1, shoot_hold_depth=1.0)
+    x = [-0.010, 1.737, 0.06, 2.59]
+    alpha = math.radians(-20)
+    free = ApexShot.from_params(p.plant, fr, alpha, path)
+    brake = ApexShot.from_params(p.plant, fr, alpha, dc.replace(path, shoot_brake_ratio=1.6))
+    window = (-19.9, 19.9)
+    assert free.torque(x) > 900.0 and free.torque(x, window) == free.torque(x)
+    u = brake.torque(x, window)
+    pl = K.make_plant(p.plant)
+    M, Cv, g = K.drake_manipulator_terms(pl, pl.CreateDefaultContext(), x[:2], x[2:])
+    qdd = np.linalg.solve(M, np.array([0.0, u]) - Cv - g)
+    assert qdd[1] == pytest.approx(-p.landing.landing_rate_gain * x[3], rel=1e-9)
+    assert abs(u) < 0.1 * free.torque(x)
+    # a shot within 1.6 times the window is the shot
+    near = [0.319, 1.996, 0.05, 0.34]
+    flat, flat_brake = (ApexShot.from_params(p.plant, fr, 0.0, dc.replace(path, shoot_hold_depth=0.03,
+                                                                          shoot_brake_ratio=r))
+                        for r in (0.0, 1.6))
+    assert abs(flat.torque(near)) < 1.6 * 19.9
+    assert flat_brake.torque(near, window) == flat.torque(near)
+
+
 @pytest.mark.parametrize("incline, share, hold, aim, default", [
     (0.0, 0.79, 0.03, -0.018, "shoot"), (20.0, 1.29, 0.03, -0.018, "shoot"),
     (-20.0, 0.14, 0.05, -0.019, "aim")])

@@ -214,3 +214,56 @@ def test_the_48v_try_from_hanging_keeps_the_driver_cool_on_the_span_chord():
     s = SwingRunner().run(p, seed=0).summary
     assert s["outcome"] == "captured" and s["capture_speed_mps"] < 0.5
     assert s["i2t_end_A2s"] < 0.25 * budget
+
+
+def test_a_try_that_missed_in_the_robots_own_estimate_aims_higher_next():
+    """A try that timed out although the robot's estimate put the gripper
+    within the capture band tells the robot its estimate ran above the
+    truth: the next try aims ``traverse.retry_aim_raise`` higher (landing
+    bias, at most 2 cm).  A miss that the estimate saw too, or a capture,
+    changes nothing."""
+    p = BplirParams()
+    raise_ = p.traverse.retry_aim_raise
+    band = p.scenario.capture_distance
+    assert 0.0 < raise_ <= 0.01 and p.landing.landing_bias == 0.0
+    missed = {"outcome": "timeout", "estimated_peak_height_m": -0.75 * band}
+    once = retry_params(p, missed)
+    assert once.landing.landing_bias == pytest.approx(raise_)
+    assert retry_params(once, missed).landing.landing_bias == pytest.approx(min(0.02, 2 * raise_))
+    assert retry_params(p, {"outcome": "timeout",
+                            "estimated_peak_height_m": -1.5 * band}).landing.landing_bias == 0.0
+    assert retry_params(p, {"outcome": "fault", "estimated_peak_height_m": 0.0}
+                        ).landing.landing_bias == 0.0
+    high = p.with_(landing=dc.replace(p.landing, landing_bias=0.018))
+    assert retry_params(high, missed).landing.landing_bias == 0.02
+    off = p.with_(traverse=dc.replace(p.traverse, retry_aim_raise=0.0))
+    assert retry_params(off, missed).landing.landing_bias == 0.0
+
+
+def test_a_near_miss_from_hanging_lands_when_the_try_after_it_aims_higher():
+    """Draw 28 of the realistic traversal study (tuning root seed 777), 48 V,
+    the swapped robot's try from hanging on examples/line_span.toml's +2.6
+    deg chord: it stops 21 mm below the line (the band is 20 mm) while its
+    estimate put the gripper 16 mm below, and times out.  Tried again
+    aiming ``traverse.retry_aim_raise`` (5 mm) higher it lands below the
+    crash speed (measured 0.30 m/s)."""
+    import math
+
+    from bplir_drake.analysis.montecarlo.sampling import sample_params
+    from bplir_drake.analysis.montecarlo.study import load_study
+    from bplir_drake.analysis.swing.run import SwingRunner
+    from bplir_drake.analysis.traverse.run import swing_params
+
+    study = load_study(LINE.parent / "study_traverse.toml").with_(seed=777)
+    study = dc.replace(study, params=study.params.with_hardware("48v"))
+    p, seed, _ = sample_params(study, 28)
+    first = retry_params(swing_params(p, 2, 1.2, math.radians(2.6)))
+    runner = SwingRunner()
+    s = runner.run(first, seed=seed).summary
+    band = first.scenario.capture_distance
+    assert s["outcome"] == "timeout" and s["closest_distance_m"] > band
+    assert -band < s["estimated_peak_height_m"] < -0.5 * band
+    again = retry_params(first, s)
+    assert again.landing.landing_bias == pytest.approx(0.005)
+    s2 = runner.run(again, seed=seed).summary
+    assert s2["outcome"] == "captured" and 0.2 < s2["capture_speed_mps"] < 0.4

@@ -107,7 +107,7 @@ class BplirParams:
         ``"line-sensor"`` (the jaw's line range sensor and the landing's aim
         with it, :data:`LINE_SENSOR_OPTION`), ``"48v"`` (a 48 V supply and
         its swings from hanging planned within the 30 V envelope and 85 % of the torque
-        limit, :data:`SUPPLY_48V_OPTION`)."""
+        limit, its landing shot braking where far out of reach, :data:`SUPPLY_48V_OPTION`)."""
         p = self
         for name in names:
             if name == "line-sensor":
@@ -120,7 +120,8 @@ class BplirParams:
                 p = replace(p, motor=replace(p.motor, supply_voltage=o["supply_voltage"]),
                             plan=replace(p.plan, hanging_supply=o["hanging_supply"],
                                          hanging_torque_share=o["hanging_torque_share"],
-                                         hanging_i2t_share=o["hanging_i2t_share"]))
+                                         hanging_i2t_share=o["hanging_i2t_share"]),
+                            landing=replace(p.landing, shoot_brake_ratio=o["shoot_brake_ratio"]))
             else:
                 raise ParameterError(f"unknown hardware option '{name}'; allowed: "
                                      + ", ".join(HARDWARE_OPTIONS))

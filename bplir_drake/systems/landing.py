@@ -165,6 +165,7 @@ class ApexShot:
     min_rate: float
     hold_depth: float = 0.03
     give_up_rate: float = 0.0
+    brake_ratio: float = 0.0
     steps: int = 12
 
     @classmethod
@@ -175,7 +176,8 @@ class ApexShot:
         height = min(0.0, landing.shoot_height + landing.landing_bias)
         return cls(Landing.from_params(plant, alpha, landing), friction, height,
                    landing.shoot_depth, landing.shoot_min_time, landing.shoot_min_rate,
-                   landing.shoot_hold_depth, landing.shoot_give_up_rate)
+                   landing.shoot_hold_depth, landing.shoot_give_up_rate,
+                   landing.shoot_brake_ratio)
 
     def takes_over(self, x) -> bool:
         """Whether the law takes over (asked in the plan's last forward
@@ -319,19 +321,30 @@ class ApexShot:
         return (self.give_up_rate > 0.0 and x[2] < -self.give_up_rate
                 and self.landing.height(x) < self.height)
 
-    def torque(self, x) -> float:
+    def torque(self, x, window=None) -> float:
         """The elbow torque at the relative state ``x``: the computed torque
         of the solved elbow acceleration (the landing's where none; the
-        elbow braked to rest once the shot :meth:`gives_up`)."""
+        elbow braked to rest once the shot :meth:`gives_up`).  ``window``
+        (lowest, highest torque the motor gives now, N m): with
+        ``brake_ratio`` set, a shot asking for more than ``brake_ratio``
+        times it brakes the elbow instead -- a shot that far out of reach
+        only flings the elbow into the line (link 1 stopped short of the
+        plan), and a slower elbow arrives gentler or swings back to try
+        again."""
         x = [float(v) for v in x]
-        c, (q1, q2, v1, v2) = self._model(), x
         if self.gives_up(x):
-            a2 = -self.landing.rate_gain * v2
-        else:
-            sol = self.solve(x)
-            if sol is None:
-                return self.landing.torque(x)
-            a2 = sol[0]
+            return self._computed(x, -self.landing.rate_gain * x[3])
+        sol = self.solve(x)
+        u = self.landing.torque(x) if sol is None else self._computed(x, sol[0])
+        if window is not None and self.brake_ratio > 0.0 and not (
+                self.brake_ratio * window[0] <= u <= self.brake_ratio * window[1]):
+            return self._computed(x, -self.landing.rate_gain * x[3])
+        return u
+
+    def _computed(self, x, a2: float) -> float:
+        """The elbow torque that gives the elbow acceleration ``a2`` at ``x``
+        (link 1 passive; nominal model and friction)."""
+        c, (q1, q2, v1, v2) = self._model(), x
         a1 = self._link1_accel(c, q1, q2, v1, v2, a2)
         m12 = c["a"] + c["k12"] * np.cos(q2 + c["d2"])
         return float(m12 * a1 + c["a"] * a2 + c["k12"] * np.sin(q2 + c["d2"]) * v1 * v1

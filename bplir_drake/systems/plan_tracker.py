@@ -177,12 +177,14 @@ class PlanTracker(LeafSystem):
         """(torque, planned q2) at time ``t`` (held at the plan's end after it)."""
         t = min(max(t, 0.0), self.t_end)
         x0 = self.x0.value(t).ravel()
-        if reach:
+        lo, hi = self.window(x)
+        if reach and isinstance(self.reach, ApexShot):
+            u = self.reach.torque(np.asarray(x, dtype=float), window=(lo, hi))
+        elif reach:
             u = self.reach.torque(np.asarray(x, dtype=float))
         else:
             u = self.u0.value(t)[0, 0] - (self.K.value(t) @ (np.asarray(x) - x0))[0] \
                 - self.k0.value(t)[0, 0]
-        lo, hi = self.window(x)
         return float(min(max(u, lo), hi)), float(x0[1])
 
     def window(self, x) -> tuple[float, float]:

@@ -211,6 +211,22 @@ def arrival_height_error(p: BplirParams, est: Log, status: dict) -> float:
     return float(h + rate * (t - est.t[k]) + p.scenario.capture_distance)
 
 
+def estimated_peak_height(p: BplirParams, est: Log) -> float:
+    """The highest the robot's estimate put the gripper (m, negative below
+    the line) ahead of the holding gripper (nominal model; nan without an
+    estimate there).  On a swing that timed out it tells the robot whether
+    it believed the gripper had come within the capture band: the jaw
+    would have sensed the line there, so the estimate ran above the truth."""
+    if not len(est.t):
+        return math.nan
+    q1, q2 = est.data[:, 0], est.data[:, 1]
+    a, pl = math.radians(p.scenario.incline_deg), p.plant
+    s = q1 - a
+    h = -pl.l1 * np.cos(s) - pl.l2 * np.cos(s + q2)
+    ahead = pl.l1 * np.sin(s) + pl.l2 * np.sin(s + q2) > 0.0
+    return float(h[ahead].max()) if ahead.any() else math.nan
+
+
 def motor_summary(p: BplirParams, lg: dict[str, Log]) -> dict:
     """The motor's voltage and electrical energy over a swing (from its
     logs): the peak winding voltage, the driver's largest output, the time
@@ -270,6 +286,7 @@ def swing_summary(p: BplirParams, lg: dict[str, Log], status: dict, seed: int,
         # line is capture_distance from the gripper then, so the estimated
         # height's error is the estimate's distance less that (nominal model)
         "landing_height_error_m": arrival_height_error(p, est, status),
+        "estimated_peak_height_m": estimated_peak_height(p, est),
         "fixed_gripper_open": status["fixed_gripper_open"],
         "peak_torque_Nm": float(np.abs(tau).max()),
         "peak_motor_power_W": float(np.abs(power).max()),

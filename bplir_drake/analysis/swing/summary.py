@@ -39,6 +39,8 @@ class SwingSummary(Mapping):
     landing_error_m: float = _f("m", "arrival along the line less the planned grip (2 D)")
     landing_height_error_m: float = _f("m", "the robot's own estimate of the gripper's height "
                                             "at arrival less the truth")
+    estimated_peak_height_m: float = _f("m", "the highest the robot's estimate put the gripper "
+                                             "ahead of the holding gripper (negative: below the line)")
     fixed_gripper_open: bool = _f("", "the holding gripper was released", False)
     peak_torque_Nm: float = _f("N m", "largest elbow torque applied")
     peak_motor_power_W: float = _f("W", "largest mechanical elbow power")

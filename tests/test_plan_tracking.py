@@ -278,7 +278,8 @@ def test_the_shooting_landing_gives_up_rather_than_chase_the_line():
 
 
 def test_a_shot_far_out_of_the_motors_reach_brakes_the_elbow():
-    """With ``shoot_brake_ratio`` (the 48v option's 1.6) a shot asking for
+    """With ``shoot_brake_ratio`` (the 48v option's 1.6 in a traversal's
+    swings, ``traverse.shoot_brake_ratio``) a shot asking for
     more than that multiple of the torque the motor gives brakes the elbow:
     the returned torque gives the elbow an acceleration of ``-landing_rate_gain
     * q2'`` on the robot's dynamics (Drake's plant, friction off), link 1
@@ -288,9 +289,13 @@ def test_a_shot_far_out_of_the_motors_reach_brakes_the_elbow():
     from bplir_drake.systems import plant as K
     from bplir_drake.systems.plan_tracker import ApexShot
 
+    from bplir_drake.analysis.traverse.run import swing_params
+
     p = preset()
-    assert preset().with_hardware("48v").landing.shoot_brake_ratio == 1.6
-    assert p.landing.shoot_brake_ratio == 0.0
+    p48 = preset().with_hardware("48v")
+    assert p48.traverse.shoot_brake_ratio == 1.6 and p48.landing.shoot_brake_ratio == 0.0
+    assert swing_params(p48, 2, 1.2, 0.0).landing.shoot_brake_ratio == 1.6
+    assert swing_params(p, 2, 1.2, 0.0).landing.shoot_brake_ratio == 0.0
     fr = FrictionParams(enabled=False)
     path = dc.replace(p.landing, landing_law="shoot", shoot_min_time=0.04,
                       shoot_height=-0.018, shoot_min_rate=0.1, shoot_hold_depth=1.0)

@@ -107,7 +107,8 @@ class BplirParams:
         ``"line-sensor"`` (the jaw's line range sensor and the landing's aim
         with it, :data:`LINE_SENSOR_OPTION`), ``"48v"`` (a 48 V supply and
         its swings from hanging planned within the 30 V envelope and 85 % of the torque
-        limit, its landing shot braking where far out of reach, :data:`SUPPLY_48V_OPTION`)."""
+        limit, a traversal's landing shot braking where far out of reach,
+        :data:`SUPPLY_48V_OPTION`)."""
         p = self
         for name in names:
             if name == "line-sensor":
@@ -121,7 +122,7 @@ class BplirParams:
                             plan=replace(p.plan, hanging_supply=o["hanging_supply"],
                                          hanging_torque_share=o["hanging_torque_share"],
                                          hanging_i2t_share=o["hanging_i2t_share"]),
-                            landing=replace(p.landing, shoot_brake_ratio=o["shoot_brake_ratio"]))
+                            traverse=replace(p.traverse, shoot_brake_ratio=o["shoot_brake_ratio"]))
             else:
                 raise ParameterError(f"unknown hardware option '{name}'; allowed: "
                                      + ", ".join(HARDWARE_OPTIONS))

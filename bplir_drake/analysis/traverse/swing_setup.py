@@ -35,7 +35,8 @@ def swing_params(params: BplirParams, holding: int, spacing: float,
     ``traverse.swapped_shoot_height`` and held from
     ``traverse.swapped_shoot_min_time``, its filter's covariance inflation
     ``traverse.swapped_inflate_nis``, its line sensor's range at most
-    ``traverse.swapped_line_range``)."""
+    ``traverse.swapped_line_range``); its landing shot brakes at
+    ``traverse.shoot_brake_ratio`` where that is set."""
     p = params if holding == 1 else swapped(params)
     sc = dc.replace(p.scenario, grip_spacing=round(float(spacing), 3),
                     incline_deg=round(math.degrees(incline), 1))
@@ -49,6 +50,8 @@ def swing_params(params: BplirParams, holding: int, spacing: float,
         path = dc.replace(p.path, mode="plan")
         plan = dc.replace(p.plan, end_depth=tp.plan_end_depth)
         landing = dc.replace(p.landing, reach_speed=0.0)
+        if tp.shoot_brake_ratio > 0.0:
+            landing = dc.replace(landing, shoot_brake_ratio=tp.shoot_brake_ratio)
         if not tp.landing:   # plan tracking alone, as traversals were first built
             landing = dc.replace(landing, landing_lead=0.0)
             plan = dc.replace(plan, delay_compensation=0.0, delay_probe=0.0)

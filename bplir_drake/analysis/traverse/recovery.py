@@ -80,17 +80,20 @@ def damp(params: BplirParams, x0) -> Damping:
 def retry_params(p: BplirParams, summary: dict | None = None) -> BplirParams:
     """The swing of ``p`` tried again: from hanging at rest below the
     holding gripper, with ``traverse.retry_max_time`` to arrive.  When the
-    try that timed out (its swing ``summary``) had the robot's estimate put
-    the gripper within the capture band, the estimate ran above the truth
-    there (the jaw would have sensed the line): the new try aims
+    try that timed out (its swing ``summary``) was itself from hanging and
+    had the robot's estimate put the gripper within the capture band, the
+    estimate ran above the truth there (the jaw would have sensed the
+    line), and it runs so again on the same manoeuvre: the new try aims
     ``traverse.retry_aim_raise`` higher (``landing.landing_bias``, at most
-    2 cm; the aim itself never above the line)."""
+    2 cm; the aim itself never above the line).  A swing from the line
+    ends its pump-less reach differently and teaches nothing here."""
     tp = p.traverse
+    from_hanging = p.scenario.start == "hanging"
     sc = dc.replace(p.scenario, start="hanging", max_time=tp.retry_max_time)
     p = p.with_(scenario=sc)
     peak = math.nan if summary is None else summary.get("estimated_peak_height_m", math.nan)
-    if tp.retry_aim_raise > 0.0 and summary is not None and summary.get("outcome") == "timeout" \
-            and peak >= -p.scenario.capture_distance:
+    if tp.retry_aim_raise > 0.0 and from_hanging and summary is not None \
+            and summary.get("outcome") == "timeout" and peak >= -p.scenario.capture_distance:
         bias = min(0.02, p.landing.landing_bias + tp.retry_aim_raise)
         p = p.with_(landing=dc.replace(p.landing, landing_bias=bias))
     return p

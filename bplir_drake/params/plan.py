@@ -10,6 +10,8 @@ import warnings
 PLAN_INDEXING = ("time", "state")
 PLAN_FILE_ANGLES = ("package", "robot")
 LANDING_LAWS = ("aim", "shoot", "auto")
+#: the most a landing's aim is raised or lowered (``landing.landing_bias``, m)
+MAX_LANDING_BIAS = 0.02
 
 
 @dataclass(frozen=True)
@@ -83,7 +85,7 @@ class LandingParams(_Block):
     landing_rate_gain: float = _positive(30.0, "1/s", doc="the landing's rate error to acceleration gain")
     landing_min_decel: float = _positive(1.0, "rad/s^2", doc="link 1 counts as decelerating above this (nominal model, elbow held)")
     landing_law: str = field(default="auto", metadata=dict(doc="plan tracking's terminal law: auto (shoot where link 1 carries the gripper to the line, aim where the elbow lifts it), shoot, aim", allowed="auto, shoot, aim"))
-    landing_bias: float = _p(0.0, "m", -0.02, 0.02, doc="how far the robot's estimate of the gripper's height ran above the truth at earlier landings; both landing laws aim this much higher")
+    landing_bias: float = _p(0.0, "m", -MAX_LANDING_BIAS, MAX_LANDING_BIAS, doc="how far the robot's estimate of the gripper's height ran above the truth at earlier landings; both landing laws aim this much higher")
     shoot_height: float = _p(-0.015, "m", -0.02, 0, doc="landing_law 'shoot': the gripper's aimed distance to the line when link 1 stops (negative: inside the capture band)")
     shoot_depth: float = _p(0.3, "m", 0, 1, doc="landing_law 'shoot': it takes over once the gripper is this close to the line in the plan's last forward swing of link 1")
     shoot_min_time: float = _p(0.04, "s", 0.02, 0.5, doc="landing_law 'shoot': with less time to link 1's stop, or link 1 slower than shoot_min_rate, the stop time is held at this")

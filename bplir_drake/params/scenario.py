@@ -95,7 +95,7 @@ class TraverseParams(_Block):
     max_incline_deg: float = _p(25.0, "deg", 0, 60, doc="steepest line incline accepted in a line file")
     retries: int = _count(2, "", 0, 5, doc="swings tried again after a timeout, each from hanging at rest (0: a timeout ends the traversal)")
     shoot_brake_ratio: float = _p(0.0, "", 0, 10, doc="landing.shoot_brake_ratio of the traversal's swings, where a timed-out swing is tried again and a crash ends the run (0: the landing's own)")
-    retry_aim_raise: float = _p(0.005, "m", 0, 0.02, doc="a swing tried again after a timeout in which the robot's estimate put the gripper within the capture band aims this much higher (the estimate ran above the truth)")
+    retry_aim_raise: float = _p(0.005, "m", 0, 0.02, doc="after a try from hanging that timed out with the robot's estimate of the gripper within the capture band (the estimate ran above the truth), the next try aims this much higher")
     retry_max_time: float = _p(6.0, "s", 1, 60, doc="scenario.max_time of a swing tried again from hanging (it pumps before it reaches)")
     recover_limit: float = _p(240.0, "s", 1, 3600, doc="longest the robot damps its swing after a timeout before it gives up")
     recover_energy: float = _p(0.05, "J", 0, 10, lo_open=True, doc="the swing counts as damped when its energy above hanging at rest is below this")

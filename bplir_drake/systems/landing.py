@@ -333,13 +333,18 @@ class ApexShot:
         again."""
         x = [float(v) for v in x]
         if self.gives_up(x):
-            return self._computed(x, -self.landing.rate_gain * x[3])
+            return self._braked(x)
         sol = self.solve(x)
         u = self.landing.torque(x) if sol is None else self._computed(x, sol[0])
         if window is not None and self.brake_ratio > 0.0 and not (
                 self.brake_ratio * window[0] <= u <= self.brake_ratio * window[1]):
-            return self._computed(x, -self.landing.rate_gain * x[3])
+            return self._braked(x)
         return u
+
+    def _braked(self, x) -> float:
+        """The torque that brakes the elbow towards rest
+        (``-landing.rate_gain * q2'``)."""
+        return self._computed(x, -self.landing.rate_gain * x[3])
 
     def _computed(self, x, a2: float) -> float:
         """The elbow torque that gives the elbow acceleration ``a2`` at ``x``

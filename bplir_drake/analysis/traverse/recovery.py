@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...params import BplirParams, ParameterError
+from ...params.plan import MAX_LANDING_BIAS
 from ...diagrams.plan import scenario_plan
 from ...simulate import make_simulator, run
 from ...systems.plant import kinetic_energy, potential_energy
@@ -87,14 +88,14 @@ def retry_params(p: BplirParams, summary: dict | None = None) -> BplirParams:
     ``traverse.retry_aim_raise`` higher (``landing.landing_bias``, at most
     2 cm; the aim itself never above the line).  A swing from the line
     ends its pump-less reach differently and teaches nothing here."""
-    tp = p.traverse
+    tp, missed = p.traverse, summary or {}
     from_hanging = p.scenario.start == "hanging"
     sc = dc.replace(p.scenario, start="hanging", max_time=tp.retry_max_time)
     p = p.with_(scenario=sc)
-    peak = math.nan if summary is None else summary.get("estimated_peak_height_m", math.nan)
-    if tp.retry_aim_raise > 0.0 and from_hanging and summary is not None \
-            and summary.get("outcome") == "timeout" and peak >= -p.scenario.capture_distance:
-        bias = min(0.02, p.landing.landing_bias + tp.retry_aim_raise)
+    peak = missed.get("estimated_peak_height_m", math.nan)
+    if tp.retry_aim_raise > 0.0 and from_hanging and missed.get("outcome") == "timeout" \
+            and peak >= -p.scenario.capture_distance:
+        bias = min(MAX_LANDING_BIAS, p.landing.landing_bias + tp.retry_aim_raise)
         p = p.with_(landing=dc.replace(p.landing, landing_bias=bias))
     return p
 

@@ -5,6 +5,7 @@ import dataclasses as dc
 import math
 import numpy as np
 from ...params import BplirParams, swapped
+from ...params.plan import MAX_LANDING_BIAS
 from ...systems.delay_id import planned_probe
 from ...systems.motor import max_torque
 from ...systems.plan_tracker import height_rates, landing_law
@@ -79,7 +80,8 @@ def learnt_landing(p: BplirParams, errors) -> BplirParams:
     errors = [e for e in errors if math.isfinite(e)]
     if tp.landing_learning <= 0.0 or not errors or tp.swing_mode != "plan" or not tp.landing:
         return p
-    bias = min(0.02, max(-0.02, tp.landing_learning * float(np.mean(errors))))
+    bias = min(MAX_LANDING_BIAS, max(-MAX_LANDING_BIAS,
+                                     tp.landing_learning * float(np.mean(errors))))
     return p.with_(landing=dc.replace(p.landing, landing_bias=bias))
 
 

@@ -123,18 +123,20 @@ def test_a_broken_plugin_is_refused_naming_the_port(bad, factory, message, capsy
 
 
 def test_the_example_plugin_through_the_command_line(tmp_path, capsys, strict_json):
+    # the example never captures: each swing runs to its timeout, here 1 s
+    short = ["--set", "scenario.max_time=1.0"]
     assert main(["swing", "--controller", EXAMPLE, "--no-animation", "--no-plots", "--json",
-                 "--out", str(tmp_path / "swing")]) == 0
+                 "--out", str(tmp_path / "swing")] + short) == 0
     swing = json.loads(capsys.readouterr().out)
     assert swing["outcome"] == "timeout"
     # --no-plots: the log and the summary, no figure
     assert set(swing["files"]) == {"log_csv"} and not list((tmp_path / "swing").glob("*.png"))
     assert main(["montecarlo", "--controller", EXAMPLE, "-n", "2", "--workers", "1",
-                 "--no-plots", "--json", "--out", str(tmp_path / "mc")]) == 0
+                 "--no-plots", "--json", "--out", str(tmp_path / "mc")] + short) == 0
     summary = json.loads(capsys.readouterr().out)
     assert summary["samples"] == 2 and summary["outcomes"] == {"timeout": 2}
     assert main(["benchmark", "--quick", "--controllers", EXAMPLE, "--workers", "2",
-                 "--json", "--out", str(tmp_path / "bench")]) == 0
+                 "--json", "--out", str(tmp_path / "bench")] + short) == 0
     result = strict_json(capsys.readouterr().out)   # no NaN or Infinity (hardening item 9)
     assert len([strict_json(f.read_text()) for f in (tmp_path / "bench").rglob("*.json")]) == 2
     (entry,) = result["leaderboard"]

@@ -272,3 +272,42 @@ def test_a_near_miss_from_hanging_lands_when_the_try_after_it_aims_higher():
     assert again.landing.landing_bias == pytest.approx(0.005)
     s2 = runner.run(again, seed=seed).summary
     assert s2["outcome"] == "captured" and 0.2 < s2["capture_speed_mps"] < 0.4
+
+
+def test_the_original_robots_try_from_hanging_lands_with_the_apex_shot_where_the_aim_law_crashes():
+    """Draw 1 of the realistic traversal study (tuning root seed 777), 48 V,
+    the original robot tried again from hanging on a level line.  Its pump
+    ends with the elbow lifting the gripper (link 1 makes 0.31 of the rise),
+    where the landing's own choice is the aim law: that law raises its aim
+    as link 1 falls back from its apex and the elbow chases the line along
+    it, arriving at 0.62 m/s (a crash; 7 of draws 0-39 crashed so, 24 of
+    100 on tuning root seed 778).  The try again holds the apex shot from
+    ``traverse.retry_lift_min_time`` instead and lands (measured 0.27 m/s;
+    40 of 40 and 98 of 100 on the same draws)."""
+    from bplir_drake.analysis.montecarlo.sampling import sample_params
+    from bplir_drake.analysis.montecarlo.study import load_study
+    from bplir_drake.analysis.swing.run import SwingRunner
+    from bplir_drake.analysis.traverse.run import swing_params
+    from bplir_drake.diagrams.plan import tracking_plan
+    from bplir_drake.systems.landing import resolved_landing
+
+    study = load_study(LINE.parent / "study_traverse.toml").with_(seed=777)
+    study = dc.replace(study, params=study.params.with_hardware("48v"))
+    p, seed, _ = sample_params(study, 1)
+    again = retry_params(swing_params(p, 1, 1.2, 0.0))
+    assert again.landing.shoot_lift_min_time == p.traverse.retry_lift_min_time == 0.05
+    aim = again.with_(landing=dc.replace(again.landing, shoot_lift_min_time=0.0))
+    gains = tracking_plan(again.resolved())[1]
+    states = gains.x0.vector_values(gains.x0.get_segment_times()).T
+    assert resolved_landing(again.plant, 0.0, states, aim.landing)[0] == "aim"
+    law, landing = resolved_landing(again.plant, 0.0, states, again.landing)
+    assert law == "shoot" and landing.shoot_min_time == 0.05
+    runner = SwingRunner()
+    s = runner.run(aim, seed=seed).summary
+    assert s["outcome"] == "crash" and s["capture_speed_mps"] > 0.6
+    s = runner.run(again, seed=seed).summary
+    assert s["outcome"] == "captured" and 0.2 < s["capture_speed_mps"] < 0.35
+    # a swing from the line keeps the landing's own choice
+    assert swing_params(p, 1, 1.2, 0.0).landing.shoot_lift_min_time == 0.0
+    with pytest.raises(ParameterError, match="retry_lift_min_time"):
+        dc.replace(p.traverse, retry_lift_min_time=0.01)

@@ -80,7 +80,10 @@ def damp(params: BplirParams, x0) -> Damping:
 
 def retry_params(p: BplirParams, summary: dict | None = None) -> BplirParams:
     """The swing of ``p`` tried again: from hanging at rest below the
-    holding gripper, with ``traverse.retry_max_time`` to arrive.  When the
+    holding gripper, with ``traverse.retry_max_time`` to arrive; where its
+    plan lifts the gripper with the elbow (the original robot's pump), the
+    apex shot held from ``traverse.retry_lift_min_time`` lands it instead of
+    the aim law (which chases the line as link 1 falls back).  When the
     try that timed out (its swing ``summary``) was itself from hanging and
     had the robot's estimate put the gripper within the capture band, the
     estimate ran above the truth there (the jaw would have sensed the
@@ -92,6 +95,8 @@ def retry_params(p: BplirParams, summary: dict | None = None) -> BplirParams:
     from_hanging = p.scenario.start == "hanging"
     sc = dc.replace(p.scenario, start="hanging", max_time=tp.retry_max_time)
     p = p.with_(scenario=sc)
+    if tp.retry_lift_min_time > 0.0:
+        p = p.with_(landing=dc.replace(p.landing, shoot_lift_min_time=tp.retry_lift_min_time))
     peak = missed.get("estimated_peak_height_m", math.nan)
     if tp.retry_aim_raise > 0.0 and from_hanging and missed.get("outcome") == "timeout" \
             and peak >= -p.scenario.capture_distance:

@@ -276,14 +276,12 @@ def test_a_near_miss_from_hanging_lands_when_the_try_after_it_aims_higher():
 
 def test_the_original_robots_try_from_hanging_lands_with_the_apex_shot_where_the_aim_law_crashes():
     """Draw 1 of the realistic traversal study (tuning root seed 777), 48 V,
-    the original robot tried again from hanging on a level line.  Its pump
-    ends with the elbow lifting the gripper (link 1 makes 0.31 of the rise),
-    where the landing's own choice is the aim law: that law raises its aim
-    as link 1 falls back from its apex and the elbow chases the line along
-    it, arriving at 0.62 m/s (a crash; 7 of draws 0-39 crashed so, 24 of
-    100 on tuning root seed 778).  The try again holds the apex shot from
-    ``traverse.retry_lift_min_time`` instead and lands (measured 0.27 m/s;
-    40 of 40 and 98 of 100 on the same draws)."""
+    the original robot tried again from hanging on a level line: its pump
+    ends with the elbow lifting the gripper, where the aim law raises its
+    aim as link 1 falls back and the elbow chases the line along it (0.62
+    m/s, a crash; 7 of draws 0-39 and 24 of 100 on root seed 778 crash so).
+    With the apex shot held from ``traverse.retry_lift_min_time`` it lands
+    (measured 0.27 m/s; 0 of 40 and 2 of 100 crash)."""
     from bplir_drake.analysis.montecarlo.sampling import sample_params
     from bplir_drake.analysis.montecarlo.study import load_study
     from bplir_drake.analysis.swing.run import SwingRunner

@@ -99,9 +99,7 @@ class LandingParams(_Block):
 
     def _check(self):
         self._one_of("landing_law", LANDING_LAWS)
-        if 0.0 < self.shoot_lift_min_time < 0.02:
-            raise ParameterError(f"landing.shoot_lift_min_time = {self.shoot_lift_min_time:g} s "
-                                 "is out of range; allowed 0 (the aim law) or [0.02, 0.5] s")
+        self._off_or_at_least("shoot_lift_min_time", 0.02, "the aim law")
         if self.landing_lead > 0 and self.reach_speed > 0:
             raise ParameterError(f"landing.landing_lead = {self.landing_lead:g} m s/rad and "
                                  f"landing.reach_speed = {self.reach_speed:g} m/s are both set; "

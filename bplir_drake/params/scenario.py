@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from .base import MAX_LENGTH, ParameterError, _Block, _count, _fraction, _p, _positive
-from .plan import LANDING_LAWS
+from .plan import LANDING_LAWS, MAX_LANDING_BIAS
 
 
 # ---------------------------------------------------------------- scenario
@@ -95,7 +95,7 @@ class TraverseParams(_Block):
     max_incline_deg: float = _p(25.0, "deg", 0, 60, doc="steepest line incline accepted in a line file")
     retries: int = _count(2, "", 0, 5, doc="swings tried again after a timeout, each from hanging at rest (0: a timeout ends the traversal)")
     shoot_brake_ratio: float = _p(0.0, "", 0, 10, doc="landing.shoot_brake_ratio of the traversal's swings, where a timed-out swing is tried again and a crash ends the run (0: the landing's own)")
-    retry_aim_raise: float = _p(0.005, "m", 0, 0.02, doc="after a try from hanging that timed out with the robot's estimate of the gripper within the capture band (the estimate ran above the truth), the next try aims this much higher")
+    retry_aim_raise: float = _p(0.005, "m", 0, MAX_LANDING_BIAS, doc="after a try from hanging that timed out with the robot's estimate of the gripper within the capture band (the estimate ran above the truth), the next try aims this much higher")
     retry_lift_min_time: float = _p(0.05, "s", 0, 0.5, doc="landing.shoot_lift_min_time of a swing tried again from hanging: where its plan lifts the gripper with the elbow, the apex shot held from this instead of the aim law (0: the landing's own)")
     retry_max_time: float = _p(6.0, "s", 1, 60, doc="scenario.max_time of a swing tried again from hanging (it pumps before it reaches)")
     recover_limit: float = _p(240.0, "s", 1, 3600, doc="longest the robot damps its swing after a timeout before it gives up")
@@ -110,8 +110,6 @@ class TraverseParams(_Block):
                 f"traverse.grip_spacing = {self.grip_spacing:g} m is outside [spacing_min, "
                 f"spacing_max] = [{self.spacing_min:g}, {self.spacing_max:g}] m; allowed "
                 "spacing_min <= grip_spacing <= spacing_max")
-        if 0.0 < self.retry_lift_min_time < 0.02:
-            raise ParameterError(f"traverse.retry_lift_min_time = {self.retry_lift_min_time:g} s "
-                                 "is outside the allowed 0 (the landing's own) or [0.02, 0.5] s")
+        self._off_or_at_least("retry_lift_min_time", 0.02, "the landing's own")
         self._one_of("swapped_landing_law", LANDING_LAWS)
         self._one_of("swing_mode", TRAVERSE_SWING_MODES)

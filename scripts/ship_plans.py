@@ -14,8 +14,9 @@ lines (both robots), the default swing of a robot whose nominal link 2
 weighs 1.6 kg (the documented ``--set plant.m2=1.6``), the swing of
 ``examples/acromonk.toml``, the flat-line swings tried again from hanging
 (both robots, 30 V and 48 V) and the 48 V swapped robot's on the span's
-+2.6 deg chord (the plans its guesses gave before one heated the driver
-little enough); gains for the swings the tests track
++2.6 deg chord, ending at the line (``traverse.swapped_retry_end_depth``)
+and 13 mm below it (the plans its guesses gave before one heated the
+driver little enough); gains for the swings the tests track
 that the plan libraries (``scripts/plan_library.py``) do not cover.
 """
 from __future__ import annotations
@@ -61,10 +62,11 @@ def scenarios():
     # span's +2.6 deg chord, whose first guess heats the driver too much
     from bplir_drake.analysis.traverse.recovery import retry_params
     b48 = base.with_hardware("48v")
-    tracked += [retry_params(swing_params(b, g, b.traverse.grip_spacing, 0.0))
+    tracked += [retry_params(swing_params(b, g, b.traverse.grip_spacing, 0.0), holding=g)
                 for b in (base, b48) for g in (1, 2)]
-    tracked.append(retry_params(swing_params(b48, 2, b48.traverse.grip_spacing,
-                                             math.radians(2.6))))
+    deeper = b48.with_(traverse=dc.replace(b48.traverse, swapped_retry_end_depth=0.013))
+    tracked += [retry_params(swing_params(b, 2, b.traverse.grip_spacing, math.radians(2.6)),
+                             holding=2) for b in (b48, deeper)]   # test_traverse_recovery's
     q127 = at(base, grip_spacing=1.27)   # the warm start's test: its cold solve too
     plans += [lambda: P.scenario_plan(q127),
               lambda: P.plan_swing(q127, end_depth=q127.plan.end_depth, guess_duration=1.0)]

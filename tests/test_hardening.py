@@ -515,13 +515,13 @@ def test_shipped_plans_serve_a_fresh_install(monkeypatch, tmp_path):
     # custom_params.py's 1.15 m (at 1.1, 1.15 and 1.3 m also the solve started from the
     # 1.2 m plan, plan.warm_spacing), the 1.27 m plans of the warm start's test and
     # the default swing with a 1.6 kg link 2 (the documented --set plant.m2=1.6) and the
-    # flat-line swings tried again from hanging (the traversal's recovery, both robots;
-    # the swapped robot's first guess too, which SNOPT does not solve), the 48 V robot's
-    # (planned within the 30 V envelope and 85 % of the torque limit; the swapped
-    # robot's first two guesses too), the 48 V swapped robot's on the span's +2.6 deg
-    # chord (its four guesses: the first heats the driver too much, the next two are
-    # infeasible), and examples/acromonk.toml's swing (its guesses and warm start) and
-    # `bplir plan`
+    # flat-line swings tried again from hanging (the traversal's recovery, both robots,
+    # the swapped robot's planned to end at the line; some guesses too, which SNOPT
+    # does not solve), the 48 V robot's (planned within the 30 V envelope and 85 % of
+    # the torque limit), the 48 V swapped robot's on the span's +2.6 deg chord, ending
+    # at the line and 13 mm below it (test_traverse_recovery's: its four guesses, the
+    # first heats the driver too much, the next two are infeasible), and
+    # examples/acromonk.toml's swing (its guesses and warm start) and `bplir plan`
     assert len(shipped) == 41
     monkeypatch.setenv("BPLIR_CACHE_DIR", str(tmp_path))
 
@@ -561,9 +561,12 @@ def test_shipped_plans_serve_a_fresh_install(monkeypatch, tmp_path):
     from bplir_drake.analysis.traverse.recovery import retry_params
     volt48 = base.with_hardware("48v")
     for g in (1, 2):
-        assert P.scenario_plan(retry_params(swing_params(volt48, g, 1.2, 0.0))).feasible
-    assert P.scenario_plan(retry_params(swing_params(volt48, 2, 1.2, math.radians(2.6)))
-                           ).duration > 4.5   # the fourth guess's
+        assert P.scenario_plan(retry_params(swing_params(volt48, g, 1.2, 0.0), holding=g)).feasible
+    assert P.scenario_plan(retry_params(swing_params(volt48, 2, 1.2, math.radians(2.6)),
+                                        holding=2)).feasible
+    deeper = volt48.with_(traverse=dc.replace(volt48.traverse, swapped_retry_end_depth=0.013))
+    assert P.scenario_plan(retry_params(swing_params(deeper, 2, 1.2, math.radians(2.6)),
+                                        holding=2)).duration > 4.5   # the fourth guess's
     acromonk = load_toml(Path(__file__).resolve().parents[1] / "examples" / "acromonk.toml")
     assert P.scenario_plan(acromonk).feasible
     assert P.plan_swing(acromonk, knots=41).status == "iteration limit"   # `bplir plan`'s
@@ -601,11 +604,13 @@ def test_shipped_gains_serve_the_tests_plans(monkeypatch, tmp_path):
     cases = [up, down, flat, heavy] + [swing_params(base, g, base.traverse.grip_spacing, 0.0)
                                        for g in (1, 2)] + _quick_benchmark_swings()
     from bplir_drake.analysis.traverse.recovery import retry_params
-    cases += [retry_params(c) for c in cases[4:6]]   # the flat swings tried again
-    cases += [retry_params(swing_params(base.with_hardware("48v"), g, 1.2, 0.0))
+    cases += [retry_params(c, holding=g) for g, c in ((1, cases[4]), (2, cases[5]))]   # tried again
+    cases += [retry_params(swing_params(base.with_hardware("48v"), g, 1.2, 0.0), holding=g)
               for g in (1, 2)]   # planned within the 30 V envelope
-    cases.append(retry_params(swing_params(base.with_hardware("48v"), 2, 1.2,
-                                           math.radians(2.6))))   # the span's chord
+    b48 = base.with_hardware("48v")
+    deeper = b48.with_(traverse=dc.replace(b48.traverse, swapped_retry_end_depth=0.013))
+    cases += [retry_params(swing_params(b, 2, 1.2, math.radians(2.6)), holding=2)
+              for b in (b48, deeper)]   # the span's chord, ending at the line and below
     cases.append(load_toml(Path(__file__).resolve().parents[1] / "examples" / "acromonk.toml"))
     keys, blended = set(), 0
     for p in cases:

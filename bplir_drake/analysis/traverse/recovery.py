@@ -78,9 +78,14 @@ def damp(params: BplirParams, x0) -> Damping:
                    st.sample_times(), st.data().T, tq.data()[0])
 
 
-def retry_params(p: BplirParams, summary: dict | None = None) -> BplirParams:
-    """The swing of ``p`` tried again: from hanging at rest below the
-    holding gripper, with ``traverse.retry_max_time`` to arrive; where its
+def retry_params(p: BplirParams, summary: dict | None = None, holding: int = 1) -> BplirParams:
+    """The swing of ``p`` (holding with gripper ``holding``) tried again:
+    from hanging at rest below the holding gripper, with
+    ``traverse.retry_max_time`` to arrive; the swapped robot's (``holding``
+    2) plan ends ``traverse.swapped_retry_end_depth`` below the line (it
+    starts the try from where the damping left it, tilted by a steady wind,
+    and its swinging link points almost straight up at the end, so its shot
+    cannot make up a pump that falls short of a plan ending deeper); where its
     plan lifts the gripper with the elbow (the original robot's pump), the
     apex shot held from ``traverse.retry_lift_min_time`` lands it instead of
     the aim law (which chases the line as link 1 falls back).  When the
@@ -95,6 +100,8 @@ def retry_params(p: BplirParams, summary: dict | None = None) -> BplirParams:
     from_hanging = p.scenario.start == "hanging"
     sc = dc.replace(p.scenario, start="hanging", max_time=tp.retry_max_time)
     p = p.with_(scenario=sc)
+    if holding == 2:
+        p = p.with_(plan=dc.replace(p.plan, end_depth=tp.swapped_retry_end_depth))
     if tp.retry_lift_min_time > 0.0:
         p = p.with_(landing=dc.replace(p.landing, shoot_lift_min_time=tp.retry_lift_min_time))
     peak = missed.get("estimated_peak_height_m", math.nan)

@@ -519,10 +519,11 @@ def test_shipped_plans_serve_a_fresh_install(monkeypatch, tmp_path):
     # the swapped robot's planned to end at the line; some guesses too, which SNOPT
     # does not solve), the 48 V robot's (planned within the 30 V envelope and 85 % of
     # the torque limit), the 48 V swapped robot's on the span's +2.6 deg chord, ending
-    # at the line and 13 mm below it (test_traverse_recovery's: its four guesses, the
-    # first heats the driver too much, the next two are infeasible), and
+    # at the line (its first three guesses: the first heats the driver too much, the
+    # second is infeasible) and 13 mm below it (test_traverse_recovery's: its four
+    # guesses, the first heats the driver too much, the next two are infeasible), and
     # examples/acromonk.toml's swing (its guesses and warm start) and `bplir plan`
-    assert len(shipped) == 41
+    assert len(shipped) == 43
     monkeypatch.setenv("BPLIR_CACHE_DIR", str(tmp_path))
 
     def no_solve(*a, **k):

@@ -171,7 +171,7 @@ def test_the_plan_command_plans_a_swing_from_hanging_as_the_swing_does(monkeypat
 
 def test_a_plan_from_hanging_that_heats_the_driver_gives_way_to_a_cooler_guess(
         monkeypatch, tmp_path, capsys):
-    """With ``plan.hanging_i2t_share`` (the 48v option's 0.4) a feasible plan
+    """With ``plan.hanging_i2t_share`` (the 48v option's 0.35) a feasible plan
     from hanging whose torque alone uses more of the driver's i^2 t budget
     gives way to the next guess; the least heating feasible plan is kept if
     none keeps to it; without it (the 30 V robot) the first feasible guess
@@ -186,7 +186,7 @@ def test_a_plan_from_hanging_that_heats_the_driver_gives_way_to_a_cooler_guess(
     p48 = BplirParams().with_hardware("48v")
     m = p48.motor
     budget = interlock_budget(m)
-    assert p48.plan.hanging_i2t_share == 0.4 and BplirParams().plan.hanging_i2t_share == 0.0
+    assert p48.plan.hanging_i2t_share == 0.35 and BplirParams().plan.hanging_i2t_share == 0.0
 
     def torque_heating(share, duration):   # the constant torque whose plan uses share
         ticks = int(duration / m.driver_period) + 1   # the driver's ticks from 0
@@ -215,7 +215,7 @@ def test_a_plan_from_hanging_that_heats_the_driver_gives_way_to_a_cooler_guess(
     assert main(["plan", "--hardware", "48v", "--set", "scenario.start=hanging", "--json",
                  "--out", str(tmp_path / "plan")]) == 0
     assert json.loads(capsys.readouterr().out)["i2t_share"] == pytest.approx(0.2, rel=1e-9)
-    calls.clear()   # none keeps to 0.4: the least heating of the four
+    calls.clear()   # none keeps to 0.35: the least heating of the four
     heat.update({3.0: 0.9, 4.0: 0.6, 5.0: 0.45, 6.0: 0.7})
     plan = P.hanging_plan(p48.with_(scenario=dc.replace(hanging, incline_deg=1.0)))
     assert calls == [3.0, 4.0, 5.0, 6.0] and plan.duration == pytest.approx(5.0)

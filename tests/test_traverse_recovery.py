@@ -314,3 +314,35 @@ def test_the_original_robots_try_from_hanging_lands_with_the_apex_shot_where_the
     assert swing_params(p, 1, 1.2, 0.0).landing.shoot_lift_min_time == 0.0
     with pytest.raises(ParameterError, match="retry_lift_min_time"):
         dc.replace(p.traverse, retry_lift_min_time=0.01)
+
+
+def test_the_swapped_robots_try_from_hanging_ends_at_the_line_and_lands_from_the_damped_state():
+    """Draw 5 of the realistic traversal study (tuning root seed 777), 48 V, the
+    swapped robot tried again from hanging on the span's +2.6 deg chord, from
+    where the damping leaves it under its steady wind (link 1 0.016 rad off):
+    planned to end 13 mm below the line its pump stops 38 mm below and times
+    out; planned to end at the line (``traverse.swapped_retry_end_depth``) it
+    lands (measured 0.37 m/s).  The original robot's plan keeps its depth."""
+    import math
+
+    from bplir_drake.analysis.montecarlo.sampling import sample_params
+    from bplir_drake.analysis.montecarlo.study import load_study
+    from bplir_drake.analysis.swing.run import SwingRunner
+    from bplir_drake.analysis.traverse.run import swing_params
+
+    study = load_study(LINE.parent / "study_traverse.toml").with_(seed=777)
+    study = dc.replace(study, params=study.params.with_hardware("48v"))
+    p, seed, _ = sample_params(study, 5)
+    assert p.traverse.swapped_retry_end_depth == 0.0
+    again = retry_params(swing_params(p, 2, 1.2, math.radians(2.6)), holding=2)
+    assert again.plan.end_depth == 0.0
+    assert retry_params(swing_params(p, 1, 1.2, 0.0), holding=1).plan.end_depth == 0.013
+    start = damp(again, np.array([0.05, 0.0, 0.0, 0.0])).state
+    assert 0.01 < start[0] < 0.03
+    deeper = p.with_(traverse=dc.replace(p.traverse, swapped_retry_end_depth=0.013))
+    deeper = retry_params(swing_params(deeper, 2, 1.2, math.radians(2.6)), holding=2)
+    runner = SwingRunner()
+    short = runner.run(deeper, seed=seed, start_state=start).summary
+    assert short["outcome"] == "timeout" and short["closest_distance_m"] > 0.03
+    s = runner.run(again, seed=seed, start_state=start).summary
+    assert s["outcome"] == "captured" and 0.2 < s["capture_speed_mps"] < 0.45

@@ -346,3 +346,32 @@ def test_the_swapped_robots_try_from_hanging_ends_at_the_line_and_lands_from_the
     assert short["outcome"] == "timeout" and short["closest_distance_m"] > 0.03
     s = runner.run(again, seed=seed, start_state=start).summary
     assert s["outcome"] == "captured" and 0.2 < s["capture_speed_mps"] < 0.45
+
+
+def test_the_swapped_robots_try_keeps_the_deeper_plan_where_the_one_ending_at_the_line_runs_hot(
+        monkeypatch):
+    """Where the swapped robot's plan from hanging ending at the line uses more
+    of the driver's i^2 t budget than the 48v option's share (no guess kept
+    to it: on the span's +7.6 deg chord a 44 % pump, on which 4 of 16 draws
+    of tuning root seed 777 crashed and none on the plan ending 13 mm below),
+    its try keeps ``traverse.plan_end_depth``; at 30 V (no share) and for a
+    cooler plan it ends at the line."""
+    import math
+
+    from bplir_drake.analysis.traverse import recovery
+    from bplir_drake.analysis.traverse.run import swing_params
+    from bplir_drake.systems.motor import interlock_budget
+
+    heat = {}
+    monkeypatch.setattr(recovery, "scenario_plan", lambda p: p.plan.end_depth)
+    monkeypatch.setattr(recovery, "planned_i2t", lambda depth, motor: heat[depth]
+                        * interlock_budget(motor))
+    b48 = BplirParams().with_hardware("48v")
+    swing = swing_params(b48, 2, 1.2, math.radians(7.6))
+    heat[0.0] = 0.44
+    assert retry_params(swing, holding=2).plan.end_depth == 0.013
+    heat[0.0] = 0.34
+    assert retry_params(swing, holding=2).plan.end_depth == 0.0
+    heat[0.0] = 0.9
+    assert retry_params(swing_params(BplirParams(), 2, 1.2, 0.0), holding=2).plan.end_depth == 0.0
+    assert retry_params(swing_params(b48, 1, 1.2, 0.0), holding=1).plan.end_depth == 0.013

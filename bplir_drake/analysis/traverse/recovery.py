@@ -22,8 +22,9 @@ import numpy as np
 
 from ...params import BplirParams, ParameterError
 from ...params.plan import MAX_LANDING_BIAS
-from ...diagrams.plan import scenario_plan
+from ...diagrams.plan import hanging_planned, planned_i2t, scenario_plan
 from ...simulate import make_simulator, run
+from ...systems.motor import interlock_budget
 from ...systems.plant import kinetic_energy, potential_energy
 from ...diagrams.open_loop import build_damping
 
@@ -85,7 +86,10 @@ def retry_params(p: BplirParams, summary: dict | None = None, holding: int = 1) 
     2) plan ends ``traverse.swapped_retry_end_depth`` below the line (it
     starts the try from where the damping left it, tilted by a steady wind,
     and its swinging link points almost straight up at the end, so its shot
-    cannot make up a pump that falls short of a plan ending deeper); where its
+    cannot make up a pump that falls short of a plan ending deeper) unless
+    that plan by itself uses more of the driver's i^2 t budget than
+    ``plan.hanging_i2t_share`` (no guess kept to it: a hot pump ends at the
+    torque limit and crashes), where it keeps ``plan.end_depth``; where its
     plan lifts the gripper with the elbow (the original robot's pump), the
     apex shot held from ``traverse.retry_lift_min_time`` lands it instead of
     the aim law (which chases the line as link 1 falls back).  When the
@@ -101,7 +105,8 @@ def retry_params(p: BplirParams, summary: dict | None = None, holding: int = 1) 
     sc = dc.replace(p.scenario, start="hanging", max_time=tp.retry_max_time)
     p = p.with_(scenario=sc)
     if holding == 2:
-        p = p.with_(plan=dc.replace(p.plan, end_depth=tp.swapped_retry_end_depth))
+        ended = p.with_(plan=dc.replace(p.plan, end_depth=tp.swapped_retry_end_depth))
+        p = p if _too_hot(ended) else ended
     if tp.retry_lift_min_time > 0.0:
         p = p.with_(landing=dc.replace(p.landing, shoot_lift_min_time=tp.retry_lift_min_time))
     peak = missed.get("estimated_peak_height_m", math.nan)
@@ -110,6 +115,21 @@ def retry_params(p: BplirParams, summary: dict | None = None, holding: int = 1) 
         bias = min(MAX_LANDING_BIAS, p.landing.landing_bias + tp.retry_aim_raise)
         p = p.with_(landing=dc.replace(p.landing, landing_bias=bias))
     return p
+
+
+def _too_hot(p: BplirParams) -> bool:
+    """Whether the plan from hanging of ``p`` by itself uses more of the
+    driver's i^2 t budget than ``plan.hanging_i2t_share`` (never with the
+    share 0, or without a plan)."""
+    share = p.plan.hanging_i2t_share
+    if share <= 0.0 or p.plan.end_depth == p.traverse.plan_end_depth:
+        return False
+    try:
+        plan = scenario_plan(p.resolved())
+    except ParameterError:
+        return False
+    motor = hanging_planned(p).motor
+    return planned_i2t(plan, motor) > share * interlock_budget(motor)
 
 
 def damping_drive(d: Damping, motor):

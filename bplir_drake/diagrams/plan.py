@@ -328,7 +328,7 @@ def hanging_plan(params: BplirParams, *, power_limit: float | None = None,
     with ``strict=False`` the last guess's plan (``bplir plan`` reports
     it)."""
     params = hanging_planned(params)
-    share = params.plan.hanging_i2t_share
+    allowance = i2t_allowance(params)
     kept = None   # (i^2 t, plan) of the least heating feasible plan
     for guess in HANGING_GUESSES:
         plan = plan_swing(params, power_limit=power_limit, end_depth=params.plan.end_depth,
@@ -338,7 +338,7 @@ def hanging_plan(params: BplirParams, *, power_limit: float | None = None,
         if not plan.feasible:
             continue
         heat = planned_i2t(plan, params.motor)
-        if share <= 0.0 or heat <= share * interlock_budget(params.motor):
+        if heat <= allowance:
             return plan
         if kept is None or heat < kept[0]:
             kept = (heat, plan)
@@ -375,6 +375,14 @@ def planned_i2t(plan: SwingPlan, motor) -> float:
     plan's current on the driver's ticks, :meth:`SwingPlan.torque_on_ticks`)."""
     current = np.abs(plan.torque_on_ticks(motor.driver_period)[1]) / motor.torque_per_amp
     return float(np.max(i2t_trace(0.0, current, motor)[0], initial=0.0))
+
+
+def i2t_allowance(params: BplirParams) -> float:
+    """The driver's i^2 t (A^2 s) a plan from hanging of ``params`` (as
+    :func:`hanging_planned` makes it) may use by itself:
+    ``plan.hanging_i2t_share`` of the budget (infinite with the share 0)."""
+    share = params.plan.hanging_i2t_share
+    return share * interlock_budget(params.motor) if share > 0.0 else math.inf
 
 
 def hanging_planned(params: BplirParams) -> BplirParams:

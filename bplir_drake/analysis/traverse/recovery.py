@@ -22,9 +22,8 @@ import numpy as np
 
 from ...params import BplirParams, ParameterError
 from ...params.plan import MAX_LANDING_BIAS
-from ...diagrams.plan import hanging_planned, planned_i2t, scenario_plan
+from ...diagrams.plan import hanging_planned, i2t_allowance, planned_i2t, scenario_plan
 from ...simulate import make_simulator, run
-from ...systems.motor import interlock_budget
 from ...systems.plant import kinetic_energy, potential_energy
 from ...diagrams.open_loop import build_damping
 
@@ -104,7 +103,7 @@ def retry_params(p: BplirParams, summary: dict | None = None, holding: int = 1) 
     from_hanging = p.scenario.start == "hanging"
     sc = dc.replace(p.scenario, start="hanging", max_time=tp.retry_max_time)
     p = p.with_(scenario=sc)
-    if holding == 2:
+    if holding == 2 and tp.swapped_retry_end_depth != p.plan.end_depth:
         ended = p.with_(plan=dc.replace(p.plan, end_depth=tp.swapped_retry_end_depth))
         p = p if _too_hot(ended) else ended
     if tp.retry_lift_min_time > 0.0:
@@ -119,17 +118,17 @@ def retry_params(p: BplirParams, summary: dict | None = None, holding: int = 1) 
 
 def _too_hot(p: BplirParams) -> bool:
     """Whether the plan from hanging of ``p`` by itself uses more of the
-    driver's i^2 t budget than ``plan.hanging_i2t_share`` (never with the
-    share 0, or without a plan)."""
-    share = p.plan.hanging_i2t_share
-    if share <= 0.0 or p.plan.end_depth == p.traverse.plan_end_depth:
+    driver's i^2 t than :func:`~bplir_drake.diagrams.plan.i2t_allowance`
+    (never with ``plan.hanging_i2t_share`` 0, or without a plan)."""
+    made = hanging_planned(p)
+    allowance = i2t_allowance(made)
+    if math.isinf(allowance):
         return False
     try:
         plan = scenario_plan(p.resolved())
     except ParameterError:
         return False
-    motor = hanging_planned(p).motor
-    return planned_i2t(plan, motor) > share * interlock_budget(motor)
+    return planned_i2t(plan, made.motor) > allowance
 
 
 def damping_drive(d: Damping, motor):

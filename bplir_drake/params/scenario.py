@@ -87,6 +87,7 @@ class TraverseParams(_Block):
     swapped_landing_law: str = field(default="shoot", metadata=dict(doc="landing.landing_law of the swings holding with gripper 2 (the swapped robot)", allowed="auto, shoot, aim"))
     swapped_shoot_min_time: float = _p(0.04, "s", 0.02, 0.5, doc="landing.shoot_min_time of the swings holding with gripper 2")
     swapped_shoot_height: float = _p(-0.015, "m", -0.02, 0, doc="landing.shoot_height of the swings holding with gripper 2")
+    swapped_shoot_rate_cap: float = _p(0.3, "rad/s", 0, 5, doc="landing.shoot_rate_cap of the swings holding with gripper 2 (0: no cap)")
     swapped_line_range: float = _p(0.0, "m", 0, 1, doc="the largest line_sensor.range of the swings holding with gripper 2 (0: they estimate with the IMUs alone)")
     swapped_inflate_nis: float = _p(0.0, "", 0, 1000, doc="estimator.loop_inflate_nis of the swings holding with gripper 2 (0: no inflation; its large landing corrections read as model error)")
     landing_learning: float = _p(0.5, "", 0, 1, doc="each swing aims this share of the mean landing height error of the earlier captures holding with the same gripper higher (0: no learning)")

@@ -166,6 +166,7 @@ class ApexShot:
     hold_depth: float = 0.03
     give_up_rate: float = 0.0
     brake_ratio: float = 0.0
+    rate_cap: float = 0.0
     steps: int = 12
 
     @classmethod
@@ -177,7 +178,7 @@ class ApexShot:
         return cls(Landing.from_params(plant, alpha, landing), friction, height,
                    landing.shoot_depth, landing.shoot_min_time, landing.shoot_min_rate,
                    landing.shoot_hold_depth, landing.shoot_give_up_rate,
-                   landing.shoot_brake_ratio)
+                   landing.shoot_brake_ratio, landing.shoot_rate_cap)
 
     def takes_over(self, x) -> bool:
         """Whether the law takes over (asked in the plan's last forward
@@ -339,7 +340,21 @@ class ApexShot:
         if window is not None and self.brake_ratio > 0.0 and not (
                 self.brake_ratio * window[0] <= u <= self.brake_ratio * window[1]):
             return self._braked(x)
-        return u
+        return self._capped(x, u)
+
+    def _capped(self, x, u: float) -> float:
+        """``u``, or where the gripper is within ``hold_depth`` of the aimed
+        height with the elbow faster than ``rate_cap`` and ``u`` would turn
+        it faster still, the torque that brakes the elbow back to the cap:
+        the elbow's rate near the line is most of the gripper's speed at
+        capture, and a shot that link 1 left short flings it in."""
+        v2 = x[3]
+        if self.rate_cap <= 0.0 or abs(v2) <= self.rate_cap or \
+                self.landing.height(x) <= self.height - self.hold_depth:
+            return u
+        s = math.copysign(1.0, v2)
+        ub = self._computed(x, -self.landing.rate_gain * (v2 - s * self.rate_cap))
+        return ub if (u - ub) * s > 0.0 else u
 
     def _braked(self, x) -> float:
         """The torque that brakes the elbow towards rest

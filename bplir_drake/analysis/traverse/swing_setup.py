@@ -34,7 +34,8 @@ def swing_params(params: BplirParams, holding: int, spacing: float,
     the swapped robot by ``traverse.swapped_landing_law`` (its fallback
     aiming at ``traverse.swapped_landing_margin``, its shot aimed at
     ``traverse.swapped_shoot_height`` and held from
-    ``traverse.swapped_shoot_min_time``, its filter's covariance inflation
+    ``traverse.swapped_shoot_min_time``, its elbow capped near the line at
+    ``traverse.swapped_shoot_rate_cap``, its filter's covariance inflation
     ``traverse.swapped_inflate_nis``, its line sensor's range at most
     ``traverse.swapped_line_range``); its landing shot brakes at
     ``traverse.shoot_brake_ratio`` where that is set."""
@@ -60,7 +61,8 @@ def swing_params(params: BplirParams, holding: int, spacing: float,
             landing = dc.replace(landing, landing_margin=tp.swapped_landing_margin,
                                  landing_law=tp.swapped_landing_law,
                                  shoot_min_time=tp.swapped_shoot_min_time,
-                                 shoot_height=tp.swapped_shoot_height)
+                                 shoot_height=tp.swapped_shoot_height,
+                                 shoot_rate_cap=tp.swapped_shoot_rate_cap)
             p = p.with_(estimator=dc.replace(p.estimator,
                                              loop_inflate_nis=tp.swapped_inflate_nis),
                         line_sensor=dc.replace(p.line_sensor, range=min(

@@ -353,13 +353,13 @@ class ApexShot:
                 self.landing.height(x) <= self.height - self.hold_depth:
             return u
         s = math.copysign(1.0, v2)
-        ub = self._computed(x, -self.landing.rate_gain * (v2 - s * self.rate_cap))
+        ub = self._braked(x, s * self.rate_cap)
         return ub if (u - ub) * s > 0.0 else u
 
-    def _braked(self, x) -> float:
-        """The torque that brakes the elbow towards rest
-        (``-landing.rate_gain * q2'``)."""
-        return self._computed(x, -self.landing.rate_gain * x[3])
+    def _braked(self, x, rate: float = 0.0) -> float:
+        """The torque that brakes the elbow towards ``rate`` (rest by
+        default): ``-landing.rate_gain * (q2' - rate)``."""
+        return self._computed(x, -self.landing.rate_gain * (x[3] - rate))
 
     def _computed(self, x, a2: float) -> float:
         """The elbow torque that gives the elbow acceleration ``a2`` at ``x``

@@ -62,3 +62,52 @@ def test_the_swapped_robots_short_swing_lands_with_its_elbow_capped():
     assert s["outcome"] == "captured" and s["capture_speed_mps"] < 0.3
     assert abs(s["landing_error_m"]) < p.traverse.landing_tolerance
     assert not math.isnan(s["landing_height_error_m"])
+
+
+def _band_entry(law, x, p, alpha, window):
+    """Speed (m/s) at which the gripper of the nominal robot ``p`` (friction
+    off) enters the capture band under ``law`` at 100 Hz, clipped to
+    ``window``; None if link 1 turns back first."""
+    from bplir_drake.systems.plant import forward_dynamics
+    from bplir_drake.systems.landing import height_rates
+
+    x, dt = np.asarray(x, float), 1e-3
+    for n in range(1000):
+        if n % 10 == 0:
+            u = float(np.clip(law.torque(x, window), *window))
+        f = lambda y: np.r_[y[2:], forward_dynamics(y[:2], y[2:], u, np.zeros(2), p)]
+        k1 = f(x); k2 = f(x + dt / 2 * k1); k3 = f(x + dt / 2 * k2); k4 = f(x + dt * k3)
+        x = x + dt / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+        h, hd, along = height_rates(p, alpha, x)
+        if h > -0.02:
+            return math.hypot(hd, along)
+        if x[2] < 0.0:
+            return None
+
+
+def test_a_shot_out_of_reach_brakes_only_when_it_would_fling_the_gripper_in():
+    """The 48 V swapped robot's try from hanging on a +2.6 deg chord (draw
+    130 of root seed 211 on the span): its pump arrives too fast, and 0.2 s
+    before the line the shot asks for more than 1.6 times the torque limit
+    to fold the gripper away.  Braking the elbow there would let link 1 carry
+    the gripper into the line at over 0.9 m/s; the shot clipped to the
+    motor's torque enters the capture band under 0.5 m/s.  A shot asking as
+    much to lift the gripper (link 1 short) still brakes."""
+    from bplir_drake.analysis.traverse.swing_setup import swing_params
+    from bplir_drake.params import FrictionParams
+
+    alpha = math.radians(2.6)
+    p = swing_params(preset("dissertation").with_hardware("48v"), 2, 1.2, alpha)
+    assert p.landing.shoot_brake_ratio == 1.6
+    fr = FrictionParams(enabled=False)
+    law = ApexShot.from_params(p.plant, fr, alpha, p.landing)
+    ratio0 = ApexShot.from_params(p.plant, fr, alpha, dc.replace(p.landing, shoot_brake_ratio=0))
+    x, window = [0.630, 1.993, 1.93, 0.27], (-20.0, 20.0)
+    acc, _ = law.solve(x)
+    assert ratio0.torque(x) < -1.6 * 20.0 and not law._lifts(x, acc)
+    assert law.torque(x, window) == ratio0.torque(x)
+    always = type("Always", (ApexShot,), {"_lifts": lambda self, x, a2: True})(
+        **{f.name: getattr(law, f.name) for f in dc.fields(ApexShot)})   # the old rule
+    assert always.torque(x, window) == pytest.approx(law._braked(x))
+    assert _band_entry(law, x, p.plant, alpha, window) < 0.5
+    assert _band_entry(always, x, p.plant, alpha, window) > 0.9

@@ -94,7 +94,7 @@ class LandingParams(_Block):
     shoot_lift_height: float = _p(-0.019, "m", -0.02, 0, doc="landing_law 'auto': shoot_height where the plan lifts the gripper with the elbow (see shoot_lift_min_time)")
     shoot_hold_depth: float = _p(0.03, "m", 0, 1, doc="landing_law 'shoot': the stop time is held at shoot_min_time only within this of the aimed height")
     shoot_give_up_rate: float = _p(0.1, "rad/s", 0, 5, doc="landing_law 'shoot': once link 1 swings back faster than this with the gripper below its aim, the shot brakes the elbow and gives up")
-    shoot_brake_ratio: float = _p(0.0, "", 0, 10, doc="landing_law 'shoot': a shot asking for more than this multiple of the torque the motor can give at the elbow's rate brakes the elbow instead (0: never)")
+    shoot_brake_ratio: float = _p(0.0, "", 0, 10, doc="landing_law 'shoot': a shot asking for more than this multiple of the torque the motor can give at the elbow's rate to lift the gripper towards the line brakes the elbow instead (0: never)")
     shoot_rate_cap: float = _p(0.0, "rad/s", 0, 5, doc="landing_law 'shoot': within shoot_hold_depth of the aimed height the shot brakes the elbow back to this rate where it would turn it faster (0: no cap)")
     shoot_link1_share: float = _p(0.5, "", 0, 1, doc="landing_law 'auto': the shot where link 1 makes at least this share of the planned gripper's rise rate near the line, else the lift rule")
 

@@ -328,19 +328,29 @@ class ApexShot:
         elbow braked to rest once the shot :meth:`gives_up`).  ``window``
         (lowest, highest torque the motor gives now, N m): with
         ``brake_ratio`` set, a shot asking for more than ``brake_ratio``
-        times it brakes the elbow instead -- a shot that far out of reach
-        only flings the elbow into the line (link 1 stopped short of the
-        plan), and a slower elbow arrives gentler or swings back to try
-        again."""
+        times it to lift the gripper brakes the elbow instead -- a shot that
+        far out of reach only flings the elbow into the line (link 1 stopped
+        short of the plan), and a slower elbow arrives gentler or swings
+        back to try again.  A shot as far out of reach the other way (the
+        swing arrives with too much energy and the shot folds the gripper
+        away from the line) is left to the window's clip: braking would
+        hold the elbow while link 1 carries the gripper into the line."""
         x = [float(v) for v in x]
         if self.gives_up(x):
             return self._braked(x)
         sol = self.solve(x)
         u = self.landing.torque(x) if sol is None else self._computed(x, sol[0])
         if window is not None and self.brake_ratio > 0.0 and not (
-                self.brake_ratio * window[0] <= u <= self.brake_ratio * window[1]):
+                self.brake_ratio * window[0] <= u <= self.brake_ratio * window[1]) \
+                and (sol is None or self._lifts(x, sol[0])):
             return self._braked(x)
         return self._capped(x, u)
+
+    def _lifts(self, x, a2: float) -> bool:
+        """Whether the elbow accelerating at ``a2`` moves the gripper towards
+        the line (nominal geometry: ``a2 dh/dq2 > 0``)."""
+        s = x[0] - self.landing.alpha
+        return a2 * self.landing.plant.l2 * math.sin(s + x[1]) > 0.0
 
     def _capped(self, x, u: float) -> float:
         """``u``, or where the gripper is within ``hold_depth`` of the aimed

@@ -104,8 +104,9 @@ def dumps_strict(obj, indent: int | None = 2) -> str:
 
 
 #: how deep in sections a signal must not cut (``depth``), and the raise a
-#: signal asked for meanwhile (``pending``), run when the last one ends
-_HELD = {"depth": 0, "pending": None}
+#: signal asked for meanwhile (``pending``), run when the last one ends, and
+#: the raise that has run (``raised``: :func:`raise_stop`)
+_HELD = {"depth": 0, "pending": None, "raised": None}
 
 
 def hold_or_run(action) -> None:
@@ -117,7 +118,22 @@ def hold_or_run(action) -> None:
     if _HELD["depth"]:
         _HELD["pending"] = action
     else:
+        _HELD["raised"] = action
         action()
+
+
+def raise_stop() -> None:
+    """Raise again the stop a signal's handler raised (:func:`hold_or_run`),
+    if one has: a solver that calls back into Python (SNOPT through Drake)
+    turns it into its own ``RuntimeError``, which a study must not keep as
+    a sample's error while it goes on."""
+    if _HELD["raised"] is not None:
+        _HELD["raised"]()
+
+
+def forget_stop() -> None:
+    """The command has ended: a later one starts with no stop raised."""
+    _HELD["raised"] = None
 
 
 @contextlib.contextmanager
@@ -145,6 +161,7 @@ def _signals_held():
         pending = _HELD["pending"]
         if pending is not None and not _HELD["depth"]:
             _HELD["pending"] = None
+            _HELD["raised"] = pending
             pending()
 
 

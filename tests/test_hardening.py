@@ -864,6 +864,7 @@ def test_a_signal_handled_while_the_temporary_file_is_made_waits_for_its_name(tm
     assert list(tmp_path.iterdir()) == []
     with pytest.raises(Terminated):          # outside a write it ends the command at once
         _terminate(signal.SIGTERM, None)
+    io.forget_stop()                         # the command has ended
 
 
 class _OneCommand:

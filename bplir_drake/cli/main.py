@@ -9,7 +9,7 @@ import warnings
 from ..analysis.control.errors import QftError
 from ..analysis.identification.errors import CalibrationError
 from ..csvfile import LogError
-from ..io import remove_unfinished
+from ..io import forget_stop, remove_unfinished
 from ..params import ParameterError
 from .common import _OUT, InputError, Terminated, _interrupt, _terminate
 from .parser import build_parser
@@ -77,6 +77,7 @@ def main(argv=None) -> int:
         return 1
     finally:
         remove_unfinished()   # a signal between a temporary file and its with-block
+        forget_stop()
         _OUT[0] = None
         warnings.showwarning = shown
         for sig, handler in previous.items():

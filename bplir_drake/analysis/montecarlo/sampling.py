@@ -9,6 +9,7 @@ from typing import Any
 
 import numpy as np
 
+from ...io import raise_stop
 from ...params import BplirParams
 from .study import Study
 from ..swing.run import SwingRunner
@@ -87,6 +88,7 @@ def run_sample(study: Study, index: int) -> dict:
         else:
             summary = _RUNNER.run(p, seed=seed).summary
     except Exception as exc:  # impossible draw, unreachable line, integrator failure ...
+        raise_stop()   # a signal's stop that a solver wrapped: the study ends, no error row
         return row | _error_fields(exc, study)
     row.update({k: summary[k] for k in study.result_fields})
     row["error"] = ""

@@ -331,10 +331,9 @@ class ApexShot:
         times it to lift the gripper brakes the elbow instead -- a shot that
         far out of reach only flings the elbow into the line (link 1 stopped
         short of the plan), and a slower elbow arrives gentler or swings
-        back to try again.  A shot as far out of reach the other way (the
-        swing arrives with too much energy and the shot folds the gripper
-        away from the line) is left to the window's clip: braking would
-        hold the elbow while link 1 carries the gripper into the line."""
+        back to try again.  A shot folding the gripper away (the swing
+        arrives too fast) is clipped instead: a braked elbow would let
+        link 1 carry the gripper into the line."""
         x = [float(v) for v in x]
         if self.gives_up(x):
             return self._braked(x)
@@ -347,8 +346,7 @@ class ApexShot:
         return self._capped(x, u)
 
     def _lifts(self, x, a2: float) -> bool:
-        """Whether the elbow accelerating at ``a2`` moves the gripper towards
-        the line (nominal geometry: ``a2 dh/dq2 > 0``)."""
+        """Whether the elbow at ``a2`` moves the gripper towards the line."""
         s = x[0] - self.landing.alpha
         return a2 * self.landing.plant.l2 * math.sin(s + x[1]) > 0.0
 

@@ -36,7 +36,7 @@ LINE_SENSOR_OPTION = {"range": 0.2, "shoot_height": -0.018, "shoot_min_time": 0.
 #: about as much again, and the shorter pumps that use more trip it or
 #: arrive at the torque limit and crash), and a
 #: traversal's landing shot that brakes the elbow when it asks for more than
-#: 1.6 times the torque the motor gives (link 1 stopped short, and chasing
+#: 1.6 times the torque the motor gives to lift the gripper (link 1 stopped short, and chasing
 #: the line flings the elbow into it; a timed-out swing is tried again, a
 #: crash ends the traversal)
 SUPPLY_48V_OPTION = {"supply_voltage": 48.0, "hanging_supply": 30.0,

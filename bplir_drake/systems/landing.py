@@ -347,8 +347,7 @@ class ApexShot:
 
     def _lifts(self, x, a2: float) -> bool:
         """Whether the elbow at ``a2`` moves the gripper towards the line."""
-        s = x[0] - self.landing.alpha
-        return a2 * self.landing.plant.l2 * math.sin(s + x[1]) > 0.0
+        return height_rates(self.landing.plant, self.landing.alpha, (x[0], x[1], 0.0, a2))[1] > 0
 
     def _capped(self, x, u: float) -> float:
         """``u``, or where the gripper is within ``hold_depth`` of the aimed

@@ -1,4 +1,4 @@
-"""A signal that arrives while a sample's plan is solved ends the study."""
+"""A signal that arrives while a plan is solved ends the study or the command."""
 import signal
 
 import pytest
@@ -42,3 +42,30 @@ def test_a_stop_wrapped_by_the_solver_ends_the_study_instead_of_an_error_row(mon
     monkeypatch.setattr(sampling, "_RUNNER", _SolverFails())
     row = sampling.run_sample(study, 1)
     assert row["error"].startswith("RuntimeError: Exception while evaluating SNOPT")
+
+
+def test_a_stop_wrapped_by_the_solver_ends_a_command_with_the_signals_status(monkeypatch,
+                                                                             capsys):
+    """``bplir plan`` (any command but a study) whose solve takes a SIGTERM:
+    the solver's RuntimeError is the stop it wraps, so the command ends with
+    143 and the signal's one line, not as a fault inside (exit 1); the next
+    command's own solver failure is a fault again."""
+    import argparse
+    import sys
+
+    from bplir_drake.cli import main
+
+    def command(func):
+        parsed = argparse.Namespace(func=func, command="plan", debug=False, json=False)
+        return type("Parser", (), {"parse_args": lambda self, argv: parsed})()
+
+    mod = sys.modules["bplir_drake.cli.main"]
+    monkeypatch.setattr(mod, "build_parser", lambda: command(
+        lambda args: _SolverWrapsTheStop().run(None)))
+    assert main(["plan"]) == 128 + signal.SIGTERM
+    assert capsys.readouterr().err == ("bplir: terminated by SIGTERM; no output file was "
+                                       "left half-written\n")
+    monkeypatch.setattr(mod, "build_parser", lambda: command(
+        lambda args: _SolverFails().run(None)))
+    assert main(["plan"]) == 1
+    assert capsys.readouterr().err.startswith("bplir: error: plan failed: RuntimeError: ")

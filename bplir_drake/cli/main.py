@@ -9,7 +9,7 @@ import warnings
 from ..analysis.control.errors import QftError
 from ..analysis.identification.errors import CalibrationError
 from ..csvfile import LogError
-from ..io import forget_stop, remove_unfinished
+from ..io import forget_stop, raise_stop, remove_unfinished
 from ..params import ParameterError
 from .common import _OUT, InputError, Terminated, _interrupt, _terminate
 from .parser import build_parser
@@ -18,6 +18,17 @@ from .parser import build_parser
 def _note(message, category, filename, lineno, file=None, line=None) -> None:
     """A warning as one line on standard error (a renamed preset, ...)."""
     sys.stderr.write(f"bplir: note: {message}\n")
+
+
+def _run(args) -> int:
+    """The command; a stop a solver turned into its own error (SNOPT through
+    Drake wraps the ``Terminated`` its Python callback raised in a
+    ``RuntimeError``) is raised again as the stop it was."""
+    try:
+        return args.func(args)
+    except Exception:
+        raise_stop()
+        raise
 
 
 def main(argv=None) -> int:
@@ -44,7 +55,7 @@ def main(argv=None) -> int:
         pass
     try:
         with quiet:
-            return args.func(args)
+            return _run(args)
     except (ParameterError, InputError, LogError, QftError, CalibrationError) as exc:
         sys.stderr.write(f"bplir: error: {exc}\n")
         return 2

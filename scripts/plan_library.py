@@ -1,5 +1,7 @@
 """Solve the shipped plan libraries: for each nominal robot the package
-plans for by default, the swing plans and their tracking gains on a grid of
+plans for by default (the single swing, the traversal's swings holding
+with either gripper and its swings tried again from hanging), the swing
+plans and their tracking gains on a grid of
 line inclines and grip spacings, stored in ``bplir_drake/data/plans`` (a
 maintainer's tool: run it after a change to the planner, the nominal model,
 the motor's envelope or the tracker's weights).
@@ -36,16 +38,20 @@ ROOT = Path(__file__).resolve().parents[1]
 def libraries(hardware=()):
     """{name: parameters of the robot and scenario the library is for}:
     the single swing of the default robot (with the ``hardware`` options),
-    and the traversal's swings holding with either gripper."""
+    the traversal's swings holding with either gripper, and those swings
+    tried again from hanging (:func:`retry_params`)."""
     from bplir_drake.analysis.traverse.swing_setup import swing_params
     from bplir_drake.params import preset
+
+    from bplir_drake.analysis.traverse.recovery import retry_params
 
     base = preset().with_hardware(*hardware)
     base = base.with_(plan=dc.replace(base.plan, library=False))   # solve, never read
     single = base.with_(path=dc.replace(base.path, mode="plan"))
-    return {"swing": single,
-            "traverse-1": swing_params(base, 1, 1.2, 0.0),
-            "traverse-2": swing_params(base, 2, 1.2, 0.0)}
+    line = {g: swing_params(base, g, 1.2, 0.0) for g in (1, 2)}
+    return {"swing": single, "traverse-1": line[1], "traverse-2": line[2],
+            "hanging-1": retry_params(line[1], holding=1),
+            "hanging-2": retry_params(line[2], holding=2)}
 
 
 def _at(params, incline: float, spacing: float):
@@ -79,7 +85,7 @@ def solve_grid(params, inclines, spacings, log=print, only=None) -> dict:
     def continued(incline, spacing, ref):
         q = _at(params, incline, spacing)
         t0 = time.perf_counter()
-        plan = P.plan_swing(q, end_depth=depth, initial=ref) if ref is not None else None
+        plan = _from(q, ref, depth) if ref is not None else None
         if plan is None or not plan.feasible:
             try:
                 plan = P.scenario_plan(q.with_(plan=dc.replace(q.plan, spacing_step=0.0)))
@@ -101,6 +107,24 @@ def solve_grid(params, inclines, spacings, log=print, only=None) -> dict:
             plans[incline, spacing] = continued(incline, spacing, ref)
             last[side] = plans[incline, spacing] or ref
     return plans
+
+
+def _from(q, ref, depth):
+    """The plan of ``q`` started from its neighbour's ``ref``: as the
+    planner solves it (a plan from hanging with its own knots, iteration
+    limit, elbow-rate bound and envelope, and no plan that heats the
+    driver beyond ``plan.hanging_i2t_share``: that one is not feasible)."""
+    from bplir_drake.diagrams import plan as P
+
+    if q.scenario.start != "hanging":
+        return P.plan_swing(q, end_depth=depth, initial=ref)
+    made = P.hanging_planned(q)
+    plan = P.plan_swing(made, end_depth=depth, initial=ref, knots=P.HANGING_KNOTS,
+                        minor_iterations=P.HANGING_MINOR_ITERATIONS,
+                        rate_limit=q.plan.hanging_rate_limit)
+    if plan.feasible and P.planned_i2t(plan, made.motor) > P.i2t_allowance(made):
+        return dc.replace(plan, feasible=False)
+    return plan
 
 
 #: a plan costing more than this times the cheaper of its incline
@@ -132,18 +156,64 @@ def repair(params, plans: dict, log=print) -> dict:
             continue
         kinds = {p.link1_reversals for p in near}
         better = own.objective() < plan.objective() and own.link1_reversals in kinds
-        log(f"  repair {a:+5.1f} deg {d:.2f} m: objective {plan.objective():.1f}, the "
-            f"planner's own {own.objective():.1f} ({own.link1_reversals} reversals): "
-            f"{'replaced' if better else 'kept'}", flush=True)
-        if better:
-            out[a, d] = own
+        _settle(out, (a, d), own if better else None, log,
+                f"  repair {a:+5.1f} deg {d:.2f} m: objective {plan.objective():.1f}, the "
+                f"planner's own {own.objective():.1f} ({own.link1_reversals} reversals)")
+    return out
+
+
+def _settle(out: dict, key, new, log, line: str) -> None:
+    """Log ``line`` with the choice; put ``new`` (None: keep) at ``key``."""
+    log(f"{line}: {'kept' if new is None else 'replaced'}", flush=True)
+    if new is not None:
+        out[key] = new
+
+
+def harmonise(params, plans: dict, log=print) -> dict:
+    """``plans`` with every plan whose manoeuvre (link-1 reversals) differs
+    from the one most of its grid neighbours share (at least two, more
+    than any other), or that is that manoeuvre at more than
+    :data:`REPAIR_RATIO` times the cost of the cheapest of them, re-solved
+    from that cheapest neighbour; kept when the new plan is feasible,
+    their manoeuvre and costs at most :data:`REPAIR_RATIO` times the one
+    it replaces (less, for a poorer plan of the same manoeuvre).  A blend
+    needs plans of one manoeuvre and shape around it; continuation along
+    the inclines can switch manoeuvre a whole column at a time, and the
+    planner's own guesses can end in a poor optimum of the same one."""
+    from collections import Counter
+
+    out = dict(plans)
+    inclines, spacings = sorted({a for a, _ in plans}), sorted({d for _, d in plans})
+    for a, d in plans:
+        plan = out[a, d]
+        i, j = inclines.index(a), spacings.index(d)
+        near = [out.get((inclines[k], d)) for k in (i - 1, i + 1) if 0 <= k < len(inclines)]
+        near += [out.get((a, spacings[k])) for k in (j - 1, j + 1) if 0 <= k < len(spacings)]
+        near = [p for p in near if p is not None]
+        count = Counter(p.link1_reversals for p in near).most_common()
+        if plan is None or not count or count[0][1] < 2 or (
+                len(count) > 1 and count[1][1] == count[0][1]):
+            continue
+        kind = count[0][0]
+        ref = min((p for p in near if p.link1_reversals == kind), key=lambda p: p.objective())
+        outlier = plan.objective() > REPAIR_RATIO * ref.objective()   # same manoeuvre, poorer
+        if plan.link1_reversals == kind and not outlier:
+            continue
+        new = _from(_at(params, a, d), ref, params.plan.end_depth)
+        limit = plan.objective() * (1.0 if plan.link1_reversals == kind else REPAIR_RATIO)
+        better = new.feasible and new.link1_reversals == kind and new.objective() <= limit
+        _settle(out, (a, d), new if better else None, log,
+                f"  harmonise {a:+5.1f} deg {d:.2f} m: {plan.link1_reversals} reversals, "
+                f"objective {plan.objective():.1f}; from its neighbour {new.link1_reversals}, "
+                f"{new.objective():.1f}")
     return out
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--check", action="store_true", help="list, solve nothing")
-    ap.add_argument("--only", default=None, help="one library: swing, traverse-1, traverse-2")
+    ap.add_argument("--only", default=None,
+                    help="one library: swing, traverse-1, traverse-2, hanging-1, hanging-2")
     ap.add_argument("--hardware", default="",
                     help="hardware options of the robot (comma-separated, as bplir --hardware)")
     ap.add_argument("--spacings", default=None,
@@ -169,7 +239,7 @@ def main(argv=None) -> int:
         plans = solve_grid(params, LIBRARY_INCLINES, LIBRARY_SPACINGS, only=only)
         if only is not None:
             continue
-        plans = repair(params, plans)
+        plans = harmonise(params, repair(params, plans))
         from bplir_drake.diagrams.plan import plan_model
 
         lib = build_library(params, plans, plan_model(params)[0])

@@ -13,7 +13,9 @@ starts from 1.2 m), the 1.27 m warm start, every swing of the example
 lines (both robots), the default swing of a robot whose nominal link 2
 weighs 1.6 kg (the documented ``--set plant.m2=1.6``), the swing of
 ``examples/acromonk.toml``, the flat-line swings tried again from hanging
-(both robots, 30 V and 48 V) and the 48 V swapped robot's on the span's
+(both robots, 30 V and 48 V; at 30 V the hanging libraries' grid
+point, which tests compare with them, and the original robot's at +2.6 deg and
+1.05 m, between grid points) and the 48 V swapped robot's on the span's
 +2.6 deg chord, ending at the line (``traverse.swapped_retry_end_depth``)
 and 13 mm below it (the plans its guesses gave before one heated the
 driver little enough); gains for the swings the tests track
@@ -67,6 +69,11 @@ def scenarios():
     deeper = b48.with_(traverse=dc.replace(b48.traverse, swapped_retry_end_depth=0.013))
     tracked += [retry_params(swing_params(b, 2, b.traverse.grip_spacing, math.radians(2.6)),
                              holding=2) for b in (b48, deeper)]   # test_traverse_recovery's
+    solved = base.with_(plan=dc.replace(base.plan, library=False))   # the libraries' own
+    plans += [lambda g=g: P.scenario_plan(retry_params(                 # plans at 0 deg, 1.2 m
+        swing_params(solved, g, solved.traverse.grip_spacing, 0.0), holding=g)) for g in (1, 2)]
+    plans.append(lambda: P.scenario_plan(retry_params(   # and between grid points (+2.6 deg,
+        swing_params(solved, 1, 1.05, math.radians(2.6)), holding=1)))   # 1.05 m)
     q127 = at(base, grip_spacing=1.27)   # the warm start's test: its cold solve too
     plans += [lambda: P.scenario_plan(q127),
               lambda: P.plan_swing(q127, end_depth=q127.plan.end_depth, guess_duration=1.0)]

@@ -522,8 +522,9 @@ def test_shipped_plans_serve_a_fresh_install(monkeypatch, tmp_path):
     # at the line (its first three guesses: the first heats the driver too much, the
     # second is infeasible) and 13 mm below it (test_traverse_recovery's: its four
     # guesses, the first heats the driver too much, the next two are infeasible), and
-    # examples/acromonk.toml's swing (its guesses and warm start) and `bplir plan`
-    assert len(shipped) == 43
+    # examples/acromonk.toml's swing (its guesses and warm start) and `bplir plan`, and
+    # the original robot's try from hanging at +2.6 deg, 1.05 m (test_hanging_library's)
+    assert len(shipped) == 44
     monkeypatch.setenv("BPLIR_CACHE_DIR", str(tmp_path))
 
     def no_solve(*a, **k):
@@ -577,9 +578,10 @@ def test_shipped_plans_serve_a_fresh_install(monkeypatch, tmp_path):
 def test_shipped_gains_serve_the_tests_plans(monkeypatch, tmp_path):
     """The LQR gains of the plans the tests and the quick start track ship
     too (the +-20 deg swings of examples/uphill_plan.toml, the 1.6 kg link 2,
-    both robots' tries from hanging on the flat line at 30 V and 48 V, the
-    48 V swapped robot's on the span's +2.6 deg chord; the default robot's
-    other swings blend theirs from the plan libraries): with an empty cache
+    both robots' tries from hanging on the flat line at 48 V, the 48 V
+    swapped robot's on the span's +2.6 deg chord; the default robot's other
+    swings, its tries from hanging included, blend theirs from the plan
+    libraries): with an empty cache
     they are read, never solved, and every shipped gains file belongs to a
     plan the tests track."""
     import dataclasses as dc
@@ -622,7 +624,8 @@ def test_shipped_gains_serve_the_tests_plans(monkeypatch, tmp_path):
             continue
         keys.add(plan_cache.plan_key(P.gains_inputs(p.plant, p.friction, plan,
                                                     P.TrackerWeights.of(p.plan))))
-    assert blended == 10   # +-20 deg, the flat swing, both robots on the flat line, the quick five
+    assert blended == 12   # +-20 deg, the flat swing, both robots on the flat line (from the
+    #                        line and tried again from hanging at 30 V), the quick five
     shipped = {f.stem.split("-", 1)[1] for f in plan_cache.PACKAGED.glob("gains-*.npz")}
     assert shipped == keys and not list(tmp_path.glob("gains-*.npz"))
 

@@ -106,8 +106,10 @@ def test_between_grid_points_the_blend_is_close_to_the_solved_plan(robots):
 
 
 def test_only_the_model_the_library_was_solved_for_reads_it(robots):
-    """Another nominal model, a scenario outside the grid, a swing from
-    hanging or ``plan.library = false``: no library plan."""
+    """Another nominal model, a scenario outside the grid, a single swing
+    from hanging (no library: the traversal's tries from hanging have
+    theirs, tests/test_hanging_library.py) or ``plan.library = false``:
+    no library plan."""
     p = robots["swing"]
     assert library_plan(_at(p, 13.0, 1.23)) is not None
     heavier = p.with_(plant=dc.replace(p.plant, m2=p.plant.m2 * 1.05))

@@ -37,7 +37,8 @@ from ..params import BplirParams, ParameterError
 from .plan_plot import (  # noqa: F401 (re-exported)
     plot_plan)
 from .swing_plan import (  # noqa: F401 (re-exported)
-    PLAN_FRICTION_SMOOTHING, SwingPlan, plan_envelope, plan_friction, plan_torque_limit,
+    HANGING_GUESSES, HANGING_KNOTS, HANGING_MINOR_ITERATIONS, PLAN_FRICTION_SMOOTHING,
+    SwingPlan, hanging_planned, plan_envelope, plan_friction, plan_torque_limit,
     planned_target, shifted_angles)
 from .plan_library import library_plan
 from .plan_file import read_plan_file
@@ -242,11 +243,8 @@ def _solve_plan(params, q0, qT, tau_max, power, tmax, knots, time_weight, guess_
 
 #: initial-guess durations (s) :func:`tracking_plan` tries in turn until a plan
 #: is feasible (on a -8 deg line 1.5 s ends 1e-4 outside the tolerance, 1.0 s not);
-#: from hanging at rest (``scenario.start``) it pumps before it reaches (3-6 s)
+#: from hanging at rest (``scenario.start``) :data:`HANGING_GUESSES`
 PLAN_GUESSES = (1.5, 1.0, 2.0)
-HANGING_GUESSES = (3.0, 4.0, 5.0, 6.0)
-HANGING_KNOTS = 61
-HANGING_MINOR_ITERATIONS = 150_000
 
 
 def tracking_plan(params: BplirParams):
@@ -383,18 +381,6 @@ def i2t_allowance(params: BplirParams) -> float:
     ``plan.hanging_i2t_share`` of the budget (infinite with the share 0)."""
     share = params.plan.hanging_i2t_share
     return share * interlock_budget(params.motor) if share > 0.0 else math.inf
-
-
-def hanging_planned(params: BplirParams) -> BplirParams:
-    """``params`` as a plan from hanging is made with: ``plan.torque_share``
-    at most ``plan.hanging_torque_share``, and the motor at
-    ``plan.hanging_supply`` when that is set (the robot swings at its own
-    supply; only the plan keeps to the other's envelope)."""
-    pl, motor = params.plan, params.motor
-    if pl.hanging_supply > 0:
-        motor = replace(motor, supply_voltage=pl.hanging_supply)
-    return params.with_(motor=motor, plan=replace(
-        pl, torque_share=min(pl.torque_share, pl.hanging_torque_share)))
 
 
 _GAINS: dict = {}

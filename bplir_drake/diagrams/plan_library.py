@@ -5,7 +5,9 @@ of any scenario inside the grid interpolated from it in milliseconds.
 A library belongs to one nominal robot and everything else the planner and
 the tracking gains read (:func:`model_inputs`: the nominal plant and
 friction, the motor's envelope, the torque and power limits, the timeout,
-the plan's end depth, the LQR weights); it is used only when a scenario's
+the plan's end depth, the LQR weights, and the swing's start: from the line,
+or from hanging at rest with the hanging planner's own settings, as a
+traversal tries a swing again); it is used only when a scenario's
 inputs match it exactly, so a plan never comes from another robot's model.
 The grid is solved by continuation (``scripts/plan_library.py``), so
 that neighbouring plans are mostly the same manoeuvre; each is sampled at
@@ -35,8 +37,9 @@ from ..systems.plan_tracker import RICCATI_ACCURACY, TrackerWeights, TrackingGai
 from ..systems.plant import start_configuration
 from ..io import atomic_path
 from .plan_cache import PACKAGED, plan_key
-from .swing_plan import (PLAN_FRICTION_SMOOTHING, SwingPlan, plan_envelope, plan_friction,
-                         plan_torque_limit, planned_target, shifted_angles)
+from .swing_plan import (HANGING_GUESSES, HANGING_KNOTS, HANGING_MINOR_ITERATIONS,
+                         PLAN_FRICTION_SMOOTHING, SwingPlan, hanging_planned, plan_envelope,
+                         plan_friction, plan_torque_limit, planned_target, shifted_angles)
 
 #: the grid of the shipped libraries: line inclines (deg) and grip spacings (m)
 LIBRARY_INCLINES = tuple(float(a) for a in range(-20, 21, 5))
@@ -72,15 +75,30 @@ class PlanLibrary:
 
 def model_inputs(params: BplirParams) -> dict:
     """Every input of a library plan and its gains other than the incline
-    and the grip spacing (the planner's defaults for the solver settings)."""
-    return dict(plant=params.plant.key_dict(), friction=params.friction.as_dict(),
-                envelope=plan_envelope(params), tau_max=plan_torque_limit(params),
-                power=params.motor.power_rating, tmax=params.scenario.max_time,
-                end_depth=params.plan.end_depth, start=params.scenario.start,
-                knots=LIBRARY_KNOTS, smoothing=PLAN_FRICTION_SMOOTHING,
-                weights=dataclasses.asdict(TrackerWeights.of(params.plan)), riccati=RICCATI_ACCURACY,
-                inclines=list(LIBRARY_INCLINES), spacings=list(LIBRARY_SPACINGS),
-                samples=LIBRARY_SAMPLES)
+    and the grip spacing (the planner's defaults for the solver settings;
+    from hanging, its own: :func:`~.swing_plan.hanging_planned`, knots,
+    iteration limit, elbow-rate bound, guesses and i^2 t share)."""
+    made, hanging = _as_planned(params), params.scenario.start == "hanging"
+    out = dict(plant=params.plant.key_dict(), friction=params.friction.as_dict(),
+               envelope=plan_envelope(made), tau_max=plan_torque_limit(made),
+               power=params.motor.power_rating, tmax=params.scenario.max_time,
+               end_depth=params.plan.end_depth, start=params.scenario.start,
+               knots=HANGING_KNOTS if hanging else LIBRARY_KNOTS,
+               smoothing=PLAN_FRICTION_SMOOTHING,
+               weights=dataclasses.asdict(TrackerWeights.of(params.plan)), riccati=RICCATI_ACCURACY,
+               inclines=list(LIBRARY_INCLINES), spacings=list(LIBRARY_SPACINGS),
+               samples=LIBRARY_SAMPLES)
+    if hanging:
+        out.update(rate_limit=params.plan.hanging_rate_limit, guesses=list(HANGING_GUESSES),
+                   minor_iterations=HANGING_MINOR_ITERATIONS,
+                   i2t_share=params.plan.hanging_i2t_share)
+    return out
+
+
+def _as_planned(params: BplirParams) -> BplirParams:
+    """``params`` as the planner makes its plan (from hanging: within its
+    own torque share and supply)."""
+    return hanging_planned(params) if params.scenario.start == "hanging" else params
 
 
 def library_path(params: BplirParams, directory: Path = PACKAGED) -> Path:
@@ -182,7 +200,7 @@ def library_plan(params: BplirParams):
     from pydrake.trajectories import PiecewisePolynomial
 
     sc = params.scenario
-    if not params.plan.library or sc.start != "line":
+    if not params.plan.library:
         return None
     lib = load_library(library_path(params))
     if lib is None or not lib.covers(sc.incline_deg, sc.grip_spacing) \
@@ -191,16 +209,17 @@ def library_plan(params: BplirParams):
     b = _blend(lib, sc.incline_deg, sc.grip_spacing)
     s = np.linspace(0.0, 1.0, LIBRARY_SAMPLES)
     times = s * b["durations"]
-    q0 = start_configuration("line", sc.grip_spacing, params.plant, math.radians(sc.incline_deg))
+    q0 = start_configuration(sc.start, sc.grip_spacing, params.plant, math.radians(sc.incline_deg))
     states = shifted_angles(s, b["states"], q0, planned_target(params, params.plan.end_depth))
-    env = plan_envelope(params)
+    made = _as_planned(params)
+    env = plan_envelope(made)
     electric = {} if env is None else dict(
         voltage_limit=env["voltage"], voltage_share=env["share"], resistance=env["resistance"],
         emf_per_rate=env["emf_per_rate"], torque_per_amp=env["torque_per_amp"])
     friction = plan_friction(params.friction)
     fr = np.array([friction_torques(x[2:4], friction) for x in states])
     plan = SwingPlan(times, states, b["torque"], fr, True, True, "library", sc.incline_deg,
-                     plan_torque_limit(params), params.motor.power_rating, 1e-4, **electric,
+                     plan_torque_limit(made), params.motor.power_rating, 1e-4, **electric,
                      status="interpolated")
     gains = TrackingGains(
         K=PiecewisePolynomial.FirstOrderHold(times, [k.reshape(1, 4) for k in b["gain"]]),

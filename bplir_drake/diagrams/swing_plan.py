@@ -174,3 +174,23 @@ def planned_target(params: BplirParams, end_depth: float = 0.0) -> np.ndarray:
     return np.array([-q[0] + math.radians(sc.incline_deg) - math.atan2(end_depth, D), -q[1]])
 
 
+
+
+#: a plan from hanging at rest (``scenario.start``): the initial-guess
+#: durations tried in turn (it pumps before it reaches, 3-6 s), its
+#: collocation knots and SNOPT's limit on its minor iterations
+HANGING_GUESSES = (3.0, 4.0, 5.0, 6.0)
+HANGING_KNOTS = 61
+HANGING_MINOR_ITERATIONS = 150_000
+
+
+def hanging_planned(params: BplirParams) -> BplirParams:
+    """``params`` as a plan from hanging is made with: ``plan.torque_share``
+    at most ``plan.hanging_torque_share``, and the motor at
+    ``plan.hanging_supply`` when that is set (the robot swings at its own
+    supply; only the plan keeps to the other's envelope)."""
+    pl, motor = params.plan, params.motor
+    if pl.hanging_supply > 0:
+        motor = replace(motor, supply_voltage=pl.hanging_supply)
+    return params.with_(motor=motor, plan=replace(
+        pl, torque_share=min(pl.torque_share, pl.hanging_torque_share)))

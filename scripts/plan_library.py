@@ -40,10 +40,9 @@ def libraries(hardware=()):
     the single swing of the default robot (with the ``hardware`` options),
     the traversal's swings holding with either gripper, and those swings
     tried again from hanging (:func:`retry_params`)."""
+    from bplir_drake.analysis.traverse.recovery import retry_params
     from bplir_drake.analysis.traverse.swing_setup import swing_params
     from bplir_drake.params import preset
-
-    from bplir_drake.analysis.traverse.recovery import retry_params
 
     base = preset().with_hardware(*hardware)
     base = base.with_(plan=dc.replace(base.plan, library=False))   # solve, never read
@@ -119,9 +118,7 @@ def _from(q, ref, depth):
     if q.scenario.start != "hanging":
         return P.plan_swing(q, end_depth=depth, initial=ref)
     made = P.hanging_planned(q)
-    plan = P.plan_swing(made, end_depth=depth, initial=ref, knots=P.HANGING_KNOTS,
-                        minor_iterations=P.HANGING_MINOR_ITERATIONS,
-                        rate_limit=q.plan.hanging_rate_limit)
+    plan = P.hanging_solve(made, initial=ref)
     if plan.feasible and P.planned_i2t(plan, made.motor) > P.i2t_allowance(made):
         return dc.replace(plan, feasible=False)
     return plan

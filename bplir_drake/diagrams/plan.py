@@ -329,10 +329,8 @@ def hanging_plan(params: BplirParams, *, power_limit: float | None = None,
     allowance = i2t_allowance(params)
     kept = None   # (i^2 t, plan) of the least heating feasible plan
     for guess in HANGING_GUESSES:
-        plan = plan_swing(params, power_limit=power_limit, end_depth=params.plan.end_depth,
-                          guess_duration=guess, knots=knots,
-                          minor_iterations=HANGING_MINOR_ITERATIONS,
-                          rate_limit=params.plan.hanging_rate_limit, progress=progress)
+        plan = hanging_solve(params, power_limit=power_limit, knots=knots, progress=progress,
+                             guess_duration=guess)
         if not plan.feasible:
             continue
         heat = planned_i2t(plan, params.motor)
@@ -361,10 +359,20 @@ def _warm_from_level(params: BplirParams, power_limit, knots: int, progress: boo
                          power_limit=power_limit, strict=False)
     if not level.feasible:
         return None
-    plan = plan_swing(params, power_limit=power_limit, end_depth=params.plan.end_depth,
-                      initial=level, knots=knots, minor_iterations=HANGING_MINOR_ITERATIONS,
-                      rate_limit=params.plan.hanging_rate_limit, progress=progress)
+    plan = hanging_solve(params, power_limit=power_limit, knots=knots, progress=progress,
+                         initial=level)
     return plan if plan.feasible else None
+
+
+def hanging_solve(made: BplirParams, *, power_limit: float | None = None,
+                  knots: int = HANGING_KNOTS, progress: bool = False, **start) -> SwingPlan:
+    """One solve of the plan from hanging of ``made`` (as
+    :func:`hanging_planned` makes it): ``plan.end_depth``, its own iteration
+    limit and elbow-rate bound, started from ``start`` (``guess_duration``
+    or ``initial``, as :func:`plan_swing` takes them)."""
+    return plan_swing(made, power_limit=power_limit, end_depth=made.plan.end_depth, knots=knots,
+                      minor_iterations=HANGING_MINOR_ITERATIONS,
+                      rate_limit=made.plan.hanging_rate_limit, progress=progress, **start)
 
 
 def planned_i2t(plan: SwingPlan, motor) -> float:

@@ -174,8 +174,6 @@ def planned_target(params: BplirParams, end_depth: float = 0.0) -> np.ndarray:
     return np.array([-q[0] + math.radians(sc.incline_deg) - math.atan2(end_depth, D), -q[1]])
 
 
-
-
 #: a plan from hanging at rest (``scenario.start``): the initial-guess
 #: durations tried in turn (it pumps before it reaches, 3-6 s), its
 #: collocation knots and SNOPT's limit on its minor iterations

@@ -13,12 +13,13 @@ starts from 1.2 m), the 1.27 m warm start, every swing of the example
 lines (both robots), the default swing of a robot whose nominal link 2
 weighs 1.6 kg (the documented ``--set plant.m2=1.6``), the swing of
 ``examples/acromonk.toml``, the flat-line swings tried again from hanging
-(both robots, 30 V and 48 V; at 30 V the hanging libraries' grid
-point, which tests compare with them, and the original robot's at +2.6 deg and
-1.05 m, between grid points) and the 48 V swapped robot's on the span's
-+2.6 deg chord, ending at the line (``traverse.swapped_retry_end_depth``)
-and 13 mm below it (the plans its guesses gave before one heated the
-driver little enough); gains for the swings the tests track
+(both robots; the hanging libraries' grid point, which tests compare with
+them, and the original robot's at +2.6 deg and 1.05 m, between grid
+points) and the 48 V swapped robot's on the span's +2.6 deg chord planned
+by guesses within 85 % of the torque limit and 35 % of the driver's i^2 t
+budget, ending at the line (``traverse.swapped_retry_end_depth``) and 13 mm
+below it (the plans its guesses gave before one heated the driver little
+enough); gains for the swings the tests track
 that the plan libraries (``scripts/plan_library.py``) do not cover.
 """
 from __future__ import annotations
@@ -60,12 +61,14 @@ def scenarios():
     tracked.append(acromonk)                                     # and its `bplir plan`
     plans.append(lambda: P.plan_swing(acromonk, power_limit=None, knots=41))
     # the flat-line swings tried again from hanging (the traversal's recovery),
-    # at 30 V and with the 48v option, and the 48 V swapped robot's try on the
-    # span's +2.6 deg chord, whose first guess heats the driver too much
+    # and the 48 V swapped robot's try on the span's +2.6 deg chord planned by
+    # guesses within 85 % of the torque limit and 35 % of the driver's i^2 t
+    # budget (test_traverse_recovery's: the first guess heats the driver too much)
     from bplir_drake.analysis.traverse.recovery import retry_params
+    tracked += [retry_params(swing_params(base, g, base.traverse.grip_spacing, 0.0), holding=g)
+                for g in (1, 2)]
     b48 = base.with_hardware("48v")
-    tracked += [retry_params(swing_params(b, g, b.traverse.grip_spacing, 0.0), holding=g)
-                for b in (base, b48) for g in (1, 2)]
+    b48 = b48.with_(plan=dc.replace(b48.plan, hanging_torque_share=0.85, hanging_i2t_share=0.35))
     deeper = b48.with_(traverse=dc.replace(b48.traverse, swapped_retry_end_depth=0.013))
     tracked += [retry_params(swing_params(b, 2, b.traverse.grip_spacing, math.radians(2.6)),
                              holding=2) for b in (b48, deeper)]   # test_traverse_recovery's

@@ -517,14 +517,14 @@ def test_shipped_plans_serve_a_fresh_install(monkeypatch, tmp_path):
     # the default swing with a 1.6 kg link 2 (the documented --set plant.m2=1.6) and the
     # flat-line swings tried again from hanging (the traversal's recovery, both robots,
     # the swapped robot's planned to end at the line; some guesses too, which SNOPT
-    # does not solve), the 48 V robot's (planned within the 30 V envelope and 85 % of
-    # the torque limit), the 48 V swapped robot's on the span's +2.6 deg chord, ending
+    # does not solve), the 48 V swapped robot's on the span's +2.6 deg chord planned
+    # by guesses within 85 % of the torque limit and 35 % of the i^2 t budget, ending
     # at the line (its first three guesses: the first heats the driver too much, the
     # second is infeasible) and 13 mm below it (test_traverse_recovery's: its four
     # guesses, the first heats the driver too much, the next two are infeasible), and
     # examples/acromonk.toml's swing (its guesses and warm start) and `bplir plan`, and
     # the original robot's try from hanging at +2.6 deg, 1.05 m (test_hanging_library's)
-    assert len(shipped) == 44
+    assert len(shipped) == 40
     monkeypatch.setenv("BPLIR_CACHE_DIR", str(tmp_path))
 
     def no_solve(*a, **k):
@@ -561,9 +561,9 @@ def test_shipped_plans_serve_a_fresh_install(monkeypatch, tmp_path):
                 seen.add((g, plan.incline_deg))
     assert len(seen) == 8
     from bplir_drake.analysis.traverse.recovery import retry_params
-    volt48 = base.with_hardware("48v")
-    for g in (1, 2):
-        assert P.scenario_plan(retry_params(swing_params(volt48, g, 1.2, 0.0), holding=g)).feasible
+    volt48 = base.with_hardware("48v")   # tries planned by guesses (test_traverse_recovery's)
+    volt48 = volt48.with_(plan=dc.replace(volt48.plan, hanging_torque_share=0.85,
+                                          hanging_i2t_share=0.35))
     assert P.scenario_plan(retry_params(swing_params(volt48, 2, 1.2, math.radians(2.6)),
                                         holding=2)).feasible
     deeper = volt48.with_(traverse=dc.replace(volt48.traverse, swapped_retry_end_depth=0.013))
@@ -578,9 +578,9 @@ def test_shipped_plans_serve_a_fresh_install(monkeypatch, tmp_path):
 def test_shipped_gains_serve_the_tests_plans(monkeypatch, tmp_path):
     """The LQR gains of the plans the tests and the quick start track ship
     too (the +-20 deg swings of examples/uphill_plan.toml, the 1.6 kg link 2,
-    both robots' tries from hanging on the flat line at 48 V, the 48 V
-    swapped robot's on the span's +2.6 deg chord; the default robot's other
-    swings, its tries from hanging included, blend theirs from the plan
+    the 48 V swapped robot's try from hanging on the span's +2.6 deg chord
+    planned by guesses; the default robot's other swings, its tries from
+    hanging included at 30 V and 48 V, blend theirs from the plan
     libraries): with an empty cache
     they are read, never solved, and every shipped gains file belongs to a
     plan the tests track."""
@@ -609,8 +609,9 @@ def test_shipped_gains_serve_the_tests_plans(monkeypatch, tmp_path):
     from bplir_drake.analysis.traverse.recovery import retry_params
     cases += [retry_params(c, holding=g) for g, c in ((1, cases[4]), (2, cases[5]))]   # tried again
     cases += [retry_params(swing_params(base.with_hardware("48v"), g, 1.2, 0.0), holding=g)
-              for g in (1, 2)]   # planned within the 30 V envelope
-    b48 = base.with_hardware("48v")
+              for g in (1, 2)]   # at 48 V the 30 V robot's tries (its libraries)
+    b48 = base.with_hardware("48v")   # tries planned by guesses (test_traverse_recovery's)
+    b48 = b48.with_(plan=dc.replace(b48.plan, hanging_torque_share=0.85, hanging_i2t_share=0.35))
     deeper = b48.with_(traverse=dc.replace(b48.traverse, swapped_retry_end_depth=0.013))
     cases += [retry_params(swing_params(b, 2, 1.2, math.radians(2.6)), holding=2)
               for b in (b48, deeper)]   # the span's chord, ending at the line and below
@@ -624,8 +625,8 @@ def test_shipped_gains_serve_the_tests_plans(monkeypatch, tmp_path):
             continue
         keys.add(plan_cache.plan_key(P.gains_inputs(p.plant, p.friction, plan,
                                                     P.TrackerWeights.of(p.plan))))
-    assert blended == 12   # +-20 deg, the flat swing, both robots on the flat line (from the
-    #                        line and tried again from hanging at 30 V), the quick five
+    assert blended == 14   # +-20 deg, the flat swing, both robots on the flat line (from the
+    #                        line and tried again from hanging at 30 V and 48 V), the quick five
     shipped = {f.stem.split("-", 1)[1] for f in plan_cache.PACKAGED.glob("gains-*.npz")}
     assert shipped == keys and not list(tmp_path.glob("gains-*.npz"))
 

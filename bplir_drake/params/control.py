@@ -27,21 +27,16 @@ LINE_SENSOR_OPTION = {"range": 0.2, "shoot_height": -0.018, "shoot_min_time": 0.
                       "shoot_lift_min_time": 0.05}
 
 
-#: the 48 V supply as a hardware option: the supply, and the swing tried again
-#: from hanging planned within the 30 V envelope and 85 % of the torque limit
-#: (the 48 V envelope alone lets the plan flip the elbow at 23 rad/s, which the
-#: tracker cannot follow; on the slower plan the tracker has voltage and torque
-#: to spare), a plan that by itself uses at most 35 % of the driver's i^2 t
-#: budget where a guess gives one (the tracker's feedback heats the driver
-#: about as much again, and the shorter pumps that use more trip it or
-#: arrive at the torque limit and crash), and a
+#: the 48 V supply as a hardware option: the supply, a swing tried again from
+#: hanging planned as the 30 V robot plans it (within the 30 V envelope: the
+#: 48 V envelope alone lets the pump flip the elbow at 23 rad/s, faster than
+#: the tracker follows; on the 30 V robot's pump the 48 V tracker has voltage
+#: to spare, and the tries read the 30 V robot's plan libraries), and a
 #: traversal's landing shot that brakes the elbow when it asks for more than
-#: 1.6 times the torque the motor gives to lift the gripper (link 1 stopped short, and chasing
-#: the line flings the elbow into it; a timed-out swing is tried again, a
-#: crash ends the traversal)
-SUPPLY_48V_OPTION = {"supply_voltage": 48.0, "hanging_supply": 30.0,
-                     "hanging_torque_share": 0.85, "hanging_i2t_share": 0.35,
-                     "shoot_brake_ratio": 1.6}
+#: 1.6 times the torque the motor gives to lift the gripper (link 1 stopped
+#: short, and chasing the line flings the elbow into it; a timed-out swing is
+#: tried again, a crash ends the traversal)
+SUPPLY_48V_OPTION = {"supply_voltage": 48.0, "hanging_supply": 30.0, "shoot_brake_ratio": 1.6}
 
 
 #: named hardware options on top of a preset (:meth:`BplirParams.with_hardware`)

@@ -105,9 +105,9 @@ class BplirParams:
     def with_hardware(self, *names: str) -> "BplirParams":
         """The robot with the named hardware options (:data:`HARDWARE_OPTIONS`):
         ``"line-sensor"`` (the jaw's line range sensor and the landing's aim
-        with it, :data:`LINE_SENSOR_OPTION`), ``"48v"`` (a 48 V supply and
-        its swings from hanging planned within the 30 V envelope and 85 % of the torque
-        limit, a traversal's landing shot braking where far out of reach,
+        with it, :data:`LINE_SENSOR_OPTION`), ``"48v"`` (a 48 V supply, its
+        swings from hanging planned as the 30 V robot plans them, and a
+        traversal's landing shot braking where far out of reach,
         :data:`SUPPLY_48V_OPTION`)."""
         p = self
         for name in names:
@@ -119,9 +119,7 @@ class BplirParams:
             elif name == "48v":
                 o = SUPPLY_48V_OPTION
                 p = replace(p, motor=replace(p.motor, supply_voltage=o["supply_voltage"]),
-                            plan=replace(p.plan, hanging_supply=o["hanging_supply"],
-                                         hanging_torque_share=o["hanging_torque_share"],
-                                         hanging_i2t_share=o["hanging_i2t_share"]),
+                            plan=replace(p.plan, hanging_supply=o["hanging_supply"]),
                             traverse=replace(p.traverse, shoot_brake_ratio=o["shoot_brake_ratio"]))
             else:
                 raise ParameterError(f"unknown hardware option '{name}'; allowed: "

@@ -20,7 +20,10 @@ so that neighbouring plans are mostly the same manoeuvre (the same number
 of link-1 reversals) and can be interpolated; where the planner finds no
 plan the grid has a hole.  A plan costing far more than its neighbours
 (continuation stalled in a poor optimum) is then re-solved from the
-planner's own guesses (:func:`repair`).  Plans are kept in a solve
+planner's own guesses (:func:`repair`), a plan of another manoeuvre than
+most of its neighbours' from the cheapest of them (:func:`harmonise`), and
+a pump from hanging that heats the driver too much from its coolest
+neighbour (:func:`cool`).  Plans are kept in a solve
 cache (``--cache``), so a run that stops can be resumed.
 """
 from __future__ import annotations
@@ -206,6 +209,50 @@ def harmonise(params, plans: dict, log=print) -> dict:
     return out
 
 
+#: the share of the driver's i^2 t budget a library plan from hanging may
+#: use by itself (assumed: the tracker's feedback heats the driver about as
+#: much again, and on the example lines' chords the swapped robot's pumps use
+#: 13-33 % or 36-72 %, so any share between 0.33 and 0.36 separates them)
+COOL_SHARE = 0.35
+
+
+def cool(params, plans: dict, log=print) -> dict:
+    """``plans`` (from hanging) with every plan whose torque alone uses more
+    than :data:`COOL_SHARE` of the driver's i^2 t budget re-solved from the
+    coolest of its grid neighbours that keeps to it (whatever its
+    manoeuvre); kept when the new plan is feasible and keeps to it.  A hot
+    pump ends at the torque limit, and a robot heavier than the model trips
+    the driver on it or crashes."""
+    from bplir_drake.diagrams import plan as P
+    from bplir_drake.systems.motor import interlock_budget
+
+    if params.scenario.start != "hanging":
+        return dict(plans)
+    made = P.hanging_planned(params)
+    allowance = COOL_SHARE * interlock_budget(made.motor)
+    out = dict(plans)
+    inclines, spacings = sorted({a for a, _ in plans}), sorted({d for _, d in plans})
+    for a, d in plans:
+        plan = out[a, d]
+        if plan is None or P.planned_i2t(plan, made.motor) <= allowance:
+            continue
+        i, j = inclines.index(a), spacings.index(d)
+        near = [out.get((inclines[k], d)) for k in (i - 1, i + 1) if 0 <= k < len(inclines)]
+        near += [out.get((a, spacings[k])) for k in (j - 1, j + 1) if 0 <= k < len(spacings)]
+        near = [p for p in near if p is not None and P.planned_i2t(p, made.motor) <= allowance]
+        if not near:
+            continue
+        ref = min(near, key=lambda p: P.planned_i2t(p, made.motor))
+        new = _from(_at(params, a, d), ref, params.plan.end_depth)
+        heat = P.planned_i2t(new, made.motor) if new.feasible else float("inf")
+        _settle(out, (a, d), new if heat <= allowance else None, log,
+                f"  cool {a:+5.1f} deg {d:.2f} m: {plan.link1_reversals} reversals, "
+                f"{P.planned_i2t(plan, made.motor) / allowance * COOL_SHARE:.0%} of the budget; "
+                f"from its neighbour {new.link1_reversals}, "
+                f"{heat / allowance * COOL_SHARE:.0%}")
+    return out
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--check", action="store_true", help="list, solve nothing")
@@ -236,7 +283,7 @@ def main(argv=None) -> int:
         plans = solve_grid(params, LIBRARY_INCLINES, LIBRARY_SPACINGS, only=only)
         if only is not None:
             continue
-        plans = harmonise(params, repair(params, plans))
+        plans = cool(params, harmonise(params, repair(params, plans)))
         from bplir_drake.diagrams.plan import plan_model
 
         lib = build_library(params, plans, plan_model(params)[0])

@@ -169,6 +169,15 @@ def _settle(out: dict, key, new, log, line: str) -> None:
         out[key] = new
 
 
+def _neighbours(plans: dict, inclines, spacings, a, d) -> list:
+    """The plans at the grid points next to ``(a, d)`` along either axis
+    (holes left out)."""
+    i, j = inclines.index(a), spacings.index(d)
+    near = [plans.get((inclines[k], d)) for k in (i - 1, i + 1) if 0 <= k < len(inclines)]
+    near += [plans.get((a, spacings[k])) for k in (j - 1, j + 1) if 0 <= k < len(spacings)]
+    return [p for p in near if p is not None]
+
+
 def harmonise(params, plans: dict, log=print) -> dict:
     """``plans`` with every plan whose manoeuvre (link-1 reversals) differs
     from the one most of its grid neighbours share (at least two, more
@@ -186,10 +195,7 @@ def harmonise(params, plans: dict, log=print) -> dict:
     inclines, spacings = sorted({a for a, _ in plans}), sorted({d for _, d in plans})
     for a, d in plans:
         plan = out[a, d]
-        i, j = inclines.index(a), spacings.index(d)
-        near = [out.get((inclines[k], d)) for k in (i - 1, i + 1) if 0 <= k < len(inclines)]
-        near += [out.get((a, spacings[k])) for k in (j - 1, j + 1) if 0 <= k < len(spacings)]
-        near = [p for p in near if p is not None]
+        near = _neighbours(out, inclines, spacings, a, d)
         count = Counter(p.link1_reversals for p in near).most_common()
         if plan is None or not count or count[0][1] < 2 or (
                 len(count) > 1 and count[1][1] == count[0][1]):
@@ -228,28 +234,26 @@ def cool(params, plans: dict, log=print) -> dict:
 
     if params.scenario.start != "hanging":
         return dict(plans)
-    made = P.hanging_planned(params)
-    allowance = COOL_SHARE * interlock_budget(made.motor)
+    motor = P.hanging_planned(params).motor
+
+    def share(plan):   # of the driver's i^2 t budget the plan's torque alone uses
+        return P.planned_i2t(plan, motor) / interlock_budget(motor)
+
     out = dict(plans)
     inclines, spacings = sorted({a for a, _ in plans}), sorted({d for _, d in plans})
     for a, d in plans:
         plan = out[a, d]
-        if plan is None or P.planned_i2t(plan, made.motor) <= allowance:
+        if plan is None or share(plan) <= COOL_SHARE:
             continue
-        i, j = inclines.index(a), spacings.index(d)
-        near = [out.get((inclines[k], d)) for k in (i - 1, i + 1) if 0 <= k < len(inclines)]
-        near += [out.get((a, spacings[k])) for k in (j - 1, j + 1) if 0 <= k < len(spacings)]
-        near = [p for p in near if p is not None and P.planned_i2t(p, made.motor) <= allowance]
+        near = [p for p in _neighbours(out, inclines, spacings, a, d) if share(p) <= COOL_SHARE]
         if not near:
             continue
-        ref = min(near, key=lambda p: P.planned_i2t(p, made.motor))
-        new = _from(_at(params, a, d), ref, params.plan.end_depth)
-        heat = P.planned_i2t(new, made.motor) if new.feasible else float("inf")
-        _settle(out, (a, d), new if heat <= allowance else None, log,
+        new = _from(_at(params, a, d), min(near, key=share), params.plan.end_depth)
+        heat = share(new) if new.feasible else float("inf")
+        _settle(out, (a, d), new if heat <= COOL_SHARE else None, log,
                 f"  cool {a:+5.1f} deg {d:.2f} m: {plan.link1_reversals} reversals, "
-                f"{P.planned_i2t(plan, made.motor) / allowance * COOL_SHARE:.0%} of the budget; "
-                f"from its neighbour {new.link1_reversals}, "
-                f"{heat / allowance * COOL_SHARE:.0%}")
+                f"{share(plan):.0%} of the budget; from its neighbour "
+                f"{new.link1_reversals}, {heat:.0%}")
     return out
 
 

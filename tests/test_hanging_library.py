@@ -61,19 +61,17 @@ def test_no_library_pump_from_hanging_heats_the_driver_beyond_its_share(tries):
     1.0 m used 41 % and 40 %, its 1.4 m pumps from +10 deg up 38-50 %, and
     the dense example's robots heavier than the model tripped the driver on
     them), the swapped robot's mostly 10-20 %; the original robot's pumps
-    barely heat it.  The planned current is the library's torque on the
-    driver's ticks, its i^2 t the driver's own rule."""
-    from bplir_drake.systems.motor import i2t_trace, interlock_budget
+    barely heat it.  Each grid point's plan is the library's own there
+    (:func:`library_plan` at the point), its heat :func:`planned_i2t`."""
+    from bplir_drake.systems.motor import interlock_budget
 
     for g, p in tries.items():
-        lib, m = load_library(library_path(p)), p.motor
         shares = []
-        for i in range(len(lib.inclines)):
-            for j in range(len(lib.spacings)):
-                t = np.linspace(0.0, lib.durations[i, j], lib.torque.shape[2])
-                ticks = np.arange(0.0, lib.durations[i, j], m.driver_period)
-                current = np.abs(np.interp(ticks, t, lib.torque[i, j])) / m.torque_per_amp
-                shares.append(np.max(i2t_trace(0.0, current, m)[0]) / interlock_budget(m))
+        for a in LIBRARY_INCLINES:
+            for d in LIBRARY_SPACINGS:
+                plan = library_plan(p.with_(scenario=dc.replace(p.scenario, incline_deg=a,
+                                                                grip_spacing=d)))[0]
+                shares.append(P.planned_i2t(plan, p.motor) / interlock_budget(p.motor))
         shares = np.array(shares)
         if g == 1:
             assert shares.max() < 0.01

@@ -2,6 +2,7 @@ import matplotlib
 
 matplotlib.use("Agg", force=True)
 
+import dataclasses as dc
 import json
 
 import pytest
@@ -12,6 +13,16 @@ from bplir_drake.params import preset
 @pytest.fixture(scope="session")
 def params():
     return preset("dissertation")
+
+
+def paced_48v(p):
+    """``p`` at 48 V with its tries from hanging planned by guesses within
+    85 % of the torque limit, on a pump whose torque alone uses at most 35 %
+    of the driver's i^2 t budget where a guess gives one
+    (plan.hanging_torque_share, plan.hanging_i2t_share; the shipped plans of
+    the tests of those mechanisms are made so)."""
+    p = p.with_hardware("48v")
+    return p.with_(plan=dc.replace(p.plan, hanging_torque_share=0.85, hanging_i2t_share=0.35))
 
 
 def parse_strict_json(text):

@@ -23,7 +23,7 @@ from bplir_drake.io import dumps_strict
 from bplir_drake.diagrams.plan import SwingPlan
 from bplir_drake.params import ParameterError, load_toml
 from conftest import parse_strict_json as strict_json
-from conftest import plugin_source
+from conftest import paced_48v, plugin_source
 
 
 def bplir_process(*argv, timeout=120):
@@ -561,9 +561,7 @@ def test_shipped_plans_serve_a_fresh_install(monkeypatch, tmp_path):
                 seen.add((g, plan.incline_deg))
     assert len(seen) == 8
     from bplir_drake.analysis.traverse.recovery import retry_params
-    volt48 = base.with_hardware("48v")   # tries planned by guesses (test_traverse_recovery's)
-    volt48 = volt48.with_(plan=dc.replace(volt48.plan, hanging_torque_share=0.85,
-                                          hanging_i2t_share=0.35))
+    volt48 = paced_48v(base)   # tries planned by guesses (test_traverse_recovery's)
     assert P.scenario_plan(retry_params(swing_params(volt48, 2, 1.2, math.radians(2.6)),
                                         holding=2)).feasible
     deeper = volt48.with_(traverse=dc.replace(volt48.traverse, swapped_retry_end_depth=0.013))
@@ -610,8 +608,7 @@ def test_shipped_gains_serve_the_tests_plans(monkeypatch, tmp_path):
     cases += [retry_params(c, holding=g) for g, c in ((1, cases[4]), (2, cases[5]))]   # tried again
     cases += [retry_params(swing_params(base.with_hardware("48v"), g, 1.2, 0.0), holding=g)
               for g in (1, 2)]   # at 48 V the 30 V robot's tries (its libraries)
-    b48 = base.with_hardware("48v")   # tries planned by guesses (test_traverse_recovery's)
-    b48 = b48.with_(plan=dc.replace(b48.plan, hanging_torque_share=0.85, hanging_i2t_share=0.35))
+    b48 = paced_48v(base)   # tries planned by guesses (test_traverse_recovery's)
     deeper = b48.with_(traverse=dc.replace(b48.traverse, swapped_retry_end_depth=0.013))
     cases += [retry_params(swing_params(b, 2, 1.2, math.radians(2.6)), holding=2)
               for b in (b48, deeper)]   # the span's chord, ending at the line and below

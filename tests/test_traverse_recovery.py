@@ -13,6 +13,7 @@ from bplir_drake.analysis.traverse.line import load_line
 from bplir_drake.analysis.traverse.recovery import damp, retry_params, swing_energy
 from bplir_drake.analysis.traverse.run import run_traverse
 from bplir_drake.params import BplirParams, ParameterError, swapped
+from conftest import paced_48v
 
 LINE = Path(__file__).resolve().parents[1] / "examples" / "line_flat.toml"
 
@@ -190,18 +191,9 @@ def test_the_48v_robot_tries_again_on_the_30v_robots_plan():
         assert np.max(np.abs(plan.states[:, 3])) < 16.0   # 30 V: 13 rad/s at the knots
 
 
-def _paced48(p: BplirParams) -> BplirParams:
-    """``p`` at 48 V with its tries from hanging planned within 85 % of the
-    torque limit on a pump whose torque alone uses at most 35 % of the
-    driver's i^2 t budget where a guess gives one (plan.hanging_torque_share,
-    plan.hanging_i2t_share; the shipped plans of these tests are made so)."""
-    p = p.with_hardware("48v")
-    return p.with_(plan=dc.replace(p.plan, hanging_torque_share=0.85, hanging_i2t_share=0.35))
-
-
 def test_a_try_from_hanging_with_an_i2t_share_keeps_the_driver_cool_on_the_span_chord():
     """The 48 V swapped robot's try from hanging on examples/line_span.toml's
-    +2.6 deg chord planned by guesses (:func:`_paced48`): the first guess's
+    +2.6 deg chord planned by guesses (:func:`conftest.paced_48v`): the first guess's
     plan is a 3.6 s pump whose torque alone uses more than 35 % of the
     driver's i^2 t budget (plan.hanging_i2t_share; 3 of 16 draws of the realistic study's robot crashed
     on it at the torque limit), so the planner keeps the next feasible
@@ -214,7 +206,7 @@ def test_a_try_from_hanging_with_an_i2t_share_keeps_the_driver_cool_on_the_span_
     from bplir_drake.diagrams import plan as P
     from bplir_drake.systems.motor import interlock_budget
 
-    p = retry_params(swing_params(_paced48(BplirParams()), 2, 1.2,
+    p = retry_params(swing_params(paced_48v(BplirParams()), 2, 1.2,
                                   math.radians(2.6)), holding=2).resolved()
     budget = interlock_budget(p.motor)
     hot = P.plan_swing(P.hanging_planned(p), end_depth=p.plan.end_depth, guess_duration=3.0,
@@ -258,7 +250,7 @@ def test_a_try_that_missed_in_the_robots_own_estimate_aims_higher_next():
 
 def test_a_near_miss_from_hanging_lands_when_the_try_after_it_aims_higher():
     """Draw 28 of the realistic traversal study (tuning root seed 777), 48 V
-    (:func:`_paced48`), the swapped robot's try from hanging on examples/line_span.toml's +2.6
+    (:func:`conftest.paced_48v`), the swapped robot's try from hanging on examples/line_span.toml's +2.6
     deg chord planned to end 13 mm below the line (``traverse.
     swapped_retry_end_depth``): it stops 21 mm below (the band is 20 mm) while its
     estimate put the gripper 16 mm below, and times out.  Tried again
@@ -272,7 +264,7 @@ def test_a_near_miss_from_hanging_lands_when_the_try_after_it_aims_higher():
     from bplir_drake.analysis.traverse.run import swing_params
 
     study = load_study(LINE.parent / "study_traverse.toml").with_(seed=777)
-    p = _paced48(study.params)
+    p = paced_48v(study.params)
     p = p.with_(traverse=dc.replace(p.traverse, swapped_retry_end_depth=0.013))
     p, seed, _ = sample_params(dc.replace(study, params=p), 28)
     first = retry_params(swing_params(p, 2, 1.2, math.radians(2.6)), holding=2)
@@ -303,7 +295,7 @@ def test_the_original_robots_try_from_hanging_lands_with_the_apex_shot_where_the
     from bplir_drake.systems.landing import resolved_landing
 
     study = load_study(LINE.parent / "study_traverse.toml").with_(seed=777)
-    study = dc.replace(study, params=_paced48(study.params))
+    study = dc.replace(study, params=paced_48v(study.params))
     p, seed, _ = sample_params(study, 1)
     again = retry_params(swing_params(p, 1, 1.2, 0.0))
     assert again.landing.shoot_lift_min_time == p.traverse.retry_lift_min_time == 0.05
@@ -326,7 +318,7 @@ def test_the_original_robots_try_from_hanging_lands_with_the_apex_shot_where_the
 
 def test_the_swapped_robots_try_from_hanging_ends_at_the_line_and_lands_from_the_damped_state():
     """Draw 5 of the realistic traversal study (tuning root seed 777), 48 V
-    (:func:`_paced48`), the
+    (:func:`conftest.paced_48v`), the
     swapped robot tried again from hanging on the span's +2.6 deg chord, from
     where the damping leaves it under its steady wind (link 1 0.016 rad off):
     planned to end 13 mm below the line its pump stops 38 mm below and times
@@ -340,7 +332,7 @@ def test_the_swapped_robots_try_from_hanging_ends_at_the_line_and_lands_from_the
     from bplir_drake.analysis.traverse.run import swing_params
 
     study = load_study(LINE.parent / "study_traverse.toml").with_(seed=777)
-    study = dc.replace(study, params=_paced48(study.params))
+    study = dc.replace(study, params=paced_48v(study.params))
     p, seed, _ = sample_params(study, 5)
     assert p.traverse.swapped_retry_end_depth == 0.0
     again = retry_params(swing_params(p, 2, 1.2, math.radians(2.6)), holding=2)
@@ -375,7 +367,7 @@ def test_the_swapped_robots_try_keeps_the_deeper_plan_where_the_one_ending_at_th
     monkeypatch.setattr(recovery, "scenario_plan", lambda p: p.plan.end_depth)
     monkeypatch.setattr(recovery, "planned_i2t", lambda depth, motor: heat[depth]
                         * interlock_budget(motor))
-    b48 = _paced48(BplirParams())
+    b48 = paced_48v(BplirParams())
     swing = swing_params(b48, 2, 1.2, math.radians(7.6))
     heat[0.0] = 0.44
     assert retry_params(swing, holding=2).plan.end_depth == 0.013

@@ -14,6 +14,8 @@ import json
 import math
 import os
 import tempfile
+import threading
+import time
 from pathlib import Path
 from typing import Iterator
 import numpy as np
@@ -163,6 +165,45 @@ def _signals_held():
             _HELD["pending"] = None
             _HELD["raised"] = pending
             pending()
+
+
+# ------------------------------------------------------------ wall clock
+class WallClockLimit(RuntimeError):
+    """A simulation ran longer in wall-clock time than it was allowed
+    (a hung plug-in, an integrator crawling)."""
+
+
+@contextlib.contextmanager
+def wall_clock_limit(seconds: float | None, what: str = "the simulation",
+                     hint: str = "a hung controller or plug-in?"):
+    """Raise :class:`WallClockLimit` inside the block once it has run
+    ``seconds`` of wall-clock time (SIGALRM; Python code -- a plug-in's
+    calc, a Drake callback -- is stopped where it runs).  Outside the main
+    thread, or with ``seconds`` None, nothing is limited."""
+    import signal
+
+    if not seconds or threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    outer = signal.getitimer(signal.ITIMER_REAL)[0]   # a limit around this one
+    if 0.0 < outer <= seconds:   # the outer limit comes first: it stops the block
+        yield
+        return
+
+    def on_alarm(signum, frame):
+        raise WallClockLimit(f"{what} ran past its wall-clock limit of {seconds:g} s "
+                             f"(scenario.wall_limit; {hint})")
+
+    start = time.monotonic()
+    previous = signal.signal(signal.SIGALRM, on_alarm)
+    signal.setitimer(signal.ITIMER_REAL, seconds)
+    try:
+        yield
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0.0)
+        signal.signal(signal.SIGALRM, previous)
+        if outer > 0.0:   # the outer limit goes on counting
+            signal.setitimer(signal.ITIMER_REAL, max(outer - (time.monotonic() - start), 1e-3))
 
 
 #: temporary files of atomic writes now in progress (see :func:`remove_unfinished`)

@@ -1,46 +1,17 @@
 """Running built diagrams: simulator set-up, initial state, log extraction."""
 from __future__ import annotations
 
-import contextlib
-import signal
-import threading
 from dataclasses import dataclass
 
 import numpy as np
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.analysis import ResetIntegratorFromFlags
 
+from .io import WallClockLimit, wall_clock_limit  # noqa: F401 (re-exported)
+
 
 class SimulationError(RuntimeError):
     """The integrator failed (step size underflow, NaN state ...)."""
-
-
-class WallClockLimit(SimulationError):
-    """A simulation ran longer in wall-clock time than it was allowed
-    (a hung plug-in, an integrator crawling)."""
-
-
-@contextlib.contextmanager
-def wall_clock_limit(seconds: float | None, what: str = "the simulation"):
-    """Raise :class:`WallClockLimit` inside the block once it has run
-    ``seconds`` of wall-clock time (SIGALRM; Python code -- a plug-in's
-    calc, a Drake callback -- is stopped where it runs).  Outside the main
-    thread, or with ``seconds`` None, nothing is limited."""
-    if not seconds or threading.current_thread() is not threading.main_thread():
-        yield
-        return
-
-    def on_alarm(signum, frame):
-        raise WallClockLimit(f"{what} ran past its wall-clock limit of {seconds:g} s "
-                             "(scenario.wall_limit; a hung controller or plug-in?)")
-
-    previous = signal.signal(signal.SIGALRM, on_alarm)
-    signal.setitimer(signal.ITIMER_REAL, seconds)
-    try:
-        yield
-    finally:
-        signal.setitimer(signal.ITIMER_REAL, 0.0)
-        signal.signal(signal.SIGALRM, previous)
 
 
 #: the names of the signals in the logs of the package's diagrams (a log
@@ -121,12 +92,30 @@ def make_simulator(built, q0, v0=(0.0, 0.0), *, accuracy: float = 1e-6,
     return sim
 
 
-def run(sim, duration: float) -> None:
-    """Advance ``sim`` by ``duration``; integrator failures become SimulationError."""
+def run(sim, duration: float, wall_limit: float | None = None,
+        what: str = "the simulation", hint: str = "a stiff robot or a hung plug-in?") -> None:
+    """Advance ``sim`` by ``duration``; integrator failures (and a callback's
+    ``sys.exit``) become :class:`SimulationError`, and past ``wall_limit``
+    seconds of wall-clock time :class:`WallClockLimit` is raised."""
     try:
-        sim.AdvanceTo(sim.get_context().get_time() + duration)
-    except RuntimeError as exc:
-        raise SimulationError(f"simulation failed: {exc}") from None
+        with wall_clock_limit(wall_limit, what, hint):
+            sim.AdvanceTo(sim.get_context().get_time() + duration)
+    except WallClockLimit:
+        raise
+    except (RuntimeError, SystemExit) as exc:
+        _failed(sim, exc, what)
+
+
+def _failed(sim, exc: BaseException, what: str):
+    """Raise the :class:`SimulationError` (or the :class:`WallClockLimit` a C++
+    callback wrapped) of a simulation that ``exc`` ended."""
+    if isinstance(exc.__context__, WallClockLimit):   # raised inside a C++ callback
+        raise exc.__context__ from None
+    t = sim.get_context().get_time()
+    if isinstance(exc, SystemExit):   # a plug-in's sys.exit() inside a Drake callback
+        raise SimulationError(f"{what} failed at t = {t:.4f} s: a plug-in or callback called "
+                              f"sys.exit({exc.code!r})") from None
+    raise SimulationError(f"{what} failed at t = {t:.4f} s: {exc}") from None
 
 
 def logs(built, sim) -> dict[str, Log]:
@@ -148,9 +137,6 @@ def run_until_outcome(sim, built, max_time: float, wall_limit: float | None = No
             sim.AdvanceTo(max_time + 2 * lock.period)
     except WallClockLimit:
         raise
-    except RuntimeError as exc:
-        if isinstance(exc.__context__, WallClockLimit):   # raised inside a C++ callback
-            raise exc.__context__ from None
-        t = sim.get_context().get_time()
-        raise SimulationError(f"{what} failed at t = {t:.4f} s: {exc}") from None
+    except (RuntimeError, SystemExit) as exc:
+        _failed(sim, exc, what)
     return lock.outcome(sim.get_context())

@@ -3,6 +3,8 @@ failure into one line and an exit status (2 bad input, 1 a fault inside,
 130/143/129 interrupted or terminated)."""
 from __future__ import annotations
 
+import contextlib
+import os
 import sys
 import warnings
 
@@ -31,20 +33,64 @@ def _run(args) -> int:
         raise
 
 
+@contextlib.contextmanager
+def _stdout_for(json: bool):
+    """The stream the command's result goes to.  Under ``--json`` standard
+    output carries the one JSON object alone: everything else written to
+    it -- a plug-in's prints, a solver's messages from C++, a worker
+    process's output -- goes to standard error (file descriptor 1 is
+    pointed there while the command runs, the result written through a
+    copy of the original)."""
+    if not json:
+        yield sys.stdout
+        return
+    try:
+        direct = sys.stdout.fileno() == 1
+    except (AttributeError, OSError, ValueError):   # a stream without a descriptor
+        direct = False
+    if not direct:
+        original = sys.stdout
+        with contextlib.redirect_stdout(sys.stderr):
+            yield original
+        return
+    sys.stdout.flush()
+    out = os.fdopen(os.dup(1), "w", encoding=sys.stdout.encoding)
+    os.dup2(2, 1)
+    try:
+        with contextlib.redirect_stdout(sys.stderr):
+            yield out
+    finally:
+        out.flush()
+        sys.stdout.flush()
+        os.dup2(out.fileno(), 1)
+        out.close()
+
+
+def _after_the_command(signum, frame) -> None:
+    """A signal while the finished command's process exits (the
+    interpreter's teardown, a fraction of a second): one line and the
+    signal's exit status, not a silent death by the signal."""
+    import signal
+
+    name = signal.Signals(signum).name
+    with contextlib.suppress(OSError, ValueError):
+        sys.stdout.flush()
+        sys.stderr.write(f"bplir: {name} after the command had finished; its outputs are "
+                         "complete\n")
+        sys.stderr.flush()
+    os._exit(128 + signum)
+
+
 def main(argv=None) -> int:
     """Run the command line; returns the exit status (2 with a one-line ``bplir: error:`` on bad
-    input)."""
-    import contextlib
-
+    input).  ``argv`` None: the console's command (``sys.argv``), whose process
+    answers a signal with one line until it has exited."""
     parser = build_parser()
     args = parser.parse_args(argv)
     import signal
 
-    _OUT[0] = sys.stdout
     shown = warnings.showwarning
     warnings.showwarning = _note
-    quiet = contextlib.redirect_stdout(sys.stderr) if getattr(args, "json", False) \
-        else contextlib.nullcontext()
     previous = {}
     try:
         for sig, handler in ((signal.SIGTERM, _terminate), (signal.SIGHUP, _terminate),
@@ -54,7 +100,8 @@ def main(argv=None) -> int:
     except ValueError:   # not the main thread: leave the signals alone
         pass
     try:
-        with quiet:
+        with _stdout_for(getattr(args, "json", False)) as out:
+            _OUT[0] = out
             return _run(args)
     except (ParameterError, InputError, LogError, QftError, CalibrationError) as exc:
         sys.stderr.write(f"bplir: error: {exc}\n")
@@ -91,5 +138,5 @@ def main(argv=None) -> int:
         forget_stop()
         _OUT[0] = None
         warnings.showwarning = shown
-        for sig, handler in previous.items():
-            signal.signal(sig, handler)
+        for sig, handler in previous.items():   # the console's process: until it has exited
+            signal.signal(sig, _after_the_command if argv is None else handler)

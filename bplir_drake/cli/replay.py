@@ -8,12 +8,15 @@ from .options import command, option
 
 def cmd_replay(args) -> int:
     """``bplir replay``: drive the model with a log's torque and compare."""
+    import numpy as np
+
     from ..analysis.identification.torque_replay import replay_torque
 
     params = _load_params(args)
     _in_range("--threshold", args.threshold, 0.0, 10.0, lo_open=True, unit="rad")
-    _in_range("--window", args.window, 0.0, 600.0, lo_open=True, unit="s")
     log, = read_logs(args, params, [args.log])
+    step = float(np.median(np.diff(log.t)))
+    _in_range("--window", args.window, 2 * step, max(2 * step, 600.0), unit="s")
     out = _out_dir(args.out)
     res = replay_torque(params, log, threshold=args.threshold, window=args.window,
                         interpolation=args.interpolation, acrobot=args.acrobot)

@@ -1,8 +1,10 @@
 """``bplir traverse``: cross a stretch of line with obstacles."""
 from __future__ import annotations
 
+import contextlib
 from pathlib import Path
-from ..io import write_text_atomic
+
+from ..io import atomic_path, write_text_atomic
 from .common import InputError, _emit, _in_range, _load_params, _out_dir, _progress, _same, _save, _study_of, _write_json
 from .options import command, option
 
@@ -36,29 +38,32 @@ def cmd_traverse(args) -> int:
         if study.line is None:
             raise InputError(f"{args.replay} is a swing study; replay it with bplir swing --replay")
     out = _out_dir(args.out)
-    if args.replay is not None:
-        from ..analysis.montecarlo import replay
+    with contextlib.ExitStack() as stack:
+        if args.replay is not None:
+            from ..analysis.montecarlo import replay
 
-        res, row = replay(args.replay, args.sample)
-        fields = res.sample_fields()
-        matches = None if row is None else row["error"] == "" and all(
-            _same(row[k], fields[k]) for k in study.result_fields)
-        replay_info = {"study": str(args.replay), "sample": args.sample,
-                       "matches_recorded": matches}
-    else:
-        res = run_traverse(line, params, seed=args.seed or 0, progress=_progress(args),
-                           motion=out / "motion.f64")
-    files = ({} if args.no_plots else
-             {"figure_line": str(_save(args, res.plot(), out / "line.png")),
-              "figure_timeline": str(_save(args, plot_timeline(res), out / "timeline.png"))})
-    files["manoeuvres_csv"] = str(write_rows_csv(res, out / "manoeuvres.csv"))
+            res, row = replay(args.replay, args.sample)
+            fields = res.sample_fields()
+            matches = None if row is None else row["error"] == "" and all(
+                _same(row[k], fields[k]) for k in study.result_fields)
+            replay_info = {"study": str(args.replay), "sample": args.sample,
+                           "matches_recorded": matches}
+        else:   # the motion log is written beside its file and renamed when whole
+            res = run_traverse(line, params, seed=args.seed or 0, progress=_progress(args),
+                               motion=stack.enter_context(atomic_path(out / "motion.f64")))
+        files = ({} if args.no_plots else
+                 {"figure_line": str(_save(args, res.plot(), out / "line.png")),
+                  "figure_timeline": str(_save(args, plot_timeline(res),
+                                               out / "timeline.png"))})
+        files["manoeuvres_csv"] = str(write_rows_csv(res, out / "manoeuvres.csv"))
+        table = manoeuvre_table(res)
+        write_text_atomic(out / "manoeuvres.md", table + "\n")
+        files["manoeuvres_md"] = str(out / "manoeuvres.md")
+        if not args.no_animation:
+            files["replay_html"] = str(traverse_replay_html(res, out / "traverse.html"))
     if res.motion.path is not None:
+        res.motion.path = out / "motion.f64"
         files["motion_log"] = str(res.motion.path)
-    table = manoeuvre_table(res)
-    write_text_atomic(out / "manoeuvres.md", table + "\n")
-    files["manoeuvres_md"] = str(out / "manoeuvres.md")
-    if not args.no_animation:
-        files["replay_html"] = str(traverse_replay_html(res, out / "traverse.html"))
     data = res.to_dict() | {"files": files} | ({"replay": replay_info} if replay_info else {})
     _write_json(out / "traverse.json", data)
     replay_line = ([f"replay of sample {replay_info['sample']} of {replay_info['study']}: "

@@ -31,6 +31,7 @@ import dataclasses as dc
 import hashlib
 import json
 import os
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -129,9 +130,18 @@ def save_gains(gains, path: Path) -> None:
 
 
 def load_gains(path: Path):
-    """The :class:`~bplir_drake.systems.plan_tracker.TrackingGains` of :func:`save_gains`."""
+    """The :class:`~bplir_drake.systems.plan_tracker.TrackingGains` of :func:`save_gains`
+    (``ValueError`` when its breaks are not finite and increasing or a
+    coefficient is not finite)."""
 
     with np.load(path, allow_pickle=False) as data:
+        for name in GAIN_FIELDS:
+            breaks, co = data[f"{name}_breaks"], data[f"{name}_coefficients"]
+            if breaks.ndim != 1 or len(breaks) < 2 or not np.all(np.isfinite(breaks)) \
+                    or np.any(np.diff(breaks) <= 0) or not np.all(np.isfinite(co)) \
+                    or co.ndim != 4 or co.shape[0] != len(breaks) - 1:
+                raise ValueError(f"its gain {name} is not a finite piecewise polynomial over "
+                                 "increasing times")
         return TrackingGains(**{name: polynomial_from_arrays(data[f"{name}_breaks"],
                                                              data[f"{name}_coefficients"])
                                 for name in GAIN_FIELDS})
@@ -147,7 +157,9 @@ def _loader(make):
         with np.load(path, allow_pickle=False) as data:
             meta = json.loads(str(data["meta"]))
             arrays = {k: np.array(data[k]) for k in data.files if k != "meta"}
-        return make(**arrays, **meta)
+        plan = make(**arrays, **meta)
+        plan.check()
+        return plan
     return load
 
 
@@ -170,15 +182,23 @@ def _locked(path: Path):
 
 def _read(load, path: Path):
     """``load(path)``, or None when the file is missing or damaged; a
-    damaged file in the cache is moved aside (``.damaged``) to be re-solved."""
+    damaged file in the cache is moved aside (``.damaged``) to be re-solved,
+    with a warning naming it and what is wrong."""
     if not path.exists():
         return None
     try:
         return load(path)
-    except Exception:   # truncated, empty, not a zip, wrong fields: any damage
-        if path.parent != PACKAGED:
-            with contextlib.suppress(OSError):
-                os.replace(path, path.with_suffix(".damaged"))
+    except Exception as exc:   # truncated, not a zip, wrong fields, NaN, times reversed
+        why = " ".join(str(exc).split())[:160] or type(exc).__name__
+        if path.parent == PACKAGED:
+            warnings.warn(f"the shipped plan file {path} is damaged ({why}); it is solved "
+                          "instead (reinstall the package to restore it)", stacklevel=2)
+            return None
+        aside = path.with_suffix(".damaged")
+        with contextlib.suppress(OSError):
+            os.replace(path, aside)
+        warnings.warn(f"the cached plan file {path} is damaged ({why}); moved aside to "
+                      f"{aside.name} and solved again", stacklevel=2)
         return None
 
 

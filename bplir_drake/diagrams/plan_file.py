@@ -24,6 +24,9 @@ from .swing_plan import SwingPlan
 #: the fewest rows a plan file may have, and the plausible magnitudes of its
 #: angles (rad), rates (rad/s) and torques (N m)
 MIN_PLAN_ROWS, MAX_PLAN_ANGLE, MAX_PLAN_RATE, MAX_PLAN_TORQUE = 10, 50.0, 100.0, 500.0
+#: the longest plan (s: a swing lasts seconds) and the longest time between
+#: two of its rows (s: the plan is interpolated between rows, not extrapolated)
+MAX_PLAN_DURATION, MAX_PLAN_GAP = 60.0, 1.0
 
 
 @functools.lru_cache(maxsize=8)
@@ -43,6 +46,14 @@ def _check(path: str, data: np.ndarray) -> None:
     if np.any(np.diff(data[:, 0]) <= 0):
         k = int(np.argmax(np.diff(data[:, 0]) <= 0))
         raise ParameterError(f"plan.file {path}: time is not increasing at row {k + 2}")
+    span, gaps = data[-1, 0] - data[0, 0], np.diff(data[:, 0])
+    if span > MAX_PLAN_DURATION:
+        raise ParameterError(f"plan.file {path} spans {span:g} s; allowed at most "
+                             f"{MAX_PLAN_DURATION:g} s (one swing)")
+    if gaps.max() > MAX_PLAN_GAP:
+        k = int(np.argmax(gaps))
+        raise ParameterError(f"plan.file {path}: {gaps[k]:g} s between rows {k + 1} and "
+                             f"{k + 2}; allowed at most {MAX_PLAN_GAP:g} s between rows")
     for cols, limit, what in (((1, 2), MAX_PLAN_ANGLE, "angles (rad)"),
                               ((3, 4), MAX_PLAN_RATE, "rates (rad/s)"),
                               ((5,), MAX_PLAN_TORQUE, "torque (N m)")):

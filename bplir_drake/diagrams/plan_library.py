@@ -25,6 +25,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import json
+import warnings
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -155,9 +156,41 @@ def save_library(lib: PlanLibrary, path: Path) -> None:
 
 @functools.lru_cache(maxsize=16)
 def load_library(path: Path) -> PlanLibrary | None:
-    """The library stored at ``path``, or None when there is none."""
+    """The library stored at ``path``, or None when there is none or it is
+    damaged (a warning names the file; the scenario's plan is then solved)."""
     if not path.exists():
         return None
+    try:
+        lib = _load(path)
+        _check_library(lib)
+    except Exception as exc:   # truncated, not a zip, wrong fields, non-finite plans
+        why = " ".join(str(exc).split())[:160] or type(exc).__name__
+        warnings.warn(f"the plan library {path} is damaged ({why}); plans it holds are "
+                      "solved instead (reinstall the package to restore it)", stacklevel=2)
+        return None
+    return lib
+
+
+def _check_library(lib: PlanLibrary) -> None:
+    """Raise ``ValueError`` unless every plan of ``lib`` has a finite, positive
+    duration and finite samples, on increasing grid axes."""
+    for axis in (lib.inclines, lib.spacings):
+        if axis.ndim != 1 or len(axis) < 2 or np.any(np.diff(axis) <= 0):
+            raise ValueError("its grid axes do not increase")
+    grid = (len(lib.inclines), len(lib.spacings))
+    held = lib.reversals >= 0
+    if lib.reversals.shape != grid or lib.durations.shape != grid:
+        raise ValueError(f"its plans do not fill its {grid[0]} x {grid[1]} grid")
+    if not np.all(np.isfinite(lib.durations[held]) & (lib.durations[held] > 0)):
+        raise ValueError("a plan's duration is not finite and positive")
+    for name in ("states", "torque", "gain", "offset"):
+        a = getattr(lib, name)
+        if a.shape[:2] != grid or not np.all(np.isfinite(a[held])):
+            raise ValueError(f"its {name} have a missing or non-finite value")
+
+
+def _load(path: Path) -> PlanLibrary:
+    """The :class:`PlanLibrary` of :func:`save_library`'s file at ``path``."""
     with np.load(path, allow_pickle=False) as data:
         return PlanLibrary(**{f.name: (str(data[f.name]) if f.name == "key"
                                        else np.array(data[f.name], dtype=float

@@ -56,6 +56,7 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
+from ..io import WallClockLimit, wall_clock_limit
 from ..params import BplirParams, ParameterError, plugin_arguments, registered_plugins
 
 
@@ -133,9 +134,11 @@ def make_plugin(params: BplirParams, kind: str = "controller", factory=None):
         factory, "__qualname__", repr(factory))
     kwargs = plugin_arguments(getattr(params, kind).plugin_args)
     try:
-        make = load_factory(spec, kind) if factory is None else factory
-        system = make(nominal_only(params), **kwargs)
-    except ParameterError:
+        with wall_clock_limit(params.scenario.wall_limit,
+                              f"the {kind} plugin {spec!r} (its module and factory)"):
+            make = load_factory(spec, kind) if factory is None else factory
+            system = make(nominal_only(params), **kwargs)
+    except (ParameterError, WallClockLimit):
         raise
     except (Exception, SystemExit) as exc:  # noqa: BLE001 - sys.exit() included
         raise ParameterError(f"{kind} plugin {spec!r}: the factory raised "

@@ -20,6 +20,11 @@ from .plan_plot import plot_plan
 PLAN_FRICTION_SMOOTHING = 0.2
 
 
+#: how far beyond its torque limit a stored plan's torque may reach (relative:
+#: the solver's constraint tolerance and the dense samples between knots)
+PLAN_TORQUE_SLACK = 1e-3
+
+
 @dataclass
 class SwingPlan(Result):
     """A planned swing, sampled densely from the collocation solution."""
@@ -92,6 +97,28 @@ class SwingPlan(Result):
         w = self.states[:, 2]
         moving = w[np.abs(w) > 0.05]
         return int(np.count_nonzero(np.diff(np.sign(moving)) != 0))
+
+    def check(self) -> None:
+        """Raise ``ValueError`` saying what is wrong when this cannot be a
+        swing's plan: finite times, increasing; states (n, 4), torque (n,)
+        and friction (n, 2) at those times, finite; a feasible plan's
+        torque within its torque limit."""
+        t = np.asarray(self.times)
+        if t.ndim != 1 or len(t) < 2:
+            raise ValueError(f"its times have shape {t.shape}; a plan has at least 2")
+        n = len(t)
+        for name, shape in (("states", (n, 4)), ("torque", (n,)), ("friction", (n, 2))):
+            got = np.shape(getattr(self, name))
+            if got != shape:
+                raise ValueError(f"its {name} have shape {got}; its {n} times need {shape}")
+        for name in ("times", "states", "torque", "friction"):
+            if not np.all(np.isfinite(getattr(self, name))):
+                raise ValueError(f"its {name} have a missing or non-finite value")
+        if np.any(np.diff(t) <= 0):
+            raise ValueError(f"its times do not increase at sample {int(np.argmax(np.diff(t) <= 0)) + 2}")
+        if self.feasible and self.peak_torque > self.torque_limit * (1 + PLAN_TORQUE_SLACK):
+            raise ValueError(f"its torque reaches {self.peak_torque:g} N m, beyond its limit "
+                             f"{self.torque_limit:g} N m")
 
     def objective(self, time_weight: float = 1.0) -> float:
         """The planner's cost ``int tau^2 dt + time_weight T`` on the dense

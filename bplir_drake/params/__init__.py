@@ -64,6 +64,8 @@ from .plan import (  # noqa: F401
     moved_field,
     split_path_table)
 from .scenario import (  # noqa: F401
+    checked_seed,
+    SEED_LIMIT,
     ScenarioParams,
     TRAVERSE_SWING_MODES,
     DriveParams,

@@ -94,6 +94,9 @@ def plugin_arguments(args) -> dict:
                     break
                 except ValueError:
                     continue
+        if isinstance(value, float) and not math.isfinite(value):
+            raise ParameterError(f"plug-in argument {item!r} is not a finite number; allowed: "
+                                 "a finite number, true/false or other text")
         out[key.strip()] = value
     return out
 

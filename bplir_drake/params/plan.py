@@ -53,6 +53,11 @@ class PlanParams(_Block):
                                                   for c in self.file_columns):
             raise ParameterError(f"plan.file_columns = {list(self.file_columns)} must be six "
                                  "column names (time, q1, q2, q1', q2', torque)")
+        twice = sorted({c for c in self.file_columns if self.file_columns.count(c) > 1})
+        if twice:
+            raise ParameterError(f"plan.file_columns = {list(self.file_columns)} names "
+                                 f"{', '.join(twice)} more than once; allowed: six different "
+                                 "columns (time, q1, q2, q1', q2', torque)")
         w = self.lqr_state
         if len(w) != 4 or not all(isinstance(v, (int, float)) and not isinstance(v, bool)
                                   and 0 <= v < float("inf") for v in w):

@@ -33,6 +33,7 @@ import numpy as np
 
 from .base import ParameterError
 from .robot import PlantParams
+from .robot_check import check_description
 
 #: descriptions shipped with the package, by the name ``robot.file`` may give
 SHIPPED_ROBOTS = {"bplir": "bplir.urdf"}
@@ -105,10 +106,13 @@ def parse_description(path: Path):
     from pydrake.multibody.parsing import Parser
     from pydrake.multibody.plant import MultibodyPlant
 
+    check_description(path)   # what Drake would warn about and substitute
     plant = MultibodyPlant(0.0)
+    parser = Parser(plant)
+    parser.SetStrictParsing()   # any other warning of the parser is an error too
     try:
-        Parser(plant).AddModels(file_name=str(path))
-    except RuntimeError as exc:   # Drake's parser errors are long; keep the first line
+        parser.AddModels(file_name=str(path))
+    except (RuntimeError, ValueError) as exc:   # Drake's parser errors are long; the first line
         first = str(exc).strip().splitlines()[0] if str(exc).strip() else "unreadable"
         raise ParameterError(f"robot.file {path}: {first}") from None
     plant.Finalize()

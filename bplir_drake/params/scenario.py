@@ -1,6 +1,7 @@
 """What one swing and one traversal face: the line's geometry, success thresholds, disturbances and seeds; the wrist-wheel drive and the traversal's settings."""
 from __future__ import annotations
 
+import numbers
 from dataclasses import dataclass, field
 from .base import MAX_LENGTH, ParameterError, _Block, _count, _fraction, _p, _positive
 from .plan import LANDING_LAWS, MAX_LANDING_BIAS
@@ -38,9 +39,22 @@ class ScenarioParams(_Block):
 
     def _check(self):
         self._one_of("start", SWING_STARTS)
-        if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
-            raise ParameterError(
-                f"scenario.seed = {self.seed!r} must be a whole number >= 0")
+        checked_seed(self.seed, "scenario.seed")
+
+
+#: seeds are 32-bit (what NumPy's and Drake's generators take)
+SEED_LIMIT = 2 ** 32
+
+
+def checked_seed(seed, name: str = "seed") -> int:
+    """``seed`` as an int, or ``ParameterError`` naming ``name`` unless it is
+    a whole number in [0, 2^32) (a bool or a numeral string is not)."""
+
+    if isinstance(seed, bool) or not isinstance(seed, numbers.Integral) \
+            or not 0 <= seed < SEED_LIMIT:
+        raise ParameterError(f"{name} = {seed!r} is not a seed; allowed a whole number in "
+                             "[0, 2^32)")
+    return int(seed)
 
 
 # ---------------------------------------------------------------- traversal

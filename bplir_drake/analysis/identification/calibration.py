@@ -143,6 +143,9 @@ def in_package_angles(log: CalibrationLog, description) -> CalibrationLog:
 #: plausible values of a calibration log: the elbow torque (10x the motor's
 #: limit), the joint angles (a few turns), the initial rates, the span (s)
 MAX_LOG_TORQUE, MAX_LOG_ANGLE, MAX_LOG_RATE, MAX_LOG_DURATION = 200.0, 50.0, 100.0, 600.0
+#: the longest time between two rows of a log, in its median sampling periods
+#: (the torque held across a longer hole is a guess, not the log)
+MAX_LOG_GAP = 5.0
 
 
 def check_calibration_log(t, q, tau, qd0=None, *, min_duration: float = 2.0) -> CalibrationLog:
@@ -159,7 +162,7 @@ def check_calibration_log(t, q, tau, qd0=None, *, min_duration: float = 2.0) -> 
                                       ("q1, q2", q, MAX_LOG_ANGLE, "rad"),
                                       ("q1d, q2d", np.zeros(2) if qd0 is None else qd0,
                                        MAX_LOG_RATE, "rad/s")):
-        values = np.asarray(values, dtype=float)
+        values = np.asarray(values, dtype=float).ravel()
         if not np.all(np.isfinite(values)) or np.any(np.abs(values) > limit):
             worst = values[np.argmax(np.where(np.isfinite(values), np.abs(values), np.inf))]
             raise CalibrationError(f"log column {name}: {worst:g} is not plausible; allowed "
@@ -171,6 +174,13 @@ def check_calibration_log(t, q, tau, qd0=None, *, min_duration: float = 2.0) -> 
     if np.any(np.diff(t) <= 0):
         k = int(np.argmax(np.diff(t) <= 0))
         raise CalibrationError(f"time is not increasing at row {k + 2}")
+    gaps = np.diff(t)
+    if np.any(gaps > MAX_LOG_GAP * np.median(gaps)):
+        k = int(np.argmax(gaps > MAX_LOG_GAP * np.median(gaps)))
+        raise CalibrationError(f"time jumps by {gaps[k]:g} s at row {k + 2} (t = {t[k + 1]:g} s "
+                               f"after {t[k]:g} s); allowed at most {MAX_LOG_GAP:g} times the "
+                               f"log's median sampling period ({np.median(gaps):g} s) between "
+                               "rows: the torque is not known across a hole")
     if t[-1] - t[0] > MAX_LOG_DURATION:
         raise CalibrationError(f"log spans {t[-1] - t[0]:g} s; allowed at most "
                                f"{MAX_LOG_DURATION:g} s (simulation-error fitting of a chaotic "
@@ -193,16 +203,18 @@ def simulate_log(params: BplirParams, log: CalibrationLog, *, accuracy: float = 
     period = float(np.median(np.diff(log.t)))
     built = build_free_swing(p, (log.t, log.tau), log_period=period,
                              interpolation=interpolation)
-    return _sampled_angles(built, log, period, accuracy)
+    return _sampled_angles(built, log, period, accuracy,
+                           wall_limit=params.scenario.wall_limit)
 
 
 def _sampled_angles(built, log: CalibrationLog, period: float, accuracy: float,
-                    set_context=None) -> np.ndarray:
+                    set_context=None, wall_limit=None) -> np.ndarray:
     """The angles of ``built`` at the log's times, started at its first state
     (by ``set_context`` when given, else the plant's positions and rates)."""
     start = (None, None) if set_context else (log.q[0], log.qd0)
     sim = make_simulator(built, *start, accuracy=accuracy, set_context=set_context)
-    run(sim, float(log.t[-1]) + period)   # a logged sample past the log's last time
+    run(sim, float(log.t[-1]) + period,   # a logged sample past the log's last time
+        wall_limit, "a simulation of the log")
     return Log.from_logger(built.loggers["state"], sim.get_context()).at(log.t)[:, :2]
 
 

@@ -13,12 +13,13 @@ from __future__ import annotations
 
 import dataclasses as dc
 import math
+import time
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from ...io import Result
+from ...io import Result, WallClockLimit
 from ...params import BplirParams, save_toml
 from ...plotting import figure_axes, finish
 from ...progress import progress_bar
@@ -118,6 +119,11 @@ def _limits(params: BplirParams, fit, x0, bounds):
     return lo, hi
 
 
+#: the least-squares fit's most residual evaluations (each with a finite-difference
+#: Jacobian of one simulation per fitted parameter)
+MAX_FIT_STEPS = 60
+
+
 def calibrate(params: BplirParams, logs, fit=("fv1", "fv2", "fc1", "fc2"), *,
               bounds=RELATIVE_BOUNDS, accuracy: float = 1e-5,
               progress: bool = False) -> CalibrationResult:
@@ -138,7 +144,9 @@ def calibrate(params: BplirParams, logs, fit=("fv1", "fv2", "fc1", "fc2"), *,
         raise CalibrationError(f"cannot fit {', '.join(bad) or 'nothing'}; allowed: "
                                + ", ".join(FITTABLE))
     bounds = check_bounds(bounds)
+    start = time.perf_counter()
     before = [simulate_log(params, g, accuracy=accuracy) for g in logs]   # the given model
+    each = time.perf_counter() - start
     if {"fv1", "fv2", "fc1", "fc2"} <= set(fit):   # linear pre-fit of the friction
         start = friction_from_inverse_dynamics(params, max(logs, key=lambda g: len(g.t)))
         params = params.with_(friction=dc.replace(params.friction, **{
@@ -148,7 +156,10 @@ def calibrate(params: BplirParams, logs, fit=("fv1", "fv2", "fc1", "fc2"), *,
     lo, hi = _limits(params, fit, x0, bounds)
     scale = np.maximum(np.abs(x0), 1e-3)
     count = [0]
-    bar = progress_bar(progress, desc="calibrate", unit="simulations")
+    most = MAX_FIT_STEPS * (1 + len(fit))   # each step: a residual and its Jacobian's columns
+    bar = progress_bar(progress, unit="simulations", total=most,
+                       desc=f"calibrate (at most {most} simulations of {each:.1f} s: "
+                            f"{most * each / 60:.0f} min)")
     size = sum(2 * len(g.t) for g in logs)
 
     def residuals(z):
@@ -158,6 +169,8 @@ def calibrate(params: BplirParams, logs, fit=("fv1", "fv2", "fc1", "fc2"), *,
             p = _with(params, fit, z * scale)
             return np.concatenate([(simulate_log(p, g, accuracy=accuracy) - g.q).ravel()
                                    for g in logs])
+        except WallClockLimit:   # a stalled simulation ends the calibration
+            raise
         except Exception:  # an impossible parameter set: a large, finite residual
             return np.full(size, 10.0)
 
@@ -165,7 +178,7 @@ def calibrate(params: BplirParams, logs, fit=("fv1", "fv2", "fc1", "fc2"), *,
         # dogbox: trf's scaling near the bounds (fc1 sits near 0) zig-zags
         res = least_squares(residuals, x0 / scale, bounds=(lo / scale, hi / scale),
                             method="dogbox", x_scale="jac", diff_step=1e-3, xtol=1e-6,
-                            ftol=1e-8, max_nfev=60)
+                            ftol=1e-8, max_nfev=MAX_FIT_STEPS)
     values = res.x * scale
     J = res.jac / scale
     s2 = float(res.fun @ res.fun) / max(1, res.fun.size - len(fit))

@@ -58,7 +58,7 @@ def simulate_free_swing(params: BplirParams, q0, duration: float, *, v0=(0.0, 0.
     built = build_free_swing(params, elbow_torque, friction=friction, motor=motor,
                              log_period=log_period)
     sim = make_simulator(built, q0, v0, accuracy=accuracy)
-    run(sim, duration)
+    run(sim, duration, params.scenario.wall_limit, "the free swing")
     lg = logs(built, sim)
     x = lg["state"].data
     tau = lg["torque"].data[:, 0]

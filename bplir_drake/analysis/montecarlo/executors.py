@@ -2,39 +2,20 @@
 cluster; results are yielded as they finish."""
 from __future__ import annotations
 
+import contextlib
+import logging
 import os
+import sys
 from typing import Callable, Iterable
 
 from .study import StudyError
 from ...progress import progress_bar
+from ..workers import quiet_worker
 
 #: how long to try to reach a Dask scheduler before giving up (s)
 SCHEDULER_TIMEOUT = 10.0
 
 # ------------------------------------------------------------ execution
-
-def _die_with_parent(parent: int) -> None:
-    """A pool worker's initializer: ask Linux to end this worker when its
-    parent dies (``PR_SET_PDEATHSIG``), so a ``kill -9`` of the study leaves
-    nothing running; elsewhere nothing happens.  If the parent died before
-    the request took effect, exit now.  The parent's signal handlers are
-    undone: the parent alone answers Ctrl-C (a terminal sends it to the
-    whole group) and ends its workers with SIGTERM, which they obey
-    silently."""
-    import ctypes
-    import signal
-
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    for sig in (signal.SIGTERM, signal.SIGHUP):
-        signal.signal(sig, signal.SIG_DFL)
-    try:
-        libc = ctypes.CDLL(None, use_errno=True)
-        libc.prctl(1, int(signal.SIGKILL), 0, 0, 0)   # 1: PR_SET_PDEATHSIG
-    except (OSError, AttributeError):   # not Linux
-        return
-    if os.getppid() != parent:
-        os._exit(1)
-
 
 def _pool_map(fn: Callable, args: list[tuple], workers: int) -> Iterable:
     """Yield fn(*a) as they finish, in a process pool (or inline).
@@ -51,7 +32,7 @@ def _pool_map(fn: Callable, args: list[tuple], workers: int) -> Iterable:
 
     method = "fork" if "fork" in mp.get_all_start_methods() else "spawn"
     ex = ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context(method),
-                             initializer=_die_with_parent, initargs=(os.getpid(),))
+                             initializer=quiet_worker, initargs=(os.getpid(),))
     futures = [ex.submit(fn, *a) for a in args]
     finished = False
     try:
@@ -68,6 +49,42 @@ def _pool_map(fn: Callable, args: list[tuple], workers: int) -> Iterable:
                 proc.terminate()
 
 
+@contextlib.contextmanager
+def _silent_children():
+    """Processes started inside the block (a local Dask cluster's nannies and
+    workers) write their standard output and error to /dev/null: a worker's
+    log lines and tracebacks when a signal ends the study, and a plug-in's
+    prints, never reach the user's terminal or a ``--json`` result (a
+    sample's error is its row's)."""
+    for stream in (sys.stdout, sys.stderr):
+        stream.flush()
+    saved = [os.dup(1), os.dup(2)]
+    null = os.open(os.devnull, os.O_WRONLY)
+    try:
+        os.dup2(null, 1)
+        os.dup2(null, 2)
+        yield
+    finally:
+        os.dup2(saved[0], 1)
+        os.dup2(saved[1], 2)
+        for fd in (*saved, null):
+            os.close(fd)
+
+
+@contextlib.contextmanager
+def _quiet_dask_logs():
+    """The client side of Dask says nothing below CRITICAL while a study runs
+    (its warnings when a signal ends the study are not the user's)."""
+
+    log = logging.getLogger("distributed")
+    level = log.level
+    log.setLevel(logging.CRITICAL)
+    try:
+        yield
+    finally:
+        log.setLevel(level)
+
+
 def _dask_map(fn: Callable, args: list[tuple], scheduler: str | None, workers: int) -> Iterable:
     """Yield fn(*a) as they finish on a Dask cluster: an existing one at
     ``scheduler`` or a LocalCluster of ``workers`` single-threaded processes."""
@@ -76,6 +93,7 @@ def _dask_map(fn: Callable, args: list[tuple], scheduler: str | None, workers: i
     except ImportError:
         raise StudyError("Dask is not installed; install the extra: pip install "
                          "'bplir-drake[dask]'") from None
+
     cluster = None
     try:
         if scheduler:
@@ -86,16 +104,19 @@ def _dask_map(fn: Callable, args: list[tuple], scheduler: str | None, workers: i
                 raise StudyError(f"cannot reach the Dask scheduler at {scheduler}: {msg}; "
                                  "expected an address like tcp://HOST:8786") from None
         else:
-            cluster = LocalCluster(n_workers=max(1, workers), threads_per_worker=1,
-                                   processes=True, dashboard_address=None)
+            with _silent_children():
+                cluster = LocalCluster(n_workers=max(1, workers), threads_per_worker=1,
+                                       processes=True, dashboard_address=None,
+                                       silence_logs=logging.CRITICAL)
             client = Client(cluster)
-        with client:
+        with client, _quiet_dask_logs():
             futures = [client.submit(fn, *a, pure=False) for a in args]
             for fut in as_completed(futures):
                 yield fut.result()
     finally:
         if cluster is not None:
-            cluster.close()
+            with _quiet_dask_logs():
+                cluster.close()
 
 
 def map_jobs(fn: Callable, args: list[tuple], *, workers: int = 0, dask: bool = False,

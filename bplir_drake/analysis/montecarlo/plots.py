@@ -79,6 +79,18 @@ def plot_success_vs_parameters(study: Study, rows: list[dict], axes=None):
                   "crash, orange timeout, black error; blue: success rate per sixth of the range")
 
 
+def _hist_range(v: np.ndarray) -> tuple[float, float]:
+    """The histogram's range: the data's, widened around a value that (nearly)
+    every sample shares (a traversal's swing count, a time at its limit), so
+    its bins are never narrower than floating point can tell apart."""
+    lo, hi = float(v.min()), float(v.max())
+    least = 1e-6 * max(1.0, abs(lo), abs(hi))
+    if hi - lo >= least:
+        return lo, hi
+    mid = 0.5 * (lo + hi)
+    return mid - least * 500, mid + least * 500
+
+
 def plot_histograms(study: Study, rows: list[dict], axes=None):
     """Histograms of capture speed, swing time, peak torque and peak power (2 x 2 axes); returns
     the figure."""
@@ -95,7 +107,8 @@ def plot_histograms(study: Study, rows: list[dict], axes=None):
         v = np.array([r[f] for r in rows if r["outcome"] != "error"], dtype=float)
         v = v[np.isfinite(v)]
         if v.size:
-            ax.hist(v, bins=min(40, max(5, v.size // 5)), color="tab:blue", alpha=0.8)
+            ax.hist(v, bins=min(40, max(5, v.size // 5)), range=_hist_range(v),
+                    color="tab:blue", alpha=0.8)
         if limit is not None:
             ax.axvline(limit, color="tab:red", ls="--", label=name)
             ax.legend(loc="upper right", fontsize=8)

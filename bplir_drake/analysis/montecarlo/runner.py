@@ -83,6 +83,9 @@ def checked_rows(study: Study, rows: list[dict], out: Path) -> list[dict]:
     by_index: dict[int, dict] = {}
     for row in rows:
         k = row["index"]
+        if k < 0:
+            raise StudyError(f"{out / RESULTS_FILE} holds a row of sample {k}; sample indices "
+                             "run from 0: remove it (or the file) and run again")
         if k in by_index:
             if by_index[k] != row:
                 raise StudyError(f"{out / RESULTS_FILE} holds two different rows of sample "

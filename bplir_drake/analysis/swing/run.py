@@ -19,7 +19,7 @@ import numpy as np
 from ...io import atomic_path, dumps_strict
 
 from ...diagrams import build_swing, set_swing_sample, swing_geometry, swing_structure
-from ...params import BplirParams, plugin_name, to_dict
+from ...params import BplirParams, checked_seed, plugin_name, to_dict
 from ...simulate import Log, logs, make_simulator, run_until_outcome
 from ...systems.plant import gripper_position, gripper_velocity, kinetic_energy, potential_energy
 from .logs import (  # noqa: F401 (re-exported)
@@ -140,7 +140,7 @@ class SwingRunner:
         starts at rest in :func:`~bplir_drake.diagrams.swing.believed_start`)."""
         params = params.resolved()   # path.mode "auto" made concrete
         sc = params.scenario
-        seed = sc.seed if seed is None else int(seed)
+        seed = sc.seed if seed is None else checked_seed(seed)
         use_est = sc.use_estimator if use_estimator is None else use_estimator
         p = draw_true_friction(params, seed)
         built, fresh = self.diagram_for(p, seed, use_est)

@@ -14,8 +14,10 @@ with it.  The results are the same as in the process itself (tested).
 from __future__ import annotations
 
 import multiprocessing as mp
+import os
 
 from ..swing.run import SwingRunner
+from ..workers import quiet_worker
 
 #: swings a worker runs before a fresh one replaces it (about 3 MB each)
 SWINGS_PER_WORKER = 50
@@ -51,7 +53,8 @@ class IsolatedRunners:
         """The worker pool (one process), started at the first swing."""
         if self._pool is None:
             ctx = mp.get_context("fork")
-            self._pool = ctx.Pool(1, maxtasksperchild=self.swings)
+            self._pool = ctx.Pool(1, maxtasksperchild=self.swings, initializer=quiet_worker,
+                                  initargs=(os.getpid(),))
         return self._pool
 
     def __getitem__(self, gripper: int) -> _Proxy:

@@ -38,10 +38,11 @@ def strict_json():
     return parse_strict_json
 
 
-def plugin_source(fault: str) -> str:
+def plugin_source(fault: str, factory: str = "pass") -> str:
     """A plug-in controller's source: zero torque until 0.3 s, then the
-    statement ``fault`` inside its calc (``time`` is imported)."""
-    return ("import time\n"
+    statement ``fault`` inside its calc (``os``, ``sys`` and ``time`` are
+    imported); ``factory``: a statement its factory runs first."""
+    return ("import os, sys, time\n"
             "from pydrake.systems.framework import LeafSystem\n"
             "class Odd(LeafSystem):\n"
             "    def __init__(self):\n"
@@ -53,4 +54,5 @@ def plugin_source(fault: str) -> str:
             f"            {fault}\n"
             "        out.SetAtIndex(0, 0.0)\n"
             "def make(params):\n"
+            f"    {factory}\n"
             "    return Odd()\n")

@@ -20,6 +20,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from conftest import plugin_source
 
 ROOT = Path(__file__).resolve().parents[1]
 ROBOT = ROOT / "bplir_drake" / "data" / "robots" / "bplir.urdf"
@@ -88,21 +89,7 @@ def first(*problems):
 
 def plugin(d: Path, name: str, fault: str, factory: str = "") -> str:
     """A plug-in controller file: zero torque until 0.3 s, then ``fault``."""
-    (d / name).write_text(
-        "import os, sys, time\n"
-        "from pydrake.systems.framework import LeafSystem\n"
-        "class Odd(LeafSystem):\n"
-        "    def __init__(self):\n"
-        "        super().__init__()\n"
-        "        self.DeclareVectorInputPort('state', 4)\n"
-        "        self.DeclareVectorOutputPort('torque', 1, self.calc)\n"
-        "    def calc(self, context, out):\n"
-        "        if context.get_time() > 0.3:\n"
-        f"            {fault}\n"
-        "        out.SetAtIndex(0, 0.0)\n"
-        "def make(params):\n"
-        f"    {factory or 'pass'}\n"
-        "    return Odd()\n")
+    (d / name).write_text(plugin_source(fault, factory or "pass"))
     return f"{d / name}:make"
 
 

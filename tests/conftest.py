@@ -56,3 +56,58 @@ def plugin_source(fault: str, factory: str = "pass") -> str:
             "def make(params):\n"
             f"    {factory}\n"
             "    return Odd()\n")
+
+
+# ------------------------------------------------- fuzzing the command line
+class Reached(BaseException):
+    """The command got past its checks to the work itself."""
+
+
+def _stop(*args, **kwargs):
+    raise Reached
+
+
+@pytest.fixture
+def stopped_work(monkeypatch, tmp_path):
+    """Simulations, plan solves, QFT designs, studies and filters stop where they start;
+    outputs land in a temporary directory."""
+    from pydrake.systems.analysis import Simulator
+
+    from bplir_drake import estimation
+    from bplir_drake.analysis import montecarlo
+    from bplir_drake.analysis.control import report
+    from bplir_drake.diagrams import plan
+
+    monkeypatch.setattr(Simulator, "AdvanceTo", _stop)
+    monkeypatch.setattr(plan, "_solve_plan", _stop)
+    monkeypatch.setattr(report, "qft_report", _stop)   # a QFT design simulates nothing
+    monkeypatch.setattr(montecarlo, "run_study", _stop)
+    monkeypatch.setattr(estimation, "estimate", _stop)
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("BPLIR_CACHE_DIR", str(tmp_path / "cache"))
+
+
+def ends_cleanly(argv) -> int | None:
+    """Run ``bplir ARGV`` in-process (under :func:`stopped_work`): it ends in
+    a result (0), one ``bplir: error:`` line with exit 1 or 2, or reaches
+    the work (None) -- never a traceback.  Returns the exit status."""
+    import contextlib
+    import io
+
+    from bplir_drake import cli
+
+    out, err = io.StringIO(), io.StringIO()
+    try:
+        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+            rc = cli.main([str(a) for a in argv])
+    except Reached:
+        return None
+    except SystemExit as exc:   # argparse's own refusal (or --help)
+        rc = exc.code
+    text = err.getvalue()
+    assert "Traceback" not in text, (argv, text)
+    if rc not in (0, None):
+        lines = [ln for ln in text.strip().splitlines() if not ln.startswith("bplir: note:")]
+        assert rc == 2 or rc == 1, (argv, rc, text)
+        assert len(lines) == 1 and lines[0].startswith("bplir: error: "), (argv, text)
+    return rc

@@ -4,14 +4,13 @@ value -- empty, huge, NaN, negative, text, a missing file, a malformed
 traceback.  The work itself (a simulation, a plan solve, a study) is
 stopped where it would start: what is fuzzed is everything before it.
 The readers' own fuzz is in test_hardening.py."""
-import contextlib
-import io
 
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from bplir_drake import cli
+from conftest import ends_cleanly, stopped_work  # noqa: F401 (the fixture)
 
 VALUES = ["", "0", "-1", "1", "2.5", "1e300", "-1e300", "nan", "inf", "-inf", "abc", "1,2",
           "0,0,0,0", "nan,0", "1e300,0", "/nonexistent/file.toml", ".", "plan", "qft",
@@ -19,14 +18,6 @@ VALUES = ["", "0", "-1", "1", "2.5", "1e300", "-1e300", "nan", "inf", "-inf", "a
           "plant.m2=1.6", "plant.m2=nan", "plant.m2", "nosuch.field=1", "scenario.seed=-3",
           "scenario.wall_limit=0", "motor.envelope=maybe", "estimator.period=1e-9", "fv1,fv1",
           "png", "svg", "30", "1e-9", "x" * 300, "é", "--"]
-
-
-class Reached(BaseException):
-    """The command got past its checks to the work itself."""
-
-
-def _stop(*args, **kwargs):
-    raise Reached
 
 
 def _commands():
@@ -53,41 +44,8 @@ def command_lines(draw):
     return argv
 
 
-@pytest.fixture
-def stopped_work(monkeypatch, tmp_path):
-    """Simulations, plan solves, QFT designs, studies and filters stop where they start;
-    outputs land in a temporary directory."""
-    from pydrake.systems.analysis import Simulator
-
-    from bplir_drake import estimation
-    from bplir_drake.analysis import montecarlo
-    from bplir_drake.analysis.control import report
-    from bplir_drake.diagrams import plan
-
-    monkeypatch.setattr(Simulator, "AdvanceTo", _stop)
-    monkeypatch.setattr(plan, "_solve_plan", _stop)
-    monkeypatch.setattr(report, "qft_report", _stop)   # a QFT design simulates nothing
-    monkeypatch.setattr(montecarlo, "run_study", _stop)
-    monkeypatch.setattr(estimation, "estimate", _stop)
-    monkeypatch.chdir(tmp_path)
-    monkeypatch.setenv("BPLIR_CACHE_DIR", str(tmp_path / "cache"))
-
-
 @settings(max_examples=150, deadline=None, derandomize=True,
           suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
 @given(argv=command_lines())
 def test_no_command_line_ends_in_a_traceback(stopped_work, argv):
-    out, err = io.StringIO(), io.StringIO()
-    try:
-        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-            rc = cli.main(argv)
-    except Reached:
-        return
-    except SystemExit as exc:   # argparse's own refusal (or --help)
-        rc = exc.code
-    text = err.getvalue()
-    assert "Traceback" not in text, (argv, text)
-    if rc not in (0, None):
-        lines = text.strip().splitlines()
-        assert rc == 2 or rc == 1, (argv, rc, text)
-        assert len(lines) == 1 and lines[0].startswith("bplir: error: "), (argv, text)
+    ends_cleanly(argv)

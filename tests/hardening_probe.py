@@ -1,13 +1,8 @@
 """The third hardening probe's reproductions, one function a class: each
-makes its inputs in a directory, runs the ``bplir`` console entry point
-in a process of its own (or the package's function where the class is
-about a function) and returns None when the class holds, else what broke.
-
-``tests/test_hardening_round3.py`` runs every class as a test; run this
-file to re-run the whole probe and print a line a class::
-
-    python tests/hardening_probe.py
-"""
+runs the ``bplir`` console entry point in a process of its own (or the
+package's function, where the class is about one) and returns None when
+the class holds, else what broke.  ``test_hardening_round3.py`` runs them
+as tests; ``python tests/hardening_probe.py`` re-runs the whole probe."""
 from __future__ import annotations
 
 import json

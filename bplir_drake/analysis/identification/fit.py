@@ -157,9 +157,9 @@ def calibrate(params: BplirParams, logs, fit=("fv1", "fv2", "fc1", "fc2"), *,
     scale = np.maximum(np.abs(x0), 1e-3)
     count = [0]
     most = MAX_FIT_STEPS * (1 + len(fit))   # each step: a residual and its Jacobian's columns
-    bar = progress_bar(progress, unit="simulations", total=most,
-                       desc=f"calibrate (at most {most} simulations of {each:.1f} s: "
-                            f"{most * each / 60:.0f} min)")
+    bar = progress_bar(progress, desc="calibrate", unit="simulations", total=most)
+    bar.set_postfix_str(f"at most {most} simulations of {each:.2g} s: "
+                        f"{most * each / 60:.1f} min")
     size = sum(2 * len(g.t) for g in logs)
 
     def residuals(z):

@@ -10,6 +10,12 @@ traversal's ``{1: SwingRunner, 2: SwingRunner}``: each swing runs in a
 forked worker (the runners live there) and comes back pickled; the worker
 is replaced after :data:`SWINGS_PER_WORKER` swings, taking what leaked
 with it.  The results are the same as in the process itself (tested).
+
+The worker is replaced here, between swings, by the main thread (not by
+the pool's own ``maxtasksperchild``, whose replacements its handler thread
+forks): a worker dies with the thread that forked it
+(:func:`~bplir_drake.analysis.workers.quiet_worker`), and a worker forked
+by the handler thread died as the pool ended, holding the pool's lock.
 """
 from __future__ import annotations
 
@@ -38,7 +44,7 @@ class _Proxy:
 
     def run(self, params, **kwargs):
         """:meth:`SwingRunner.run` in the worker process."""
-        return self.owner.pool().apply(_run, (self.gripper, params, kwargs))
+        return self.owner.apply(_run, (self.gripper, params, kwargs))
 
 
 class IsolatedRunners:
@@ -48,14 +54,19 @@ class IsolatedRunners:
     def __init__(self, swings: int = SWINGS_PER_WORKER):
         self.swings = int(swings)
         self._pool = None
+        self._ran = 0   # swings the present worker has run
 
-    def pool(self):
-        """The worker pool (one process), started at the first swing."""
+    def apply(self, fn, args):
+        """``fn(*args)`` in the worker; a fresh worker (forked by this thread)
+        once the present one has run :attr:`swings` swings."""
+        if self._pool is not None and self._ran >= self.swings:
+            self.close()
         if self._pool is None:
             ctx = mp.get_context("fork")
-            self._pool = ctx.Pool(1, maxtasksperchild=self.swings, initializer=quiet_worker,
-                                  initargs=(os.getpid(),))
-        return self._pool
+            self._pool = ctx.Pool(1, initializer=quiet_worker, initargs=(os.getpid(),))
+            self._ran = 0
+        self._ran += 1
+        return self._pool.apply(fn, args)
 
     def __getitem__(self, gripper: int) -> _Proxy:
         return _Proxy(self, gripper)

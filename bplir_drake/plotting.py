@@ -61,14 +61,22 @@ def finish(fig, title: str | None = None, caption: str | None = None):
     return fig
 
 
+#: how figures keep their text: TrueType fonts embedded whole in PDF and
+#: PostScript (Type 42; journals' checks refuse the default Type 3), text
+#: left as text in SVG (editable, not paths)
+FONT_OUTPUT = {"pdf.fonttype": 42, "ps.fonttype": 42, "svg.fonttype": "none"}
+
+
 def save_figure(fig, path, dpi: int = 110) -> Path:
     """Write ``fig`` to ``path`` (format from the suffix) atomically: a
-    complete figure or none."""
+    complete figure or none, its text as :data:`FONT_OUTPUT` keeps it."""
+    import matplotlib
+
     path = Path(path)
     fmt = path.suffix.lstrip(".") or "png"
     caption = getattr(fig, "bplir_caption", None)
     key = {"png": "Description", "pdf": "Subject", "svg": "Description"}.get(fmt)
     metadata = {key: caption} if caption and key else None
-    with atomic_path(path) as tmp:
+    with atomic_path(path) as tmp, matplotlib.rc_context(FONT_OUTPUT):
         fig.savefig(tmp, dpi=dpi, format=fmt, metadata=metadata)
     return path

@@ -163,8 +163,9 @@ def test_the_default_on_the_quick_benchmark_held_out_seed_1(quick_benchmark):
 def test_figures_are_vector_on_request_and_the_benchmark_legend_covers_no_bar(tmp_path, capsys,
                                                                             quick_benchmark):
     """``bplir swing --format pdf`` and ``bplir benchmark --format svg`` write
-    vector figures; the benchmark figure's category labels are whole, inside
-    the figure, and its legend overlaps no bar."""
+    vector figures, the PDF's text in embedded TrueType fonts (no Type 3),
+    the SVG's as text; the benchmark figure's category labels are whole,
+    inside the figure, and its legend overlaps no bar."""
     import json
 
     from matplotlib.backends.backend_agg import FigureCanvasAgg
@@ -174,10 +175,12 @@ def test_figures_are_vector_on_request_and_the_benchmark_legend_covers_no_bar(tm
     assert main(["swing", "--format", "pdf", "--no-animation", "--out", str(tmp_path / "s"),
                  "--json"]) == 0
     figure = json.loads(capsys.readouterr().out)["files"]["figure"]
-    assert figure.endswith("swing.pdf") and open(figure, "rb").read(5) == b"%PDF-"
+    pdf = open(figure, "rb").read()
+    assert figure.endswith("swing.pdf") and pdf[:5] == b"%PDF-"
+    assert b"/Type3" not in pdf and b"/FontFile2" in pdf
     res, out = quick_benchmark
     svg = (out / "benchmark.svg").read_text()
-    assert svg.lstrip().startswith("<?xml") and "<svg" in svg
+    assert svg.lstrip().startswith("<?xml") and "<svg" in svg and "<text" in svg
     fig = plot_benchmark(res)
     FigureCanvasAgg(fig).draw()
     renderer = fig.canvas.get_renderer()

@@ -7,6 +7,7 @@ bar (or a do-nothing stand-in) that is also a context manager.
 """
 from __future__ import annotations
 
+import os
 import sys
 
 
@@ -46,4 +47,22 @@ def progress_bar(enabled: bool, *, desc: str, unit: str, total: int | None = Non
                 self.refresh()
             super().close()
 
-    return _Bar(total=total, desc=desc, unit=" " + unit, leave=False, file=sys.stderr)
+    columns, lines = _terminal_size()
+    return _Bar(total=total, desc=desc, unit=" " + unit, leave=False, file=sys.stderr,
+                ncols=None if columns else FALLBACK_SIZE[0],
+                nrows=None if lines else FALLBACK_SIZE[1])
+
+
+#: the size (columns, lines) a bar assumes on a terminal that reports none (a
+#: serial console, a pseudo-terminal whose size was never set: 0 x 0), where
+#: tqdm would otherwise draw nothing
+FALLBACK_SIZE = (80, 24)
+
+
+def _terminal_size() -> tuple[int, int]:
+    """(columns, lines) standard error's terminal reports (0 where it reports none)."""
+    try:
+        size = os.get_terminal_size(sys.stderr.fileno())
+    except (OSError, ValueError, AttributeError):
+        return 0, 0
+    return size.columns, size.lines

@@ -48,13 +48,19 @@ def test_three_samples_through_one_diagram_equal_three_fresh_builds():
 
 
 def test_a_structural_change_is_refused_and_rebuilt():
+    """A sample of the built parameters goes into the context as they are
+    (``path.mode`` "auto" unresolved included); a change the context
+    cannot carry is refused naming the field, and a runner rebuilds."""
     p = BplirParams()
     built = swing_diagram(p, seed=0)
     assert build_swing(p, seed=0).structure == built.structure   # gains fetched by either
     ctx = built.diagram.CreateDefaultContext()
+    assert p.path.mode == "auto"
+    set_swing_sample(built, ctx, p.with_(true_friction=replace(p.friction, fv1=0.2)), 3)
     other = p.with_(scenario=replace(p.scenario, grip_spacing=1.3))   # a shipped plan
     assert swing_structure(other, True) != built.structure
-    with pytest.raises(ValueError, match="build its own swing diagram"):
+    with pytest.raises(ValueError, match="this sample changes scenario.grip_spacing, more "
+                                         ".* build its own swing diagram"):
         set_swing_sample(built, ctx, other, 0)
     runner = SwingRunner()
     runner.run(p, seed=0)

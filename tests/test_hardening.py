@@ -944,7 +944,7 @@ def test_a_second_study_into_the_same_directory_is_refused_with_the_holders_pid(
                                      "another --out")
     rows = mc.read_results(out / "results.csv")
     assert sorted(r["index"] for r in rows) == list(range(8))
-    assert os.path.exists(out / ".lock")   # released with the process, kept as a file
+    assert (out / ".lock").read_text() == ""   # released and emptied, kept as a file
 
 
 def test_a_resumed_study_keeps_a_repeated_row_once_and_refuses_a_foreign_one(tmp_path):

@@ -58,10 +58,11 @@ def test_plan_counts_snopt_evaluations(capsys):
     assert _last_count(err, "plan (SNOPT)") > 10
 
 
-def _run_on_terminal(args) -> tuple[int, str]:
-    """Run ``bplir args`` with standard error on a pseudo-terminal (24 x 100)."""
+def _run_on_terminal(args, size=(24, 100)) -> tuple[int, str]:
+    """Run ``bplir args`` with standard error on a pseudo-terminal of ``size``
+    (lines, columns)."""
     master, slave = pty.openpty()
-    fcntl.ioctl(slave, termios.TIOCSWINSZ, struct.pack("HHHH", 24, 100, 0, 0))
+    fcntl.ioctl(slave, termios.TIOCSWINSZ, struct.pack("HHHH", *size, 0, 0))
     proc = subprocess.Popen([sys.executable, "-m", "bplir_drake.cli", *args],
                             stdout=subprocess.DEVNULL, stderr=slave)
     os.close(slave)
@@ -98,6 +99,8 @@ def test_cli_progress_only_on_a_terminal_without_json(tmp_path):
     mc = ["montecarlo", "-n", "1", "--workers", "1", "--no-plots"]
     code, err = _run_on_terminal(mc + ["--out", str(tmp_path / "a")])
     assert code == 0 and _last_count(err, "samples") == 1
+    code, err = _run_on_terminal(mc + ["--out", str(tmp_path / "z")], size=(0, 0))
+    assert code == 0 and _last_count(err, "samples") == 1   # a terminal of no size: 80 x 24
     code, err = _run_on_terminal(mc + ["--json", "--out", str(tmp_path / "b")])
     assert code == 0 and "samples:" not in err
     run = subprocess.run([sys.executable, "-m", "bplir_drake.cli", *mc, "--out",

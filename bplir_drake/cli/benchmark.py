@@ -10,7 +10,7 @@ from .options import command, option, shared
 def cmd_benchmark(args) -> int:
     """``bplir benchmark``: score controller presets by category."""
     from ..analysis.montecarlo.benchmark import (benchmark_table, leaderboard, leaderboard_table,
-                                                plot_benchmark, run_benchmark)
+                                                plot_benchmark, run_benchmark, scored)
 
     from ..params import CONTROLLER_PRESETS, _is_plugin, current_preset_name
 
@@ -23,8 +23,12 @@ def cmd_benchmark(args) -> int:
         raise InputError(f"--controllers: '{bad}' is not a controller; allowed a "
                          "comma-separated list of " + ", ".join(CONTROLLER_PRESETS)
                          + " and module:factory plugins")
+    if args.controller_arg and not any(_is_plugin(c) and c not in CONTROLLER_PRESETS
+                                       for c in presets):
+        raise InputError("--controller-arg needs a plug-in among --controllers "
+                         "(module:factory or a registered name)")
     for c in presets:
-        _check_plugin(params.with_controller(c))
+        _check_plugin(scored(params, c, args.controller_arg))
     if args.workers is not None:
         _in_range("--workers", args.workers, 1, 256)
     _in_range("--seed", args.seed, 0, 2 ** 32 - 1)
@@ -39,8 +43,8 @@ def cmd_benchmark(args) -> int:
             base = base.with_(params=base.params.with_estimator(args.estimator, args.estimator_arg))
         _realistic_studies(args, base, presets, out, run=False)  # resumable or refused now
     result = run_benchmark(params, presets, quick=args.quick, workers=args.workers or 0,
-                           seed=args.seed, progress=_progress(args),
-                           out=out)
+                           seed=args.seed, progress=_progress(args), out=out,
+                           controller_args=args.controller_arg)
     realistic = _realistic_studies(args, base, presets, out, run=True) \
         if base is not None else None
     fig = _save(args, plot_benchmark(result), out / "benchmark.png")
@@ -67,11 +71,12 @@ def _realistic_studies(args, base, controllers, out, run: bool) -> dict:
     import re
 
     from ..analysis.montecarlo import run_study
+    from ..analysis.montecarlo.benchmark import scored
     from ..analysis.montecarlo.runner import check_out
 
     summaries = {}
     for c in controllers:
-        study = base.with_(params=base.params.with_controller(c))
+        study = base.with_(params=scored(base.params, c, args.controller_arg))
         where = out / "realistic" / re.sub(r"[^A-Za-z0-9_.-]+", "_", c)
         if not run:
             check_out(study, where)
@@ -88,6 +93,9 @@ def add_parser(sub) -> None:
     option(p, "--quick", bool, help="fewer cases (about a minute)")
     option(p, "--controllers", None, "plan,cpfl-qft,lab",
            "controllers to score: presets and module:factory plugins")
+    p.add_argument("--controller-arg", action="append", default=[], metavar="KEY=VALUE",
+                   help="keyword argument of the factories of the plug-ins among "
+                        "--controllers (repeatable): a number, true/false or text")
     shared(p, "workers", "estimator")
     option(p, "--seed", int, 0, "root seed of the benchmark")
     option(p, "--realistic", None, None,

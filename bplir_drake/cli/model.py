@@ -12,7 +12,7 @@ def cmd_model(args) -> int:
     from dataclasses import replace
 
     from ..analysis.model.envelope import torque_envelope
-    from ..analysis.model.linearization import hanging_linearization
+    from ..analysis.model.linearization import friction_poles, hanging_linearization
     from ..analysis.model.pendulum import pendulum_periods
     from ..analysis.swing import run_swing
     from ..params import PlantParams, to_dict
@@ -27,7 +27,8 @@ def cmd_model(args) -> int:
     t_elbow = friction_table(fr.fc2, fr.b, 40.0)
     t_pub = published_setup(fr.b)
     lin = hanging_linearization(params)
-    wn, zeta = lin.modes()
+    wn, zeta = lin.modes
+    note = friction_poles(params, lin)
     swing = None if args.no_swing else run_swing(params)
     env = torque_envelope(params, swing=swing)
     out = {
@@ -38,6 +39,7 @@ def cmd_model(args) -> int:
         "T_compound_straight_s": per.T_straight_compound,
         "hanging_eigenvalues": [[float(z.real), float(z.imag)] for z in lin.eigenvalues],
         "hanging_modes": [{"wn_rad_s": float(w), "zeta": float(z)} for w, z in zip(wn, zeta)],
+        "hanging_eigenvalues_note": note,
         "torque_per_amp_Nm_A": params.motor.torque_per_amp,
         "envelope": env.summary(),
         "files": {"envelope": str(_save(args, env.plot(), out_dir / "envelope.png"))},
@@ -63,6 +65,7 @@ def cmd_model(args) -> int:
         f"+/-{t_pub.vmax} rad/s: {t_pub.rmse_candidate:.4f} / {t_pub.rmse_viscous:.4f}",
     ] if dissertation else []) + [
         "hanging eigenvalues: " + ", ".join(f"{z.real:.4g}{z.imag:+.4g}j" for z in lin.eigenvalues),
+    ] + ([f"  {note}"] if note else []) + [
         (f"motor at {env.supply_voltage:g} V: no-load elbow rate {env.no_load_speed:.1f} rad/s, "
          f"full current up to {env.corner_speed():.1f} rad/s, at most {env.max_power():.0f} W"
          if params.motor.envelope else

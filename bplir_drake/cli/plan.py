@@ -34,13 +34,14 @@ def cmd_plan(args) -> int:
     with atomic_path(out / "plan.csv") as tmp:
         np.savetxt(tmp, np.c_[plan.times, plan.states, plan.torque],
                    delimiter=",", header="t,q1,q2,q1d,q2d,tau", comments="")
-    verdict = ("feasible" if plan.feasible else "NOT feasible: the limits cannot be met"
+    verdict = ((("feasible and optimal" if plan.solved else "feasible, not proven optimal")
+                + f" (solver {plan.solver}" + (f": {plan.status})" if plan.status else ")"))
+               if plan.feasible else "NOT feasible: the limits cannot be met"
                if plan.status == "infeasible" else
                f"NOT feasible: the solver stopped without converging ({plan.status}); a plan "
                "may still exist")
     _emit(summary, args.json, [
-        f"planned swing on a {plan.incline_deg:g} deg line: {verdict} "
-        f"(solver {plan.solver}, optimal: {plan.solved})",
+        f"planned swing on a {plan.incline_deg:g} deg line: {verdict}",
         f"  duration {plan.duration:.3f} s, peak torque {plan.peak_torque:.1f} N m, "
         f"peak power {plan.peak_power:.0f} W (limit {plan.power_limit:g} W)",
         f"  motor work {plan.energy_in:.1f} J, friction loss {plan.dissipated:.1f} J, "

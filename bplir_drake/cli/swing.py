@@ -100,15 +100,25 @@ def cmd_swing(args) -> int:
                        None: "no recorded result to compare"}[replay_info["matches_recorded"]]]
                    if replay_info else [])
     _emit(res.summary | extra, args.json, replay_line + against_line + [
-        f"{s['outcome']}: t = {s['swing_time_s']:.3f} s, capture speed "
-        f"{s['capture_speed_mps']:.3f} m/s (limit {s['thresholds']['capture_speed_mps']}), "
-        f"distance {s['capture_distance_m']:.4f} m",
+        _outcome_line(s),
         f"peak torque {s['peak_torque_Nm']:.2f} N m, peak motor power "
         f"{s['peak_motor_power_W']:.1f} W (rating {s['motor_power_rating_W']:.0f} W), "
         f"max estimation error {s['max_estimation_error_rad']:.4f} rad, seed {s['seed']}",
         _motor_line(res),
-        f"files in {out_dir}: " + ", ".join(Path(f).name for f in files.values())])
+        f"files in {out_dir}: " + ", ".join([Path(f).name for f in files.values()]
+                                            + ["summary.json"])])
     return 0
+
+
+def _outcome_line(s: dict) -> str:
+    """The outcome, its time and, for a capture, its speed and distance (a
+    swing that did not capture has neither: its closest approach instead)."""
+    head = f"{s['outcome']}: t = {s['swing_time_s']:.3f} s, "
+    if s["outcome"] != "captured":
+        return head + f"no capture: the gripper came within {s['closest_distance_m']:.4f} m"
+    return head + (f"capture speed {s['capture_speed_mps']:.3f} m/s (limit "
+                   f"{s['thresholds']['capture_speed_mps']}), distance "
+                   f"{s['capture_distance_m']:.4f} m")
 
 
 def _motor_line(res) -> str:

@@ -14,6 +14,7 @@ def cmd_traverse(args) -> int:
     """``bplir traverse``: cross a stretch of line with obstacles."""
     from ..analysis.traverse.line import load_line
     from ..analysis.traverse.plots import plot_timeline, traverse_replay_html
+    from ..analysis.traverse.result import MOTION_FORMAT
     from ..analysis.traverse.run import (manoeuvre_table, run_traverse, totals_lines,
                                         write_rows_csv)
 
@@ -64,7 +65,8 @@ def cmd_traverse(args) -> int:
     if res.motion.path is not None:
         res.motion.path = out / "motion.f64"
         files["motion_log"] = str(res.motion.path)
-    data = res.to_dict() | {"files": files} | ({"replay": replay_info} if replay_info else {})
+    data = res.to_dict() | {"files": files} | ({"motion_log_format": MOTION_FORMAT}
+                                               if "motion_log" in files else {}) | ({"replay": replay_info} if replay_info else {})
     _write_json(out / "traverse.json", data)
     replay_line = ([f"replay of sample {replay_info['sample']} of {replay_info['study']}: "
                     + {True: "matches the recorded result exactly",

@@ -95,15 +95,36 @@ def swing_geometry(params: BplirParams):
 def swing_structure(params: BplirParams, use_estimator: bool) -> str:
     """What a context cannot change on a swing built from ``params``: a
     canonical JSON text of every parameter outside :data:`SAMPLE_FIELDS`
-    (and whether the estimator is in the loop).  Two parameter sets with
-    the same structure run through one built diagram."""
+    (and whether the estimator is in the loop), with ``path.mode``
+    resolved.  Two parameter sets with the same structure run through one
+    built diagram."""
+    return json.dumps(_structure(params, use_estimator), sort_keys=True)
+
+
+def _structure(params: BplirParams, use_estimator: bool) -> dict:
+    params = params.resolved()
     d = to_dict(params.with_(true_plant=params.simulated_plant,
                              true_friction=params.simulated_friction))
     for block, fields in SAMPLE_FIELDS.items():
         for name in fields:
             d[block].pop(name, None)
-    return json.dumps({"params": d, "use_estimator": bool(use_estimator),
-                       "disturbance": has_disturbance(params.scenario)}, sort_keys=True)
+    return {"params": d, "use_estimator": bool(use_estimator),
+            "disturbance": has_disturbance(params.scenario)}
+
+
+def _changed(built: Built, params: BplirParams, use_estimator: bool) -> list[str]:
+    """The fields (``block.field``) in which ``params`` differ from the ones
+    ``built`` was built from, outside :data:`SAMPLE_FIELDS`."""
+    ours, theirs = _structure(params, use_estimator), json.loads(built.structure)
+    out = [k for k in ("use_estimator", "disturbance") if ours[k] != theirs[k]]
+    a, b = json.loads(json.dumps(ours["params"])), theirs["params"]
+    for block in sorted(set(a) | set(b)):
+        fa, fb = a.get(block, {}), b.get(block, {})
+        if not isinstance(fa, dict) or not isinstance(fb, dict):
+            out += [block] if fa != fb else []
+            continue
+        out += [f"{block}.{f}" for f in sorted(set(fa) | set(fb)) if fa.get(f) != fb.get(f)]
+    return out
 
 
 def set_swing_sample(built: Built, context, params: BplirParams, seed: int) -> None:
@@ -114,8 +135,10 @@ def set_swing_sample(built: Built, context, params: BplirParams, seed: int) -> N
     ``params`` differ from the built ones outside :data:`SAMPLE_FIELDS`."""
     use_est = json.loads(built.structure)["use_estimator"]
     if swing_structure(params, use_est) != built.structure:
-        raise ValueError("this sample changes more than the context carries "
-                         f"({', '.join(SAMPLE_FIELDS)} fields); build its own swing diagram")
+        changed = _changed(built, params, use_est)
+        raise ValueError(f"this sample changes {', '.join(changed[:4]) or 'the structure'}, "
+                         "more than the context carries (its fields of "
+                         f"{', '.join(SAMPLE_FIELDS)}); build its own swing diagram")
     set_inertial_parameters(built.plant, context, params.simulated_plant)
     set_friction(built.systems["friction"], context, params.simulated_friction)
     built.systems["imu"].set_sensor(context, params.imu, seed)

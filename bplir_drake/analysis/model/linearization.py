@@ -34,6 +34,7 @@ class Linearization:
                           inputs=list(self.INPUTS), outputs=list(self.STATES),
                           name="plant_with_friction")
 
+    @property
     def modes(self):
         """(natural frequency rad/s, damping ratio) of each eigenvalue."""
         lam = self.eigenvalues
@@ -60,6 +61,24 @@ def linearize_plant(params: BplirParams, x0=(0.0, 0.0, 0.0, 0.0), u0=0.0, *,
     A = np.array(lin.A())
     return Linearization(A, np.array(lin.B()), np.array(lin.C()), np.array(lin.D()),
                          np.linalg.eigvals(A))
+
+
+def friction_poles(params: BplirParams, lin: Linearization) -> str | None:
+    """A note on the hanging linearisation's fast real poles (faster than ten
+    times the robot's pendulum rate sqrt(g/l1)), or None when there are
+    none: at rest the smoothed Coulomb friction ``fc 2/pi atan(q'/b)`` has
+    the slope ``2 fc/(pi b)``, a stiff viscous term of the model (``b``:
+    ``friction.b``), not a mode of the robot."""
+    p, f = params.simulated_plant, params.simulated_friction
+    fast = sorted(float(z.real) for z in lin.eigenvalues
+                  if abs(z.imag) < 1e-9 and abs(z) > 10 * np.sqrt(p.g / p.l1))
+    if not fast:
+        return None
+    slopes = [2 * fc / (np.pi * f.b) for fc in (f.fc1, f.fc2)]
+    return (f"the real pole(s) {', '.join(f'{z:.4g}' for z in fast)} /s come from the smoothed "
+            f"Coulomb friction: at rest its slope 2 fc/(pi b) is {slopes[0]:.3g} and "
+            f"{slopes[1]:.3g} N m s/rad (friction.b = {f.b:g} rad/s), a stiffness of the "
+            "model, not a mode of the robot")
 
 
 def hanging_linearization(params: BplirParams) -> Linearization:

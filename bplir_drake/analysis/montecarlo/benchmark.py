@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ...params import BplirParams, ParameterError, plugin_name
+from ...params import CONTROLLER_PRESETS, BplirParams, ParameterError, _is_plugin, plugin_name
 from .executors import map_jobs
 from .sampling import apply_values, base_value, error_text, pinned
 from ..swing.run import run_swing
@@ -85,9 +85,19 @@ CATEGORIES = ("model parameters", "sensor noise", "torque noise", "delay", "gust
               "link-2 parameters", "IMU bias and misalignment", "grip spacing")
 
 
-def case_params(params: BplirParams, controller: str, changes: dict) -> BplirParams:
-    """The nominal robot (true = nominal, no friction draw) with ``changes``."""
-    p = pinned(params.with_controller(controller))
+def scored(params: BplirParams, controller: str, args=()) -> BplirParams:
+    """``params`` flying ``controller``: a preset (``args`` unused), or a
+    plug-in whose factory takes the keyword arguments ``args``
+    (``"key=value"`` each: the benchmark's ``--controller-arg``)."""
+    return params.with_controller(controller, args if _is_plugin(controller) and
+                                  controller not in CONTROLLER_PRESETS else ())
+
+
+def case_params(params: BplirParams, controller: str, changes: dict,
+                args=()) -> BplirParams:
+    """The nominal robot (true = nominal, no friction draw) flying
+    ``controller`` (a plug-in's factory arguments ``args``) with ``changes``."""
+    p = pinned(scored(params, controller, args))
     return apply_values(p, {name: base_value(p, name) * value if how == "scale" else value
                             for name, (how, value) in changes.items()})
 
@@ -103,7 +113,7 @@ def _run_case(params: BplirParams, job: dict) -> dict:
 
     row = {k: job[k] for k in ("controller", "category", "label", "case", "repeat", "seed")}
     try:
-        p = case_params(params, job["controller"], job["changes"])
+        p = case_params(params, job["controller"], job["changes"], job["controller_args"])
         s = run_swing(p, seed=job["seed"]).summary
         row |= {"outcome": s["outcome"], "success": bool(s["success"]),
                 "capture_speed_mps": s["capture_speed_mps"], "swing_time_s": s["swing_time_s"],
@@ -120,11 +130,12 @@ def _run_case(params: BplirParams, job: dict) -> dict:
 def run_benchmark(params: BplirParams, controllers=("plan", "cpfl-qft", "lab"), *,
                   quick: bool = False, repeats: int | None = None, seed: int = 0,
                   workers: int = 0, progress: bool = False, out=None,
-                  categories=CATEGORIES) -> dict:
+                  categories=CATEGORIES, controller_args=()) -> dict:
     """Score each controller preset; returns scores and the per-case rows.
-    ``categories`` restricts the benchmark to some of :data:`CATEGORIES`."""
+    ``categories`` restricts the benchmark to some of :data:`CATEGORIES`;
+    ``controller_args`` (``"key=value"`` each) go to the plug-ins' factories."""
     for c in controllers:
-        params.with_controller(c)  # unknown names fail here, before any work
+        scored(params, c, controller_args)  # unknown names fail here, before any work
     repeats = (1 if quick else 3) if repeats is None else repeats
     unknown = set(categories) - set(CATEGORIES)
     if unknown:
@@ -136,7 +147,8 @@ def run_benchmark(params: BplirParams, controllers=("plan", "cpfl-qft", "lab"), 
         for r in range(repeats):
             for c in controllers:
                 jobs.append((params, case | {"controller": c, "case": ci, "repeat": r,
-                                             "seed": case_seed(seed, case, r)}))
+                                             "seed": case_seed(seed, case, r),
+                                             "controller_args": tuple(controller_args)}))
     rows = sorted(map_jobs(_run_case, jobs, workers=workers, progress=progress,
                            desc="benchmark"),
                   key=lambda r: (r["controller"], r["case"], r["repeat"]))

@@ -103,7 +103,9 @@ def study_lock(out: Path):
     """Hold the study directory ``out`` exclusively (its ``.lock``, opened
     without following a link, records the holder's PID): a second run into
     the same directory is refused with the holder's PID while the first
-    runs; the lock goes with the process, however it ends."""
+    runs; the lock goes with the process, however it ends.  The file stays
+    (removing it would let two runs lock two files), emptied of the PID
+    when the run ends."""
     import fcntl
 
     out.mkdir(parents=True, exist_ok=True)
@@ -117,7 +119,10 @@ def study_lock(out: Path):
                              "it to finish or choose another --out") from None
         os.ftruncate(fd, 0)
         os.write(fd, str(os.getpid()).encode())
-        yield
+        try:
+            yield
+        finally:
+            os.ftruncate(fd, 0)   # no PID of a process long gone in a finished study
     finally:
         os.close(fd)
 

@@ -40,6 +40,11 @@ class Segment:
 
 #: the motion log's columns: time, angles, gripper 1's pose, torque, current, i^2 t
 MOTION_COLUMNS = ("t", "q1", "q2", "x", "y", "z", "torque", "current", "i2t")
+MOTION_UNITS = ("s", "rad", "rad", "m", "m", "m", "N m", "A", "A^2 s")
+#: how a motion log file is laid out (``bplir traverse`` writes it into traverse.json)
+MOTION_FORMAT = {"dtype": "little-endian float64, no header, one row per sample",
+                 "columns": [f"{c} ({u})" for c, u in zip(MOTION_COLUMNS, MOTION_UNITS)],
+                 "read_with": f"numpy.fromfile(path, '<f8').reshape(-1, {len(MOTION_COLUMNS)})"}
 
 
 class MotionLog:

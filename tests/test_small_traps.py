@@ -1,0 +1,114 @@
+"""Small traps a Drake and python-control user met, each mended: what the
+commands print for a swing that did not capture and for a plan the solver
+did not prove optimal, the benchmark's plug-in arguments, the hanging
+linearisation's friction pole, the traversal's motion log, the modes."""
+import contextlib
+import io
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from bplir_drake import cli
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def bplir(*argv):
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        rc = cli.main([str(a) for a in argv])
+    return rc, out.getvalue(), err.getvalue()
+
+
+def test_a_swing_that_did_not_capture_prints_its_closest_approach(tmp_path):
+    """A timed-out swing has no capture speed: its line says how close the
+    gripper came (no 'nan m/s'); the files line names summary.json."""
+    spec = f"{ROOT / 'examples' / 'my_controller.py'}:make"
+    rc, out, err = bplir("swing", "--controller", spec, "--no-animation", "--no-plots",
+                         "--out", tmp_path)
+    assert rc == 0, err
+    first = out.splitlines()[0]
+    assert first.startswith("timeout: t = 3.000 s, no capture: the gripper came within 0.2")
+    assert "nan" not in out
+    assert out.splitlines()[-1] == f"files in {tmp_path}: swing_log.csv, summary.json"
+
+
+def test_plan_says_feasible_and_whether_the_solver_proved_it_optimal(tmp_path, monkeypatch):
+    """``bplir plan`` says "feasible, not proven optimal (solver ...: its
+    status)" instead of "feasible (..., optimal: False)"."""
+    from bplir_drake.diagrams import plan as P
+
+    def stopped(params, *a, **k):
+        t = np.linspace(0.0, 1.0, 5)
+        return P.SwingPlan(t, np.zeros((5, 4)), np.zeros(5), np.zeros((5, 2)), False, True,
+                           "stub", params.scenario.incline_deg, 20.0, 220.0, 1e-4,
+                           status="iteration limit")
+
+    monkeypatch.setenv("BPLIR_CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.setattr(P, "_solve_plan", stopped)
+    rc, out, err = bplir("plan", "--incline", "9", "--out", tmp_path / "p")
+    assert rc == 0, err
+    assert out.splitlines()[0] == ("planned swing on a 9 deg line: feasible, not proven optimal "
+                                   "(solver stub: iteration limit)")
+
+
+def test_the_benchmark_passes_controller_arguments_to_its_plugins(tmp_path, monkeypatch):
+    """``bplir benchmark --controller-arg`` reaches the factories of the
+    plug-ins among --controllers (the presets ignore it), and needs one."""
+    from bplir_drake.analysis.montecarlo import benchmark
+
+    seen = []
+
+    def stop(params, controllers, controller_args, **kw):
+        seen.extend(benchmark.case_params(params, c, {}, controller_args).controller
+                    for c in controllers)
+        raise SystemExit(0)
+
+    monkeypatch.setattr(benchmark, "run_benchmark", stop)
+    (tmp_path / "gain.py").write_text(
+        f"import sys\nsys.path.insert(0, {str(ROOT / 'examples')!r})\n"
+        "from my_controller import make as pd\n"
+        "def make(params, kp=1.0):\n    return pd(params)\n")
+    spec = f"{tmp_path / 'gain.py'}:make"
+    with pytest.raises(SystemExit):
+        bplir("benchmark", "--controllers", f"plan,{spec}", "--controller-arg", "kp=3.5",
+              "--out", tmp_path / "b")
+    assert [c.plugin_args for c in seen] == [(), ("kp=3.5",)]
+    rc, _, err = bplir("benchmark", "--controllers", "plan", "--controller-arg", "kp=3.5",
+                       "--out", tmp_path / "c")
+    assert rc == 2 and "--controller-arg needs a plug-in among --controllers" in err
+
+
+def test_model_names_the_friction_pole_of_the_hanging_linearisation(tmp_path):
+    """The hanging eigenvalues' -382 /s pole is the smoothed Coulomb
+    friction's slope 2 fc2/(pi b) = 48.9 N m s/rad over the elbow's inertia,
+    said beside it; ``modes`` is a property like ``eigenvalues``."""
+    from bplir_drake.analysis.model.linearization import hanging_linearization
+    from bplir_drake.params import BplirParams
+
+    rc, out, err = bplir("model", "--no-swing", "--json", "--out", tmp_path)
+    note = json.loads(out)["hanging_eigenvalues_note"]
+    assert rc == 0 and note.startswith("the real pole(s) -382.4 /s come from the smoothed "
+                                       "Coulomb friction")
+    assert "0.789 and 48.9 N m s/rad (friction.b = 0.01 rad/s)" in note
+    lin = hanging_linearization(BplirParams())
+    wn, zeta = lin.modes
+    assert np.allclose(wn, np.abs(lin.eigenvalues))
+    assert bplir("model", "--no-swing", "--json", "--set", "friction.fc1=0",
+                 "--set", "friction.fc2=0", "--out", tmp_path)[1].count('"hanging_eigenvalues_'
+                                                                        'note": null') == 1
+
+
+def test_the_traversals_motion_log_says_its_layout(tmp_path):
+    """traverse.json says how motion.f64 is laid out, and reading it that way
+    gives the traversal's clock and the driver's i^2 t."""
+    rc, out, err = bplir("traverse", ROOT / "examples" / "line_flat.toml", "--no-animation",
+                         "--no-plots", "--json", "--out", tmp_path)
+    data = json.loads(out)
+    fmt = data["motion_log_format"]
+    assert fmt["columns"][0] == "t (s)" and fmt["columns"][-1] == "i2t (A^2 s)"
+    motion = np.fromfile(data["files"]["motion_log"], "<f8").reshape(-1, len(fmt["columns"]))
+    assert motion[-1, 0] == pytest.approx(data["totals"]["time_s"], abs=0.02)
+    assert motion[:, -1].max() == pytest.approx(data["totals"]["peak_i2t_A2s"], rel=1e-6)

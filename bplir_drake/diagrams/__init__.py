@@ -13,15 +13,20 @@ estimators only ever see the nominal blocks.
 * :mod:`.control` -- the CPFL loop on the true state (step tests, QFT plant);
 * :mod:`.swing` -- the full closed loop of one swing, composed from named
   builders, and the Monte Carlo sample a context can carry
-  (:func:`set_swing_sample`).
+  (:func:`set_swing_sample`); :mod:`.swing_ports` -- its input and output
+  ports, their signal names and the estimate's timing.
 """
 from .control import build_control_loop, build_cpfl_plant, build_cpfl_step
 from .open_loop import build_free_swing, build_plant_with_friction, build_sensor_swing
 from .parts import Built, add_imus, add_plant_with_friction, sampled
-from .swing import (SAMPLE_FIELDS, build_swing, set_swing_sample, swing_geometry,
-                    swing_structure)
+from .swing import (SAMPLE_FIELDS, add_actuation, add_interlock, add_robot, add_sensing,
+                    add_swing_controller, add_swing_loggers, build_swing, set_swing_sample,
+                    swing_geometry, swing_structure)
+from .swing_ports import SWING_INPUTS, SWING_PORTS, SWING_SIGNALS, estimate_times
 
 __all__ = ["Built", "sampled", "add_plant_with_friction", "add_imus", "build_free_swing",
            "build_plant_with_friction", "build_sensor_swing", "build_cpfl_plant",
            "build_control_loop", "build_cpfl_step", "swing_geometry", "build_swing",
-           "SAMPLE_FIELDS", "swing_structure", "set_swing_sample"]
+           "SAMPLE_FIELDS", "swing_structure", "set_swing_sample", "add_robot", "add_sensing",
+           "add_swing_controller", "add_actuation", "add_interlock", "add_swing_loggers",
+           "SWING_PORTS", "SWING_SIGNALS", "SWING_INPUTS", "estimate_times"]

@@ -57,6 +57,8 @@ from ..systems.gripper import GripperInterlock, LineGeometry
 from ..systems.path import PathGeometry
 from ..systems.plant import start_configuration, target_configuration
 from .plugin import make_plugin
+from .swing_ports import (SWING_PORTS, SWING_SIGNALS,  # noqa: F401 (re-exported)
+                          add_estimate_input, add_external_torque, export_swing_ports)
 from .plan import tracking_plan
 from .plan_file import read_plan_file
 
@@ -167,19 +169,22 @@ class Robot:
     motor: Any
 
 
-def add_robot(builder, params: BplirParams, seed: int) -> Robot:
+def add_robot(builder, params: BplirParams, seed: int, external_torque: bool = False) -> Robot:
     """The simulated (true) plant with friction, the external forces of the
     scenario (a :class:`DisturbanceSource`, when it has wind, gusts or torque
-    noise) and the motor and driver (its limit the smaller of the motor's and
-    the controller's) driving the elbow."""
+    noise) and, with ``external_torque``, of the diagram's ``external_torque``
+    input (:mod:`.swing_ports`), and the motor and driver (its limit the
+    smaller of the motor's and the controller's) driving the elbow."""
     period = params.controller.period
     dist = None
     if has_disturbance(params.scenario):
         dist = builder.AddNamedSystem("disturbance", DisturbanceSource(
             _disturbance_torques(params.scenario, seed, period), period))
+    forces = dist.force_port if dist else None
+    if external_torque:
+        forces = add_external_torque(builder, forces)
     plant, friction = add_plant_with_friction(builder, params.simulated_plant,
-                                              params.simulated_friction,
-                                              disturbance=dist.force_port if dist else None,
+                                              params.simulated_friction, disturbance=forces,
                                               friction_in_context=True)
     limit = min(params.motor.torque_limit, params.controller.torque_limit)
     motor = builder.AddNamedSystem("motor", MotorDriver(replace(params.motor, torque_limit=limit)))
@@ -239,14 +244,21 @@ def standstill_calibration(params: BplirParams, q0, seed: int) -> ImuCalibration
     return calibration
 
 
-def add_sensing(builder, params: BplirParams, robot: Robot, q0, seed: int, estimator=None):
+def add_sensing(builder, params: BplirParams, robot: Robot, q0, seed: int, estimator=None,
+                estimate_input: bool = False):
     """Two IMUs on the simulated links and the kinematic EKF (nominal
     geometry, started at rest at the pose the robot believes it is in,
     :func:`believed_start`, with the standstill calibration of
     :func:`standstill_calibration` made in the true pose ``q0``), or a user's estimator
-    (``estimator``, a factory, or ``estimator.plugin``: :mod:`.plugin`).
+    (``estimator``, a factory, or ``estimator.plugin``: :mod:`.plugin`), or,
+    with ``estimate_input``, the diagram's ``estimate`` input (:mod:`.swing_ports`).
     Returns ``(sampler, estimator, estimate port)``."""
     sampler = add_imus(builder, robot.plant, params, seed)
+    if estimate_input:
+        if estimator is not None or params.estimator.plugin:
+            raise ParameterError("estimate_input replaces the estimator; give no estimator "
+                                 "plug-in with it")
+        return (sampler, *add_estimate_input(builder))
     if estimator is not None or params.estimator.plugin:
 
         user = builder.AddNamedSystem("estimator", make_plugin(params, "estimator", estimator))
@@ -333,26 +345,10 @@ def add_swing_loggers(builder, params: BplirParams, robot: Robot, sampler, estim
     return loggers
 
 
-#: the output ports of a swing diagram (:func:`export_swing_ports`)
-SWING_PORTS = ("true_state", "estimate", "command", "torque", "voltage")
-
-
-def export_swing_ports(builder, robot: Robot, estimate_port, controller) -> None:
-    """The swing diagram's outputs: the simulated robot's ``true_state``
-    (q1, q2, q1d, q2d), the controller's ``estimate`` (the estimator's
-    state output), the ``command`` (N m, the controller's torque before the
-    actuation delay), the delivered ``torque`` (N m) and the winding
-    ``voltage`` (V)."""
-    builder.ExportOutput(robot.plant.get_state_output_port(), "true_state")
-    builder.ExportOutput(estimate_port, "estimate")
-    builder.ExportOutput(controller.GetOutputPort("torque"), "command")
-    builder.ExportOutput(robot.motor.GetOutputPort("torque"), "torque")
-    builder.ExportOutput(robot.motor.GetOutputPort("voltage"), "voltage")
-
-
 def build_swing(params: BplirParams, *, seed: int | None = None, use_estimator: bool | None = None,
                 log_period: float = 0.005, plan_gains=None, controller=None,
-                estimator=None) -> Built:
+                estimator=None, external_torque: bool = False,
+                estimate_input: bool = False) -> Built:
     """The full closed loop of one swing (see the module docstring).
 
     ``seed`` (default ``scenario.seed``) seeds the IMU noise and the
@@ -363,7 +359,10 @@ def build_swing(params: BplirParams, *, seed: int | None = None, use_estimator: 
     from the nominal model and the scenario).
     ``controller`` / ``estimator``: your own (:mod:`.plugin`), a factory
     ``factory(nominal params) -> System`` or a ``"module:factory"`` spec,
-    instead of the parameters' ones.  The returned
+    instead of the parameters' ones.  ``external_torque`` and
+    ``estimate_input`` give the diagram those input ports (:mod:`.swing_ports`:
+    a disturbance added to the joints, the estimate the controller reads);
+    its outputs are always :data:`~.swing_ports.SWING_SIGNALS`.  The returned
     record carries the start configuration ``q0`` and the ``structure`` a
     context cannot change (:func:`set_swing_sample`).
     """
@@ -385,8 +384,9 @@ def build_swing(params: BplirParams, *, seed: int | None = None, use_estimator: 
     use_est = sc.use_estimator if use_estimator is None else use_estimator
     q0, _, path_geometry, line_geometry = swing_geometry(params)
     builder = DiagramBuilder()
-    robot = add_robot(builder, params, seed)
-    sampler, est, estimate_port = add_sensing(builder, params, robot, q0, seed, estimator)
+    robot = add_robot(builder, params, seed, external_torque)
+    sampler, est, estimate_port = add_sensing(builder, params, robot, q0, seed, estimator,
+                                              estimate_input)
     state_port = (estimate_port if use_est
                   else sampled(builder, robot.plant.get_state_output_port(),
                                params.controller.period))
@@ -397,7 +397,8 @@ def build_swing(params: BplirParams, *, seed: int | None = None, use_estimator: 
     lock = add_interlock(builder, params, robot, estimate_port, line_geometry)
     loggers = add_swing_loggers(builder, params, robot, sampler, estimate_port, control,
                                 log_period)
-    export_swing_ports(builder, robot, estimate_port, control["controller"])
+    export_swing_ports(builder, robot, estimate_port, control["controller"],
+                       sampler.get_output_port(0))
     # the default context starts the swing: the plant at the start pose (the
     # sample's friction, sensors, calibration and gusts are the built defaults)
     robot.plant.SetDefaultPositions(np.asarray(q0, dtype=float))

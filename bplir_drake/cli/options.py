@@ -1,6 +1,7 @@
 """The options every command shares, and the helpers that declare a command's options."""
 from __future__ import annotations
 
+from ..params.control import AUTO_PATH_MODE
 from .common import FIGURE_FORMATS, _dpi_value
 
 
@@ -44,10 +45,9 @@ def shared(p, *names):
                            "(a module or .py file)"),
              "workers": ("--workers", int, None, "worker processes (default: all cores)"),
              "path": ("--path-mode", None, None,
-                      "how the swing is steered: auto (the default: plan for the qft "
-                      "preset, adaptive for the others and plug-ins), adaptive (the "
-                      "path generator), plan (plan tracking with the apex landing), "
-                      "rts, lab"),
+                      f"how the swing is steered: auto (the default: {AUTO_PATH_MODE}), "
+                      "adaptive (the path generator), plan (plan tracking with its "
+                      "landing), rts, lab"),
              "landing": ("--landing-law", None, None,
                          "plan tracking's landing: aim, shoot, or auto (the default) "
                          "(shoot where link 1 carries the planned gripper to the line, "

@@ -178,12 +178,16 @@ PATH_MODES = ("auto", "adaptive", "rts", "lab", "plan")
 
 
 
+#: what ``path.mode = "auto"`` (the default) becomes, said once for the
+#: parameter's doc, the command line's help and the docs
+AUTO_PATH_MODE = ("plan (plan tracking) with the plan controller preset on every line, "
+                  "adaptive (the path generator) with the other presets and plug-ins")
+
+
 @dataclass(frozen=True)
 class PathParams(_Block):
     """Online path generator (chapter 7).  ``mode``: ``auto`` (the default:
-    ``plan`` on an inclined line, ``adaptive`` on a horizontal one, for the
-    project's ``plan`` controller; the ``cpfl-qft`` preset and plug-in
-    controllers keep ``adaptive``; see :meth:`resolved`), ``adaptive`` (RTS +
+    :data:`AUTO_PATH_MODE`, :meth:`resolved`), ``adaptive`` (RTS +
     blend to line seeking with the adaptive blend end), ``rts`` (the RTS path
     with the blend (7.20)-(7.21) at its printed end, no adaptation),
     ``lab`` (the firmware's ``1.5 q1 q2f/q1f``) or ``plan`` (no path: a
@@ -191,7 +195,7 @@ class PathParams(_Block):
     block, with its landing in the ``landing`` block)."""
 
     _name = "path"
-    mode: str = field(default="auto", metadata=dict(doc="how the swing is steered: auto (plan for the plan preset, adaptive otherwise), plan, adaptive, rts, lab", allowed="auto, plan, adaptive, rts, lab"))
+    mode: str = field(default="auto", metadata=dict(doc=f"how the swing is steered: auto ({AUTO_PATH_MODE}), plan, adaptive, rts, lab", allowed="auto, plan, adaptive, rts, lab"))
     blend_exponent: float = _p(2.0, "", 1, 10, doc="exponent n of the blend weight F = (s/s_e)^n (7.20)")
     arrival_rate: float = _p(0.45, "rad/s", 0, 2, lo_open=True, doc="link-1 rate aimed for where the gripper enters the capture band")
     adapt_window: float = _p(0.3, "", 0, 1, doc="s_e adapts from s > -adapt_window * s_f ...")
@@ -213,14 +217,8 @@ class PathParams(_Block):
     lab_gain: float = _p(1.5, "", 0, 5, doc="gain of the lab firmware path")
 
     def resolved(self, incline_deg: float, controller: "ControllerParams") -> "PathParams":
-        """The path block with ``mode = "auto"`` made concrete: ``plan`` (plan
-        tracking with the apex landing) for the ``plan`` preset without a
-        plug-in on every line, else ``adaptive`` (the dissertation's path
-        generator).  The adaptive path fails the nominal swing on a 5 deg
-        line (it cannot pump or shed the energy; the plan can), and on the
-        horizontal line plan tracking is the more robust of the two as well
-        (realistic study: 93.1 % of 1000 held-out swings, root seed 2,
-        against 20 of 100 for the adaptive path on root seed 0; README)."""
+        """The path block with ``mode = "auto"`` made concrete:
+        :data:`AUTO_PATH_MODE` (``incline_deg`` does not enter)."""
         if self.mode != "auto":
             return self
         plan = controller.preset == "plan" and not controller.plugin

@@ -112,3 +112,30 @@ def test_the_traversals_motion_log_says_its_layout(tmp_path):
     motion = np.fromfile(data["files"]["motion_log"], "<f8").reshape(-1, len(fmt["columns"]))
     assert motion[-1, 0] == pytest.approx(data["totals"]["time_s"], abs=0.02)
     assert motion[:, -1].max() == pytest.approx(data["totals"]["peak_i2t_A2s"], rel=1e-6)
+
+
+def test_the_swing_figure_draws_the_gripper_against_its_inclined_line():
+    """On a +20 deg line the free gripper ends on the line in the figure's
+    line frame (above it by the capture distance at most, the grip
+    spacing along it), where its height y ends 0.41 m up; every panel has
+    its units."""
+    from dataclasses import replace
+
+    from bplir_drake.analysis.swing import run_swing
+    from bplir_drake.analysis.swing.logs import log_table
+    from bplir_drake.params import BplirParams
+
+    p = BplirParams()
+    p = p.with_(scenario=replace(p.scenario, incline_deg=20.0))
+    res = run_swing(p)
+    cols, data = log_table(res)
+    end = dict(zip(cols, data[-1]))
+    assert res.summary["outcome"] == "captured"
+    assert abs(end["gripper_above"]) <= p.scenario.capture_distance + 1e-3
+    assert end["gripper_along"] == pytest.approx(p.scenario.grip_spacing, abs=0.05)
+    assert end["gripper_y"] == pytest.approx(1.2 * np.sin(np.radians(20.0)), abs=0.03)
+    fig = res.plot()
+    labels = [a.get_ylabel() for a in fig.axes]
+    assert all("[" in label for label in labels), labels
+    assert [t.get_text() for t in fig.axes[4].get_legend().get_texts()] == [
+        "along the line", "above the line"]

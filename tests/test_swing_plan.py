@@ -61,17 +61,17 @@ def test_plan_figure_and_cli_errors(uphill, tmp_path, capsys):
     fig = plan.plot(params=p)
     path = save_figure(fig, tmp_path / "plan.png")
     assert path.stat().st_size > 20_000
-    # the limits are named in the legend, which sits clear of their lines
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-
-    FigureCanvasAgg(fig).draw()
-    ax, renderer = fig.axes[1], fig.canvas.get_renderer()
-    legend = ax.get_legend()
-    assert {"torque limit", "power limit / 10"} <= {t.get_text() for t in legend.get_texts()}
-    box = legend.get_window_extent(renderer)
-    limits = [line for line in ax.get_lines() if len(set(line.get_ydata())) == 1]
-    assert len(limits) == 4 and not any(box.overlaps(line.get_window_extent(renderer))
-                                        for line in limits)
+    # every panel labelled with its units; torque and power each on its own
+    # axes with its limit named; the poses keyed by time
+    labels = [(a.get_xlabel(), a.get_ylabel()) for a in fig.axes[:4]]
+    assert labels == [("time [s]", "joint angle [rad]"), ("time [s]", "elbow torque [N m]"),
+                      ("time [s]", "motor power [W]"), ("horizontal [m]", "vertical [m]")]
+    assert fig.axes[4].get_ylabel() == "time [s]"   # the colour bar
+    for a, name, limit in ((fig.axes[1], "torque limit", plan.torque_limit),
+                           (fig.axes[2], "power rating", plan.power_limit)):
+        assert name in [t.get_text() for t in a.texts]
+        assert sorted(ln.get_ydata()[0] for ln in a.get_lines()
+                      if len(set(ln.get_ydata())) == 1) == [-limit, limit]
     assert main(["plan", "--incline", "95", "--out", str(tmp_path)]) == 2
     assert main(["plan", "--knots", "2", "--out", str(tmp_path)]) == 2
     err = capsys.readouterr().err.strip().splitlines()

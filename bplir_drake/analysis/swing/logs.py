@@ -12,15 +12,17 @@ from ...systems.motor import back_emf, torque_window
 
 LOG_COLUMNS = ("t", "q1", "q2", "q1d", "q2d", "q1_est", "q2_est", "q1d_est", "q2d_est",
                "q2_ref", "torque_cmd", "torque", "power", "current", "f1", "f2",
-               "gripper_x", "gripper_y", "kinetic", "potential", "energy",
+               "gripper_x", "gripper_y", "gripper_along", "gripper_above",
+               "kinetic", "potential", "energy",
                "voltage", "back_emf", "electrical_power", "torque_available_lo",
                "torque_available_hi")
 
 
 def log_table(result: SwingResult) -> tuple[list[str], np.ndarray]:
     """(column names, table) of a swing's logs on the state's time grid: truth, estimate,
-    reference, torques, power, current, friction, gripper position and energies
-    (:data:`LOG_COLUMNS`)."""
+    reference, torques, power, current, friction, gripper position (x
+    horizontal and y up, and along and above the inclined line, from the
+    holding gripper) and energies (:data:`LOG_COLUMNS`)."""
     lg, p = result.logs, result.params
     st = lg["state"]
     t, x = st.t, st.data
@@ -29,11 +31,13 @@ def log_table(result: SwingResult) -> tuple[list[str], np.ndarray]:
     cmd = lg["command"].at(t)
     tp = p.simulated_plant
     gp = np.array([gripper_position(r[:2], tp.l1, tp.l2) for r in x])
+    alpha = np.radians(p.scenario.incline_deg)   # the line's frame: along it, and above it
+    line = np.c_[gp @ [np.cos(alpha), np.sin(alpha)], gp @ [-np.sin(alpha), np.cos(alpha)]]
     ke = np.array([kinetic_energy(r[:2], r[2:], tp) for r in x])
     pe = np.array([potential_energy(r[:2], tp) for r in x])
     fr = -lg["friction"].data
     cols = [t[:, None], x, est, ref, cmd, lg["torque"].data, lg["power"].data, lg["current"].data,
-            fr, gp, ke[:, None], pe[:, None], (ke + pe)[:, None], motor_columns(p, lg, x)]
+            fr, gp, line, ke[:, None], pe[:, None], (ke + pe)[:, None], motor_columns(p, lg, x)]
     return list(LOG_COLUMNS), np.hstack(cols)
 
 

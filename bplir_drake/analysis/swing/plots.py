@@ -22,7 +22,8 @@ SWING_PANELS = (
                                   ("torque_cmd", "k:", "commanded")]),
     (1, 1, "motor voltage [V]", [("voltage", "C3", "winding voltage"),
                                  ("back_emf", "C7--", "back-EMF")]),
-    (2, 0, "free gripper [m]", [("gripper_x", "C2", "x"), ("gripper_y", "C4", "y")]),
+    (2, 0, "free gripper from the\nholding one [m]", [("gripper_along", "C2", "along the line"),
+                                                  ("gripper_above", "C4", "above the line")]),
     (2, 1, "energy [J]", [("energy", "k", "total"), ("kinetic", "C1", "kinetic"),
                           ("potential", "C0", "potential")]),
 )
@@ -39,7 +40,8 @@ def _one_axes(axes) -> bool:
 def plot_swing(result, axes=None, title=None, panel: str | None = None):
     """Six panels (3 x 2 axes) in the style of Fig. 7.6: angles, rates,
     applied torque, the motor's winding voltage and back-EMF (with the
-    driver's limit), free-gripper x/y, energy split; the decision time
+    driver's limit), the free gripper along and above its (inclined) line,
+    energy split; the decision time
     marked.  Given one axes (or ``panel``), one panel: ``panel`` of
     :data:`PANEL_NAMES` (default ``"angles"``).  Returns the figure."""
     cols, d = log_table(result)
@@ -88,8 +90,12 @@ def _draw_panel(a, c, spec, result, index):
             a.axhline(sign * vmax, color="grey", lw=0.6)
         a.text(0.01, 0.90, f"driver limit \u00b1{vmax:.1f} V", transform=a.transAxes,
                va="top", fontsize=7, color="grey")
-    elif PANEL_NAMES[index] == "gripper":
+    elif PANEL_NAMES[index] == "gripper":   # the line, whatever its incline
         a.axhline(0, color="k", lw=0.6)
+        a.axhline(result.params.scenario.grip_spacing, color="C2", lw=0.6, ls=":")
+        a.text(0.01, 0.06, f"the line ({result.params.scenario.incline_deg:g} deg) at 0; "
+               f"the grip {result.params.scenario.grip_spacing:g} m along it, dotted",
+               transform=a.transAxes, fontsize=7, color="grey")
     a.grid(True, alpha=0.3)
     if math.isfinite(s["swing_time_s"]):
         a.axvline(s["swing_time_s"], color="C3", lw=0.6, ls="--")

@@ -139,3 +139,35 @@ def test_the_swing_figure_draws_the_gripper_against_its_inclined_line():
     assert all("[" in label for label in labels), labels
     assert [t.get_text() for t in fig.axes[4].get_legend().get_texts()] == [
         "along the line", "above the line"]
+
+
+@pytest.mark.parametrize("n, columns", [(4, 2), (6, 3), (25, 5), (7, 2)])
+def test_success_vs_parameters_has_no_empty_panel_and_keeps_its_rate_clear(n, columns):
+    """One panel per drawn quantity (a grid with no empty panel where one
+    fits), and the success rate's ticks above the capture-speed limit line
+    and its label, not on them."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    from bplir_drake.analysis.montecarlo import Distribution, Study
+    from bplir_drake.analysis.montecarlo.plots import _grid_columns, plot_success_vs_parameters
+
+    assert _grid_columns(n) == columns
+    names = ["true_friction.fv1", "true_friction.fv2", "true_friction.fc1", "true_friction.fc2"]
+    study = Study(distributions=tuple(Distribution(f, "uniform", rel=0.2) for f in names),
+                  samples=30)
+    rng = np.random.default_rng(0)
+    rows = [{"capture_speed_mps": s, "success": s < 0.45, "outcome": "captured",
+             **{f: rng.uniform(0.8, 1.2) for f in names}} for s in rng.uniform(0.1, 0.6, 30)]
+    fig = plot_success_vs_parameters(study, rows)
+    FigureCanvasAgg(fig).draw()
+    renderer = fig.canvas.get_renderer()
+    main = [a for a in fig.axes if a.get_ylabel() == "capture speed [m/s]"]
+    twins = [a for a in fig.axes if a.get_ylabel() == "success rate"]
+    assert len(main) == len(twins) == 4 and len(fig.axes) == 8
+    for ax, twin in zip(main, twins):
+        limit_label = ax.texts[0].get_window_extent(renderer)
+        limit_line = next(ln for ln in ax.get_lines() if ln.get_linestyle() == "--")
+        for tick in twin.get_yticklabels():
+            box = tick.get_window_extent(renderer)
+            assert not box.overlaps(limit_label)
+            assert not box.overlaps(limit_line.get_window_extent(renderer))

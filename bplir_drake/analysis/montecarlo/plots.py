@@ -42,41 +42,70 @@ def _colour(rows):
     return [OUTCOME_COLOURS.get(r["outcome"], "grey") for r in rows]
 
 
+#: where each panel of :func:`plot_success_vs_parameters` draws the success
+#: rate (0 and 1, as fractions of the axes' height): a band above the capture
+#: speeds and the limit line, which keep below :data:`SPEED_TOP`
+RATE_BAND, SPEED_TOP = (0.80, 0.95), 0.74
+
+
+def _grid_columns(n: int) -> int:
+    """Columns of a grid of ``n`` panels: the fewest empty panels, then the
+    nearest to three columns."""
+    if n <= 3:
+        return n
+    return min(range(2, 6), key=lambda c: (-n % c, abs(c - 3)))
+
+
 def plot_success_vs_parameters(study: Study, rows: list[dict], axes=None):
-    """Capture speed (m/s) against each uncertain quantity, coloured by outcome (one axis per
-    quantity); returns the figure."""
+    """Capture speed (m/s) against each uncertain quantity, coloured by
+    outcome, with the success rate per sixth of its range in a band above
+    (one axis per quantity); returns the figure."""
+    from matplotlib.ticker import MaxNLocator
+
     names = study.names or ["index"]
-    ncol = min(3, len(names))
+    ncol = _grid_columns(len(names))
     nrow = math.ceil(len(names) / ncol)
     fig, axes = figure_axes(axes, nrow, ncol, figsize=(4.6 * ncol, 3.4 * nrow), squeeze=False)
     speed = np.array([r["capture_speed_mps"] for r in rows], dtype=float)
     succ = np.array([bool(r["success"]) for r in rows])
+    limit = study.params.scenario.capture_speed
+    top = max(limit, np.nanmax(speed, initial=limit)) / SPEED_TOP
     for ax, name in zip(axes.flat, names):
         x = np.array([r[name] for r in rows], dtype=float)
         ax.scatter(x, np.nan_to_num(speed, nan=0.0), s=8, c=_colour(rows), alpha=0.7)
-        limit = study.params.scenario.capture_speed
         ax.axhline(limit, color="k", lw=0.8, ls="--")
         ax.annotate("capture speed limit", (0.01, limit), xycoords=("axes fraction", "data"),
-                    xytext=(0, 2), textcoords="offset points", fontsize=7)
-        top = np.nanmax(speed, initial=limit)
-        ax.set_ylim(0.0, max(1.35 * limit, 1.05 * top))
+                    xytext=(0, -2), textcoords="offset points", fontsize=7, va="top")
+        ax.set_ylim(0.0, top)
         ax.set_xlabel(quantity_label(name), fontsize=8)
         ax.set_ylabel("capture speed [m/s]")
-        ok = np.isfinite(x)
-        if ok.sum() >= 4 and np.ptp(x[ok]) > 0:
-            edges = np.linspace(x[ok].min(), x[ok].max(), 7)
-            idx = np.clip(np.digitize(x[ok], edges) - 1, 0, 5)
-            rate = [succ[ok][idx == i].mean() if np.any(idx == i) else np.nan for i in range(6)]
-            ax2 = ax.twinx()
-            ax2.step(edges[:-1], rate, where="post", color="tab:blue")
-            ax2.set_ylim(-1.6, 1.05)   # the rate in the upper part, clear of the limit line
-            ax2.set_yticks([0.0, 0.5, 1.0])
-            ax2.set_ylabel("success rate", color="tab:blue")
+        ax.xaxis.set_major_locator(MaxNLocator(5))
+        ax.ticklabel_format(axis="x", style="sci", scilimits=(-3, 4), useOffset=False)
+        _success_band(ax, x, succ)
     for ax in list(axes.flat)[len(names):]:
-        ax.axis("off")
+        ax.remove()
     return finish(fig, "Capture speed and success rate against each drawn quantity",
                   f"{len(rows)} samples, root seed {study.seed}; dots: green captured, red "
                   "crash, orange timeout, black error; blue: success rate per sixth of the range")
+
+
+def _success_band(ax, x, succ) -> None:
+    """The success rate per sixth of ``x``'s range, on a right axis whose 0
+    and 1 lie in :data:`RATE_BAND` of the axes' height."""
+    ok = np.isfinite(x)
+    if ok.sum() < 4 or np.ptp(x[ok]) <= 0:
+        return
+    edges = np.linspace(x[ok].min(), x[ok].max(), 7)
+    idx = np.clip(np.digitize(x[ok], edges) - 1, 0, 5)
+    rate = [succ[ok][idx == i].mean() if np.any(idx == i) else np.nan for i in range(6)]
+    ax2 = ax.twinx()
+    ax2.step(edges, rate + rate[-1:], where="post", color="tab:blue")
+    lo, hi = RATE_BAND
+    span = 1.0 / (hi - lo)
+    ax2.set_ylim(-lo * span, (1.0 - lo) * span)
+    ax2.set_yticks([0.0, 1.0])
+    ax2.set_ylabel("success rate", color="tab:blue", fontsize=8)
+    ax2.yaxis.set_label_coords(1.06, (lo + hi) / 2)
 
 
 def _hist_range(v: np.ndarray) -> tuple[float, float]:

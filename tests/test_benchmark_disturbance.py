@@ -189,6 +189,9 @@ def test_figures_are_vector_on_request_and_the_benchmark_legend_covers_no_bar(tm
     assert not any(legend.overlaps(bar.get_window_extent(renderer)) for bar in ax.patches)
     labels = [t.get_text() for t in ax.get_xticklabels()]
     assert labels == list(res["categories"]) + ["overall"]
+    names = [t.get_text() for t in fig.axes[1].get_yticklabels()]   # the cases, by meaning
+    assert "mass of link 2 x1.2" in names and not any("true_" in n for n in names)
+    assert {t.get_fontsize() for t in fig.axes[1].get_yticklabels()} == {7.0}
     whole = fig.bbox
     for text in ax.get_xticklabels() + fig.axes[1].get_xticklabels():
         box = text.get_window_extent(renderer)

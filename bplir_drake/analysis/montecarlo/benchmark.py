@@ -248,11 +248,44 @@ def benchmark_table(result: dict) -> str:
     return "\n".join(lines)
 
 
+def _case_name(case: dict) -> str:
+    """A case as a reader names it: a scaled parameter of the simulated
+    robot by its meaning ("mass of link 2 x1.2"), the others by their own
+    label."""
+    from .plots import quantity_label
+
+    field, _, factor = case["label"].rpartition(" ")
+    if not field.startswith("true_"):   # a parameter's field name, scaled
+        return case["label"]
+    return f"{quantity_label(field).split(': ', 1)[-1].split(' [')[0]} {factor}"
+
+
+def _case_grid(ax, result: dict, ctrls: list) -> None:
+    """The success fraction of each controller (columns) in every case
+    (rows, readable names, grouped by category)."""
+    named = list(result["cases"])
+    grid = np.zeros((len(named), len(ctrls)))
+    for r in result["rows"]:
+        grid[r["case"], ctrls.index(r["controller"])] += r["success"] / result["repeats"]
+    ax.imshow(grid, aspect="auto", cmap="RdYlGn", vmin=0, vmax=1, interpolation="nearest")
+    ax.set_xticks(range(len(ctrls)), [plugin_name(c) for c in ctrls], rotation=30, ha="right")
+    ax.set_yticks(range(len(named)), [_case_name(c) for c in named], fontsize=7)
+    ax.yaxis.tick_right()
+    for k in range(1, len(named)):   # a rule between categories, named at its first case
+        if named[k]["category"] != named[k - 1]["category"]:
+            ax.axhline(k - 0.5, color="k", lw=0.8)
+    for k, c in enumerate(named):
+        if k == 0 or c["category"] != named[k - 1]["category"]:
+            ax.text(-0.6, k - 0.4, c["category"], ha="right", va="top", fontsize=8,
+                    transform=ax.transData, clip_on=False)
+    ax.set_title("success per case (green: every swing captured)", fontsize=9)
+
+
 def plot_benchmark(result: dict, axes=None):
     """Scores by category and the outcome of every case (two axes); returns the figure."""
     ctrls = list(result["scores"])
-    fig, (ax, ax2) = figure_axes(axes, 1, 2, figsize=(14, 7.5),
-                                 gridspec_kw={"width_ratios": [2, 3]})
+    fig, (ax, ax2) = figure_axes(axes, 1, 2, figsize=(13, max(7.5, 0.16 * len(result["cases"]))),
+                                 gridspec_kw={"width_ratios": [3, 2]})
     cats = result["categories"]
     x = np.arange(len(cats) + 1)
     w = 0.8 / max(1, len(ctrls))
@@ -266,15 +299,7 @@ def plot_benchmark(result: dict, axes=None):
     # above the axes: the legend never covers a bar
     ax.legend(loc="lower left", bbox_to_anchor=(0.0, 1.01), ncol=min(len(ctrls), 3),
               frameon=False, fontsize=8)
-    # per case: success fraction of each controller (rows) over cases (columns)
-    labels = [f"{c['category']}: {c['label']}" for c in result["cases"]]
-    grid = np.zeros((len(ctrls), len(labels)))
-    for r in result["rows"]:
-        grid[ctrls.index(r["controller"]), r["case"]] += r["success"] / result["repeats"]
-    ax2.imshow(grid, aspect="auto", cmap="RdYlGn", vmin=0, vmax=1)
-    ax2.set_yticks(range(len(ctrls)), [plugin_name(c) for c in ctrls])
-    ax2.set_xticks(range(len(labels)), labels, rotation=90, fontsize=6)
-    ax2.set_title("success per case (green = all swings captured)", fontsize=9)
+    _case_grid(ax2, result, ctrls)
     return finish(fig, "Robustness benchmark",
                   f"{'quick' if result['quick'] else 'full'} benchmark, root seed "
                   f"{result['seed']}, {result['repeats']} swing(s) per case and controller")

@@ -30,6 +30,7 @@ from .params import EstimatorParams
 from .systems.ekf import (EkfState, correct_sample, ekf_predict, ekf_update, initial_state,
                           prediction_input, split_sample, state_layout)
 from .systems.imu import IMU_COLUMNS
+from .plotting import figure_axes, finish
 from .progress import progress_bar
 
 LOG_COLUMNS = ("t",) + IMU_COLUMNS
@@ -79,6 +80,20 @@ class EstimateResult(Result):
     smoothed_imu_position: np.ndarray | None = None
     #: where each state sits in ``cov_diag`` (:func:`~bplir_drake.systems.ekf.state_layout`)
     layout: dict | None = None
+
+    def plot(self, axes=None):
+        """The estimated angles beside the gyro integral (5.41) (two axes)."""
+        return plot_estimate(self.t, self.x, self.gyro_integral, axes)
+
+    def table(self) -> dict:
+        """The filter's estimate against time: angles and rates (absolute,
+        rad and rad/s), gyro biases (rad/s)."""
+        out = {"t": self.t}
+        for k, name in enumerate(("theta1", "theta2", "omega1", "omega2")):
+            out[name] = self.x[:, k]
+        for k in range(2):
+            out[f"gyro_bias{k + 1}"] = self.gyro_bias[:, k]
+        return out
 
     def summary(self) -> dict:
         """Samples, span, skipped updates, the final estimate and gyro bias,
@@ -387,3 +402,33 @@ def write_imu_csv(t, samples, path: str | Path, extra: dict | None = None) -> Pa
 
 __all__ = ["LogError", "ImuLog", "EstimateResult", "read_imu_csv", "check_log", "estimate",
            "gyro_integral", "write_estimate_csv", "write_imu_csv", "EkfState"]
+
+
+def plot_estimate(t, estimate, gyro_integral, axes=None, *, truth=None, title="Kinematic EKF"):
+    """Figs 5.4-5.7 style: angles (EKF, gyro integral, truth if known) and,
+    with a truth, the angle errors of both."""
+    rows = 3 if truth is not None else 2
+    fig, axes = figure_axes(axes, rows, 1, figsize=(9, 2.8 * rows), sharex=True)
+    for i, ax in enumerate(axes[:2]):
+        if truth is not None:
+            ax.plot(t, truth[:, i], "k", lw=2.2, alpha=0.35, label="truth")
+        ax.plot(t, estimate[:, i], "C0", label="K-EKF")
+        ax.plot(t, gyro_integral[:, i], "C3--", lw=1, label="gyro integral (5.41)")
+        ax.set_ylabel(f"theta{i + 1} [rad]")
+        ax.legend(loc="upper right", fontsize=8)
+        ax.grid(True, alpha=0.3)
+    if truth is not None:
+        ax = axes[2]
+        for i in range(2):
+            ax.plot(t, estimate[:, i] - truth[:, i], f"C{i}", label=f"EKF error theta{i + 1}")
+            ax.plot(t, gyro_integral[:, i] - truth[:, i], f"C{i}:",
+                    label=f"GYR error theta{i + 1}")
+        ax.axhline(0.05, color="grey", lw=0.8)
+        ax.axhline(-0.05, color="grey", lw=0.8)
+        lim = max(0.1, 1.2 * float(np.percentile(np.abs(estimate[:, :2] - truth[:, :2]), 99)))
+        ax.set_ylim(-lim, lim)
+        ax.set_ylabel("error [rad]")
+        ax.legend(loc="upper right", fontsize=8, ncol=2)
+        ax.grid(True, alpha=0.3)
+    axes[-1].set_xlabel("time [s]")
+    return finish(fig, title)

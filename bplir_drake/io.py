@@ -319,9 +319,12 @@ class Result:
     """What every result object offers (like python-control's response
     objects): a dataclass of computed data with ``summary()`` (JSON-ready
     numbers), ``to_dict()`` (what the command line writes), ``to_json()``
-    (strict JSON) and ``plot(axes=None)`` (draws, returns the figure).
-    Mixin of the result dataclasses: ``to_dict`` from ``summary()``,
-    ``to_json``; subclasses define ``summary`` and ``plot``."""
+    (strict JSON), ``plot(axes=None)`` (draws, returns the figure) and
+    ``to_pandas()`` (a ``pandas.DataFrame`` of its rows or time series,
+    :meth:`table`; pandas is the ``pandas`` extra).  Mixin of the result
+    dataclasses: ``to_dict`` from ``summary()``, ``to_json``,
+    ``to_pandas``; subclasses define ``summary`` and ``plot`` (and
+    ``table`` where they hold rows or time series)."""
 
     def summary(self) -> dict:  # pragma: no cover - defined by every result
         """The JSON-ready numbers of this result."""
@@ -338,3 +341,28 @@ class Result:
     def plot(self, axes=None):  # pragma: no cover - defined by every result
         """Draw this result on ``axes`` (new figure when None); returns the figure."""
         raise NotImplementedError
+
+    def table(self):
+        """The result's rows (a list of dicts) or time series (a dict of
+        columns); here one row of the summary's plain numbers and words."""
+        return [{k: v for k, v in self.to_dict().items()
+                 if isinstance(v, (int, float, str, bool, np.number, np.bool_)) or v is None}]
+
+    def to_pandas(self):
+        """:meth:`table` as a ``pandas.DataFrame``."""
+        try:
+            import pandas
+        except ImportError:
+            raise ImportError("to_pandas() needs pandas: pip install 'bplir-drake[pandas]'") \
+                from None
+        return pandas.DataFrame(self.table())
+
+
+class DictResult(dict, Result):
+    """A result that is also the plain dict it has always been (the summary
+    of a study or of a benchmark, as its JSON file holds it): ``summary()``
+    is that dict; ``plot`` and ``table`` come from the subclass."""
+
+    def summary(self) -> dict:
+        """The dict itself, as a plain dict."""
+        return dict(self)

@@ -126,7 +126,7 @@ LAYERS = {"io": set(), "progress": set(), "csvfile": {"io"}, "plotting": {"io"},
           "systems": {"params", "io"},
           "diagrams": {"params", "io", "csvfile", "progress", "plotting", "systems"},
           "simulate": {"params", "io", "systems"},
-          "estimation": {"params", "io", "csvfile", "progress", "systems"},
+          "estimation": {"params", "io", "csvfile", "progress", "plotting", "systems"},
           "analysis": {"params", "io", "csvfile", "progress", "plotting", "systems", "diagrams",
                        "simulate", "estimation"},
           "cli": {"params", "io", "csvfile", "progress", "plotting", "systems", "diagrams",
@@ -262,7 +262,7 @@ def test_modules_and_functions_stay_small():
 #: what a function may import locally, and why (ARCHITECTURE.md): heavy or
 #: optional third-party modules loaded only by the functions that use them,
 #: pydrake's binding modules on first use, and platform-specific modules
-LAZY_IMPORTS = {"matplotlib", "scipy", "control", "pydrake", "tqdm", "dask", "tomli_w", "PIL",
+LAZY_IMPORTS = {"matplotlib", "scipy", "control", "pydrake", "tqdm", "dask", "tomli_w", "PIL", "pandas",
                 "fcntl", "ctypes", "multiprocessing", "concurrent", "signal"}
 
 

@@ -45,6 +45,12 @@ class ObservabilityResult(Result):
     threshold: float
     events: list[dict]         # (5.17) points: a31 or a42 exactly zero
 
+    def table(self) -> dict:
+        """The ranks and relative smallest singular values (gyros alone, all
+        sensors) and the (5.17) coefficients along the trajectory."""
+        return {name: getattr(self, name) for name in
+                ("t", "rank_gyro", "rank_full", "smin_gyro", "smin_full", "a31", "a42")}
+
     def plot(self, axes=None):
         """Relative smallest singular values and the A entries against time (two axes)."""
 

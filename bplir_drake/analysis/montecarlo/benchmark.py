@@ -30,9 +30,10 @@ import numpy as np
 
 from ...params import CONTROLLER_PRESETS, BplirParams, ParameterError, _is_plugin, plugin_name
 from .executors import map_jobs
+from .plots import quantity_label
 from .sampling import apply_values, base_value, error_text, pinned
 from ..swing.run import run_swing
-from ...io import atomic_path
+from ...io import DictResult, atomic_path
 from ...plotting import figure_axes, finish
 
 MODEL_FIELDS = ("true_plant.m1", "true_plant.m2", "true_plant.I1", "true_plant.I2",
@@ -161,10 +162,25 @@ def run_benchmark(params: BplirParams, controllers=("plan", "cpfl-qft", "lab"), 
                      "swings": len(mine)}
     if out is not None:
         write_cases_csv(rows, Path(out) / "benchmark_cases.csv")
-    return {"scores": scores, "quick": quick, "repeats": repeats, "seed": seed,
-            "estimator": params.estimator.plugin or "ekf",
-            "categories": [k for k in CATEGORIES if k in categories], "cases": chosen,
-            "rows": rows}
+    return BenchmarkResult({"scores": scores, "quick": quick, "repeats": repeats, "seed": seed,
+                            "estimator": params.estimator.plugin or "ekf",
+                            "categories": [k for k in CATEGORIES if k in categories],
+                            "cases": chosen, "rows": rows})
+
+
+class BenchmarkResult(DictResult):
+    """What :func:`run_benchmark` returns: the dict ``benchmark.json`` holds
+    (``scores``, ``cases``, ``rows``, ...) and a result: ``plot()`` draws
+    :func:`plot_benchmark`, ``to_pandas()`` has a row per case, controller
+    and repeat."""
+
+    def plot(self, axes=None):
+        """Scores by category and every case's outcome (two axes)."""
+        return plot_benchmark(self, axes)
+
+    def table(self) -> list:
+        """The per-case rows."""
+        return self["rows"]
 
 
 CASE_COLUMNS = ("controller", "category", "label", "case", "repeat", "seed", "outcome",
@@ -252,8 +268,6 @@ def _case_name(case: dict) -> str:
     """A case as a reader names it: a scaled parameter of the simulated
     robot by its meaning ("mass of link 2 x1.2"), the others by their own
     label."""
-    from .plots import quantity_label
-
     field, _, factor = case["label"].rpartition(" ")
     if not field.startswith("true_"):   # a parameter's field name, scaled
         return case["label"]

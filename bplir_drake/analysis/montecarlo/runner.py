@@ -45,8 +45,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from ...io import write_json_atomic
-from ...io import Result
+from ...io import DictResult, Result, write_json_atomic
 from .executors import map_jobs
 from .sampling import run_sample, sample_params
 from .statistics import summarize
@@ -128,16 +127,18 @@ def study_lock(out: Path):
 
 
 def run_study(study: Study, out, *, workers: int = 0, dask: bool = False,
-              scheduler: str | None = None, progress: bool = False) -> dict:
+              scheduler: str | None = None, progress: bool = False) -> "StudySummary":
     """Run (or resume) ``study`` into directory ``out``; returns the summary
-    (also written to ``summary.json``).  Results: ``results.csv``.  The
+    (also written to ``summary.json``: a dict, and a result with ``plot()``
+    and ``to_pandas()``, :class:`StudySummary`).  Results: ``results.csv``.  The
     directory is held exclusively while the study runs (:func:`study_lock`)."""
     out = Path(out)
     with study_lock(out):
         return _run_study(study, out, workers, dask, scheduler, progress)
 
 
-def _run_study(study: Study, out: Path, workers: int, dask: bool, scheduler, progress) -> dict:
+def _run_study(study: Study, out: Path, workers: int, dask: bool, scheduler,
+               progress) -> "StudySummary":
     """The body of :func:`run_study`, the directory held."""
     existing = prepare_out(study, out)  # finished rows are never deleted
     have = {r["index"] for r in existing}
@@ -161,7 +162,8 @@ def _run_study(study: Study, out: Path, workers: int, dask: bool, scheduler, pro
                       "workers": workers or os.cpu_count(),
                       "executor": "dask" if (dask or scheduler) else "process pool"}
     write_json_atomic(out / SUMMARY_FILE, summary)
-    return summary
+    return StudySummary(summary, StudyResult(study, [r for r in rows
+                                                     if 0 <= r["index"] < study.samples]))
 
 
 def replay(study_dir, index: int):
@@ -220,3 +222,28 @@ class StudyResult(Result):
         """Every figure of the study by file name (:func:`~.plots.study_figures`)."""
 
         return study_figures(self.study, self.rows)
+
+    def table(self) -> list:
+        """The result rows, one per sample."""
+        return self.rows
+
+
+class StudySummary(DictResult):
+    """What :func:`run_study` returns: the dict ``summary.json`` holds and a
+    result (``plot()``, ``to_pandas()`` of its rows) through the
+    :class:`StudyResult` it summarises (``.result``)."""
+
+    def __init__(self, summary: dict, result: StudyResult):
+        super().__init__(summary)
+        self.result = result
+
+    def __reduce__(self):   # pickled as what it is, its result with it
+        return (StudySummary, (dict(self), self.result))
+
+    def plot(self, axes=None):
+        """Success against each uncertain quantity (:meth:`StudyResult.plot`)."""
+        return self.result.plot(axes)
+
+    def table(self) -> list:
+        """The study's rows, one per sample."""
+        return self.result.rows

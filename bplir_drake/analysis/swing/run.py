@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ...io import atomic_path, dumps_strict
+from ...io import Result, atomic_path, dumps_strict
 
 from ...diagrams import build_swing, set_swing_sample, swing_geometry, swing_structure
 from ...params import BplirParams, checked_seed, plugin_name, to_dict
@@ -45,20 +45,21 @@ def draw_true_friction(params: BplirParams, seed: int) -> BplirParams:
 
 
 @dataclass
-class SwingResult:
+class SwingResult(Result):
     """One simulated swing.
 
     ``summary``: the outcome and its figures, a typed
     :class:`~.summary.SwingSummary` (``summary.capture_speed_mps``; units in
     ``SwingSummary.units()``) that reads like the dict of ``summary.json``
-    too (``summary["capture_speed_mps"]``);
+    too (``summary["capture_speed_mps"]``) and, called (``summary()``),
+    gives that dict, as every result's ``summary()`` does;
     ``logs``: the logged signals by name (``state``, ``torque``, ``power``,
     ``estimate``, ``reference``, ``imu``, ...); ``params``: the parameters
     it ran with (the simulated friction drawn)."""
 
-    summary: SwingSummary
-    logs: dict[str, Log]
-    params: BplirParams
+    summary: SwingSummary = dc.field()   # a field, not the protocol's method it shadows
+    logs: dict[str, Log] = dc.field()
+    params: BplirParams = dc.field()
 
     @property
     def success(self) -> bool:
@@ -79,6 +80,12 @@ class SwingResult:
         energy); returns the figure."""
 
         return plot_swing(self, axes, title, panel)
+
+    def table(self) -> dict:
+        """The logs on the state's time grid, column by column (the columns
+        of ``swing_log.csv``, :data:`~.logs.LOG_COLUMNS`)."""
+        cols, data = log_table(self)
+        return {name: data[:, i] for i, name in enumerate(cols)}
 
 
 #: integrator of a swing: error-controlled RK3 at this accuracy keeps the

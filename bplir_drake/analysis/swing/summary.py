@@ -110,6 +110,12 @@ class SwingSummary(Mapping):
         """The summary as a plain dict, the keys of ``summary.json``."""
         return {name: getattr(self, name) for name in self._names()}
 
+    def __call__(self) -> dict:
+        """:meth:`to_dict`: a swing's ``result.summary()`` as every result's
+        (``result.summary["outcome"]`` and ``result.summary.outcome`` read
+        one field)."""
+        return self.to_dict()
+
     def to_json(self) -> str:
         """:meth:`to_dict` as strict JSON text (NaN and infinity as null)."""
         return dumps_strict(self.to_dict())

@@ -122,6 +122,10 @@ class TraverseResult(Result):
         t = self.totals
         return t | {"swing_time_s": t["swing_time_s"], "energy_in_J": t["energy_swing_J"]}
 
+    def table(self) -> list:
+        """The manoeuvres, one row each (:data:`ROW_FIELDS`)."""
+        return self.rows
+
     def summary(self) -> dict:
         """Totals and the per-manoeuvre table (JSON-ready)."""
         return {"totals": self.totals, "manoeuvres": self.rows,

@@ -137,16 +137,6 @@ def page(items: list[dict]) -> str:
         version = members[0]["summary"].get("package_version", "0.2.0.dev0")
         out += [f"How each row was produced (version {version}):", ""]
         out += [f"- {i['label']}: `{i['command']}`" for i in members] + [""]
-    notes = RESULTS / "tuning_notes.json"
-    if notes.exists():
-        out += ["## Tuning notes of version 0.1", "",
-                "How the parameters of the landing, the filter and the traversal were "
-                "chosen before the motor's voltage envelope, as recorded then "
-                "(`results/tuning_notes.json`; measured on the robot with the jaw's "
-                "line sensor and without the envelope, not re-measured since):", ""]
-        for name, text in json.loads(notes.read_text()).items():
-            out.append(f"- `{name}`: {text}")
-        out.append("")
     return "\n".join(out).rstrip() + "\n"
 
 

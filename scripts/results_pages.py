@@ -169,7 +169,11 @@ def hardware_matrix(items: list[dict]) -> str:
         cells.setdefault(robot, {})[line] = (
             f"{s['successes']}/{s['samples']}, p95 {num(_p(s, 'capture_speed_mps', 'p95'), '{:.2f}')}")
     rows = [[robot] + [c.get(line, "--") for line in lines] for robot, c in cells.items()]
-    return "\n".join(table(["robot"] + [f"{line} line" for line in lines], rows))
+    hw = [i for i in items if i["group"] == "hardware"]
+    runs = sorted({(i["summary"]["samples"], i["summary"]["seed"], i["role"]) for i in hw})
+    said = "; ".join(f"{n} swings per cell, root seed {seed} ({role})" for n, seed, role in runs)
+    return "\n".join([f"Captured of {said}:", ""] + table(
+        ["robot"] + [f"{line} line" for line in lines], rows))
 
 
 def _replace(text: str, begin: str, end: str, body: str) -> str:

@@ -44,6 +44,20 @@ def test_the_api_page_runs(tmp_path, monkeypatch, capsys):
     assert capsys.readouterr().out.startswith("captured {'q1': ")
 
 
+def test_the_readme_says_no_measured_figure_of_its_own():
+    """Every measured figure of the README -- a rate, a capture speed, a
+    count of swings, a speed-up -- is inside a block ``scripts/results_pages.py``
+    generates from ``results/`` (which the test above checks); its prose
+    and its status say what they mean without numbers of their own."""
+    text = (DOC.parents[1] / "README.md").read_text()
+    text = re.sub(r"<!-- ([a-z-]+) -->.*?<!-- /\1 -->", "", text, flags=re.S)
+    text = re.sub(r"```.*?```", "", text, flags=re.S)
+    measured = [r"(?<!±)\b\d+(\.\d+)? ?%", r"\d+\.\d+ ?m/s", r"\b\d+ ?/ ?\d+\b(?! ?[a-z])",
+                r"\d+(\.\d+)?(-\d+(\.\d+)?)? ?x real time", r"\bp\d\d \d", r"\b\d+ of \d+\b"]
+    found = [m.group(0) for pattern in measured for m in re.finditer(pattern, text)]
+    assert found == [], found
+
+
 def test_the_documentation_site_builds_without_warnings(tmp_path):
     """The site builds from docs/ with warnings as errors (the command the
     README names), and the parameter reference lists every parameter with

@@ -109,3 +109,31 @@ def test_an_estimate_input_replaces_the_estimator_only():
     with pytest.raises(ParameterError, match="estimate_input replaces the estimator"):
         swing_diagram(BplirParams(), estimate_input=True,
                       estimator="examples/my_estimator.py:make")
+
+
+def test_a_swing_shown_live_in_meshcat():
+    """``run_swing(p, live=LiveView(...))`` (``bplir swing --meshcat``) serves
+    Meshcat on this machine, draws the robot 30 times a simulated second,
+    paces the swing at real time and leaves the swing as it is."""
+    import time
+    import urllib.request
+
+    from bplir_drake.analysis.live import LiveView
+    from bplir_drake.analysis.swing import run_swing
+
+    p = BplirParams()
+    view = LiveView(p.plant)
+    try:
+        assert view.url.startswith("http://localhost:")
+        assert b"meshcat" in urllib.request.urlopen(view.url, timeout=10).read().lower()
+        start = time.perf_counter()
+        live = run_swing(p, live=view)
+        wall = time.perf_counter() - start
+        assert view.meshcat.HasPath("/drake/robot")
+    finally:
+        view.close()
+    plain = run_swing(p)
+    T = live.summary.swing_time_s
+    assert live.summary.outcome == plain.summary.outcome == "captured"
+    assert live.summary.capture_speed_mps == plain.summary.capture_speed_mps
+    assert wall >= 0.95 * T and abs(view.frames - 30 * T) <= 2

@@ -69,7 +69,7 @@ def cmd_swing(args) -> int:
         _emit({"comparison": data, "figure": str(fig)}, args.json, [table, f"figure: {fig}"])
         return 0
     if replay_info is None:
-        res = run_swing(params)
+        res = _run_live(params, run_swing) if args.meshcat else run_swing(params)
     files = ({} if args.no_plots else {"figure": str(_save(args, res.plot(), out_dir / "swing.png"))})
     files["log_csv"] = str(write_log_csv(res, out_dir / "swing_log.csv"))
     if not args.no_animation:
@@ -108,6 +108,21 @@ def cmd_swing(args) -> int:
         f"files in {out_dir}: " + ", ".join([Path(f).name for f in files.values()]
                                             + ["summary.json"])])
     return 0
+
+
+def _run_live(params, run_swing):
+    """The swing shown live in Meshcat (its address said on standard error)."""
+    import sys
+
+    from ..analysis.live import LiveView
+
+    view = LiveView(params.plant)
+    try:
+        sys.stderr.write(f"bplir: the swing is shown at {view.url} (Meshcat, real time)\n")
+        sys.stderr.flush()
+        return run_swing(params, live=view)
+    finally:
+        view.close()
 
 
 def _outcome_line(s: dict) -> str:
@@ -177,6 +192,8 @@ def add_parser(sub) -> None:
            "comparison.png); the log and the summary are written")
     option(p, "--html", bool, help="also write swing.html: a Meshcat 3-D replay to open in a "
            "browser (self-contained, works offline)")
+    option(p, "--meshcat", bool, help="show the swing in Drake's Meshcat on this machine while "
+           "it is simulated, at real time (the address is printed on standard error)")
     option(p, "--compare", bool, help="run the swing with each controller preset and the true state")
     option(p, "--replay", None, None, "re-run one sample of a Monte Carlo study (with --sample)",
            metavar="STUDY_DIR")

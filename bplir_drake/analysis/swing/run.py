@@ -140,7 +140,7 @@ class SwingRunner:
     def run(self, params: BplirParams, *, seed: int | None = None,
             use_estimator: bool | None = None, accuracy: float = SWING_ACCURACY,
             integrator: str = SWING_INTEGRATOR, driver_state=None,
-            start_state=None) -> SwingResult:
+            start_state=None, live=None) -> SwingResult:
         """One swing; the arguments are those of :func:`run_swing`;
         ``start_state`` (q1, q2, q1', q2'): the simulated robot starts there
         instead of at rest in its start pose (the robot still believes it
@@ -166,7 +166,11 @@ class SwingRunner:
         sim = make_simulator(built, x0[:2], x0[2:], accuracy=accuracy, integrator=integrator,
                              set_context=set_context)
         h0 = driver.interlock_state(driver.GetMyContextFromRoot(sim.get_context()))
+        if live is not None:
+            live.attach(sim, built)
         run_until_outcome(sim, built, sc.max_time, sc.wall_limit, f"the swing of seed {seed}")
+        if live is not None:
+            live.finish()
         # record the state at the moment the interlock decided
         built.diagram.ForcedPublish(sim.get_context())
         status = built.systems["interlock"].status(sim.get_context())
@@ -180,7 +184,7 @@ class SwingRunner:
 
 def run_swing(params: BplirParams, *, seed: int | None = None, use_estimator: bool | None = None,
               accuracy: float = SWING_ACCURACY, integrator: str = SWING_INTEGRATOR,
-              driver_state=None) -> SwingResult:
+              driver_state=None, live=None) -> SwingResult:
     """One swing of ``params`` on a freshly built diagram, until the
     interlock decides (or the timeout).
 
@@ -192,9 +196,11 @@ def run_swing(params: BplirParams, *, seed: int | None = None, use_estimator: bo
     thresholds, seed, the driver's i^2 t state at the start and end and
     whether it tripped).  ``driver_state = (h A^2 s, tripped)`` starts the
     driver's i^2 t interlock there (work carried over; default fresh).
-    Many swings: :class:`SwingRunner`."""
+    ``live``: a :class:`~bplir_drake.analysis.live.LiveView` that shows the
+    swing in Meshcat as it is simulated, at real time.  Many swings:
+    :class:`SwingRunner`."""
     return SwingRunner().run(params, seed=seed, use_estimator=use_estimator, accuracy=accuracy,
-                             integrator=integrator, driver_state=driver_state)
+                             integrator=integrator, driver_state=driver_state, live=live)
 
 
 def arrival_height_error(p: BplirParams, est: Log, status: dict) -> float:

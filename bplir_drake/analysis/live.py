@@ -14,6 +14,8 @@ import math
 
 import numpy as np
 
+from ..diagrams.visual import build_replay_visualizer
+
 
 class LiveView:
     """The Meshcat server and the robot drawn in it (nominal links, the
@@ -23,8 +25,6 @@ class LiveView:
     def __init__(self, plant_params, fps: float = 30.0, port: int | None = None):
         from pydrake.geometry import Meshcat, MeshcatParams
         from pydrake.math import RigidTransform, RotationMatrix
-
-        from ..diagrams.visual import build_replay_visualizer
 
         params = MeshcatParams()
         if port is not None:

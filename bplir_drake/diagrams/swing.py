@@ -39,13 +39,10 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import LogVectorOutput, ZeroOrderHold
 
 from ..params import BplirParams, ParameterError, ScenarioParams, to_dict
-from ..systems.controller import CpflController
 from ..systems.disturbance import (CommandDelay, DisturbanceSource, delay_steps,
                                    disturbance_schedule, has_disturbance)
-from ..systems.calibration import ImuCalibration, calibrate_standstill
-from ..systems.line_sensor import LineSensor, standstill_readings
+from ..systems.line_sensor import LineSensor
 from ..systems.ekf import KinematicEkf
-from ..systems.imu import standstill_samples
 from ..systems.friction import FRICTION_PARAMETERS, set_friction
 from ..systems.motor import MotorDriver
 from ..systems.plant import INERTIAL_FIELDS, absolute_from_relative, set_inertial_parameters
@@ -53,14 +50,13 @@ from ..systems.schedule import TickLogger
 from .parts import Built, add_imus, add_plant_with_friction, sampled
 from .swing_controller import (  # noqa: F401 (re-exported)
     add_swing_controller)
-from ..systems.gripper import GripperInterlock, LineGeometry
-from ..systems.path import PathGeometry
-from ..systems.plant import start_configuration, target_configuration
+from ..systems.gripper import GripperInterlock
 from .plugin import make_plugin
 from .swing_ports import (SWING_PORTS, SWING_SIGNALS,  # noqa: F401 (re-exported)
                           add_estimate_input, add_external_torque, export_swing_ports)
 from .plan import tracking_plan
-from .plan_file import read_plan_file
+from .swing_setup import (SwingSetup, believed_start, start_state,  # noqa: F401 (re-exported)
+                          standstill_calibration, swing_geometry, swing_setup)
 
 #: the parameter fields a context carries (:func:`set_swing_sample`), by
 #: block (the disturbance fields only when the built swing has disturbances)
@@ -73,25 +69,6 @@ SAMPLE_FIELDS: dict[str, tuple[str, ...]] = {
     "scenario": ("seed", "friction_uncertainty", "wind_torque1", "wind_torque2", "gust_torque",
                  "gust_rate", "gust_duration", "torque_noise"),
 }
-
-
-def swing_geometry(params: BplirParams):
-    """(initial q, target q, path geometry, line geometry) of the scenario.
-
-    The path geometry uses the *nominal* link lengths (what the robot
-    believes); the start pose of the simulated robot and the line geometry
-    of the interlock use its true lengths."""
-
-    sc = params.scenario
-    alpha = math.radians(sc.incline_deg)
-    true_p = params.simulated_plant
-    q0 = (start_state(params)[:2] if sc.start == "plan"
-          else start_configuration(sc.start, sc.grip_spacing, true_p, alpha))
-    qT = target_configuration(sc.grip_spacing, true_p, alpha)
-    believed_start(params)  # the robot's own start pose: validates the scenario for the model too
-    pg = PathGeometry.from_scenario(params.plant, sc.grip_spacing, alpha, sc.capture_distance)
-    lg = LineGeometry(true_p.l1, true_p.l2, alpha, sc.grip_spacing)
-    return q0, qT, pg, lg
 
 
 def swing_structure(params: BplirParams, use_estimator: bool) -> str:
@@ -193,63 +170,12 @@ def add_robot(builder, params: BplirParams, seed: int, external_torque: bool = F
     return Robot(plant, friction, dist, motor)
 
 
-def believed_start(params: BplirParams) -> np.ndarray:
-    """The start pose the robot computes (``scenario.start``): both grippers
-    on the line at the scenario's grip spacing, with the *nominal* link
-    lengths (rad), or hanging at rest below the holding gripper.  The
-    simulated robot starts at the pose of its true lengths
-    (:func:`swing_geometry`), a few mrad away with 2 mm length errors."""
-
-    sc = params.scenario
-    if sc.start == "plan":
-        return start_state(params)[:2]
-    return start_configuration(sc.start, sc.grip_spacing, params.plant,
-                               math.radians(sc.incline_deg))
-
-
-def start_state(params: BplirParams) -> np.ndarray:
-    """The swing's start state (q1, q2, q1', q2'): the first state of
-    ``plan.file`` with ``scenario.start = "plan"`` (the robot starts, and
-    believes it starts, moving as the plan does), else at rest in
-    :func:`believed_start`'s pose."""
-    if params.scenario.start != "plan":
-        return np.r_[believed_start(params), 0.0, 0.0]
-    if not params.plan.file:
-        raise ParameterError("scenario.start = 'plan' needs plan.file; allowed: line or "
-                             "hanging without one")
-    return np.asarray(read_plan_file(params).states[0], dtype=float)
-
-
-def standstill_calibration(params: BplirParams, q0, seed: int) -> ImuCalibration:
-    """The IMU calibration the robot makes before the swing, held on the line
-    at rest in the true pose ``q0``: ``estimator.standstill_samples`` samples
-    of the simulated sensors there
-    (:func:`~bplir_drake.systems.imu.standstill_samples`, seeded by ``seed``)
-    reduced by :func:`~bplir_drake.systems.calibration.calibrate_standstill`
-    with the filter's gravity against the pose the robot believes it is in
-    (:func:`believed_start`: the robot never reads its true pose); with a
-    line sensor, as many of its readings there, whose mean is its offset
-    (:func:`~bplir_drake.systems.line_sensor.standstill_readings`).  No
-    calibration (identity) with 0 samples."""
-    n = params.estimator.standstill_samples
-    if n < 2:
-        return ImuCalibration()
-    theta = absolute_from_relative(np.asarray(q0[:2], dtype=float))
-    samples = standstill_samples(params.imu, theta, params.simulated_plant.g, seed, n)
-    believed = absolute_from_relative(np.asarray(believed_start(params)[:2], dtype=float))
-    calibration = calibrate_standstill(samples, believed, params.estimator.g)
-    if params.line_sensor.range > 0 and params.scenario.start == "line":   # the gap is 0
-        offset = float(np.mean(standstill_readings(params.line_sensor, seed, n)))
-        calibration = replace(calibration, line_offset=offset)
-    return calibration
-
-
-def add_sensing(builder, params: BplirParams, robot: Robot, q0, seed: int, estimator=None,
-                estimate_input: bool = False):
+def add_sensing(builder, params: BplirParams, robot: Robot, setup: SwingSetup, seed: int,
+                estimator=None, estimate_input: bool = False):
     """Two IMUs on the simulated links and the kinematic EKF (nominal
-    geometry, started at rest at the pose the robot believes it is in,
-    :func:`believed_start`, with the standstill calibration of
-    :func:`standstill_calibration` made in the true pose ``q0``), or a user's estimator
+    geometry, started in the state the robot believes, ``setup.believed``,
+    with the standstill calibration made in the true pose ``setup.q0``,
+    :meth:`SwingSetup.calibration`), or a user's estimator
     (``estimator``, a factory, or ``estimator.plugin``: :mod:`.plugin`), or,
     with ``estimate_input``, the diagram's ``estimate`` input (:mod:`.swing_ports`).
     Returns ``(sampler, estimator, estimate port)``."""
@@ -265,13 +191,13 @@ def add_sensing(builder, params: BplirParams, robot: Robot, q0, seed: int, estim
         builder.Connect(sampler.get_output_port(0), user.GetInputPort("imu"))
         return sampler, user, user.GetOutputPort("state")
     est = params.estimator.for_loop()
-    x0_abs = absolute_from_relative(start_state(params))
+    x0_abs = absolute_from_relative(setup.believed)
     ls = params.line_sensor
     alpha = math.radians(params.scenario.incline_deg)
     line = (params.plant.l1, params.plant.l2, alpha, ls.filter_sigma) if ls.range > 0 else None
     ekf = builder.AddNamedSystem("ekf", KinematicEkf(
         est, x0_abs, sigmas=(est.start_angle_sigma, est.start_rate_sigma, est.start_bias_sigma),
-        calibration=standstill_calibration(params, q0, seed), line=line))
+        calibration=setup.calibration(params, seed), line=line))
     builder.Connect(sampler.get_output_port(0), ekf.get_input_port(0))
     if line is not None:
         true = params.simulated_plant
@@ -382,19 +308,20 @@ def build_swing(params: BplirParams, *, seed: int | None = None, use_estimator: 
     sc = params.scenario
     seed = sc.seed if seed is None else seed
     use_est = sc.use_estimator if use_estimator is None else use_estimator
-    q0, _, path_geometry, line_geometry = swing_geometry(params)
+    setup = swing_setup(params)   # poses, geometry: computed once for every builder
+    q0 = setup.q0
     builder = DiagramBuilder()
     robot = add_robot(builder, params, seed, external_torque)
-    sampler, est, estimate_port = add_sensing(builder, params, robot, q0, seed, estimator,
+    sampler, est, estimate_port = add_sensing(builder, params, robot, setup, seed, estimator,
                                               estimate_input)
     state_port = (estimate_port if use_est
                   else sampled(builder, robot.plant.get_state_output_port(),
                                params.controller.period))
-    control = add_swing_controller(builder, params, state_port, robot, path_geometry, plan_gains,
+    control = add_swing_controller(builder, params, state_port, robot, setup.path, plan_gains,
                                    controller, imu_port=sampler.get_output_port(0),
-                                   q0=believed_start(params))
+                                   q0=setup.believed[:2])
     add_actuation(builder, params, control["controller"].GetOutputPort("torque"), robot.motor)
-    lock = add_interlock(builder, params, robot, estimate_port, line_geometry)
+    lock = add_interlock(builder, params, robot, estimate_port, setup.line)
     loggers = add_swing_loggers(builder, params, robot, sampler, estimate_port, control,
                                 log_period)
     export_swing_ports(builder, robot, estimate_port, control["controller"],

@@ -92,11 +92,11 @@ def build_sensor_swing(params: BplirParams, x0_estimate=(0.0, 0.0, 0.0, 0.0), *,
     sampler = add_imus(builder, plant, params, seed)
     systems = {"friction": fr, "imu": sampler, "source": src}
     loggers = {"state": LogVectorOutput(plant.get_state_output_port(), builder, log_period),
-               "imu": TickLogger(builder, sampler.get_output_port(0), params.imu.period)}
+               "imu": TickLogger(builder, sampler.GetOutputPort("imu"), params.imu.period)}
     if ekf:
         est = builder.AddSystem(KinematicEkf(params.estimator, x0_estimate))
         est.set_name("ekf")
-        builder.Connect(sampler.get_output_port(0), est.get_input_port(0))
+        builder.Connect(sampler.GetOutputPort("imu"), est.GetInputPort("imu"))
         systems["ekf"] = est
         for name, port in (("estimate", "estimate"), ("covariance", "covariance_diagonal"),
                            ("bias", "gyro_bias")):

@@ -188,7 +188,7 @@ def add_sensing(builder, params: BplirParams, robot: Robot, setup: SwingSetup, s
     if estimator is not None or params.estimator.plugin:
 
         user = builder.AddNamedSystem("estimator", make_plugin(params, "estimator", estimator))
-        builder.Connect(sampler.get_output_port(0), user.GetInputPort("imu"))
+        builder.Connect(sampler.GetOutputPort("imu"), user.GetInputPort("imu"))
         return sampler, user, user.GetOutputPort("state")
     est = params.estimator.for_loop()
     x0_abs = absolute_from_relative(setup.believed)
@@ -198,7 +198,7 @@ def add_sensing(builder, params: BplirParams, robot: Robot, setup: SwingSetup, s
     ekf = builder.AddNamedSystem("ekf", KinematicEkf(
         est, x0_abs, sigmas=(est.start_angle_sigma, est.start_rate_sigma, est.start_bias_sigma),
         calibration=setup.calibration(params, seed), line=line))
-    builder.Connect(sampler.get_output_port(0), ekf.get_input_port(0))
+    builder.Connect(sampler.GetOutputPort("imu"), ekf.GetInputPort("imu"))
     if line is not None:
         true = params.simulated_plant
         sensor = builder.AddNamedSystem("line_sensor", LineSensor(
@@ -259,7 +259,7 @@ def add_swing_loggers(builder, params: BplirParams, robot: Robot, sampler, estim
         "friction": LogVectorOutput(robot.friction.get_output_port(0), builder, log_period),
         "estimate": TickLogger(builder, estimate_port, T),
         "command": TickLogger(builder, ctrl.GetOutputPort("torque"), T),
-        "imu": TickLogger(builder, sampler.get_output_port(0), params.imu.period),
+        "imu": TickLogger(builder, sampler.GetOutputPort("imu"), params.imu.period),
     }
     if reference is not None:
         loggers["reference"] = TickLogger(builder, reference, T)
@@ -318,14 +318,14 @@ def build_swing(params: BplirParams, *, seed: int | None = None, use_estimator: 
                   else sampled(builder, robot.plant.get_state_output_port(),
                                params.controller.period))
     control = add_swing_controller(builder, params, state_port, robot, setup.path, plan_gains,
-                                   controller, imu_port=sampler.get_output_port(0),
+                                   controller, imu_port=sampler.GetOutputPort("imu"),
                                    q0=setup.believed[:2])
     add_actuation(builder, params, control["controller"].GetOutputPort("torque"), robot.motor)
     lock = add_interlock(builder, params, robot, estimate_port, setup.line)
     loggers = add_swing_loggers(builder, params, robot, sampler, estimate_port, control,
                                 log_period)
     export_swing_ports(builder, robot, estimate_port, control["controller"],
-                       sampler.get_output_port(0))
+                       sampler.GetOutputPort("imu"))
     # the default context starts the swing: the plant at the start pose (the
     # sample's friction, sensors, calibration and gusts are the built defaults)
     robot.plant.SetDefaultPositions(np.asarray(q0, dtype=float))

@@ -138,7 +138,7 @@ def _add_plan_tracker(builder, params, comp: DelayCompensation, path_geometry,
         plan_gains, params.controller.torque_limit, T, indexing=params.plan.indexing,
         reach=reach, lead=comp.steps * T, probe=comp.probe,
         adaptive_lead=comp.identifier is not None, motor=params.motor))
-    builder.Connect(comp.state_port, tracker.get_input_port(0))
+    builder.Connect(comp.state_port, tracker.GetInputPort("state"))
     return {"controller": tracker}
 
 
@@ -150,7 +150,7 @@ def _add_cpfl(builder, params, comp: DelayCompensation, robot, path_geometry) ->
     fv1 = params.friction.fv1 if params.path.predict_friction else 0.0
     path = builder.AddNamedSystem("path", PathGenerator(params.plant, params.path, path_geometry,
                                                         T, fv1))
-    builder.Connect(comp.state_port, path.get_input_port(0))
+    builder.Connect(comp.state_port, path.GetInputPort("state"))
     ctrl = builder.AddNamedSystem("controller", CpflController(
         params.plant, params.controller, params.friction, use_prefilter=False,
         motor=params.motor))

@@ -256,7 +256,7 @@ def class_9(d: Path):
             proc.kill()
             return f"{how}: no worker started"
         workers = children(proc.pid)
-        time.sleep(1.0)   # the worker is inside a swing
+        time.sleep(0.5)   # the worker is inside a swing
         if how == "INT":
             os.killpg(proc.pid, signal.SIGINT)   # a terminal's Ctrl-C: the whole group
         else:
@@ -397,9 +397,9 @@ def class_14(d: Path):
     (d / "loop.py").write_text("def make(params):\n    while True:\n        pass\n")
     t0 = time.monotonic()
     rc, _, err = bplir("swing", "--controller", f"{d / 'loop.py'}:make", "--set",
-                       "scenario.wall_limit=2", "--no-animation", "--out", d / "s", timeout=60)
+                       "scenario.wall_limit=1", "--no-animation", "--out", d / "s", timeout=60)
     return first(one_error_line(rc, err, 1, "WallClockLimit", "(its module and factory) ran "
-                                "past its wall-clock limit of 2 s"),
+                                "past its wall-clock limit of 1 s"),
                  None if time.monotonic() - t0 < 30 else "stopped late")
 
 
@@ -415,13 +415,13 @@ def class_15(d: Path):
     does a calibration's simulation of it."""
     config = tiny_robot(d)
     with open(config, "a") as fh:
-        fh.write("[scenario]\nwall_limit = 2\n")
+        fh.write("[scenario]\nwall_limit = 1\n")
     rc, _, err = bplir("freeswing", "--config", config, "--out", d / "f", timeout=60)
     rc2, _, err2 = bplir("calibrate", angle_log(d, "log.csv"), "--config", config,
                          "--out", d / "c", timeout=60)
     return first(one_error_line(rc, err, 1, "the free swing ran past its wall-clock limit"),
                  one_error_line(rc2, err2, 1, "a simulation of the log ran past its "
-                                "wall-clock limit of 2 s"))
+                                "wall-clock limit of 1 s"))
 
 
 def class_16(d: Path):

@@ -2,6 +2,8 @@
 their own through its input ports (a disturbance source, their own
 estimator), simulated with a plain ``Simulator``, read by named output
 ports; and the estimate output's timing against the true state."""
+from pathlib import Path
+
 import numpy as np
 import pytest
 from pydrake.systems.analysis import Simulator
@@ -12,6 +14,8 @@ from bplir_drake.analysis.swing import swing_diagram
 from bplir_drake.diagrams import SWING_INPUTS, SWING_SIGNALS, estimate_times
 from bplir_drake.params import BplirParams
 from bplir_drake.systems.plant import mass_matrix
+
+ROOT = Path(__file__).resolve().parents[1]
 
 
 class Encoders(LeafSystem):
@@ -137,3 +141,26 @@ def test_a_swing_shown_live_in_meshcat():
     assert live.summary.outcome == plain.summary.outcome == "captured"
     assert live.summary.capture_speed_mps == plain.summary.capture_speed_mps
     assert wall >= 0.95 * T and abs(view.frames - 30 * T) <= 2
+
+
+def test_a_traversal_drawn_live_in_meshcat_is_the_same_traversal():
+    """``run_traverse(..., live=LiveView(...))`` (``bplir traverse --meshcat``)
+    draws the line and its obstacles and every swing (30 frames a simulated
+    second, here unpaced) and crosses the line as without the view."""
+    from bplir_drake.analysis.live import LiveView
+    from bplir_drake.analysis.traverse.line import load_line
+    from bplir_drake.analysis.traverse.run import run_traverse
+
+    p = BplirParams()
+    line = load_line(ROOT / "examples" / "line_flat.toml")
+    view = LiveView(p.plant, rate=0.0)
+    try:
+        live = run_traverse(line, p, live=view)
+        assert view.meshcat.HasPath("/drake/scene/line/0")
+        assert view.meshcat.HasPath(f"/drake/scene/obstacles/{len(line.obstacles) - 1}")
+    finally:
+        view.close()
+    plain = run_traverse(line, p)
+    swinging = sum(r["duration_s"] for r in plain.rows if r["kind"] == "swing")
+    assert live.totals == plain.totals and live.success
+    assert abs(view.frames - 30 * swinging) <= 2 * len(plain.rows)

@@ -56,7 +56,7 @@ class ReplayScene:
     camera_distance: float = 1.1
 
 
-def _plane_pose(x: float, y: float, angle: float = 0.0):
+def plane_pose(x: float, y: float, angle: float = 0.0):
     """The pose of a point of the plane of motion, rotated by ``angle``
     about its normal (``/drake`` turns the plane upright, see below)."""
     from pydrake.math import RigidTransform, RotationMatrix
@@ -73,7 +73,7 @@ def _cylinder_along_x(length: float, radius: float):
     return Cylinder(radius, length), RotationMatrix.MakeYRotation(math.pi / 2)
 
 
-def _add_scene(meshcat, scene: ReplayScene, recording_end: float, log_end: float) -> None:
+def add_scene(meshcat, scene: ReplayScene, recording_end: float, log_end: float) -> None:
     """The scene's objects; clamps shown from ``t_on`` to ``t_off`` where
     these fall in the log (``log_end``: its duration), an event after the
     last frame (``recording_end``) but inside the log at the last frame."""
@@ -87,21 +87,21 @@ def _add_scene(meshcat, scene: ReplayScene, recording_end: float, log_end: float
         shape, R = _cylinder_along_x(length, 0.012)
         path = f"/drake/scene/line/{i}"
         meshcat.SetObject(path, shape, Rgba(*LINE_RGBA))
-        X = _plane_pose(*((a + b) / 2), math.atan2(d[1], d[0]))
+        X = plane_pose(*((a + b) / 2), math.atan2(d[1], d[0]))
         meshcat.SetTransform(path, X.multiply(RigidTransform(R)))
     for i, (x, y, angle, width) in enumerate(scene.obstacles):
         path = f"/drake/scene/obstacles/{i}"
         meshcat.SetObject(path, Box(width, 0.08, 0.08), Rgba(*OBSTACLE_RGBA))
-        meshcat.SetTransform(path, _plane_pose(x, y, angle))
+        meshcat.SetTransform(path, plane_pose(x, y, angle))
     for i, (x, y) in enumerate(scene.targets):
         path = f"/drake/scene/targets/{i}"
         meshcat.SetObject(path, Sphere(0.05), Rgba(*TARGET_RGBA))
-        meshcat.SetTransform(path, _plane_pose(x, y))
+        meshcat.SetTransform(path, plane_pose(x, y))
     for i, (x, y, angle, t_on, t_off) in enumerate(scene.clamps):
         path = f"/drake/scene/clamps/{i}"
         shape, R = _cylinder_along_x(0.09, 0.035)
         meshcat.SetObject(path, shape, Rgba(*CLAMP_RGBA))
-        meshcat.SetTransform(path, _plane_pose(x, y, angle).multiply(RigidTransform(R)))
+        meshcat.SetTransform(path, plane_pose(x, y, angle).multiply(RigidTransform(R)))
         # visibility is animated: hidden before t_on and from t_off on
         meshcat.SetProperty(path, "visible", t_on <= 0.0, 0.0)
         if 0.0 < t_on <= log_end:
@@ -145,15 +145,15 @@ def replay_html(plant: PlantParams, t, q, scene: ReplayScene, *, fps: float = 30
             mbp.SetPositions(plant_context, qk)
             diagram.ForcedPublish(context)
             if bs is not None:
-                meshcat.SetTransform("/drake/robot", _plane_pose(*bs[k]), float(tk) + 1e-9)
-        _add_scene(meshcat, scene, float(frames[-1]), float(t[-1] - t[0]))
+                meshcat.SetTransform("/drake/robot", plane_pose(*bs[k]), float(tk) + 1e-9)
+        add_scene(meshcat, scene, float(frames[-1]), float(t[-1] - t[0]))
         vis.StopRecording()
         vis.get_mutable_recording().set_autoplay(True)
         vis.PublishRecording()
         # the plane of motion (x right, y up) stands upright in Meshcat's
         # z-up world: x stays, y becomes z
         meshcat.SetTransform("/drake", RigidTransform(RotationMatrix.MakeXRotation(math.pi / 2)))
-        _set_camera(meshcat, scene, plant)
+        set_camera(meshcat, scene, plant)
         page = meshcat.StaticHtml()
     finally:
         meshcat.Delete()
@@ -176,7 +176,7 @@ def _quiet_meshcat(Meshcat):
         log.setLevel(level)
 
 
-def _set_camera(meshcat, scene: ReplayScene, plant: PlantParams) -> None:
+def set_camera(meshcat, scene: ReplayScene, plant: PlantParams) -> None:
     """Look at the plane of motion from its front, everything in view."""
     reach = plant.l1 + plant.l2
     pts = np.asarray(list(scene.targets) + list(scene.view) + [(0.0, 0.0), (0.0, -reach)],

@@ -50,8 +50,10 @@ def cmd_traverse(args) -> int:
             replay_info = {"study": str(args.replay), "sample": args.sample,
                            "matches_recorded": matches}
         else:   # the motion log is written beside its file and renamed when whole
+            live = _live_view(stack, params) if args.meshcat else None
             res = run_traverse(line, params, seed=args.seed or 0, progress=_progress(args),
-                               motion=stack.enter_context(atomic_path(out / "motion.f64")))
+                               motion=stack.enter_context(atomic_path(out / "motion.f64")),
+                               live=live)
         files = ({} if args.no_plots else
                  {"figure_line": str(_save(args, res.plot(), out / "line.png")),
                   "figure_timeline": str(_save(args, plot_timeline(res),
@@ -78,6 +80,21 @@ def cmd_traverse(args) -> int:
     return 0 if res.success else 1
 
 
+def _live_view(stack, params):
+    """A Meshcat view the traversal is drawn in (its address said on standard
+    error), stopped when the command's work ends."""
+    import sys
+
+    from ..analysis.live import LiveView
+
+    view = LiveView(params.plant)
+    stack.callback(view.close)
+    sys.stderr.write(f"bplir: the traversal is shown at {view.url} (Meshcat, swings at "
+                     "real time)\n")
+    sys.stderr.flush()
+    return view
+
+
 def add_parser(sub) -> None:
     """Declare ``bplir traverse`` and its options."""
     p = command(sub, "traverse", cmd_traverse, "cross a stretch of line, brachiating past every "
@@ -88,6 +105,8 @@ def add_parser(sub) -> None:
            "sensor noise and disturbances")
     option(p, "--no-animation", bool, help="skip traverse.html (the Meshcat replay)")
     option(p, "--no-plots", bool, help="skip the figures (line.png, timeline.png)")
+    option(p, "--meshcat", bool, help="show the traversal in Drake's Meshcat on this machine "
+           "while it is simulated, its swings at real time (the address on standard error)")
     option(p, "--replay", None, None, "re-run one sample of a traversal study (with --sample)",
            metavar="STUDY_DIR")
     option(p, "--sample", int, None, "sample index to replay", metavar="K")

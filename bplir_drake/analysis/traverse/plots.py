@@ -110,21 +110,25 @@ def plot_timeline(result, axes=None):
 def traverse_replay_scene(result):
     """The :class:`~bplir_drake.analysis.replay.ReplayScene` of a traversal:
     the line, its obstacles, every clamp while it is closed."""
+    clamps = []
+    for _, s, t_on, t_off in result.clamps:
+        x, y = result.line.point(s)
+        clamps.append((float(x), float(y), float(result.line.incline_at(s)), t_on, t_off))
+    return line_scene(result.line, result.params, clamps)
 
-    line = result.line
+
+def line_scene(line, params, clamps=()):
+    """The :class:`~bplir_drake.analysis.replay.ReplayScene` of a line: the
+    conductor, its obstacles and ``clamps``, the whole stretch in view."""
     obstacles = []
     for ob in line.obstacles:
         x, y = line.point((ob.start + ob.end) / 2)
         obstacles.append((float(x), float(y), float(line.incline_at((ob.start + ob.end) / 2)),
                           ob.width))
-    clamps = []
-    for _, s, t_on, t_off in result.clamps:
-        x, y = line.point(s)
-        clamps.append((float(x), float(y), float(line.incline_at(s)), t_on, t_off))
     pts = line.polyline(100)
-    reach = result.params.plant.l1 + result.params.plant.l2
+    reach = params.plant.l1 + params.plant.l2
     view = [tuple(pts[0]), tuple(pts[-1]), (pts[0, 0], pts[:, 1].min() - reach)]
-    return ReplayScene(line=[tuple(p) for p in pts], obstacles=obstacles, clamps=clamps,
+    return ReplayScene(line=[tuple(p) for p in pts], obstacles=obstacles, clamps=list(clamps),
                        view=view, camera_distance=0.5)
 
 

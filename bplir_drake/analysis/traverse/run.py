@@ -45,6 +45,8 @@ from .tables import (  # noqa: F401 (re-exported)
     TABLE_COLUMNS, _cell, manoeuvre_table, totals_lines, traverse_totals, write_rows_csv)
 from ..swing.run import SwingRunner, draw_true_friction
 from .isolated import IsolatedRunners
+from ..live import Following
+from .plots import line_scene
 from ...diagrams.plan import tracking_plan
 from ...progress import progress_bar
 from ...systems.plant import gripper_position
@@ -54,7 +56,7 @@ class _Traversal:
     """The state carried from manoeuvre to manoeuvre."""
 
     def __init__(self, line: Line, params: BplirParams, seed: int, runners=None, adjust=None,
-                 motion=None):
+                 motion=None, live=None):
 
         self.line, self.params, self.seed = line, params, seed
         self.adjust = adjust
@@ -65,6 +67,7 @@ class _Traversal:
         self.rows, self.clamps, self.holds = [], [], []
         self.motion = MotionLog(motion)
         self.outcome = "passed"
+        self.live = live   # a LiveView the swings are drawn in
         tp = params.traverse
         self.front, self.rear = line.start, line.start - tp.grip_spacing
         self.front_gripper = 1    # gripper 1 (link 1's) leads
@@ -276,8 +279,10 @@ class _Traversal:
             1, dtype=np.uint32)[0])
         run_p = p if self.adjust is None else self.adjust(self.swings, attempt, p)
         self.swings += 1
+        follow = None if self.live is None else Following(
+            self.live, lambda x: self._pose_track(x, hold, hold_g, run_p.simulated_plant), self.t)
         res = self.runners[hold_g].run(run_p, seed=seed, driver_state=(self.h, self.tripped),
-                                       start_state=x_start)
+                                       start_state=x_start, **({"live": follow} if follow else {}))
         s = res.summary
         x_end = res.logs["state"].data[-1]
         sim_p = run_p.simulated_plant
@@ -381,7 +386,8 @@ ISOLATE_OBSTACLES = 20
 
 
 def run_traverse(line: Line, params: BplirParams, *, seed: int = 0, progress: bool = False,
-                 runners=None, adjust=None, motion=None, isolate=None) -> TraverseResult:
+                 runners=None, adjust=None, motion=None, isolate=None,
+                 live=None) -> TraverseResult:
     """Cross ``line`` with the robot of ``params``; stops at the first
     failure.  ``seed``: the simulated robot's friction (drawn once, within
     ``scenario.friction_uncertainty``, unless ``true_friction`` is set) and
@@ -392,18 +398,22 @@ def run_traverse(line: Line, params: BplirParams, *, seed: int = 0, progress: bo
     every try from 0, ``attempt`` from 1): a disturbance on one swing, say.
     ``motion``: where the motion is logged (:class:`~.result.MotionLog`:
     None in memory, a file path written as it goes, False not kept).
-    ``isolate``: run the swings in a worker process replaced every 50
-    swings (:class:`~.isolated.IsolatedRunners`; default: on a line of
-    more than :data:`ISOLATE_OBSTACLES` obstacles without ``runners``).  Raises :class:`~.line.LineError`
-    when the line cannot be crossed (checked before any simulation)."""
+    ``live``: a :class:`~..live.LiveView` drawing the line and every swing
+    as it is simulated (in this process).  ``isolate``: run the swings in a
+    worker process replaced every 50 swings (:class:`~.isolated.IsolatedRunners`;
+    default: on a line of more than :data:`ISOLATE_OBSTACLES` obstacles
+    without ``runners``).  Raises :class:`~.line.LineError` when the line
+    cannot be crossed (checked before any simulation)."""
 
     plan_route(line, params)   # the whole line is crossable on paper
     params = draw_true_friction(params, seed)   # one robot for the whole traversal
-    if isolate is None:
-        isolate = runners is None and len(line.obstacles) > ISOLATE_OBSTACLES
+    if isolate is None:   # a live view is drawn from this process: its swings run here
+        isolate = runners is None and live is None and len(line.obstacles) > ISOLATE_OBSTACLES
     if isolate:
         runners = IsolatedRunners()
-    tr = _Traversal(line, params, seed, runners, adjust, motion)
+    tr = _Traversal(line, params, seed, runners, adjust, motion, live)
+    if live is not None:
+        live.scene(line_scene(line, params))
     tp = params.traverse
     D = tp.grip_spacing
 
@@ -426,15 +436,11 @@ def run_traverse(line: Line, params: BplirParams, *, seed: int = 0, progress: bo
         bar.close()
         if isolate:
             runners.close()
+        if live is not None:   # the swings drawn so far become the view's animation
+            live.finish()
     totals = tr.finish()
     return TraverseResult(line, params, seed, tr.rows, totals, tr.motion, tr.clamps, tr.holds)
 
 
 __all__ = ["TraverseResult", "run_traverse", "swing_params", "budgeted_currents",
-           "capture_impulse", "OUTCOMES",
-           "ROW_FIELDS", "Segment"]
-
-
-# ----------------------------------------------------------- tables
-
-
+           "capture_impulse", "OUTCOMES", "ROW_FIELDS", "Segment"]

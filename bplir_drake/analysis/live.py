@@ -2,10 +2,11 @@
 
 :class:`LiveView` starts a Meshcat server on this machine (its address is
 ``url``) and draws the simulated robot there -- the plant's own geometry,
-the line and the capture point -- as the simulator advances: a monitor of
-the simulator poses the drawing at ``fps`` frames per simulated second and
-paces the simulation at real time, so that what the browser shows is the
-swing as it would happen.  After the swing, the view replays it on its
+beside a scene (:meth:`LiveView.scene`: the line, its obstacles, the
+capture point) -- as the simulator advances: a monitor of the simulator
+poses the drawing at ``fps`` frames per simulated second and paces the
+simulation at real time, so that what the browser shows is the swing as
+it would happen.  After the swing, the view replays it on its
 *Animations* panel, like the self-contained HTML replay."""
 from __future__ import annotations
 

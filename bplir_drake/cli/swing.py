@@ -115,9 +115,11 @@ def _run_live(params, run_swing):
     import sys
 
     from ..analysis.live import LiveView
+    from ..analysis.swing.plots import swing_scene
 
     view = LiveView(params.plant)
     try:
+        view.scene(swing_scene(params))
         sys.stderr.write(f"bplir: the swing is shown at {view.url} (Meshcat, real time)\n")
         sys.stderr.flush()
         return run_swing(params, live=view)

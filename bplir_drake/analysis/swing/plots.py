@@ -166,15 +166,20 @@ def swing_replay_scene(result):
     the line through the holding gripper at the scenario's incline, the
     target one grip spacing along it, the holding gripper's clamp, and the
     arriving gripper's clamp from the capture on (a captured swing)."""
+    s = result.summary
+    return swing_scene(result.params, float(s["swing_time_s"]) if result.success else None)
 
-    p, s = result.params, result.summary
+
+def swing_scene(p, captured_at: float | None = None):
+    """The scene of a swing of ``p`` (:func:`swing_replay_scene`), the
+    arriving clamp shown from ``captured_at`` (s; None: never)."""
     alpha = math.radians(p.scenario.incline_deg)
     D = p.scenario.grip_spacing
     reach = p.plant.l1 + p.plant.l2
     u = np.array([math.cos(alpha), math.sin(alpha)])
     clamps = [(0.0, 0.0, alpha, 0.0, math.inf)]
-    if result.success:
-        clamps.append((*(D * u), alpha, float(s["swing_time_s"]), math.inf))
+    if captured_at is not None:
+        clamps.append((*(D * u), alpha, captured_at, math.inf))
     return ReplayScene(line=[tuple(-reach * u), tuple((D + reach) * u)],
                        targets=[tuple(D * u)], clamps=clamps)
 

@@ -415,7 +415,8 @@ def class_15(d: Path):
     does a calibration's simulation of it."""
     config = tiny_robot(d)
     with open(config, "a") as fh:
-        fh.write("[scenario]\nwall_limit = 1\n")
+        fh.write("[scenario]\nwall_limit = 1\n[friction]\nfv1 = 0.1\nfv2 = 0.1\nfc1 = 0.0\n"
+                 "fc2 = 0.0\n")
     rc, _, err = bplir("freeswing", "--config", config, "--out", d / "f", timeout=60)
     rc2, _, err2 = bplir("calibrate", angle_log(d, "log.csv"), "--config", config,
                          "--out", d / "c", timeout=60)

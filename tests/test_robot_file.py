@@ -95,7 +95,8 @@ def test_a_config_naming_a_file_gets_that_robot(tmp_path):
     cfg = tmp_path / "small.toml"
     cfg.write_text('[robot]\nfile = "small.urdf"\npivot_joint = "pivot"\nelbow_joint = "elbow"\n'
                    'free_gripper = "hook2"\n\n[plant]\nI1 = 0.002\n\n[imu]\nr2 = 0.2\n')
-    p = load_toml(cfg)
+    with pytest.warns(UserWarning, match="describes no fv1, fv2, fc1, fc2"):
+        p = load_toml(cfg)
     d = describe_robot(p.robot)
     assert p.plant.I1 == 0.002 and p.plant.m1 == d.plant.m1 and p.plant.oc2 == d.plant.oc2
     base = BplirParams()
@@ -230,8 +231,9 @@ SDF = """<?xml version="1.0"?>
 def test_a_files_joint_damping_is_the_viscous_friction_and_a_rotor_inertia_is_refused(
         tmp_path):
     """The elbow's <dynamics damping> of the file becomes friction.fv2 unless
-    the config gives fv2; a motor's reflected rotor inertia (which the two
-    links cannot carry) is refused with one line."""
+    the config gives fv2; what neither gives is 0 with a warning naming it,
+    never the default robot's; a motor's reflected rotor inertia (which the
+    two links cannot carry) is refused with one line."""
     from bplir_drake.params import from_dict
 
     text = OFF_AXIS_URDF.replace("AXIS", "1 0 0").replace(
@@ -241,9 +243,12 @@ def test_a_files_joint_damping_is_the_viscous_friction_and_a_rotor_inertia_is_re
     path.write_text(text)
     robot = {"file": str(path), "pivot_joint": "pivot", "elbow_joint": "elbow",
              "free_gripper": "hook2"}
-    p = from_dict({"robot": robot})
-    assert p.friction.fv2 == 0.05 and p.friction.fv1 == BplirParams().friction.fv1
-    assert from_dict({"robot": robot, "friction": {"fv2": 0.07}}).friction.fv2 == 0.07
+    with pytest.warns(UserWarning, match="describes no fv1, fc1, fc2: taken as 0"):
+        p = from_dict({"robot": robot})
+    assert (p.friction.fv2, p.friction.fv1, p.friction.fc1, p.friction.fc2) == (0.05, 0, 0, 0)
+    assert BplirParams().friction.fc2 > 0.5   # the default robot's, not carried over
+    given = {"fv1": 0.02, "fv2": 0.07, "fc1": 0.0, "fc2": 0.1}
+    assert from_dict({"robot": robot, "friction": given}).friction.fv2 == 0.07
     geared = text.replace("</robot>", """
   <transmission name="t"><type>transmission_interface/SimpleTransmission</type>
     <joint name="elbow"><hardwareInterface>EffortJointInterface</hardwareInterface></joint>

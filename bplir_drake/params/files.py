@@ -1,6 +1,8 @@
 """Parameters in and out of files: TOML and plain dictionaries, with one-line errors naming the table and field."""
 from __future__ import annotations
 
+import warnings
+
 import tomllib
 from dataclasses import fields, replace
 from pathlib import Path
@@ -79,9 +81,21 @@ def robot_file_updates(params: BplirParams, data: dict, base_dir: Path | None) -
     given = given_fields(data).get("friction", set())
     damping = {n: d for n, d in zip(("fv1", "fv2"), described.damping)
                if d > 0.0 and n not in given}   # the file's joint damping: viscous friction
+    if robot.file not in SHIPPED_ROBOTS:   # another robot: never the BPLIR's friction
+        unknown = [n for n in ROBOT_FRICTION if n not in given and n not in damping]
+        if unknown:
+            warnings.warn(f"robot.file {robot.file} describes no {', '.join(unknown)}: taken "
+                          "as 0 (the default robot's are not this robot's); give them in "
+                          "[friction] or fit them with bplir calibrate", stacklevel=2)
+        damping |= {n: 0.0 for n in unknown}
     if damping:
         out["friction"] = replace(params.friction, **damping)
     return out
+
+
+#: the friction coefficients a robot's own description (its joint damping),
+#: its config or a calibration gives; never carried over from the default robot
+ROBOT_FRICTION = ("fv1", "fv2", "fc1", "fc2")
 
 
 def given_fields(data: dict) -> dict[str, set]:

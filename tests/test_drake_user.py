@@ -14,6 +14,7 @@ from bplir_drake.analysis.swing import swing_diagram
 from bplir_drake.diagrams import SWING_INPUTS, SWING_SIGNALS, estimate_times
 from bplir_drake.params import BplirParams
 from bplir_drake.systems.plant import mass_matrix
+from bplir_drake.systems.state import RobotState
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -75,6 +76,9 @@ def test_a_users_source_and_estimator_wired_into_the_swing_diagram():
     assert status["outcome"] == "captured" and status["capture_speed_mps"] < 0.5
     true_state = swing.GetOutputPort("true_state").Eval(swing.GetMyContextFromRoot(root))
     assert len(true_state) == len(SWING_SIGNALS["true_state"]) == 4
+    named = RobotState(true_state)   # the package's named view of a state
+    assert tuple(named.get_fields()) == SWING_SIGNALS["true_state"]
+    assert named.q2 == true_state[1] and abs(named.q1 - 0.33) < 0.05
     assert abs(swing.GetOutputPort("estimate").Eval(
         swing.GetMyContextFromRoot(root))[1] - true_state[1]) < 0.2
 

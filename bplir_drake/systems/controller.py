@@ -39,6 +39,7 @@ from .friction import friction_torques
 from .motor import torque_window
 from .plant import bias_term, gravity_vector, mass_matrix
 from .schedule import declare_store, declare_tick_result
+from .state import RobotState
 
 
 # ----------------------------------------------------------- pure functions
@@ -182,18 +183,18 @@ class _CpflLaw:
         self.available_port = self.DeclareVectorInputPort("torque_available", 1)
 
     def _law(self, context, xF, xK):
-        x = self.state_port.Eval(context)
+        x = RobotState(self.state_port.Eval(context))
         r = self.reference_port.Eval(context)[0]
         v_ff = self.feedforward_port.Eval(context)[0]
         avail = self.available_port.Eval(context)[0]
         F, K = self.F, self.K
         rf = ((F.C @ xF)[0] if self.nF else 0.0 * r) + F.D[0, 0] * r
-        e = rf - x[1]
+        e = rf - x.q2
         a, b = cpfl_terms(x[0:2], x[2:4], self.plant_params,
                           self.friction if self.ctrl.friction_compensation else None)
         limit = min(self.ctrl.torque_limit, avail) if avail > 0 else 0.0 * avail
         if self.motor is not None and self.motor.envelope and not self.continuous:
-            limit = torque_window(float(x[3]), self.motor, i_limit=np.inf, torque_limit=limit)
+            limit = torque_window(float(x.q2d), self.motor, i_limit=np.inf, torque_limit=limit)
         tau_hat, v, v_hat, e_t, tau0 = saturate_with_antiwindup(
             e, xK, K, a, b + a * v_ff, limit, self.ctrl.aw_gain)
         q = self.ctrl.torque_quantum

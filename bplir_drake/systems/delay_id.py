@@ -35,6 +35,7 @@ from pydrake.systems.framework import LeafSystem
 from ..params import FrictionParams, MotorParams, PlantParams
 from .predictor import nominal_rates
 from .schedule import declare_store
+from .state import RobotState
 
 #: the probe's torque pattern, in units of its amplitude, from tick 0: two
 #: opposite doublets (zero net impulse and zero net displacement)
@@ -97,7 +98,8 @@ def probe_rates(q0, commands, steps: int, period: float, latency: float, plant: 
         if latency > 0.0:
             x, torque = advance(x, torque, latency, target(k - 1 - steps))
         x, torque = advance(x, torque, period - latency, target(k - steps))
-        out.append((x[2], x[2] + x[3]))
+        x = RobotState(x)
+        out.append((x.q1d, x.q1d + x.q2d))   # link 1's and link 2's absolute rates
     return np.array(out)
 
 

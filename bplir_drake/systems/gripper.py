@@ -29,6 +29,7 @@ from pydrake.systems.framework import LeafSystem
 
 from ..params import ScenarioParams
 from .schedule import declare_store
+from .state import RobotState
 
 OUTCOMES = ("swinging", "captured", "crash", "timeout", "fault")
 
@@ -95,7 +96,7 @@ def first_arrival(x0, x1, T: float, g: LineGeometry, sc: ScenarioParams, passed:
     def arrives(s, passed, last_normal):
         x = hermite_state(x0, x1, T, s)
         normal, _, travel, _ = line_metrics(x, g)
-        passed = passed or (x[0] - g.alpha) > 0.0
+        passed = passed or (RobotState(x).q1 - g.alpha) > 0.0
         hit = passed and travel >= sc.min_travel_fraction * sc.grip_spacing and (
             abs(normal) <= sc.capture_distance or last_normal < 0.0 <= normal)
         return hit, x, passed, normal, travel

@@ -31,6 +31,7 @@ from pydrake.systems.framework import LeafSystem
 
 from ..params import LineSensorParams
 from .schedule import declare_sample
+from .state import RobotState
 
 
 def line_gap(theta1: float, theta2: float, l1: float, l2: float, alpha: float):
@@ -85,9 +86,9 @@ class LineSensor(LeafSystem):
     def _sample(self, context, discrete_state):
         p, seed = context.get_abstract_parameter(self._sensor).get_value()
         k = int(round(context.get_discrete_state(self._held).get_value()[2]))
-        q = self.state_port.Eval(context)
+        q = RobotState(self.state_port.Eval(context))
         l1, l2, alpha = self.geometry
-        gap = line_gap(q[0], q[0] + q[1], l1, l2, alpha)[0]
+        gap = line_gap(q.q1, q.q1 + q.q2, l1, l2, alpha)[0]
         valid = abs(gap) <= p.range
         noise = p.sigma * np.random.default_rng((seed, k, 1)).standard_normal() if valid else 0.0
         reading = gap + p.offset + noise if valid else 0.0

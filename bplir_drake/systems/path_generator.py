@@ -16,6 +16,7 @@ from ..params import PathParams, PlantParams
 from .path import (PathGeometry, constraint_acceleration, path_derivatives, predict_rate_squared,
                    projected_rate, step_blend_end)
 from .schedule import declare_store, declare_tick_result
+from .state import RobotState
 
 
 def calibrate_damping(x, s, w, s_e, cal_s, cal_Y, fv, g: PathGeometry, pp: PathParams,
@@ -57,7 +58,8 @@ def next_path_state(x, st, g: PathGeometry, pp: PathParams, plant: PlantParams,
     ``x``: the calibration, the latch and its ramp, the adapted blend end."""
     s_e, floor, latched = st.blend_end, st.blend_floor, st.latched
     cal_s, cal_Y, fv = st.calibration_s0, st.calibration_Y0, st.link1_damping
-    s, w = x[0] - g.alpha, x[2]
+    x = RobotState(x)
+    s, w = x.q1 - g.alpha, x.q1d
     if pp.mode == "adaptive" and pp.calibrate and s < 0:
         cal_s, cal_Y, fv = calibrate_damping(x, s, w, s_e, cal_s, cal_Y, fv, g, pp, plant)
     if latched > 0.5:
@@ -77,7 +79,8 @@ def path_at(x, st, g: PathGeometry, pp: PathParams):
     """(x, s, q2_ref, dq2/dq1, d2q2/dq1^2) of the path at the estimate ``x``
     with this tick's path state ``st``."""
     s_e, floor, latched = st.blend_end, st.blend_floor, st.latched
-    s = x[0] - g.alpha + x[2] * pp.lead_time
+    x = RobotState(x)
+    s = x.q1 - g.alpha + x.q1d * pp.lead_time
     if pp.mode == "lab":
         k = pp.lab_gain * g.k_f
         return x, s, k * s, k, 0.0 * s
@@ -150,7 +153,8 @@ def PathGenerator_(T):
             if self.path.mode == "lab":
                 out.SetAtIndex(0, 0.0 * s)
                 return
-            _, ff = constraint_acceleration([x[0], x[1]], x[2], d1, d2, self.plant_params)
+            x = RobotState(x)
+            _, ff = constraint_acceleration([x.q1, x.q2], x.q1d, d1, d2, self.plant_params)
             out.SetAtIndex(0, ff)
 
         def _out_blend(self, context, out):

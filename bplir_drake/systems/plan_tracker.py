@@ -37,6 +37,7 @@ from ..params import PLAN_INDEXING
 from .motor import torque_window
 from .plant import bias_term, gravity_vector, mass_matrix
 from .schedule import declare_store, declare_tick_result
+from .state import RobotState
 from .landing import (  # noqa: F401 (re-exported)
     _LineServo, Reach, Landing, ApexShot, link1_share, resolved_landing, landing_law, height_rates, height_torque)
 
@@ -185,13 +186,14 @@ class PlanTracker(LeafSystem):
         else:
             u = self.u0.value(t)[0, 0] - (self.K.value(t) @ (np.asarray(x) - x0))[0] \
                 - self.k0.value(t)[0, 0]
-        return float(min(max(u, lo), hi)), float(x0[1])
+        return float(min(max(u, lo), hi)), float(RobotState(x0).q2)
 
     def window(self, x) -> tuple[float, float]:
         """(lowest, highest) torque the tracker commands at the state ``x``."""
         if self.motor is None:
             return -self.torque_limit, self.torque_limit
-        return torque_window(float(x[3]), self.motor, torque_limit=self.torque_limit)
+        return torque_window(float(RobotState(x).q2d), self.motor,
+                             torque_limit=self.torque_limit)
 
     def phase(self, tau: float, x) -> float:
         """The plan time nearest to ``x`` in ``[tau, tau + search]``."""

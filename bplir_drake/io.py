@@ -358,6 +358,24 @@ class Result:
         return pandas.DataFrame(self.table())
 
 
+class Record(dict):
+    """A row or a set of totals: the dict its file holds (JSON, CSV), whose
+    fields also read and write as attributes (``row.outcome``); subclasses
+    name what kind of row it is and document its fields."""
+
+    def __getattr__(self, name: str):
+        try:
+            return self[name]
+        except KeyError:
+            raise AttributeError(f"{type(self).__name__} has no field {name!r}") from None
+
+    def __setattr__(self, name: str, value) -> None:
+        self[name] = value
+
+    def __reduce__(self):   # pickled as its class and its fields
+        return (type(self), (dict(self),))
+
+
 class DictResult(dict, Result):
     """A result that is also the plain dict it has always been (the summary
     of a study or of a benchmark, as its JSON file holds it): ``summary()``

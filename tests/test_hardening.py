@@ -657,8 +657,8 @@ def _tiny_plan():
 @pytest.mark.parametrize("damage", [b"", b"PK\x03\x04 truncated", b"not a zip file at all"])
 def test_a_damaged_cached_plan_is_moved_aside_and_solved_again(monkeypatch, tmp_path, damage):
     """An empty, truncated or foreign ``plan-<key>.npz`` in the cache does not
-    stop the robot: it is moved aside (``.damaged``), the plan solved again
-    and stored."""
+    stop the robot: it is moved aside (``.damaged``), with a warning naming
+    it, the plan solved again and stored."""
     from bplir_drake.diagrams import plan_cache
 
     monkeypatch.setenv("BPLIR_CACHE_DIR", str(tmp_path))
@@ -666,7 +666,8 @@ def test_a_damaged_cached_plan_is_moved_aside_and_solved_again(monkeypatch, tmp_
     path = plan_cache.plan_cache_path(inputs)
     path.write_bytes(damage)
     solves = []
-    plan = plan_cache.cached(inputs, lambda: solves.append(1) or _tiny_plan(), make=SwingPlan)
+    with pytest.warns(UserWarning, match=f"the cached plan file {path} is damaged"):
+        plan = plan_cache.cached(inputs, lambda: solves.append(1) or _tiny_plan(), make=SwingPlan)
     assert solves == [1] and plan.solver == "test"
     assert path.with_suffix(".damaged").read_bytes() == damage
     again = plan_cache.cached(inputs, lambda: solves.append(2) or _tiny_plan(), make=SwingPlan)

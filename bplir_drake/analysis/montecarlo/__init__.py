@@ -19,12 +19,13 @@ from .sampling import (apply_values, base_value, draw_values, error_text, pinned
 from .statistics import PERCENTILE_FIELDS, influence, summarize, wilson_interval
 from .store import ResultWriter, columns, read_results
 from .study import (DIST_KINDS, RESULT_FIELDS, RESULTS_FILE, STUDY_FILE, SUMMARY_FILE,
-                    UNCERTAIN_BLOCKS, Distribution, Study, StudyError, dissertation_distributions,
+                    UNCERTAIN_BLOCKS, Distribution, Study, StudyError, StudyRow,
+                    dissertation_distributions,
                     load_study, save_study, study_from_dict)
 
 __all__ = ["StudyResult", "map_jobs", "prepare_out", "replay", "run_study", "apply_values", "base_value",
            "draw_values", "error_text", "pinned", "run_sample", "sample_params", "sample_seed",
            "PERCENTILE_FIELDS", "influence", "summarize", "wilson_interval", "ResultWriter",
            "columns", "read_results", "DIST_KINDS", "RESULT_FIELDS", "RESULTS_FILE", "STUDY_FILE",
-           "SUMMARY_FILE", "UNCERTAIN_BLOCKS", "Distribution", "Study", "StudyError",
+           "SUMMARY_FILE", "UNCERTAIN_BLOCKS", "Distribution", "Study", "StudyError", "StudyRow",
            "dissertation_distributions", "load_study", "save_study", "study_from_dict"]

@@ -81,7 +81,7 @@ def checked_rows(study: Study, rows: list[dict], out: Path) -> list[dict]:
     its sample's (another study's), are refused naming the sample."""
     by_index: dict[int, dict] = {}
     for row in rows:
-        k = row["index"]
+        k = row.index
         if k < 0:
             raise StudyError(f"{out / RESULTS_FILE} holds a row of sample {k}; sample indices "
                              "run from 0: remove it (or the file) and run again")
@@ -90,7 +90,7 @@ def checked_rows(study: Study, rows: list[dict], out: Path) -> list[dict]:
                 raise StudyError(f"{out / RESULTS_FILE} holds two different rows of sample "
                                  f"{k}; remove one (or the file) and run again")
             continue
-        if 0 <= k < study.samples and row["seed"] != sample_params(study, k)[1]:
+        if 0 <= k < study.samples and row.seed != sample_params(study, k)[1]:
             raise StudyError(f"{out / RESULTS_FILE}: the row of sample {k} has seed "
                              f"{row['seed']}, not this study's; it belongs to another study")
         by_index[k] = row
@@ -141,8 +141,8 @@ def _run_study(study: Study, out: Path, workers: int, dask: bool, scheduler,
                progress) -> "StudySummary":
     """The body of :func:`run_study`, the directory held."""
     existing = prepare_out(study, out)  # finished rows are never deleted
-    have = {r["index"] for r in existing}
-    done = [r for r in existing if r["index"] < study.samples]
+    have = {r.index for r in existing}
+    done = [r for r in existing if r.index < study.samples]
     todo = [(study, k) for k in range(study.samples) if k not in have]
     writer = ResultWriter(out / RESULTS_FILE, columns(study), existing)
     t0 = time.perf_counter()
@@ -152,18 +152,18 @@ def _run_study(study: Study, out: Path, workers: int, dask: bool, scheduler,
             writer.write(row)
     finally:
         writer.close()
-    rows = sorted(read_results(out / RESULTS_FILE), key=lambda r: r["index"])
+    rows = sorted(read_results(out / RESULTS_FILE), key=lambda r: r.index)
     # the finished table in sample order: identical whatever the workers did
     ResultWriter(out / RESULTS_FILE, columns(study), rows).close()
     # a smaller -n than a previous run reports its first samples
-    summary = summarize(study, [r for r in rows if r["index"] < study.samples])
+    summary = summarize(study, [r for r in rows if r.index < study.samples])
     summary["run"] = {"computed_now": len(todo), "resumed_from": len(done),
                       "wall_time_s": time.perf_counter() - t0,
                       "workers": workers or os.cpu_count(),
                       "executor": "dask" if (dask or scheduler) else "process pool"}
     write_json_atomic(out / SUMMARY_FILE, summary)
     return StudySummary(summary, StudyResult(study, [r for r in rows
-                                                     if 0 <= r["index"] < study.samples]))
+                                                     if 0 <= r.index < study.samples]))
 
 
 def replay(study_dir, index: int):
@@ -175,7 +175,7 @@ def replay(study_dir, index: int):
         raise StudyError(f"{study_dir} is not a study directory (no {STUDY_FILE})")
     study = load_study(study_dir / STUDY_FILE)
     rows = read_results(study_dir / RESULTS_FILE) if (study_dir / RESULTS_FILE).exists() else []
-    kept = {r["index"] for r in rows}
+    kept = {r.index for r in rows}
     if isinstance(index, bool) or not isinstance(index, int) or not (
             0 <= index < study.samples or index in kept):
         extra = f" or a kept row ({max(kept)} is the last)" if kept and max(kept) >= study.samples \
@@ -183,7 +183,7 @@ def replay(study_dir, index: int):
         raise StudyError(f"--sample {index} is out of range; allowed 0..{study.samples - 1}"
                          + extra)
     p, seed, _ = sample_params(study, index)
-    recorded = next((r for r in rows if r["index"] == index), None)
+    recorded = next((r for r in rows if r.index == index), None)
     if study.line is not None:
 
         return run_traverse_sample(study, p, seed, motion=None), recorded
@@ -205,7 +205,7 @@ class StudyResult(Result):
             raise StudyError(f"{study_dir} is not a study directory (no {STUDY_FILE})")
         study = load_study(study_dir / STUDY_FILE)
         rows = sorted((r for r in read_results(study_dir / RESULTS_FILE, columns(study))
-                       if r["index"] < study.samples), key=lambda r: r["index"])
+                       if r.index < study.samples), key=lambda r: r.index)
         return cls(study, rows)
 
     def summary(self) -> dict:

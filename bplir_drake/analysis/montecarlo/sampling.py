@@ -11,7 +11,7 @@ import numpy as np
 
 from ...io import raise_stop
 from ...params import BplirParams
-from .study import Study
+from .study import Study, StudyRow
 from ..swing.run import SwingRunner
 from ..traverse.line import line_from_dict
 from ..traverse.run import run_traverse
@@ -73,7 +73,7 @@ _RUNNER = None  # this process's SwingRunner: one diagram serves every sample of
 _TRAVERSE_RUNNERS: dict = {}  # ... and the two of traversals (gripper 1 / gripper 2 holding)
 
 
-def run_sample(study: Study, index: int) -> dict:
+def run_sample(study: Study, index: int) -> StudyRow:
     """One sample as a result row; never raises (errors are recorded)."""
     global _RUNNER
 
@@ -89,10 +89,10 @@ def run_sample(study: Study, index: int) -> dict:
             summary = _RUNNER.run(p, seed=seed).summary
     except Exception as exc:  # impossible draw, unreachable line, integrator failure ...
         raise_stop()   # a signal's stop that a solver wrapped: the study ends, no error row
-        return row | _error_fields(exc, study)
+        return StudyRow(row | _error_fields(exc, study))
     row.update({k: summary[k] for k in study.result_fields})
     row["error"] = ""
-    return row
+    return StudyRow(row)
 
 
 def run_traverse_sample(study: Study, params: BplirParams, seed: int, motion=False):

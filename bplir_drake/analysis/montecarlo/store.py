@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .study import Study, StudyError
+from .study import Study, StudyError, StudyRow
 from ...io import atomic_path
 
 # ------------------------------------------------------------ result table
@@ -39,7 +39,7 @@ def _parse(col: str, text: str):
     return float(text) if text not in ("", "None") else math.nan
 
 
-def read_results(path, cols: list[str] | None = None) -> list[dict]:
+def read_results(path, cols: list[str] | None = None) -> list[StudyRow]:
     """Rows of a results CSV (complete rows only), parsed."""
     path = Path(path)
     if not path.exists():
@@ -56,7 +56,7 @@ def read_results(path, cols: list[str] | None = None) -> list[dict]:
             if len(rec) != len(header):
                 continue  # a row cut short by an interruption
             try:
-                rows.append({c: _parse(c, v) for c, v in zip(header, rec)})
+                rows.append(StudyRow({c: _parse(c, v) for c, v in zip(header, rec)}))
             except ValueError:
                 continue
     return rows

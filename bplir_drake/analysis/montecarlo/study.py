@@ -9,9 +9,17 @@ from pathlib import Path
 
 import numpy as np
 
-from ...io import write_text_atomic
+from ...io import Record, write_text_atomic
 from ...params import BLOCKS, BplirParams, ParameterError, from_dict, read_toml, to_dict
 from ..traverse.line import line_from_dict
+
+
+class StudyRow(Record):
+    """One sample of a study: its index and seed, the quantities drawn (by
+    their ``block.field`` names) and the result fields (``outcome``,
+    ``success``, ``capture_speed_mps``, ...), with ``error`` for a sample
+    that raised; read as attributes (``row.outcome``) or as the columns of
+    ``results.csv`` (``row["true_plant.m2"]``)."""
 
 DIST_KINDS = ("uniform", "normal", "truncnormal")
 #: blocks a distribution may address (never the nominal model)

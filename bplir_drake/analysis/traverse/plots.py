@@ -30,18 +30,18 @@ def plot_line_grips(result, axes=None):
                     ha="center", fontsize=8, color="C3")
     seen = set()
     for r in result.rows:
-        if r["kind"] != "swing":
+        if r.kind != "swing":
             continue
-        g = int(r["holding_gripper"])
+        g = int(r.holding_gripper)
         colour = GRIPPER_COLOURS[g]
-        xh, yh = line.point(r["hold_m"])
+        xh, yh = line.point(r.hold_m)
         lab = f"gripper {g} holds" if ("h", g) not in seen else None
         seen.add(("h", g))
         ax.plot(xh, yh, "v", color=colour, ms=9, label=lab)
         other = 3 - g
-        if math.isfinite(r["to_m"]):
-            xl, yl = line.point(r["to_m"])
-            ok = r["outcome"] == "captured"
+        if math.isfinite(r.to_m):
+            xl, yl = line.point(r.to_m)
+            ok = r.outcome == "captured"
             lab = f"gripper {other} lands" if ("l", other) not in seen else None
             seen.add(("l", other))
             ax.plot(xl, yl, "o" if ok else "X", color=GRIPPER_COLOURS[other], ms=7,
@@ -82,25 +82,25 @@ def plot_timeline(result, axes=None):
     ax[1].plot(t, tl["torque"], "C3")
     ax[1].set_ylabel("elbow torque [N m]")
     ax[2].plot(t, tl["i2t"], "C2", label="i\u00b2t above continuous")
-    ax[2].axhline(result.totals["i2t_budget_A2s"], color="C3", ls="--", lw=0.8,
+    ax[2].axhline(result.totals.i2t_budget_A2s, color="C3", ls="--", lw=0.8,
                   label="driver trips")
     ax[2].set_ylabel("i\u00b2t [A\u00b2 s]")
     ax[2].set_xlabel("time [s]")
     for r in result.rows:
-        if r["kind"] == "swing":
+        if r.kind == "swing":
             for a in ax:
-                a.axvspan(r["t_start_s"], r["t_start_s"] + r["duration_s"],
-                          color=GRIPPER_COLOURS[int(r["holding_gripper"])], alpha=0.12, lw=0)
-        elif r["kind"] in STILL_SHADES:
-            colour, alpha = STILL_SHADES[r["kind"]]
+                a.axvspan(r.t_start_s, r.t_start_s + r.duration_s,
+                          color=GRIPPER_COLOURS[int(r.holding_gripper)], alpha=0.12, lw=0)
+        elif r.kind in STILL_SHADES:
+            colour, alpha = STILL_SHADES[r.kind]
             for a in ax:
-                a.axvspan(r["t_start_s"], r["t_start_s"] + r["duration_s"], color=colour,
+                a.axvspan(r.t_start_s, r.t_start_s + r.duration_s, color=colour,
                           alpha=alpha, lw=0)
     for a in ax:
         a.grid(True, alpha=0.3)
     ax[0].legend(fontsize=8)
     ax[2].legend(fontsize=8)
-    recovered = any(r["kind"] == "recover" for r in result.rows)
+    recovered = any(r.kind == "recover" for r in result.rows)
     return finish(fig, "traversal: swings shaded (blue: gripper 1 holds, orange: gripper 2 "
                        "holds, grey: rest or IMU calibration"
                        + (", red: damping after a timeout or a driver trip)" if recovered

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 from ...params import BplirParams
-from ...io import Result
+from ...io import Record, Result
 from .line import Line
 from .plots import plot_line_grips
 
@@ -21,6 +21,18 @@ ROW_FIELDS = ("index", "kind", "obstacle", "holding_gripper", "robot", "t_start_
               "capture_impulse_Ns", "effective_mass_kg", "peak_torque_Nm", "peak_power_W",
               "peak_voltage_V", "energy_J", "i2t_start_A2s", "i2t_end_A2s", "landing_bias_m",
               "landing_height_error_m", "seed", "attempt")
+
+
+class TraverseRow(Record):
+    """One manoeuvre of a traversal (a ride, a rest, a calibration, a swing
+    or a try of one, a damping): the fields of :data:`ROW_FIELDS`, read as
+    attributes (``row.outcome``) or as the keys of ``manoeuvres.csv``."""
+
+
+class TraverseTotals(Record):
+    """A traversal's totals (outcome, obstacles passed, times, energies,
+    the worst figures of its swings), read as attributes or as the keys of
+    ``traverse.json``'s ``totals``."""
 
 
 @dataclass
@@ -113,14 +125,14 @@ class TraverseResult(Result):
     @property
     def success(self) -> bool:
         """Every obstacle passed, no driver trip, no fall."""
-        return self.totals["outcome"] == "passed"
+        return self.totals.outcome == "passed"
 
     def sample_fields(self) -> dict:
         """The fields a traversal study keeps per sample: the totals, the
         worst swing's figures under the swing fields' names (``capture_speed_mps``:
         the fastest capture; ``swing_time_s``, ``energy_in_J``: all swings)."""
         t = self.totals
-        return t | {"swing_time_s": t["swing_time_s"], "energy_in_J": t["energy_swing_J"]}
+        return t | {"swing_time_s": t.swing_time_s, "energy_in_J": t.energy_swing_J}
 
     def table(self) -> list:
         """The manoeuvres, one row each (:data:`ROW_FIELDS`)."""

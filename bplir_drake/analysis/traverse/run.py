@@ -40,6 +40,7 @@ from .recovery import can_retry, damp, damping_drive, retry_params
 from .swing_setup import (  # noqa: F401 (re-exported)
     swing_params, swing_chord, learnt_landing, budgeted_currents, capture_impulse)
 from .result import (  # noqa: F401 (re-exported)
+    TraverseRow, TraverseTotals,
     OUTCOMES, ROW_FIELDS, MotionLog, Segment, TraverseResult)
 from .tables import (  # noqa: F401 (re-exported)
     TABLE_COLUMNS, _cell, manoeuvre_table, totals_lines, traverse_totals, write_rows_csv)
@@ -84,11 +85,11 @@ class _Traversal:
         self.mass = self.robot.m1 + self.robot.m2
 
     # -------------------------------------------------------------- rows
-    def _row(self, kind: str, duration: float, **kw) -> dict:
-        row = {k: math.nan for k in ROW_FIELDS} | {
+    def _row(self, kind: str, duration: float, **kw) -> TraverseRow:
+        row = TraverseRow({k: math.nan for k in ROW_FIELDS} | {
             "index": len(self.rows), "kind": kind, "t_start_s": self.t, "duration_s": duration,
             "obstacle": "", "holding_gripper": "both", "robot": "", "outcome": "",
-            "i2t_start_A2s": self.h, "seed": ""}
+            "i2t_start_A2s": self.h, "seed": ""})
         row.update(kw)
         self.rows.append(row)
         return row
@@ -258,7 +259,7 @@ class _Traversal:
         x_start, attempt = None, 1
         while True:
             s, x_end = self._attempt(p, obstacle, attempt, x_start)
-            if s["outcome"] not in ("timeout", "fault") or attempt > tp.retries:
+            if s.outcome not in ("timeout", "fault") or attempt > tp.retries:
                 break
             retry = retry_params(p, s, hold_g)
             if not can_retry(retry):
@@ -286,25 +287,25 @@ class _Traversal:
         s = res.summary
         x_end = res.logs["state"].data[-1]
         sim_p = run_p.simulated_plant
-        impulse, m_eff = (capture_impulse(x_end[:2], x_end[2:], sim_p) if s["success"]
+        impulse, m_eff = (capture_impulse(x_end[:2], x_end[2:], sim_p) if s.success
                           else (math.nan, math.nan))
         t, elec, standby, duration = self._record_motion(res, run_p, hold, hold_g)
         h0 = self.h
-        self.h, self.tripped = s["i2t_end_A2s"], s["driver_tripped_end"]
-        self.est_err = float(np.nanmax([self.est_err, s["max_estimation_error_rad"]]))
-        self.fixed_open = self.fixed_open or (s["fixed_gripper_open"] and not s["success"])
+        self.h, self.tripped = s.i2t_end_A2s, s.driver_tripped_end
+        self.est_err = float(np.nanmax([self.est_err, s.max_estimation_error_rad]))
+        self.fixed_open = self.fixed_open or (s.fixed_gripper_open and not s.success)
         spacing, _ = self.line.chord(start, hold)
-        landed = hold + s["travel_m"] - spacing if s["success"] else math.nan
+        landed = hold + s.travel_m - spacing if s.success else math.nan
         self._row("swing", duration, obstacle=obstacle, holding_gripper=str(hold_g),
                   robot="original" if hold_g == 1 else "swapped", hold_m=hold,
                   from_m=start, to_m=landed, incline_deg=p.scenario.incline_deg,
-                  outcome=s["outcome"], capture_speed_mps=s["capture_speed_mps"],
+                  outcome=s.outcome, capture_speed_mps=s.capture_speed_mps,
                   capture_impulse_Ns=impulse, effective_mass_kg=m_eff,
-                  peak_torque_Nm=s["peak_torque_Nm"], peak_power_W=s["peak_motor_power_W"],
+                  peak_torque_Nm=s.peak_torque_Nm, peak_power_W=s.peak_motor_power_W,
                   peak_voltage_V=s.get("peak_voltage_V", math.nan),
                   energy_J=elec + standby, i2t_start_A2s=h0, i2t_end_A2s=self.h,
                   landing_bias_m=p.landing.landing_bias,
-                  landing_height_error_m=s["landing_height_error_m"], seed=seed,
+                  landing_height_error_m=s.landing_height_error_m, seed=seed,
                   attempt=attempt)
         self.t += duration
         if attempt == 1:   # the swinging gripper opened at the start, closes at capture
@@ -343,21 +344,21 @@ class _Traversal:
         """After the last try: stop the traversal, or clamp the landed gripper."""
         tp = self.params.traverse
         swing_g = 3 - self.front_gripper
-        row = self.rows[-1] if self.rows[-1]["kind"] == "swing" else None
-        if s["driver_tripped"]:
+        row = self.rows[-1] if self.rows[-1].kind == "swing" else None
+        if s.driver_tripped:
             self.outcome = "driver trip"
             return False
-        if not s["success"]:
+        if not s.success:
             self.outcome = f"swing {s['outcome']}"
             return False
-        landed = hold + s["travel_m"] - spacing
+        landed = hold + s.travel_m - spacing
         hit = self.line.obstacle_at(landed, tp.gripper_width / 2)
         if hit is not None or landed > self.line.length:
             if row is not None:
-                row["outcome"] = "landed on obstacle"
+                row.outcome = "landed on obstacle"
             self.outcome = "landed on obstacle"
             return False
-        self.landing_errors[self.front_gripper].append(s["landing_height_error_m"])
+        self.landing_errors[self.front_gripper].append(s.landing_height_error_m)
         self.closed[swing_g] = self.t
         self.clamp[swing_g] = (landed, self.t)
         self.pos[swing_g] = landed

@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 import math
-from .result import ROW_FIELDS, TraverseResult
+from .result import ROW_FIELDS, TraverseResult, TraverseTotals
 import io as _io
 from ...io import write_text_atomic
 import csv
@@ -78,43 +78,43 @@ def write_rows_csv(result: TraverseResult, path):
     return write_text_atomic(path, buf.getvalue())
 
 
-def traverse_totals(tr) -> dict:
+def traverse_totals(tr) -> TraverseTotals:
     """The totals of the traversal ``tr`` (the state :func:`~.run.run_traverse`
     carried): outcome, the first failed swing (swings counted, not their
     tries), the worst figures of its swings, times, energies, i^2 t."""
-    swings = [r for r in tr.rows if r["kind"] == "swing"]
-    rides = [r for r in tr.rows if r["kind"] in ("ride", "adjust")]
+    swings = [r for r in tr.rows if r.kind == "swing"]
+    rides = [r for r in tr.rows if r.kind in ("ride", "adjust")]
     energy = sum(tr.energy.values())
     dist = max(tr.rear - (tr.line.start - tr.params.traverse.grip_spacing), 0.0)
-    peak_i2t = max([r["i2t_end_A2s"] for r in tr.rows] + [0.0])
-    first = sum(1 for r in swings if r["attempt"] == 1)   # swings, not their tries
-    failed = [first - 1] if swings and swings[-1]["outcome"] != "captured" else []
-    speeds = [r["capture_speed_mps"] for r in swings if r["outcome"] == "captured"]
-    return {
+    peak_i2t = max([r.i2t_end_A2s for r in tr.rows] + [0.0])
+    first = sum(1 for r in swings if r.attempt == 1)   # swings, not their tries
+    failed = [first - 1] if swings and swings[-1].outcome != "captured" else []
+    speeds = [r.capture_speed_mps for r in swings if r.outcome == "captured"]
+    return TraverseTotals({
         "failed_swing": failed[0] if failed else math.nan,
         "capture_speed_mps": max(speeds) if speeds else math.nan,
-        "peak_torque_Nm": max([r["peak_torque_Nm"] for r in swings] + [0.0]),
-        "peak_motor_power_W": max([r["peak_power_W"] for r in swings] + [0.0]),
-        "peak_voltage_V": max([r["peak_voltage_V"] for r in swings] + [0.0]),
+        "peak_torque_Nm": max([r.peak_torque_Nm for r in swings] + [0.0]),
+        "peak_motor_power_W": max([r.peak_power_W for r in swings] + [0.0]),
+        "peak_voltage_V": max([r.peak_voltage_V for r in swings] + [0.0]),
         "max_estimation_error_rad": tr.est_err,
         "fixed_gripper_open": tr.fixed_open,
         "outcome": tr.outcome, "success": tr.outcome == "passed",
         "obstacles": len(tr.line.obstacles),
-        "obstacles_passed": sum(1 for r in swings if r["outcome"] == "captured") // 2,
+        "obstacles_passed": sum(1 for r in swings if r.outcome == "captured") // 2,
         "swings": first, "retries": len(swings) - first,
-        "recover_time_s": sum(r["duration_s"] for r in tr.rows if r["kind"] == "recover"),
+        "recover_time_s": sum(r.duration_s for r in tr.rows if r.kind == "recover"),
         "distance_m": dist, "time_s": tr.t,
-        "swing_time_s": sum(r["duration_s"] for r in swings),
-        "ride_time_s": sum(r["duration_s"] for r in rides),
-        "rest_time_s": sum(r["duration_s"] for r in tr.rows if r["kind"] == "rest"),
-        "calibration_time_s": sum(r["duration_s"] for r in tr.rows
-                                  if r["kind"] == "calibrate"),
+        "swing_time_s": sum(r.duration_s for r in swings),
+        "ride_time_s": sum(r.duration_s for r in rides),
+        "rest_time_s": sum(r.duration_s for r in tr.rows if r.kind == "rest"),
+        "calibration_time_s": sum(r.duration_s for r in tr.rows
+                                  if r.kind == "calibrate"),
         "speed_m_per_min": 60.0 * dist / tr.t if tr.t > 0 else math.nan,
         "energy_J": energy, "energy_ride_J": tr.energy["ride"],
         "energy_swing_J": tr.energy["swing"], "energy_standby_J": tr.energy["standby"],
         "energy_per_m_J": energy / dist if dist > 0 else math.nan,
-        "peak_capture_impulse_Ns": max([r["capture_impulse_Ns"] for r in swings
-                                        if not math.isnan(r["capture_impulse_Ns"])] + [0.0]),
+        "peak_capture_impulse_Ns": max([r.capture_impulse_Ns for r in swings
+                                        if not math.isnan(r.capture_impulse_Ns)] + [0.0]),
         "peak_i2t_A2s": peak_i2t, "i2t_budget_A2s": interlock_budget(tr.params.motor),
         "seed": tr.seed,
-    }
+    })

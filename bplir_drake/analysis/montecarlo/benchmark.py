@@ -116,10 +116,10 @@ def _run_case(params: BplirParams, job: dict) -> dict:
     try:
         p = case_params(params, job["controller"], job["changes"], job["controller_args"])
         s = run_swing(p, seed=job["seed"]).summary
-        row |= {"outcome": s["outcome"], "success": bool(s["success"]),
-                "capture_speed_mps": s["capture_speed_mps"], "swing_time_s": s["swing_time_s"],
-                "peak_torque_Nm": s["peak_torque_Nm"], "peak_motor_power_W":
-                s["peak_motor_power_W"], "energy_in_J": s["energy_in_J"], "error": ""}
+        row |= {"outcome": s.outcome, "success": bool(s.success),
+                "capture_speed_mps": s.capture_speed_mps, "swing_time_s": s.swing_time_s,
+                "peak_torque_Nm": s.peak_torque_Nm, "peak_motor_power_W": s.peak_motor_power_W,
+                "energy_in_J": s.energy_in_J, "error": ""}
     except Exception as exc:
         nan = float("nan")
         row |= {"outcome": "error", "success": False, "capture_speed_mps": nan,

@@ -61,9 +61,9 @@ def plot_swing(result, axes=None, title=None, panel: str | None = None):
         _draw_panel(ax[row, col], c, SWING_PANELS[k], result, k)
     for a in ax[2]:
         a.set_xlabel("time [s]")
-    caption = (f"{s['outcome']} at {s['swing_time_s']:.2f} s, {s['capture_speed_mps']:.2f} m/s; "
-               f"seed {s['seed']}, incline {s['incline_deg']:g} deg, grip spacing "
-               f"{s['grip_spacing_m']:g} m, controller {s['controller']}, supply "
+    caption = (f"{s.outcome} at {s.swing_time_s:.2f} s, {s.capture_speed_mps:.2f} m/s; "
+               f"seed {s.seed}, incline {s.incline_deg:g} deg, grip spacing "
+               f"{s.grip_spacing_m:g} m, controller {s.controller}, supply "
                f"{result.params.motor.supply_voltage:g} V; dashed red line: the interlock's decision")
     return finish(fig, title or "BPLIR swing", caption)
 
@@ -79,7 +79,7 @@ def _draw_panel(a, c, spec, result, index):
     if a.get_legend() is None:  # overlaid swings: the first one's legend
         a.legend(fontsize=7, ncol=2 if len(lines) > 3 else 1)
     if PANEL_NAMES[index] == "torque":
-        lim = s["thresholds"]["torque_limit_Nm"]
+        lim = s.thresholds["torque_limit_Nm"]
         for sign in (1, -1):
             a.axhline(sign * lim, color="grey", lw=0.6)
         a.text(0.99, 0.90, f"torque limit \u00b1{lim:g} N m", transform=a.transAxes,
@@ -97,8 +97,8 @@ def _draw_panel(a, c, spec, result, index):
                f"the grip {result.params.scenario.grip_spacing:g} m along it, dotted",
                transform=a.transAxes, fontsize=7, color="grey")
     a.grid(True, alpha=0.3)
-    if math.isfinite(s["swing_time_s"]):
-        a.axvline(s["swing_time_s"], color="C3", lw=0.6, ls="--")
+    if math.isfinite(s.swing_time_s):
+        a.axvline(s.swing_time_s, color="C3", lw=0.6, ls="--")
 
 
 def animate_swing(result, path, fps: int = 25, max_frames: int = 120) -> Path:
@@ -167,7 +167,7 @@ def swing_replay_scene(result):
     target one grip spacing along it, the holding gripper's clamp, and the
     arriving gripper's clamp from the capture on (a captured swing)."""
     s = result.summary
-    return swing_scene(result.params, float(s["swing_time_s"]) if result.success else None)
+    return swing_scene(result.params, float(s.swing_time_s) if result.success else None)
 
 
 def swing_scene(p, captured_at: float | None = None):
@@ -190,8 +190,8 @@ def replay_swing_html(result, path, fps: float = 30.0) -> Path:
 
     st = result.logs["state"]
     s = result.summary
-    title = (f"BPLIR swing: {s['outcome']} (seed {s['seed']}, incline "
-             f"{s['incline_deg']:g} deg)")
+    title = (f"BPLIR swing: {s.outcome} (seed {s.seed}, incline "
+             f"{s.incline_deg:g} deg)")
     html = replay_html(result.params.simulated_plant, st.t, st.data[:, :2],
                        swing_replay_scene(result), fps=fps, title=title)
     return write_replay_html(path, html)

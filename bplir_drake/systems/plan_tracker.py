@@ -153,7 +153,7 @@ class PlanTracker(LeafSystem):
         n = max(2, int(round(search / (period / 4))) + 1)
         self._steps = np.linspace(0.0, search, n)
         self.period = period
-        self.DeclareVectorInputPort("state", 4)
+        self.state_port = self.DeclareVectorInputPort("state", 4)
         self.steps_port = (self.DeclareVectorInputPort("delay_steps", 1) if adaptive_lead
                            else None)
         self._xd = self.DeclareDiscreteState(3)  # [phase tau of the last tick, tick count, reach]
@@ -205,7 +205,7 @@ class PlanTracker(LeafSystem):
     def _tick_law(self, context):
         """(torque, planned q2, phase tau, tick count) of this tick; with
         ``"time"`` indexing the phase is the tick's time ``k T``."""
-        x = self.get_input_port(0).Eval(context)
+        x = self.state_port.Eval(context)
         tau_prev, k, reached = context.get_discrete_state(self._xd).get_value()
         lead = self.lead
         if self.steps_port is not None:

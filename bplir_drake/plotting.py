@@ -20,6 +20,9 @@ from .io import atomic_path
 
 _MADE_HERE: "weakref.WeakSet" = weakref.WeakSet()  # figures a plot function made itself
 
+#: the height (inches) kept above the axes for a figure's title
+TITLE_ROOM = 0.25
+
 
 def figure_axes(axes=None, nrows: int = 1, ncols: int = 1, *, figsize=(8, 6), **subplots_kw):
     """``(figure, axes)`` to draw on: new ones shaped like
@@ -51,13 +54,15 @@ def finish(fig, title: str | None = None, caption: str | None = None):
     if caption:
         fig.bplir_caption = caption
     if fig in _MADE_HERE:
+        top = 1.0
         if title:
             fig.suptitle(title)
+            top = 1.0 - TITLE_ROOM / fig.get_figheight()   # the axes keep clear of the title
+        bottom = 0.0
         if caption:
             fig.text(0.005, 0.005, caption, fontsize=7, color="0.35", ha="left", va="bottom")
-            fig.tight_layout(rect=(0, 0.03, 1, 1))
-        else:
-            fig.tight_layout()
+            bottom = 0.03
+        fig.tight_layout(rect=(0, bottom, 1, top))
     return fig
 
 

@@ -138,7 +138,7 @@ def test_the_swing_figure_draws_the_gripper_against_its_inclined_line():
     labels = [a.get_ylabel() for a in fig.axes]
     assert all("[" in label for label in labels), labels
     assert [t.get_text() for t in fig.axes[4].get_legend().get_texts()] == [
-        "along the line", "above the line"]
+        "along the line", "above the line", "the line (20 deg)", "the grip, 1.2 m along it"]
 
 
 @pytest.mark.parametrize("n, columns", [(4, 2), (6, 3), (25, 5), (7, 2)])
@@ -162,9 +162,11 @@ def test_success_vs_parameters_has_no_empty_panel_and_keeps_its_rate_clear(n, co
     FigureCanvasAgg(fig).draw()
     renderer = fig.canvas.get_renderer()
     main = [a for a in fig.axes if a.get_ylabel() == "capture speed [m/s]"]
-    twins = [a for a in fig.axes if a.get_ylabel() == "success rate"]
+    twins = [a for a in fig.axes if a.get_ylabel() == "success"]
     assert len(main) == len(twins) == 4 and len(fig.axes) == 8
+    title = fig._suptitle.get_window_extent(renderer)
     for ax, twin in zip(main, twins):
+        assert not twin.yaxis.label.get_window_extent(renderer).overlaps(title)
         limit_label = ax.texts[0].get_window_extent(renderer)
         limit_line = next(ln for ln in ax.get_lines() if ln.get_linestyle() == "--")
         for tick in twin.get_yticklabels():

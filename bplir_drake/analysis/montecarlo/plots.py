@@ -104,8 +104,8 @@ def _success_band(ax, x, succ) -> None:
     span = 1.0 / (hi - lo)
     ax2.set_ylim(-lo * span, (1.0 - lo) * span)
     ax2.set_yticks([0.0, 1.0])
-    ax2.set_ylabel("success rate", color="tab:blue", fontsize=8)
-    ax2.yaxis.set_label_coords(1.06, (lo + hi) / 2)
+    ax2.set_ylabel("success", color="tab:blue", fontsize=7)   # short: inside the band
+    ax2.yaxis.set_label_coords(1.07, (lo + hi) / 2)
 
 
 def _hist_range(v: np.ndarray) -> tuple[float, float]:

@@ -76,8 +76,7 @@ def _draw_panel(a, c, spec, result, index):
         a.plot(c["t"], c[name], style, lw=0.8 if style.startswith("k") and name != "energy"
                else None, label=label)
     a.set_ylabel(ylabel)
-    if a.get_legend() is None:  # overlaid swings: the first one's legend
-        a.legend(fontsize=7, ncol=2 if len(lines) > 3 else 1)
+    first = a.get_legend() is None   # overlaid swings: the first one's legend
     if PANEL_NAMES[index] == "torque":
         lim = s.thresholds["torque_limit_Nm"]
         for sign in (1, -1):
@@ -91,11 +90,12 @@ def _draw_panel(a, c, spec, result, index):
         a.text(0.01, 0.90, f"driver limit \u00b1{vmax:.1f} V", transform=a.transAxes,
                va="top", fontsize=7, color="grey")
     elif PANEL_NAMES[index] == "gripper":   # the line, whatever its incline
-        a.axhline(0, color="k", lw=0.6)
-        a.axhline(result.params.scenario.grip_spacing, color="C2", lw=0.6, ls=":")
-        a.text(0.01, 0.06, f"the line ({result.params.scenario.incline_deg:g} deg) at 0; "
-               f"the grip {result.params.scenario.grip_spacing:g} m along it, dotted",
-               transform=a.transAxes, fontsize=7, color="grey")
+        sc = result.params.scenario
+        a.axhline(0, color="k", lw=0.6, label=f"the line ({sc.incline_deg:g} deg)" * first)
+        a.axhline(sc.grip_spacing, color="C2", lw=0.6, ls=":",
+                  label=f"the grip, {sc.grip_spacing:g} m along it" * first)
+    if first:
+        a.legend(fontsize=7, ncol=2 if len(lines) > 3 else 1)
     a.grid(True, alpha=0.3)
     if math.isfinite(s.swing_time_s):
         a.axvline(s.swing_time_s, color="C3", lw=0.6, ls="--")

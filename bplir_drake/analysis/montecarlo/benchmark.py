@@ -33,7 +33,7 @@ from .executors import map_jobs
 from .plots import quantity_label
 from .sampling import apply_values, base_value, error_text, pinned
 from ..swing.run import run_swing
-from ...io import DictResult, atomic_path
+from ...io import DictResult, Record, atomic_path
 from ...plotting import figure_axes, finish
 
 MODEL_FIELDS = ("true_plant.m1", "true_plant.m2", "true_plant.I1", "true_plant.I2",
@@ -110,9 +110,15 @@ def case_seed(root: int, case: dict, repeat: int) -> int:
     return int(np.random.SeedSequence([root, key, repeat]).generate_state(1, np.uint32)[0])
 
 
-def _run_case(params: BplirParams, job: dict) -> dict:
+class BenchmarkRow(Record):
+    """One case, controller and repeat of a benchmark (:data:`CASE_COLUMNS`),
+    read as attributes or as the columns of ``benchmark_cases.csv``."""
 
-    row = {k: job[k] for k in ("controller", "category", "label", "case", "repeat", "seed")}
+
+def _run_case(params: BplirParams, job: dict) -> BenchmarkRow:
+    """The row of one case (a job: its controller, changes, repeat and seed)."""
+    row = BenchmarkRow({k: job[k] for k in ("controller", "category", "label", "case", "repeat",
+                                            "seed")})
     try:
         p = case_params(params, job["controller"], job["changes"], job["controller_args"])
         s = run_swing(p, seed=job["seed"]).summary
@@ -152,11 +158,11 @@ def run_benchmark(params: BplirParams, controllers=("plan", "cpfl-qft", "lab"), 
                                              "controller_args": tuple(controller_args)}))
     rows = sorted(map_jobs(_run_case, jobs, workers=workers, progress=progress,
                            desc="benchmark"),
-                  key=lambda r: (r["controller"], r["case"], r["repeat"]))
+                  key=lambda r: (r.controller, r.case, r.repeat))
     scores = {}
     for c in controllers:
-        mine = [r for r in rows if r["controller"] == c]
-        cat = {k: float(np.mean([r["success"] for r in mine if r["category"] == k]))
+        mine = [r for r in rows if r.controller == c]
+        cat = {k: float(np.mean([r.success for r in mine if r.category == k]))
                for k in CATEGORIES if k in categories}
         scores[c] = {"categories": cat, "overall": float(np.mean(list(cat.values()))),
                      "swings": len(mine)}

@@ -13,7 +13,7 @@ import math
 import numpy as np
 
 from .statistics import influence
-from .study import Study
+from .study import Study, study_rows
 from ...plotting import figure_axes, finish
 from dataclasses import fields
 from ...params import BLOCKS
@@ -39,7 +39,7 @@ def quantity_label(name: str) -> str:
 
 
 def _colour(rows):
-    return [OUTCOME_COLOURS.get(r["outcome"], "grey") for r in rows]
+    return [OUTCOME_COLOURS.get(r.outcome, "grey") for r in rows]
 
 
 #: where each panel of :func:`plot_success_vs_parameters` draws the success
@@ -62,12 +62,13 @@ def plot_success_vs_parameters(study: Study, rows: list[dict], axes=None):
     (one axis per quantity); returns the figure."""
     from matplotlib.ticker import MaxNLocator
 
+    rows = study_rows(rows)
     names = study.names or ["index"]
     ncol = _grid_columns(len(names))
     nrow = math.ceil(len(names) / ncol)
     fig, axes = figure_axes(axes, nrow, ncol, figsize=(4.6 * ncol, 3.4 * nrow), squeeze=False)
-    speed = np.array([r["capture_speed_mps"] for r in rows], dtype=float)
-    succ = np.array([bool(r["success"]) for r in rows])
+    speed = np.array([r.capture_speed_mps for r in rows], dtype=float)
+    succ = np.array([bool(r.success) for r in rows])
     limit = study.params.scenario.capture_speed
     top = max(limit, np.nanmax(speed, initial=limit)) / SPEED_TOP
     for ax, name in zip(axes.flat, names):
@@ -123,6 +124,7 @@ def _hist_range(v: np.ndarray) -> tuple[float, float]:
 def plot_histograms(study: Study, rows: list[dict], axes=None):
     """Histograms of capture speed, swing time, peak torque and peak power (2 x 2 axes); returns
     the figure."""
+    rows = study_rows(rows)
     every = study.line is not None   # a traversal's figures: its worst swing, its swings' sum
     fields = [("capture_speed_mps", "capture speed [m/s]", study.params.scenario.capture_speed,
                "limit"),
@@ -133,7 +135,7 @@ def plot_histograms(study: Study, rows: list[dict], axes=None):
                "rating")]
     fig, axes = figure_axes(axes, 2, 2, figsize=(10, 7))
     for ax, (f, label, limit, name) in zip(axes.flat, fields):
-        v = np.array([r[f] for r in rows if r["outcome"] != "error"], dtype=float)
+        v = np.array([r[f] for r in rows if r.outcome != "error"], dtype=float)
         v = v[np.isfinite(v)]
         if v.size:
             ax.hist(v, bins=min(40, max(5, v.size // 5)), range=_hist_range(v),
@@ -150,6 +152,7 @@ def plot_histograms(study: Study, rows: list[dict], axes=None):
 def plot_influence(study: Study, rows: list[dict], axes=None):
     """The samples over the two most influential quantities, coloured by outcome (one axis);
     returns the figure."""
+    rows = study_rows(rows)
     inf = influence(study, rows)
     ranked = sorted(inf, key=inf.get, reverse=True)
     fig, ax = figure_axes(axes, figsize=(6.5, 5))
@@ -160,7 +163,7 @@ def plot_influence(study: Study, rows: list[dict], axes=None):
         ax.set_ylabel(f"{quantity_label(b)} (|r| = {inf[b]:.2f})")
     elif ranked:
         a = ranked[0]
-        ax.scatter([r[a] for r in rows], [r["capture_speed_mps"] for r in rows],
+        ax.scatter([r[a] for r in rows], [r.capture_speed_mps for r in rows],
                    c=_colour(rows), s=12)
         ax.set_xlabel(quantity_label(a))
         ax.set_ylabel("capture speed [m/s]")

@@ -7,7 +7,7 @@ import math
 import numpy as np
 
 from ...io import package_version
-from .study import Study
+from .study import Study, study_rows
 
 # ------------------------------------------------------------ statistics
 
@@ -42,14 +42,15 @@ def summarize(study: Study, rows: list[dict]) -> dict:
     """The statistics of a study's rows: success rate over the samples that ran with its 95 %
     Wilson interval, outcome counts, failed and unsuccessful samples, percentiles of the
     result fields."""
-    ran = [r for r in rows if r["outcome"] != "error"]
-    errors = [r for r in rows if r["outcome"] == "error"]
-    k = sum(bool(r["success"]) for r in ran)
+    rows = study_rows(rows)
+    ran = [r for r in rows if r.outcome != "error"]
+    errors = [r for r in rows if r.outcome == "error"]
+    k = sum(bool(r.success) for r in ran)
     n = len(ran)
     lo, hi = wilson_interval(k, n)
     outcomes: dict[str, int] = {}
     for r in rows:
-        outcomes[r["outcome"]] = outcomes.get(r["outcome"], 0) + 1
+        outcomes[r.outcome] = outcomes.get(r.outcome, 0) + 1
     pct = percentiles(ran, PERCENTILE_FIELDS)
     return {
         "samples": len(rows),
@@ -60,12 +61,12 @@ def summarize(study: Study, rows: list[dict]) -> dict:
         "success_rate_ci95": [lo, hi],
         "ci_method": "Wilson score, 95 %, over samples that ran (errors excluded)",
         "outcomes": outcomes,
-        "failed_samples": [{"index": r["index"], "seed": r["seed"], "error": r["error"]}
+        "failed_samples": [{"index": r.index, "seed": r.seed, "error": r.error}
                            for r in errors],
-        "unsuccessful_samples": [{"index": r["index"], "outcome": r["outcome"],
-                                  "capture_speed_mps": r["capture_speed_mps"]}
-                                 for r in ran if not r["success"]],
-        "fixed_gripper_opened_early": sum(bool(r["fixed_gripper_open"]) and not r["success"]
+        "unsuccessful_samples": [{"index": r.index, "outcome": r.outcome,
+                                  "capture_speed_mps": r.capture_speed_mps}
+                                 for r in ran if not r.success],
+        "fixed_gripper_opened_early": sum(bool(r.fixed_gripper_open) and not r.success
                                           for r in rows),
         "percentiles": pct,
         "uncertain": {d.name: d.as_dict() for d in study.distributions},
@@ -83,8 +84,8 @@ def _traverse_summary(study: Study, ran: list[dict]) -> dict:
     swing that failed) and percentiles of the traversal figures."""
     misses: dict[str, int] = {}
     for r in ran:
-        if not r["success"]:
-            swing = r["failed_swing"]
+        if not r.success:
+            swing = r.failed_swing
             where = f" (swing {int(swing) + 1})" if np.isfinite(swing) else ""
             key = f"{r['outcome']}{where}"
             misses[key] = misses.get(key, 0) + 1
@@ -97,12 +98,13 @@ def _traverse_summary(study: Study, ran: list[dict]) -> dict:
 def influence(study: Study, rows: list[dict]) -> dict[str, float]:
     """How strongly each uncertain quantity drives the result: |correlation|
     with success when both outcomes occur, else with the capture speed."""
-    ran = [r for r in rows if r["outcome"] != "error"]
-    succ = np.array([float(r["success"]) for r in ran])
+    rows = study_rows(rows)
+    ran = [r for r in rows if r.outcome != "error"]
+    succ = np.array([float(r.success) for r in ran])
     if 0 < succ.sum() < len(succ):
         target = succ
     else:
-        target = np.array([r["capture_speed_mps"] for r in ran], dtype=float)
+        target = np.array([r.capture_speed_mps for r in ran], dtype=float)
     out = {}
     for name in study.names:
         x = np.array([r[name] for r in ran], dtype=float)

@@ -21,6 +21,12 @@ class StudyRow(Record):
     that raised; read as attributes (``row.outcome``) or as the columns of
     ``results.csv`` (``row["true_plant.m2"]``)."""
 
+
+def study_rows(rows) -> list[StudyRow]:
+    """``rows`` (any mappings: a study's, or a user's dicts) as
+    :class:`StudyRow`s."""
+    return [r if isinstance(r, StudyRow) else StudyRow(r) for r in rows]
+
 DIST_KINDS = ("uniform", "normal", "truncnormal")
 #: blocks a distribution may address (never the nominal model)
 UNCERTAIN_BLOCKS = ("true_plant", "true_friction", "imu", "line_sensor", "motor", "scenario")

@@ -10,7 +10,7 @@ from .options import command, option, shared
 def cmd_benchmark(args) -> int:
     """``bplir benchmark``: score controller presets by category."""
     from ..analysis.montecarlo.benchmark import (benchmark_table, leaderboard, leaderboard_table,
-                                                plot_benchmark, run_benchmark, scored)
+                                                plot_benchmark, run_benchmark)
 
     from ..params import CONTROLLER_PRESETS, _is_plugin, current_preset_name
 
@@ -28,7 +28,7 @@ def cmd_benchmark(args) -> int:
         raise InputError("--controller-arg needs a plug-in among --controllers "
                          "(module:factory or a registered name)")
     for c in presets:
-        _check_plugin(scored(params, c, args.controller_arg))
+        _check_plugin(params.with_controller(c, args.controller_arg))
     if args.workers is not None:
         _in_range("--workers", args.workers, 1, 256)
     _in_range("--seed", args.seed, 0, 2 ** 32 - 1)
@@ -71,12 +71,11 @@ def _realistic_studies(args, base, controllers, out, run: bool) -> dict:
     import re
 
     from ..analysis.montecarlo import run_study
-    from ..analysis.montecarlo.benchmark import scored
     from ..analysis.montecarlo.runner import check_out
 
     summaries = {}
     for c in controllers:
-        study = base.with_(params=scored(base.params, c, args.controller_arg))
+        study = base.with_(params=base.params.with_controller(c, args.controller_arg))
         where = out / "realistic" / re.sub(r"[^A-Za-z0-9_.-]+", "_", c)
         if not run:
             check_out(study, where)

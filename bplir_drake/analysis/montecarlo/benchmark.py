@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ...params import CONTROLLER_PRESETS, BplirParams, ParameterError, _is_plugin, plugin_name
+from ...params import BplirParams, ParameterError, plugin_name
 from .executors import map_jobs
 from .plots import quantity_label
 from .sampling import apply_values, base_value, error_text, pinned
@@ -86,19 +86,12 @@ CATEGORIES = ("model parameters", "sensor noise", "torque noise", "delay", "gust
               "link-2 parameters", "IMU bias and misalignment", "grip spacing")
 
 
-def scored(params: BplirParams, controller: str, args=()) -> BplirParams:
-    """``params`` flying ``controller``: a preset (``args`` unused), or a
-    plug-in whose factory takes the keyword arguments ``args``
-    (``"key=value"`` each: the benchmark's ``--controller-arg``)."""
-    return params.with_controller(controller, args if _is_plugin(controller) and
-                                  controller not in CONTROLLER_PRESETS else ())
-
-
 def case_params(params: BplirParams, controller: str, changes: dict,
                 args=()) -> BplirParams:
     """The nominal robot (true = nominal, no friction draw) flying
-    ``controller`` (a plug-in's factory arguments ``args``) with ``changes``."""
-    p = pinned(scored(params, controller, args))
+    ``controller`` (a plug-in's factory arguments ``args``; a preset takes
+    none) with ``changes``."""
+    p = pinned(params.with_controller(controller, args))
     return apply_values(p, {name: base_value(p, name) * value if how == "scale" else value
                             for name, (how, value) in changes.items()})
 
@@ -142,7 +135,7 @@ def run_benchmark(params: BplirParams, controllers=("plan", "cpfl-qft", "lab"), 
     ``categories`` restricts the benchmark to some of :data:`CATEGORIES`;
     ``controller_args`` (``"key=value"`` each) go to the plug-ins' factories."""
     for c in controllers:
-        scored(params, c, controller_args)  # unknown names fail here, before any work
+        params.with_controller(c, controller_args)  # unknown names fail here, before any work
     repeats = (1 if quick else 3) if repeats is None else repeats
     unknown = set(categories) - set(CATEGORIES)
     if unknown:

@@ -173,9 +173,13 @@ class WallClockLimit(RuntimeError):
     (a hung plug-in, an integrator crawling)."""
 
 
+#: what most likely ran past a wall-clock limit (the default of its message)
+HUNG_PLUGIN = "a hung controller or plug-in?"
+
+
 @contextlib.contextmanager
 def wall_clock_limit(seconds: float | None, what: str = "the simulation",
-                     hint: str = "a hung controller or plug-in?"):
+                     hint: str = HUNG_PLUGIN):
     """Raise :class:`WallClockLimit` inside the block once it has run
     ``seconds`` of wall-clock time (SIGALRM; Python code -- a plug-in's
     calc, a Drake callback -- is stopped where it runs).  Outside the main

@@ -7,7 +7,7 @@ import numpy as np
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.analysis import ResetIntegratorFromFlags
 
-from .io import WallClockLimit, wall_clock_limit  # noqa: F401 (re-exported)
+from .io import HUNG_PLUGIN, WallClockLimit, wall_clock_limit  # noqa: F401 (re-exported)
 
 
 class SimulationError(RuntimeError):
@@ -97,9 +97,16 @@ def run(sim, duration: float, wall_limit: float | None = None,
     """Advance ``sim`` by ``duration``; integrator failures (and a callback's
     ``sys.exit``) become :class:`SimulationError`, and past ``wall_limit``
     seconds of wall-clock time :class:`WallClockLimit` is raised."""
+    _advance(sim, sim.get_context().get_time() + duration, wall_limit, what, hint)
+
+
+def _advance(sim, end: float, wall_limit, what: str, hint: str) -> None:
+    """``sim.AdvanceTo(end)`` within ``wall_limit``; a failure inside is
+    :class:`SimulationError` naming ``what`` and the time (a
+    :class:`WallClockLimit` a C++ callback wrapped is raised as itself)."""
     try:
         with wall_clock_limit(wall_limit, what, hint):
-            sim.AdvanceTo(sim.get_context().get_time() + duration)
+            sim.AdvanceTo(end)
     except WallClockLimit:
         raise
     except (RuntimeError, SystemExit) as exc:
@@ -132,11 +139,5 @@ def run_until_outcome(sim, built, max_time: float, wall_limit: float | None = No
     past ``wall_limit`` seconds of wall-clock time :class:`WallClockLimit`
     is raised (naming ``what``)."""
     lock = built.systems["interlock"]
-    try:
-        with wall_clock_limit(wall_limit, what):
-            sim.AdvanceTo(max_time + 2 * lock.period)
-    except WallClockLimit:
-        raise
-    except (RuntimeError, SystemExit) as exc:
-        _failed(sim, exc, what)
+    _advance(sim, max_time + 2 * lock.period, wall_limit, what, HUNG_PLUGIN)
     return lock.outcome(sim.get_context())

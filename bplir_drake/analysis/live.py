@@ -10,13 +10,10 @@ it would happen.  After the swing, the view replays it on its
 *Animations* panel, like the self-contained HTML replay."""
 from __future__ import annotations
 
-import logging
-import math
-
 import numpy as np
 
 from ..diagrams.visual import build_replay_visualizer
-from .replay import add_scene, plane_pose, set_camera
+from .replay import add_scene, plane_pose, quiet_meshcat, set_camera, stand_upright
 
 
 class LiveView:
@@ -26,25 +23,17 @@ class LiveView:
 
     def __init__(self, plant_params, fps: float = 30.0, port: int | None = None,
                  rate: float = 1.0):
-        from pydrake.geometry import Meshcat, MeshcatParams
-        from pydrake.math import RigidTransform, RotationMatrix
+        from pydrake.geometry import MeshcatParams
 
         params = MeshcatParams()
         if port is not None:
             params.port = int(port)
         params.host = "localhost"
-        log = logging.getLogger("drake")   # the command says where it listens, once
-        level = log.level
-        log.setLevel(logging.WARNING)
-        try:
-            self.meshcat = Meshcat(params)
-        finally:
-            log.setLevel(level)
+        self.meshcat = quiet_meshcat(params)
         self.fps, self.rate, self.plant_params = float(fps), float(rate), plant_params
         self.built = build_replay_visualizer(plant_params, self.meshcat, fps=fps)
         self.context = self.built.diagram.CreateDefaultContext()
-        self.meshcat.SetTransform("/drake", RigidTransform(RotationMatrix.MakeXRotation(
-            math.pi / 2)))
+        stand_upright(self.meshcat)
         self.frames = 0
         self._next = 0.0
         self._recording = False

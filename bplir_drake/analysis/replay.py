@@ -118,16 +118,11 @@ def replay_html(plant: PlantParams, t, q, scene: ReplayScene, *, fps: float = 30
     ``base``: optional ``(n x 3)`` pose of the holding gripper (x, y,
     rotation) per logged time, for motion that moves the robot along the
     line; ``None`` holds it at the origin."""
-    from pydrake.geometry import Meshcat
-
-
-    from pydrake.math import RigidTransform, RotationMatrix
-
     t = np.asarray(t, dtype=float)
     q = np.asarray(q, dtype=float).reshape(len(t), 2)
     if len(t) < 2 or not np.all(np.diff(t) >= 0):
         raise ValueError("a replay needs at least two logged times in increasing order")
-    meshcat = _quiet_meshcat(Meshcat)
+    meshcat = quiet_meshcat()
     try:
         built = build_replay_visualizer(plant, meshcat, fps=fps)
         diagram, mbp, vis = built.diagram, built.plant, built["visualizer"]
@@ -150,9 +145,7 @@ def replay_html(plant: PlantParams, t, q, scene: ReplayScene, *, fps: float = 30
         vis.StopRecording()
         vis.get_mutable_recording().set_autoplay(True)
         vis.PublishRecording()
-        # the plane of motion (x right, y up) stands upright in Meshcat's
-        # z-up world: x stays, y becomes z
-        meshcat.SetTransform("/drake", RigidTransform(RotationMatrix.MakeXRotation(math.pi / 2)))
+        stand_upright(meshcat)
         set_camera(meshcat, scene, plant)
         page = meshcat.StaticHtml()
     finally:
@@ -163,17 +156,27 @@ def replay_html(plant: PlantParams, t, q, scene: ReplayScene, *, fps: float = 30
                   count=1)
 
 
-def _quiet_meshcat(Meshcat):
-    """A Meshcat server without its "listening for connections" log line
-    (the replay is written to a file; nobody connects)."""
+def quiet_meshcat(params=None):
+    """A Meshcat server (with ``params``, a ``MeshcatParams``) without its
+    "listening for connections" log line: a replay is written to a file,
+    and a live view says its address itself."""
+    from pydrake.geometry import Meshcat
 
     log = logging.getLogger("drake")
     level = log.level
     log.setLevel(logging.WARNING)
     try:
-        return Meshcat()
+        return Meshcat() if params is None else Meshcat(params)
     finally:
         log.setLevel(level)
+
+
+def stand_upright(meshcat) -> None:
+    """Stand the plane of motion (x right, y up) upright in Meshcat's z-up
+    world: x stays, y becomes z."""
+    from pydrake.math import RigidTransform, RotationMatrix
+
+    meshcat.SetTransform("/drake", RigidTransform(RotationMatrix.MakeXRotation(math.pi / 2)))
 
 
 def set_camera(meshcat, scene: ReplayScene, plant: PlantParams) -> None:

@@ -180,6 +180,12 @@ def _locked(path: Path):
         os.close(fd)
 
 
+def damage(exc: BaseException) -> str:
+    """What is wrong with a stored plan file, in a few words: the error its
+    reading or its check raised, on one line."""
+    return " ".join(str(exc).split())[:160] or type(exc).__name__
+
+
 def _read(load, path: Path):
     """``load(path)``, or None when the file is missing or damaged; a
     damaged file in the cache is moved aside (``.damaged``) to be re-solved,
@@ -189,7 +195,7 @@ def _read(load, path: Path):
     try:
         return load(path)
     except Exception as exc:   # truncated, not a zip, wrong fields, NaN, times reversed
-        why = " ".join(str(exc).split())[:160] or type(exc).__name__
+        why = damage(exc)
         if path.parent == PACKAGED:
             warnings.warn(f"the shipped plan file {path} is damaged ({why}); it is solved "
                           "instead (reinstall the package to restore it)", stacklevel=2)

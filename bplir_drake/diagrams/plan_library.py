@@ -37,7 +37,7 @@ from ..systems.friction import friction_torques
 from ..systems.plan_tracker import RICCATI_ACCURACY, TrackerWeights, TrackingGains, plan_gains
 from ..systems.plant import start_configuration
 from ..io import atomic_path
-from .plan_cache import PACKAGED, plan_key
+from .plan_cache import PACKAGED, damage, plan_key
 from .swing_plan import (HANGING_GUESSES, HANGING_KNOTS, HANGING_MINOR_ITERATIONS,
                          PLAN_FRICTION_SMOOTHING, SwingPlan, hanging_planned, plan_envelope,
                          plan_friction, plan_torque_limit, planned_target, shifted_angles)
@@ -164,8 +164,7 @@ def load_library(path: Path) -> PlanLibrary | None:
         lib = _load(path)
         _check_library(lib)
     except Exception as exc:   # truncated, not a zip, wrong fields, non-finite plans
-        why = " ".join(str(exc).split())[:160] or type(exc).__name__
-        warnings.warn(f"the plan library {path} is damaged ({why}); plans it holds are "
+        warnings.warn(f"the plan library {path} is damaged ({damage(exc)}); plans it holds are "
                       "solved instead (reinstall the package to restore it)", stacklevel=2)
         return None
     return lib

@@ -171,15 +171,16 @@ def check_calibration_log(t, q, tau, qd0=None, *, min_duration: float = 2.0) -> 
         dur = (t[-1] - t[0]) if len(t) else 0.0
         raise CalibrationError(f"log is too short: {len(t)} samples over {dur:.2f} s; need at "
                                f"least 20 samples and {min_duration:g} s")
-    if np.any(np.diff(t) <= 0):
-        k = int(np.argmax(np.diff(t) <= 0))
-        raise CalibrationError(f"time is not increasing at row {k + 2}")
     gaps = np.diff(t)
-    if np.any(gaps > MAX_LOG_GAP * np.median(gaps)):
-        k = int(np.argmax(gaps > MAX_LOG_GAP * np.median(gaps)))
+    if np.any(gaps <= 0):
+        k = int(np.argmax(gaps <= 0))
+        raise CalibrationError(f"time is not increasing at row {k + 2}")
+    step = float(np.median(gaps))
+    if np.any(gaps > MAX_LOG_GAP * step):
+        k = int(np.argmax(gaps > MAX_LOG_GAP * step))
         raise CalibrationError(f"time jumps by {gaps[k]:g} s at row {k + 2} (t = {t[k + 1]:g} s "
                                f"after {t[k]:g} s); allowed at most {MAX_LOG_GAP:g} times the "
-                               f"log's median sampling period ({np.median(gaps):g} s) between "
+                               f"log's median sampling period ({step:g} s) between "
                                "rows: the torque is not known across a hole")
     if t[-1] - t[0] > MAX_LOG_DURATION:
         raise CalibrationError(f"log spans {t[-1] - t[0]:g} s; allowed at most "

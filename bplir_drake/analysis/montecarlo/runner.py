@@ -156,14 +156,14 @@ def _run_study(study: Study, out: Path, workers: int, dask: bool, scheduler,
     # the finished table in sample order: identical whatever the workers did
     ResultWriter(out / RESULTS_FILE, columns(study), rows).close()
     # a smaller -n than a previous run reports its first samples
-    summary = summarize(study, [r for r in rows if r.index < study.samples])
+    kept = [r for r in rows if r.index < study.samples]   # no negative index: refused above
+    summary = summarize(study, kept)
     summary["run"] = {"computed_now": len(todo), "resumed_from": len(done),
                       "wall_time_s": time.perf_counter() - t0,
                       "workers": workers or os.cpu_count(),
                       "executor": "dask" if (dask or scheduler) else "process pool"}
     write_json_atomic(out / SUMMARY_FILE, summary)
-    return StudySummary(summary, StudyResult(study, [r for r in rows
-                                                     if 0 <= r.index < study.samples]))
+    return StudySummary(summary, StudyResult(study, kept))
 
 
 def replay(study_dir, index: int):

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
 import sys
 from pathlib import Path
@@ -242,3 +243,18 @@ def _plugin_args_need_a_plugin(args) -> None:
         if getattr(args, f"{kind}_arg", None) and not getattr(args, kind, None):
             raise InputError(f"--{kind}-arg needs --{kind} naming your plug-in "
                              f"(module:factory or a registered name)")
+
+
+@contextlib.contextmanager
+def _live_view(params, what: str, pace: str):
+    """A Meshcat view of the robot of ``params`` (``--meshcat``), its address
+    said on standard error; the server stops when the block ends."""
+    from ..analysis.live import LiveView
+
+    view = LiveView(params.plant)
+    try:
+        sys.stderr.write(f"bplir: the {what} is shown at {view.url} (Meshcat, {pace})\n")
+        sys.stderr.flush()
+        yield view
+    finally:
+        view.close()

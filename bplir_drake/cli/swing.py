@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from pathlib import Path
 from ..io import write_text_atomic
-from .common import _plugin_args_need_a_plugin, InputError, _check_plugin, _emit, _load_params, _out_dir, _same, _save, _study_of, _with_path_mode, _write_json
+from .common import _live_view, _plugin_args_need_a_plugin, InputError, _check_plugin, _emit, _load_params, _out_dir, _same, _save, _study_of, _with_path_mode, _write_json
 from .logs import add_log_options, read_logs
 from .options import command, option, shared
 
@@ -111,20 +111,12 @@ def cmd_swing(args) -> int:
 
 
 def _run_live(params, run_swing):
-    """The swing shown live in Meshcat (its address said on standard error)."""
-    import sys
-
-    from ..analysis.live import LiveView
+    """The swing shown live in Meshcat (:func:`~.common._live_view`) with its scene."""
     from ..analysis.swing.plots import swing_scene
 
-    view = LiveView(params.plant)
-    try:
+    with _live_view(params, "swing", "real time") as view:
         view.scene(swing_scene(params))
-        sys.stderr.write(f"bplir: the swing is shown at {view.url} (Meshcat, real time)\n")
-        sys.stderr.flush()
         return run_swing(params, live=view)
-    finally:
-        view.close()
 
 
 def _outcome_line(s: dict) -> str:

@@ -5,7 +5,7 @@ import contextlib
 from pathlib import Path
 
 from ..io import atomic_path, write_text_atomic
-from .common import InputError, _emit, _in_range, _load_params, _out_dir, _progress, _same, _save, _study_of, _write_json
+from .common import InputError, _emit, _live_view, _in_range, _load_params, _out_dir, _progress, _same, _save, _study_of, _write_json
 from .options import command, option
 
 
@@ -50,7 +50,8 @@ def cmd_traverse(args) -> int:
             replay_info = {"study": str(args.replay), "sample": args.sample,
                            "matches_recorded": matches}
         else:   # the motion log is written beside its file and renamed when whole
-            live = _live_view(stack, params) if args.meshcat else None
+            live = (stack.enter_context(_live_view(params, "traversal", "swings at real time"))
+                    if args.meshcat else None)
             res = run_traverse(line, params, seed=args.seed or 0, progress=_progress(args),
                                motion=stack.enter_context(atomic_path(out / "motion.f64")),
                                live=live)
@@ -78,21 +79,6 @@ def cmd_traverse(args) -> int:
     _emit(data, args.json, replay_line + [table, ""] + totals_lines(res) + [
         f"files in {out}: " + ", ".join(Path(f).name for f in files.values())])
     return 0 if res.success else 1
-
-
-def _live_view(stack, params):
-    """A Meshcat view the traversal is drawn in (its address said on standard
-    error), stopped when the command's work ends."""
-    import sys
-
-    from ..analysis.live import LiveView
-
-    view = LiveView(params.plant)
-    stack.callback(view.close)
-    sys.stderr.write(f"bplir: the traversal is shown at {view.url} (Meshcat, swings at "
-                     "real time)\n")
-    sys.stderr.flush()
-    return view
 
 
 def add_parser(sub) -> None:

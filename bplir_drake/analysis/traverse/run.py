@@ -283,7 +283,7 @@ class _Traversal:
         follow = None if self.live is None else Following(
             self.live, lambda x: self._pose_track(x, hold, hold_g, run_p.simulated_plant), self.t)
         res = self.runners[hold_g].run(run_p, seed=seed, driver_state=(self.h, self.tripped),
-                                       start_state=x_start, **({"live": follow} if follow else {}))
+                                       start_state=x_start, live=follow)
         s = res.summary
         x_end = res.logs["state"].data[-1]
         sim_p = run_p.simulated_plant

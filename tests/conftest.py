@@ -87,6 +87,11 @@ def stopped_work(monkeypatch, tmp_path):
     monkeypatch.setenv("BPLIR_CACHE_DIR", str(tmp_path / "cache"))
 
 
+#: how a fuzzed command may end: a result (0), bad input (2), a fault inside
+#: (1), or at the work itself, stopped (None)
+ENDINGS = (None, 0, 1, 2)
+
+
 def ends_cleanly(argv) -> int | None:
     """Run ``bplir ARGV`` in-process (under :func:`stopped_work`): it ends in
     a result (0), one ``bplir: error:`` line with exit 1 or 2, or reaches

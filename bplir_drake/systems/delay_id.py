@@ -30,10 +30,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from pydrake.systems.framework import LeafSystem
+from pydrake.systems.framework import EventStatus, LeafSystem
 
 from ..params import FrictionParams, MotorParams, PlantParams
-from .predictor import nominal_rates
+from . import nominal_kernel
 from .schedule import declare_store
 from .state import RobotState
 
@@ -60,47 +60,20 @@ def planned_probe(path, plan, controller) -> tuple[float, ...]:
 
 def probe_rates(q0, commands, steps: int, period: float, latency: float, plant: PlantParams,
                 friction: FrictionParams, motor: MotorParams, substeps: int = 10,
-                rates=None) -> np.ndarray:
+                constants=None) -> np.ndarray:
     """The absolute link rates (gyro 1, gyro 2; rad/s) at ticks 1 .. N of
     the nominal model started at rest at the relative angles ``q0`` when
     the command of tick k (``commands``, N values, N m) reaches the driver
     ``steps`` ticks and ``latency`` s later; the driver's dead-band and
     torque limit apply and its current follows with ``motor.tau_current``
-    (exactly, over each substep).  RK4 on the plant, ``substeps`` per tick."""
-    f = rates or nominal_rates(plant, friction)
-    commands = [float(c) for c in commands]
-    n = len(commands)
-    x = [float(q0[0]), float(q0[1]), 0.0, 0.0]
-    torque, out = 0.0, []
-
-    def target(i):   # the torque the driver regulates to for the command of tick i
-        if not 0 <= i < n:
-            return 0.0
-        u = min(max(commands[i], -motor.torque_limit), motor.torque_limit)
-        return 0.0 if abs(u) < motor.deadband else u
-
-    def advance(x, torque, duration, goal):
-        count = max(1, int(math.ceil(duration / period * substeps - 1e-9)))
-        h = duration / count
-        decay = math.exp(-h / motor.tau_current)
-        for _ in range(count):
-            # the current loop's torque over the substep: its mean, held
-            mean = goal + (torque - goal) * (1.0 - decay) * motor.tau_current / h
-            torque = goal + (torque - goal) * decay
-            a = f(*x, mean)
-            b = f(*(x[i] + 0.5 * h * a[i] for i in range(4)), mean)
-            c = f(*(x[i] + 0.5 * h * b[i] for i in range(4)), mean)
-            d = f(*(x[i] + h * c[i] for i in range(4)), mean)
-            x = [x[i] + h / 6.0 * (a[i] + 2.0 * b[i] + 2.0 * c[i] + d[i]) for i in range(4)]
-        return x, torque
-
-    for k in range(n):   # tick k: the previous command until the latency, then this one
-        if latency > 0.0:
-            x, torque = advance(x, torque, latency, target(k - 1 - steps))
-        x, torque = advance(x, torque, period - latency, target(k - steps))
-        x = RobotState(x)
-        out.append((x.q1d, x.q1d + x.q2d))   # link 1's and link 2's absolute rates
-    return np.array(out)
+    (exactly, over each substep).  RK4 on the plant, ``substeps`` per tick
+    (compiled: :func:`~bplir_drake.systems.nominal_kernel.probe_rates`;
+    ``constants``: the model's :func:`~bplir_drake.systems.nominal_kernel.pack`)."""
+    c = nominal_kernel.pack(plant, friction) if constants is None else constants
+    return nominal_kernel.probe_rates(
+        c, float(q0[0]), float(q0[1]), np.asarray(commands, dtype=float).ravel(), int(steps),
+        float(period), float(latency),
+        np.array([motor.torque_limit, motor.deadband, motor.tau_current]), int(substeps))
 
 
 def delay_fit(q0, commands, gyros, max_steps: int, period: float, latency: float,
@@ -110,11 +83,11 @@ def delay_fit(q0, commands, gyros, max_steps: int, period: float, latency: float
     against :func:`probe_rates` of ``commands`` (ticks 0 .. N-1), each
     gyro's mean error removed."""
     gyros = np.asarray(gyros, dtype=float)
-    f = nominal_rates(plant, friction)
+    c = nominal_kernel.pack(plant, friction)
     sse = []
     for steps in range(max_steps + 1):
         e = gyros - probe_rates(q0, commands, steps, period, latency, plant, friction, motor,
-                                rates=f)
+                                constants=c)
         e -= e.mean(axis=0)
         sse.append(float((e ** 2).sum()))
     return np.array(sse)
@@ -165,11 +138,12 @@ class DelayIdentifier(LeafSystem):
     def _store(self, context, discrete_state):
         """At ``t_{k+1}``: store tick k's command and gyro sample; once
         ticks 0 .. window are in, identify."""
-        x = context.get_discrete_state(self._xd).get_value().copy()
         n = self.window
+        x = context.get_discrete_state(self._xd).get_value()
         k = int(round(x[3 * n]))
         if k > n:
-            return
+            return EventStatus.DidNothing()
+        x = x.copy()
         if k < n:
             x[k] = self.command_port.Eval(context)[0]
         if k >= 1:

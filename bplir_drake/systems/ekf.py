@@ -47,6 +47,7 @@ from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import LeafSystem
 
 from ..params import EstimatorParams
+from . import ekf_kernel
 from .calibration import ImuCalibration
 from .line_sensor import line_gap
 from .schedule import declare_store, declare_tick_result
@@ -252,9 +253,8 @@ class KinematicEkf(LeafSystem):
         self._first = self.DeclareDiscreteState([1.0])
         # the standstill calibration: samples are corrected before the update,
         # and the filter's R widened to the noise it measured
-        self._calibration = self.DeclareAbstractParameter(AbstractValue.Make(calibration))
-        self._tuned = self.DeclareAbstractParameter(AbstractValue.Make(
-            params.with_measured_noise(*calibration.noise)))
+        self._calibration = self.DeclareAbstractParameter(AbstractValue.Make(
+            self._compiled(calibration)))
         self._post = declare_tick_result(self, self._posterior,
                                          {self.xd_ticket(), self.all_input_ports_ticket()})
         declare_store(self, params.period, self._store)
@@ -265,6 +265,14 @@ class KinematicEkf(LeafSystem):
         self.covariance_port = self.DeclareVectorOutputPort("covariance_diagonal", n,
                                                             self._out_cov, dep)
         self.bias_port = self.DeclareVectorOutputPort("gyro_bias", 2, self._out_bias, dep)
+
+    def _compiled(self, calibration: ImuCalibration):
+        """(calibration, the packed constants of the filter tuned to its
+        measured noise, their random walks, its corrections, whether the
+        misalignment states are held) for the compiled step."""
+        consts, walk = ekf_kernel.pack(self.params.with_measured_noise(*calibration.noise))
+        cal = np.array([*calibration.misalign, *calibration.scale], dtype=float)
+        return calibration, consts, walk, cal, misalign_held(self.params, calibration.noise)
 
     def filter_state(self, context):
         """The stored discrete state, by name: (filter state ``EkfState(x, P)``,
@@ -278,14 +286,20 @@ class KinematicEkf(LeafSystem):
                 state.get_vector(self._first).GetAtIndex(0) > 0.5)
 
     def _posterior(self, context):
-        """(filter state, accelerometer input) after this tick's sample."""
-        s, u_prev, first = self.filter_state(context)
-        calibration = context.get_abstract_parameter(self._calibration).get_value()
-        sample = calibration.correct(self.imu_port.Eval(context))
-        tuned = context.get_abstract_parameter(self._tuned).get_value()
-        s, u = ekf_step(s, u_prev, sample, tuned, first=first,
-                        hold=context.get_time() < self.params.calibrate_after,
-                        hold_misalign=misalign_held(self.params, calibration.noise))
+        """(filter state, accelerometer input) after this tick's sample: the
+        compiled step (:func:`~bplir_drake.systems.ekf_kernel.step`, the
+        same arithmetic as :func:`ekf_step`)."""
+        state = context.get_discrete_state()
+        n = self.n
+        calibration, consts, walk, cal, held = context.get_abstract_parameter(
+            self._calibration).get_value()
+        x, P, u = ekf_kernel.step(
+            state.get_vector(self._x).get_value(),
+            state.get_vector(self._P).get_value().reshape(n, n),
+            state.get_vector(self._u).get_value(), self.imu_port.Eval(context),
+            state.get_vector(self._first).GetAtIndex(0) > 0.5,
+            context.get_time() < self.params.calibrate_after, held, consts, walk, cal)
+        s = EkfState(x, P)
         if self._line is not None:
             reading, valid = self.line_port.Eval(context)
             if valid > 0.5:
@@ -305,9 +319,8 @@ class KinematicEkf(LeafSystem):
         estimate and its measured noise in R
         (:meth:`~bplir_drake.params.EstimatorParams.with_measured_noise`)."""
         own = self.GetMyMutableContextFromRoot(context)
-        own.get_mutable_abstract_parameter(self._calibration).set_value(calibration)
-        own.get_mutable_abstract_parameter(self._tuned).set_value(
-            self.params.with_measured_noise(*calibration.noise))
+        own.get_mutable_abstract_parameter(self._calibration).set_value(
+            self._compiled(calibration))
         x = own.get_mutable_discrete_state(self._x)
         if self._bias is not None:
             x.SetAtIndex(self._bias.start, calibration.bias[0])

@@ -24,12 +24,12 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 from pydrake.common.containers import namedview
-from pydrake.systems.framework import LeafSystem
+from pydrake.systems.framework import EventStatus, LeafSystem
 
 from ..params import ScenarioParams
 from .schedule import declare_store
-from .state import RobotState
 
 OUTCOMES = ("swinging", "captured", "crash", "timeout", "fault")
 
@@ -46,19 +46,25 @@ class LineGeometry:
 
 def line_metrics(x, g: LineGeometry):
     """(distance to the line, signed; along-line position; travel from the
-    start; gripper speed) of the free gripper at state ``x`` (plain floats)."""
-    q1, q2, w1, w2 = float(x[0]), float(x[1]), float(x[2]), float(x[3])
+    start; gripper speed) of the free gripper at state ``x``."""
+    return _metrics(float(x[0]), float(x[1]), float(x[2]), float(x[3]), g.l1, g.l2, g.alpha,
+                    g.grip_spacing)
+
+
+@njit(cache=True)
+def _metrics(q1, q2, w1, w2, l1, l2, alpha, spacing):
     s1, c1, s12, c12 = math.sin(q1), math.cos(q1), math.sin(q1 + q2), math.cos(q1 + q2)
-    px, py = g.l1 * s1 + g.l2 * s12, -g.l1 * c1 - g.l2 * c12   # (A.3)
-    vx = g.l1 * c1 * w1 + g.l2 * c12 * (w1 + w2)
-    vy = g.l1 * s1 * w1 + g.l2 * s12 * (w1 + w2)
-    ca, sa = math.cos(g.alpha), math.sin(g.alpha)
+    px, py = l1 * s1 + l2 * s12, -l1 * c1 - l2 * c12   # (A.3)
+    vx = l1 * c1 * w1 + l2 * c12 * (w1 + w2)
+    vy = l1 * s1 * w1 + l2 * s12 * (w1 + w2)
+    ca, sa = math.cos(alpha), math.sin(alpha)
     along = px * ca + py * sa
     normal = -px * sa + py * ca
-    return normal, along, along + g.grip_spacing, math.hypot(vx, vy)
+    return normal, along, along + spacing, math.hypot(vx, vy)
 
 
-def hermite_state(x0, x1, T: float, s: float):
+@njit(cache=True)
+def hermite_state(x0, x1, T, s):
     """The state at ``t0 + s T`` between two ticks: cubic Hermite on the
     angles (their rates at both ends), its derivative for the rates."""
     s2, s3 = s * s, s * s * s
@@ -66,8 +72,57 @@ def hermite_state(x0, x1, T: float, s: float):
         (s3 - s2) * T
     d00, d10, d01, d11 = (6 * s2 - 6 * s) / T, 3 * s2 - 4 * s + 1, (-6 * s2 + 6 * s) / T, \
         3 * s2 - 2 * s
-    return [h00 * x0[i] + h10 * x0[i + 2] + h01 * x1[i] + h11 * x1[i + 2] for i in (0, 1)] + \
-        [d00 * x0[i] + d10 * x0[i + 2] + d01 * x1[i] + d11 * x1[i + 2] for i in (0, 1)]
+    out = np.empty(4)
+    for i in range(2):
+        out[i] = h00 * x0[i] + h10 * x0[i + 2] + h01 * x1[i] + h11 * x1[i + 2]
+        out[i + 2] = d00 * x0[i] + d10 * x0[i + 2] + d01 * x1[i] + d11 * x1[i + 2]
+    return out
+
+
+@njit(cache=True)
+def _arrives(x0, x1, T, s, geo, band, travel_min, passed, last_normal):
+    x = hermite_state(x0, x1, T, s)
+    normal, _, travel, _ = _metrics(x[0], x[1], x[2], x[3], geo[0], geo[1], geo[2], geo[3])
+    passed = passed or (x[0] - geo[2]) > 0.0
+    hit = passed and travel >= travel_min and (
+        abs(normal) <= band or last_normal < 0.0 <= normal)
+    return hit, x, passed, normal, travel
+
+
+@njit(cache=True)
+def arrival(x0, x1, T, geo, band, travel_min, passed, last_normal, substeps, bisections):
+    """:func:`first_arrival` on arrays: ``geo`` = (l1, l2, alpha, spacing),
+    ``band`` the capture distance, ``travel_min`` the least travel; returns
+    ``(found, s, x, passed, normal, closest)``."""
+    n1, _, travel1, v1 = _metrics(x1[0], x1[1], x1[2], x1[3], geo[0], geo[1], geo[2], geo[3])
+    n0, _, _, v0 = _metrics(x0[0], x0[1], x0[2], x0[3], geo[0], geo[1], geo[2], geo[3])
+    reach = 2.0 * T * max(v0, v1) + band
+    if min(abs(n0), abs(n1)) > reach and n0 * n1 > 0.0:
+        passed = passed or (x1[0] - geo[2]) > 0.0
+        closest = abs(n1) if passed and travel1 > 0.0 else math.inf
+        return False, 0.0, x1, passed, n1, closest
+    closest = math.inf
+    s_prev = 0.0
+    x = x1
+    for j in range(1, substeps + 1):
+        s = j / substeps
+        hit, x, passed_j, normal, travel = _arrives(x0, x1, T, s, geo, band, travel_min, passed,
+                                                    last_normal)
+        if passed_j and travel > 0.0:
+            closest = min(closest, abs(normal))
+        if hit:
+            lo, hi = s_prev, s
+            for _ in range(bisections):
+                mid = 0.5 * (lo + hi)
+                if _arrives(x0, x1, T, mid, geo, band, travel_min, passed, last_normal)[0]:
+                    hi = mid
+                else:
+                    lo = mid
+            _, x, _, normal, _ = _arrives(x0, x1, T, hi, geo, band, travel_min, passed,
+                                          last_normal)
+            return True, hi, x, True, normal, min(closest, abs(normal))
+        passed, last_normal, s_prev = passed_j, normal, s
+    return False, 0.0, x, passed, last_normal, closest
 
 
 def first_arrival(x0, x1, T: float, g: LineGeometry, sc: ScenarioParams, passed: bool,
@@ -83,42 +138,13 @@ def first_arrival(x0, x1, T: float, g: LineGeometry, sc: ScenarioParams, passed:
     exceeds the band by more than twice the distance it can travel at the
     faster of its two speeds).  Returns ``(s, x, passed, normal, closest)``:
     ``s`` in (0, 1] (None without an arrival), the state there, the updated
-    flags, and the closest distance seen after the vertical."""
-    n1, _, travel1, v1 = line_metrics(x1, g)
-    n0, _, _, v0 = line_metrics(x0, g)
-    reach = 2.0 * T * max(v0, v1) + sc.capture_distance
-    if min(abs(n0), abs(n1)) > reach and n0 * n1 > 0.0:
-        passed = passed or (x1[0] - g.alpha) > 0.0
-        closest = abs(n1) if passed and travel1 > 0.0 else math.inf
-        return None, x1, passed, n1, closest
-    closest = math.inf
-
-    def arrives(s, passed, last_normal):
-        x = hermite_state(x0, x1, T, s)
-        normal, _, travel, _ = line_metrics(x, g)
-        passed = passed or (RobotState(x).q1 - g.alpha) > 0.0
-        hit = passed and travel >= sc.min_travel_fraction * sc.grip_spacing and (
-            abs(normal) <= sc.capture_distance or last_normal < 0.0 <= normal)
-        return hit, x, passed, normal, travel
-
-    s_prev = 0.0
-    for j in range(1, substeps + 1):
-        s = j / substeps
-        hit, x, passed_j, normal, travel = arrives(s, passed, last_normal)
-        if passed_j and travel > 0.0:
-            closest = min(closest, abs(normal))
-        if hit:
-            lo, hi = s_prev, s
-            for _ in range(bisections):
-                mid = 0.5 * (lo + hi)
-                if arrives(mid, passed, last_normal)[0]:
-                    hi = mid
-                else:
-                    lo = mid
-            _, x, _, normal, _ = arrives(hi, passed, last_normal)
-            return hi, x, True, normal, min(closest, abs(normal))
-        passed, last_normal, s_prev = passed_j, normal, s
-    return None, x, passed, last_normal, closest
+    flags, and the closest distance seen after the vertical (compiled:
+    :func:`arrival`)."""
+    found, s, x, passed, normal, closest = arrival(
+        np.asarray(x0, dtype=float), np.asarray(x1, dtype=float), T,
+        np.array([g.l1, g.l2, g.alpha, g.grip_spacing]), sc.capture_distance,
+        sc.min_travel_fraction * sc.grip_spacing, passed, last_normal, substeps, bisections)
+    return (s if found else None), x, passed, normal, closest
 
 
 class GripperInterlock(LeafSystem):
@@ -145,6 +171,8 @@ class GripperInterlock(LeafSystem):
     def __init__(self, geometry: LineGeometry, scenario: ScenarioParams, period: float = 0.01):
         super().__init__()
         self.geometry, self.scenario, self.period = geometry, scenario, period
+        self._geo = np.array([geometry.l1, geometry.l2, geometry.alpha, geometry.grip_spacing])
+        self._travel_min = scenario.min_travel_fraction * scenario.grip_spacing
         self.state_port = self.DeclareVectorInputPort("state", 4)
         self.tripped_port = self.DeclareVectorInputPort("tripped", 1)
         self.estimate_port = self.DeclareVectorInputPort("estimate", 4)
@@ -167,36 +195,34 @@ class GripperInterlock(LeafSystem):
         discrete_state.get_mutable_vector(self._xd).SetFromVector(d[:])
 
     def _update(self, context, discrete_state):
-        from pydrake.systems.framework import EventStatus
-
-        d = self._stored(context)
-        if d.mode != 0:
+        d = context.get_discrete_state(self._xd).get_value()
+        if d[0] != 0:   # mode: decided
             return EventStatus.ReachedTermination(self, "swing ended")
+        d = d.copy()
         t = context.get_time()
-        sc, g = self.scenario, self.geometry
-        x = self.state_port.Eval(context).tolist()
-        s, xa, passed, normal, closest = first_arrival(d[9:13], x, self.period, g, sc,
-                                                       d.passed > 0.5, d.last_normal)
-        d.closest = min(d.closest, closest)
-        d.passed = 1.0 if passed else 0.0
-        est = self.estimate_port.Eval(context)
-        tau = self.torque_port.Eval(context)[0]
-        if s is not None:
-            _, _, travel, speed = line_metrics(xa, g)
+        sc = self.scenario
+        x = self.state_port.Eval(context)
+        found, s, xa, passed, normal, closest = arrival(
+            d[9:13], x, self.period, self._geo, sc.capture_distance, self._travel_min,
+            d[7] > 0.5, d[8], 8, 30)
+        d[6] = min(d[6], closest)   # closest
+        d[7] = 1.0 if passed else 0.0
+        if found:
+            _, _, travel, speed = line_metrics(xa, self.geometry)
             ok = speed <= sc.capture_speed
-            d.mode = OUTCOMES.index("captured" if ok else "crash")
-            d.fixed_open = 1.0 if ok else 0.0
-            d.event_time = t - self.period + s * self.period
-            d.speed, d.distance, d.travel = speed, abs(normal), travel
+            # mode, fixed open, event time, speed, distance, travel
+            d[0:6] = (OUTCOMES.index("captured" if ok else "crash"), 1.0 if ok else 0.0,
+                      t - self.period + s * self.period, speed, abs(normal), travel)
         elif self.tripped_port.Eval(context)[0] > 0.5 or not (
-                np.all(np.isfinite(est)) and math.isfinite(tau)):
-            d.mode, d.event_time = OUTCOMES.index("fault"), t
+                all(map(math.isfinite, self.estimate_port.Eval(context)))
+                and math.isfinite(self.torque_port.Eval(context)[0])):
+            d[0], d[2] = OUTCOMES.index("fault"), t
         elif t >= sc.max_time - 1e-9:
-            d.mode, d.event_time = OUTCOMES.index("timeout"), t
-        d.last_normal = normal
+            d[0], d[2] = OUTCOMES.index("timeout"), t
+        d[8] = normal   # last normal
         d[9:13] = x
-        discrete_state.get_mutable_vector(self._xd).SetFromVector(d[:])
-        if d.mode != 0:
+        discrete_state.get_mutable_vector(self._xd).SetFromVector(d)
+        if d[0] != 0:
             return EventStatus.ReachedTermination(self, "swing ended")
         return EventStatus.Succeeded()
 

@@ -10,9 +10,10 @@ Drake's sensors give continuous signals; :class:`ImuSampler` samples them
 with a zero-order hold at the IMU rate (which also breaks the accelerometer's
 direct feedthrough from the actuation input) and adds, per Table 5.1 and
 (5.21)-(5.22), (5.38): white noise, constant gyro bias, gyro bias random walk,
-accelerometer misalignment and scale error.  Noise of sample ``k`` is drawn
-from ``numpy.random.default_rng((seed, k))``, so a run is reproducible from
-its seed alone.
+accelerometer misalignment and scale error.  The draws of a swing are made
+per swing, not per tick: sample ``k``'s come from row ``k mod 256`` of block
+``k // 256`` of :func:`noise_block` (``numpy.random.default_rng((seed, 4,
+block))``), so a run is reproducible from its seed alone.
 
 Output order (also the CSV log order): ``gyro1, gyro2, acc1_x, acc1_y,
 acc2_x, acc2_y``.
@@ -21,8 +22,10 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
+from functools import lru_cache
 
 import numpy as np
+from numba import njit
 from pydrake.common.containers import namedview
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import LeafSystem
@@ -99,6 +102,58 @@ def standstill_samples(params: ImuParams, theta, g: float, seed: int, n: int) ->
     return still + noise_sigmas(params) * draws
 
 
+#: ticks per block of drawn noise (:func:`noise_block`)
+NOISE_BLOCK = 256
+
+
+@lru_cache(maxsize=8)
+def noise_block(seed: int, block: int) -> np.ndarray:
+    """The standard normal draws of ticks ``256 block .. 256 block + 255`` of
+    the sensors seeded by ``seed`` (256, 8): per tick the two gyro bias
+    walks' steps, then the six readings' white noise (read-only)."""
+    out = np.random.default_rng((seed, 4, block)).standard_normal((NOISE_BLOCK, 8))
+    out.flags.writeable = False
+    return out
+
+
+def pack(params: ImuParams) -> np.ndarray:
+    """The error model of ``params`` for :func:`sample_kernel`: misalignment
+    and scale error per accelerometer, gyro scale errors and constant biases,
+    the bias walk per sample, whether white noise is on, the white noise per
+    column."""
+    return np.array([params.misalign1, params.accel_scale1, params.misalign2,
+                     params.accel_scale2, params.gyro_scale1, params.gyro_scale2,
+                     params.gyro_bias1, params.gyro_bias2,
+                     params.gyro_drift * math.sqrt(params.period), float(params.noise),
+                     *noise_sigmas(params)])
+
+
+@njit(cache=True)
+def sample_kernel(g1, g2, a1x, a1y, a2x, a2y, walk1, walk2, k, c, draws):
+    """The held state after sample ``k`` (the 6 readings, the two bias walks,
+    ``k + 1``) from the ideal readings, the walks so far, the packed error
+    model ``c`` (:func:`pack`) and the tick's draws (8): :func:`corrupt`
+    with the walk stepped first."""
+    out = np.empty(9)
+    if c[8] > 0.0:
+        walk1 += c[8] * draws[0]
+        walk2 += c[8] * draws[1]
+    ideal = (a1x, a1y, a2x, a2y)
+    for i in range(2):
+        eps, scale = c[2 * i], c[2 * i + 1]
+        mx, my = ideal[2 * i], ideal[2 * i + 1]
+        ce, se = math.cos(eps), math.sin(eps)
+        out[2 + 2 * i] = (1.0 + scale) * (ce * mx + se * my)
+        out[3 + 2 * i] = (1.0 + scale) * (-se * mx + ce * my)
+    out[0] = g1 * (1.0 + c[4]) + (c[6] + walk1)
+    out[1] = g2 * (1.0 + c[5]) + (c[7] + walk2)
+    if c[9] > 0.0:
+        for i in range(6):
+            out[i] += c[10 + i] * draws[2 + i]
+    out[6], out[7], out[8] = walk1, walk2, k + 1.0
+    return out
+
+
 class ImuSampler(LeafSystem):
     """Samples Drake's four sensor outputs at the IMU rate (zero-order hold).
 
@@ -122,7 +177,8 @@ class ImuSampler(LeafSystem):
         self.seed = int(seed)
         self.gyro_ports = [self.DeclareVectorInputPort(f"gyro{i}", 3) for i in (1, 2)]
         self.accel_ports = [self.DeclareVectorInputPort(f"accel{i}", 3) for i in (1, 2)]
-        self._sensor = self.DeclareAbstractParameter(AbstractValue.Make((params, self.seed)))
+        self._sensor = self.DeclareAbstractParameter(AbstractValue.Make(
+            (params, self.seed, pack(params), self.seed)))
         self._state = self.DeclareDiscreteState(len(self.State._fields))
         declare_sample(self, params.period, self._sample)
         self.imu_port = self.DeclareVectorOutputPort("imu", 6, self._output, {self.xd_ticket()})
@@ -134,23 +190,19 @@ class ImuSampler(LeafSystem):
             raise ValueError(f"imu.rate_hz = {params.rate_hz:g} differs from the built "
                              f"sampler's {self.params.rate_hz:g} Hz")
         own = self.GetMyMutableContextFromRoot(context)
-        own.get_mutable_abstract_parameter(self._sensor).set_value((params, int(seed)))
+        own.get_mutable_abstract_parameter(self._sensor).set_value(
+            (params, int(seed), pack(params), int(seed)))
 
     def _sample(self, context, discrete_state):
-        p, seed = context.get_abstract_parameter(self._sensor).get_value()
-        s = self.State(context.get_discrete_state(self._state).get_value())
-        k = int(round(s.index))
+        consts, seed = context.get_abstract_parameter(self._sensor).get_value()[2:]
+        xd = discrete_state.get_mutable_vector(self._state)
+        s = context.get_discrete_state(self._state).get_value()
+        k = int(round(s[8]))
         g1, g2 = (port.Eval(context) for port in self.gyro_ports)
         a1, a2 = (port.Eval(context) for port in self.accel_ports)
-        ideal = np.array([g1[2], g2[2], a1[0], a1[1], a2[0], a2[1]])
-        rng = np.random.default_rng((seed, k))
-        walk = np.array([s.walk1, s.walk2])
-        if p.gyro_drift > 0.0:
-            walk = walk + p.gyro_drift * math.sqrt(p.period) * rng.standard_normal(2)
-        bias = np.array([p.gyro_bias1, p.gyro_bias2]) + walk
-        sample = corrupt(ideal, p, bias, rng)
-        discrete_state.get_mutable_vector(self._state).SetFromVector(
-            np.concatenate([sample, walk, [k + 1]]))
+        xd.SetFromVector(sample_kernel(g1[2], g2[2], a1[0], a1[1], a2[0], a2[1], s[6], s[7], k,
+                                       consts, noise_block(seed, k // NOISE_BLOCK)[
+                                           k % NOISE_BLOCK]))
 
     def _output(self, context, out):
         out.SetFromVector(context.get_discrete_state(self._state).get_value()[:6])

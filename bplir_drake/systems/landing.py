@@ -4,6 +4,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, fields, replace
 import numpy as np
+from . import nominal_kernel
 from .plant import bias_term, gravity_vector, mass_matrix
 
 
@@ -188,130 +189,17 @@ class ApexShot:
 
     def __post_init__(self):
         # the nominal model's constants, folded once (the law runs every tick)
-        p, fr = self.landing.plant, self.friction
-        a = p.I2 + p.m2 * p.rc2 ** 2
-        g1, p1 = p.gravity_link1()
-        drag = fr.drag_coefficients() if fr.enabled else (0.0, 0.0)
-        object.__setattr__(self, "_constants", dict(
-            a=a, m11=p.m1 * p.rc1 ** 2 + p.I1 + p.m2 * p.l1 ** 2 + a,
-            k12=p.m2 * p.l1 * p.rc2, g1=g1, p1=p1, d2=p.dc2,
-            g12=p.m2 * p.rc2 * p.g, on=fr.enabled, fv=(fr.fv1, fr.fv2),
-            fc=(fr.fc1, fr.fc2), b=fr.b, drag=drag))
-
-    def _model(self):
-        return self._constants
-
-    @staticmethod
-    def _friction(c, i: int, v: float) -> float:
-        if not c["on"]:
-            return 0.0
-        return (c["fv"][i] * v + c["fc"][i] * (2.0 / math.pi) * math.atan(v / c["b"])
-                + c["drag"][i] * v * abs(v))
-
-    def _link1_accel(self, c, q1, q2, v1, v2, a2) -> float:
-        """Link 1's acceleration (passive joint) with the elbow accelerating
-        at ``a2``, on the nominal model."""
-        c2, s2 = math.cos(q2 + c["d2"]), math.sin(q2 + c["d2"])
-        m12, m11 = c["a"] + c["k12"] * c2, c["m11"] + 2.0 * c["k12"] * c2
-        bias = -c["k12"] * s2 * (2.0 * v1 * v2 + v2 * v2)
-        grav = c["g1"] * math.sin(q1 + c["p1"]) + c["g12"] * math.sin(q1 + q2 + c["d2"])
-        return -(m12 * a2 + bias + grav + self._friction(c, 0, v1)) / m11
-
-    def _shoot(self, c, x, T: float, q2f: float):
-        """(link 1's rate at ``T``, the gripper's distance to the line then
-        less ``height``; the elbow's acceleration now) of the quartic to
-        ``q2f``: ``q2 + v2 t + k2 t^2 + k3 t^3 + k4 t^4`` at rest with zero
-        acceleration at ``T`` (closed form)."""
-        q1, q2, v1, v2 = x
-        d, vT = q2f - q2 - v2 * T, v2 * T
-        k2 = (6.0 * d + 3.0 * vT) / T ** 2
-        k3 = -(8.0 * d + 5.0 * vT) / T ** 3
-        k4 = (3.0 * d + 2.0 * vT) / T ** 4
-
-        # _link1_accel and _friction inlined (the same arithmetic, in the same
-        # order: this runs ~50 times per shot, several shots per tick), the
-        # quartic's terms evaluated once per distinct time of the RK4 stages
-        a, k12, m11c, g1, g12 = c["a"], c["k12"], c["m11"], c["g1"], c["g12"]
-        p1, dc2 = c["p1"], c["d2"]
-        on, fv, fc, b, drag = c["on"], c["fv"][0], c["fc"][0], c["b"], c["drag"][0]
-        cos, sin, atan, pi = math.cos, math.sin, math.atan, math.pi
-
-        def elbow(t):   # the quartic's angle, rate, acceleration and inertia terms at t
-            q2t = q2 + v2 * t + k2 * t * t + k3 * t ** 3 + k4 * t ** 4
-            v2t = v2 + 2 * k2 * t + 3 * k3 * t * t + 4 * k4 * t ** 3
-            a2t = 2 * k2 + 6 * k3 * t + 12 * k4 * t * t
-            c2, s2 = cos(q2t + dc2), sin(q2t + dc2)
-            return q2t, v2t, a2t, s2, a + k12 * c2, m11c + 2.0 * k12 * c2
-
-        def accel(e, q, w):   # link 1's acceleration with the elbow at e
-            q2t, v2t, a2t, s2, m12, m11 = e
-            bias = -k12 * s2 * (2.0 * w * v2t + v2t * v2t)
-            grav = g1 * sin(q + p1) + g12 * sin(q + q2t + dc2)
-            fr = (fv * w + fc * (2.0 / pi) * atan(w / b) + drag * w * abs(w)) if on else 0.0
-            return -(m12 * a2t + bias + grav + fr) / m11
-
-        dt = T / self.steps
-        h2, h6 = dt / 2, dt / 6
-        t = 0.0
-        e0 = elbow(t)
-        for _ in range(self.steps):   # RK4 on link 1
-            em, e1 = elbow(t + h2), elbow(t + dt)
-            d1 = accel(e0, q1, v1)
-            w2 = v1 + h2 * d1
-            d2 = accel(em, q1 + h2 * v1, w2)
-            w3 = v1 + h2 * d2
-            d3 = accel(em, q1 + h2 * w2, w3)
-            w4 = v1 + dt * d3
-            d4 = accel(e1, q1 + dt * w3, w4)
-            q1 += h6 * (v1 + 2 * w2 + 2 * w3 + w4)
-            v1 += h6 * (d1 + 2 * d2 + 2 * d3 + d4)
-            t += dt
-            e0 = e1
-        p, s = self.landing.plant, q1 - self.landing.alpha
-        h = -p.l1 * math.cos(s) - p.l2 * math.cos(s + q2f)
-        return np.array([v1, h - self.height]), 2.0 * k2
+        object.__setattr__(self, "constants", nominal_kernel.pack(self.landing.plant,
+                                                                  self.friction))
 
     def solve(self, x):
         """(the elbow's acceleration now, ``T``) or None: Newton on
-        ``(T, q2f)``, from link 1 stopping at its present deceleration."""
-        c = self._model()
-        if x[2] > self.min_rate:
-            decel = max(self.landing.deceleration(x), 2.0)
-            T, q2f = min(0.5, max(0.03, x[2] / decel)), float(x[1])
-            shot = None   # the shot at (T, q2f) once it converged
-            for _ in range(8):
-                r, acc = self._shoot(c, x, T, q2f)
-                if abs(r[0]) < 1e-3 and abs(r[1]) < 1e-4:
-                    shot = r, acc
-                    break
-                J = np.column_stack([(self._shoot(c, x, T + 1e-4, q2f)[0] - r) / 1e-4,
-                                     (self._shoot(c, x, T, q2f + 1e-4)[0] - r) / 1e-4])
-                try:
-                    dT, dq = np.linalg.solve(J, -r)
-                except np.linalg.LinAlgError:
-                    break
-                T += min(0.5 * T, max(-0.5 * T, dT))
-                q2f += min(0.3, max(-0.3, dq))
-                if not 0.015 <= T <= 0.8:
-                    break
-            if 0.015 <= T <= 0.8:
-                r, acc = shot or self._shoot(c, x, T, q2f)
-                if abs(r[0]) <= 0.05 and abs(r[1]) <= 0.005 and T >= self.min_time:
-                    return acc, T
-        if self.landing.height(x) < self.height - self.hold_depth:
-            return None   # no shot, and far from the aim: link 1 stopped early
-        T, q2f = self.min_time, float(x[1])   # the last moments: T held, q2f only
-        for _ in range(8):
-            r, acc = self._shoot(c, x, T, q2f)
-            if abs(r[1]) < 1e-5:
-                break
-            slope = (self._shoot(c, x, T, q2f + 1e-4)[0][1] - r[1]) / 1e-4
-            if abs(slope) < 1e-6:
-                return None
-            q2f += min(0.3, max(-0.3, -r[1] / slope))
-        else:
-            r, acc = self._shoot(c, x, T, q2f)
-        return (acc, T) if abs(r[1]) < 0.002 else None
+        ``(T, q2f)``, from link 1 stopping at its present deceleration
+        (compiled: :func:`~bplir_drake.systems.nominal_kernel.solve_shot`)."""
+        found, acc, T = nominal_kernel.solve_shot(
+            self.constants, np.asarray(x, dtype=float), self.steps, self.landing.alpha,
+            self.height, self.min_rate, self.min_time, self.hold_depth)
+        return (acc, T) if found else None
 
     def gives_up(self, x) -> bool:
         """Whether the shot has missed: link 1 swings back faster than
@@ -371,11 +259,7 @@ class ApexShot:
     def _computed(self, x, a2: float) -> float:
         """The elbow torque that gives the elbow acceleration ``a2`` at ``x``
         (link 1 passive; nominal model and friction)."""
-        c, (q1, q2, v1, v2) = self._model(), x
-        a1 = self._link1_accel(c, q1, q2, v1, v2, a2)
-        m12 = c["a"] + c["k12"] * np.cos(q2 + c["d2"])
-        return float(m12 * a1 + c["a"] * a2 + c["k12"] * np.sin(q2 + c["d2"]) * v1 * v1
-                     + c["g12"] * np.sin(q1 + q2 + c["d2"]) + self._friction(c, 1, v2))
+        return nominal_kernel.elbow_torque(self.constants, *x, a2)
 
 
 def link1_share(p, alpha: float, states, depth: float) -> float:

@@ -18,6 +18,7 @@ import numpy as np
 from pydrake.systems.framework import LeafSystem
 
 from ..params import FrictionParams, PlantParams
+from . import nominal_kernel
 from .schedule import declare_store, declare_tick_result
 
 
@@ -55,28 +56,16 @@ def nominal_rates(plant: PlantParams, friction: FrictionParams):
 
 
 def predict_state(x, commands, period: float, plant: PlantParams, friction: FrictionParams,
-                  substeps: int = 2, rates=None) -> np.ndarray:
+                  substeps: int = 2, constants=None) -> np.ndarray:
     """The state (q1, q2, q1d, q2d) after ``len(commands)`` ticks of
     ``period`` from ``x``, each command (elbow torque, N m) held over its
-    tick, on the nominal model (RK4, ``substeps`` per tick; ``rates``: the
-    model's :func:`nominal_rates`, made from ``plant`` and ``friction``
-    when not given)."""
-    f = rates or nominal_rates(plant, friction)
-    x0, x1, x2, x3 = (float(v) for v in x)
-    h = period / substeps
-    h2, h6 = 0.5 * h, h / 6.0
-    for tau in commands:
-        tau = float(tau)
-        for _ in range(substeps):
-            a0, a1, a2, a3 = f(x0, x1, x2, x3, tau)
-            b0, b1, b2, b3 = f(x0 + h2 * a0, x1 + h2 * a1, x2 + h2 * a2, x3 + h2 * a3, tau)
-            c0, c1, c2, c3 = f(x0 + h2 * b0, x1 + h2 * b1, x2 + h2 * b2, x3 + h2 * b3, tau)
-            d0, d1, d2, d3 = f(x0 + h * c0, x1 + h * c1, x2 + h * c2, x3 + h * c3, tau)
-            x0 += h6 * (a0 + 2.0 * b0 + 2.0 * c0 + d0)
-            x1 += h6 * (a1 + 2.0 * b1 + 2.0 * c1 + d1)
-            x2 += h6 * (a2 + 2.0 * b2 + 2.0 * c2 + d2)
-            x3 += h6 * (a3 + 2.0 * b3 + 2.0 * c3 + d3)
-    return np.array([x0, x1, x2, x3])
+    tick, on the nominal model (RK4, ``substeps`` per tick, compiled:
+    :func:`~bplir_drake.systems.nominal_kernel.predict`; ``constants``: the
+    model's :func:`~bplir_drake.systems.nominal_kernel.pack`, made from
+    ``plant`` and ``friction`` when not given)."""
+    c = nominal_kernel.pack(plant, friction) if constants is None else constants
+    return nominal_kernel.predict(c, np.asarray(x, dtype=float),
+                                  np.asarray(commands, dtype=float).ravel(), period, substeps)
 
 
 class DelayPredictor(LeafSystem):
@@ -99,7 +88,7 @@ class DelayPredictor(LeafSystem):
         if steps < 1:
             raise ValueError("DelayPredictor needs steps >= 1")
         self.plant_params, self.friction, self.period, self.steps = plant, friction, period, steps
-        self._rates = nominal_rates(plant, friction)
+        self._constants = nominal_kernel.pack(plant, friction)
         self.estimate_port = self.DeclareVectorInputPort("estimate", 4)
         self.command_port = self.DeclareVectorInputPort("command", 1)
         self.steps_port = self.DeclareVectorInputPort("delay_steps", 1) if adaptive else None
@@ -119,7 +108,8 @@ class DelayPredictor(LeafSystem):
             n = min(max(int(round(self.steps_port.Eval(context)[0])), 0), self.steps)
             commands = commands[len(commands) - n:]
         return predict_state(self.estimate_port.Eval(context), commands, self.period,
-                             self.plant_params, self.friction, rates=self._rates)
+                             self.plant_params, self.friction,
+                             constants=self._constants)
 
     def _store(self, context, discrete_state):
         buf = context.get_discrete_state(self._xd).get_value()

@@ -1,0 +1,252 @@
+"""The EKF's tick compiled: one numba function for the in-loop filter step.
+
+:func:`~bplir_drake.systems.ekf.ekf_step` is the filter written for
+reading: it builds small numpy arrays for the Jacobians and products,
+which costs far more than the arithmetic at 100 Hz.  :func:`step` is the
+same step (prediction with the previous tick's readings, update with this
+tick's sample, misalignment correction, covariance inflation, Schmidt
+holds; Joseph form) on plain arrays in one compiled call; the constants of
+a parameter block are packed once by :func:`pack`.  Tested against
+:func:`~bplir_drake.systems.ekf.ekf_step` to rounding over a swing's samples
+for every state layout and integration.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from ..params import EstimatorParams
+from .ekf_model import _walk_variances, state_layout
+
+#: the integrations by code in the packed constants
+INTEGRATIONS = {"euler": 0, "trapezoid": 1, "heun": 2}
+# indices of the packed constants
+_R1, _R2, _L1, _G, _TS, _INT, _NIS, _BIAS, _MIS, _SCALE, _POS, _QU = range(12)
+_RDIAG = 12   # 4 measurement variances follow
+
+
+def pack(p: EstimatorParams) -> tuple[np.ndarray, np.ndarray]:
+    """(constants, random-walk variances per second) of ``p`` for :func:`step`:
+    geometry, period, integration, inflation threshold, where each optional
+    state group starts (-1: absent), the input and measurement noise."""
+    layout, _ = state_layout(p)
+
+    def start(group):
+        return float(layout[group].start) if group in layout else -1.0
+
+    c = np.array([p.r1, p.r2, p.l1, p.g, p.period, INTEGRATIONS[p.integration], p.inflate_nis,
+                  start("bias"), start("misalign"), start("scale"), start("position"),
+                  p.accel_process_sigma ** 2, p.gyro_meas_sigma ** 2, p.gyro_meas_sigma ** 2,
+                  p.accel_meas_sigma ** 2, p.accel_meas_sigma ** 2])
+    return c, np.array(_walk_variances(p), dtype=float)
+
+
+@njit(cache=True)
+def _radii(x, c):
+    pos = int(c[_POS])
+    if pos >= 0:
+        return x[pos], x[pos + 1]
+    return c[_R1], c[_R2]
+
+
+@njit(cache=True)
+def _f_jacobians(x, u0, u1, c):
+    """(f, df/dx, df/du) of the continuous kinematic model (5.10)."""
+    n = x.shape[0]
+    t1, t2, w1 = x[0], x[1], x[2]
+    g, l1 = c[_G], c[_L1]
+    s1, c1, s2, c2 = math.sin(t1), math.cos(t1), math.sin(t2), math.cos(t2)
+    s21, c21 = math.sin(t2 - t1), math.cos(t2 - t1)
+    r1, r2 = _radii(x, c)
+    a1 = (u0 - g * s1) / r1
+    a1_t1 = -g * c1 / r1
+    a2 = (-l1 * c21 * a1 + u1 - g * s2 - l1 * w1 * w1 * s21) / r2
+    f = np.zeros(n)
+    f[0], f[1], f[2], f[3] = w1, x[3], a1, a2
+    A = np.zeros((n, n))
+    A[0, 2] = 1.0
+    A[1, 3] = 1.0
+    A[2, 0] = a1_t1
+    A[3, 0] = (-l1 * s21 * a1 - l1 * c21 * a1_t1 + l1 * w1 * w1 * c21) / r2
+    A[3, 1] = (l1 * s21 * a1 - g * c2 - l1 * w1 * w1 * c21) / r2
+    A[3, 2] = -2.0 * l1 * w1 * s21 / r2
+    B = np.zeros((n, 2))
+    B[2, 0] = 1.0 / r1
+    B[3, 0] = -l1 * c21 / (r1 * r2)
+    B[3, 1] = 1.0 / r2
+    pos = int(c[_POS])
+    if pos >= 0:
+        A[2, pos] = -a1 / r1
+        A[3, pos] = l1 * c21 * a1 / (r1 * r2)
+        A[3, pos + 1] = -a2 / r2
+    return f, A, B
+
+
+@njit(cache=True)
+def _predict(x, P, u, radial, c, walk):
+    """(x, P) after one period with the inputs ``u`` (2, or 4 for both
+    ends with Heun's step) and the corrected radial readings ``radial``
+    paired with them."""
+    n = x.shape[0]
+    Ts = c[_TS]
+    mode = int(c[_INT])
+    eye = np.eye(n)
+    if mode == 2:
+        if u.shape[0] == 4:
+            u0a, u0b, u1a, u1b = u[0], u[1], u[2], u[3]
+        else:
+            u0a, u0b, u1a, u1b = u[0], u[1], u[0], u[1]
+        f1, J1, B1 = _f_jacobians(x, u0a, u0b, c)
+        f2, J2, B2 = _f_jacobians(x + Ts * f1, u1a, u1b, c)
+        A = eye + 0.5 * Ts * (J1 + J2 @ (eye + Ts * J1))
+        W0 = 0.5 * Ts * (B1 + Ts * J2 @ B1)
+        W1 = 0.5 * Ts * B2
+        if u.shape[0] == 4:
+            W = np.hstack((W0, W1))
+        else:
+            W = W0 + W1
+        x_new = x + 0.5 * Ts * (f1 + f2)
+    else:
+        f, Jx, Ju = _f_jacobians(x, u[0], u[1], c)
+        x_new = x + Ts * f
+        A = eye + Ts * Jx
+        W = Ts * Ju
+        if mode == 1:
+            h = 0.5 * Ts * Ts
+            for i in range(2):
+                x_new[i] += h * f[2 + i]
+                A[i] += h * Jx[2 + i]
+                W[i] += h * Ju[2 + i]
+    mis = int(c[_MIS])
+    if mis >= 0 and radial.shape[0] > 0:
+        cols = -W * radial.reshape(1, -1)
+        if W.shape[1] == 4:
+            A[:, mis:mis + 2] += cols[:, :2] + cols[:, 2:]
+        else:
+            A[:, mis:mis + 2] += cols
+    P_new = A @ P @ A.T + c[_QU] * (W @ W.T)
+    for i in range(n):
+        P_new[i, i] += walk[i] * Ts
+    return x_new, P_new
+
+
+@njit(cache=True)
+def _h_jacobian(x, u0, c):
+    """(h, dh/dx) of the measurement model."""
+    n = x.shape[0]
+    t1, t2, w1, w2 = x[0], x[1], x[2], x[3]
+    g, l1 = c[_G], c[_L1]
+    s1, c1, s2, c2 = math.sin(t1), math.cos(t1), math.sin(t2), math.cos(t2)
+    s21, c21 = math.sin(t2 - t1), math.cos(t2 - t1)
+    r1, r2 = _radii(x, c)
+    a1 = (u0 - g * s1) / r1
+    a1_t1 = -g * c1 / r1
+    b1 = b2 = k1 = k2 = 0.0
+    bias, scale, pos = int(c[_BIAS]), int(c[_SCALE]), int(c[_POS])
+    if bias >= 0:
+        b1, b2 = x[bias], x[bias + 1]
+    if scale >= 0:
+        k1, k2 = x[scale], x[scale + 1]
+    h = np.empty(4)
+    h[0] = (1.0 + k1) * w1 + b1
+    h[1] = (1.0 + k2) * w2 + b2
+    h[2] = r1 * w1 * w1 + g * c1
+    h[3] = l1 * (-a1 * s21 + w1 * w1 * c21) + r2 * w2 * w2 + g * c2
+    H = np.zeros((4, n))
+    H[0, 2], H[1, 3] = 1.0 + k1, 1.0 + k2
+    if bias >= 0:
+        H[0, bias] = 1.0
+        H[1, bias + 1] = 1.0
+    if scale >= 0:
+        H[0, scale], H[1, scale + 1] = w1, w2
+    H[2, 0] = -g * s1
+    H[2, 2] = 2.0 * r1 * w1
+    H[3, 0] = l1 * (-a1_t1 * s21 + a1 * c21 + w1 * w1 * s21)
+    H[3, 1] = l1 * (-a1 * c21 - w1 * w1 * s21) - g * s2
+    H[3, 2] = 2.0 * l1 * w1 * c21
+    H[3, 3] = 2.0 * r2 * w2
+    if pos >= 0:
+        H[2, pos] = w1 * w1
+        H[3, pos] = l1 * s21 * a1 / r1
+        H[3, pos + 1] = w2 * w2
+    return h, H, r1
+
+
+@njit(cache=True)
+def _update(x, P, z, u, c, hold, hold_misalign):
+    """(x, P) after the update with the readings ``z`` (gyro1, gyro2,
+    mu_y1, mu_y2) and the tangential inputs ``u`` (Joseph form)."""
+    n = x.shape[0]
+    h, H, r1 = _h_jacobian(x, u[0], c)
+    mis = int(c[_MIS])
+    if mis >= 0:
+        H[2, mis] -= u[0]
+        H[3, mis + 1] -= u[1]
+        H[3, mis] += c[_L1] * math.sin(x[1] - x[0]) / r1 * z[2]
+    R = np.zeros((4, 4))
+    for i in range(4):
+        R[i, i] = c[_RDIAG + i]
+    PHt = P @ H.T
+    S = H @ PHt + R
+    nu = z - h
+    if c[_NIS] > 0.0:
+        excess = (nu @ np.linalg.solve(S, nu)) / (c[_NIS] * 4)
+        if excess > 1.0:
+            P = P * excess
+            PHt = P @ H.T
+            S = H @ PHt + R
+    K = np.linalg.solve(S, PHt.T).T
+    if hold and n > 4:
+        K[4:] = 0.0
+    if hold_misalign and mis >= 0:
+        K[mis:mis + 2] = 0.0
+    x_new = x + K @ nu
+    IKH = np.eye(n) - K @ H
+    P_new = IKH @ P @ IKH.T + K @ R @ K.T
+    return x_new, 0.5 * (P_new + P_new.T)
+
+
+@njit(cache=True)
+def _turned(s, eps, scale):
+    """The accelerometers of sample ``s`` turned back by ``eps`` (2) and
+    divided by ``1 + scale`` (2), in place."""
+    for i in range(2):
+        ax, ay = s[2 + 2 * i], s[3 + 2 * i]
+        ce, se = math.cos(eps[i]), math.sin(eps[i])
+        k = 1.0 + scale[i]
+        s[2 + 2 * i] = (ce * ax - se * ay) / k
+        s[3 + 2 * i] = (se * ax + ce * ay) / k
+
+
+@njit(cache=True)
+def step(x, P, u_prev, sample, first, hold, hold_misalign, c, walk, cal):
+    """One filter period on the raw sample (6): ``(x, P, this sample's
+    corrected accelerometer readings mu_x1, mu_x2, mu_y1, mu_y2)``, as
+    :func:`~bplir_drake.systems.ekf.ekf_step` on the sample corrected by
+    the standstill calibration ``cal`` (misalignment 1, 2, scale 1, 2;
+    :meth:`~bplir_drake.systems.calibration.ImuCalibration.correct`)."""
+    s = sample.copy()
+    if cal[0] != 0.0 or cal[1] != 0.0 or cal[2] != 0.0 or cal[3] != 0.0:
+        _turned(s, cal[:2], cal[2:])
+    mis = int(c[_MIS])
+    if mis >= 0 and (x[mis] != 0.0 or x[mis + 1] != 0.0):   # by the state's estimate
+        _turned(s, x[mis:mis + 2], np.zeros(2))
+    z = np.array([s[0], s[1], s[3], s[5]])
+    u = np.array([s[2], s[4]])
+    acc = np.array([u[0], u[1], z[2], z[3]])
+    if not first:
+        mode = int(c[_INT])
+        if mode == 2:
+            uin = np.array([u_prev[0], u_prev[1], u[0], u[1]])
+            radial = np.array([u_prev[2], u_prev[3], z[2], z[3]])
+        elif mode == 1:
+            uin = 0.5 * (u_prev[:2] + u)
+            radial = 0.5 * (u_prev[2:4] + z[2:4])
+        else:
+            uin = u_prev[:2].copy()
+            radial = u_prev[2:4].copy()
+        x, P = _predict(x, P, uin, radial, c, walk)
+    x, P = _update(x, P, z, u, c, hold, hold_misalign)
+    return x, P, acc

@@ -8,6 +8,7 @@ intervals, both capture-speed p50 and p95, the median per-swing change of
 the capture speed, and the wall time per swing of each.  With
 ``--reference K`` the first K swings also run against an accurate reference
 (RK5 at 1e-10): the median per-swing capture-speed error of each setting.
+Last, how many of the default swing's seeds 0-19 keep their outcome.
 
 Run: python benchmarks/bench_accuracy.py [-n N] [--accuracy 1e-3]
      [--integrator runge_kutta3] [--study examples/study_realistic.toml|default]
@@ -35,7 +36,11 @@ def _one(job):
     study, index, integrator, accuracy = job
     if _RUNNER is None:
         _RUNNER = SwingRunner()
-    p, seed, _ = sample_params(study, index)
+    if study is None:   # the default swing of seed ``index``
+        from bplir_drake.params import preset
+        p, seed = preset(), index
+    else:
+        p, seed, _ = sample_params(study, index)
     t0 = time.perf_counter()
     s = _RUNNER.run(p, seed=seed, integrator=integrator, accuracy=accuracy).summary
     return s["outcome"], s["capture_speed_mps"], time.perf_counter() - t0
@@ -114,6 +119,10 @@ def main(argv=None) -> int:
                     line.append(f"  {name} against RK5 1e-10 on {args.reference}: median "
                                 f"|error| {np.median(err) if err else math.nan:.5f} m/s")
             print("\n".join(line), flush=True)
+        default = compare(pool, None, 20, settings)
+    kept = sum(x[0] == y[0] for x, y in zip(default["swing"], default["candidate"]))
+    print(f"the default swing (bplir swing --seed K), seeds 0-19: {kept} of 20 keep their "
+          "outcome", flush=True)
     return 0
 
 

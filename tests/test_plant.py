@@ -113,11 +113,12 @@ OFF_AXIS = PlantParams(m1=1.16, m2=0.63, l1=0.3147, l2=0.3147, lc1=0.23, lc2=0.1
 
 def test_off_axis_centres_of_mass_match_the_plant():
     """With the centres of mass off the links' axes the closed form, the
-    predictor's folded constants and the landing's model are the
-    MultibodyPlant's dynamics."""
+    predictor's folded constants, their compiled form and the landing's
+    model are the MultibodyPlant's dynamics."""
     from bplir_drake.params import FrictionParams
     from bplir_drake.systems.predictor import nominal_rates
 
+    from bplir_drake.systems import nominal_kernel
     from bplir_drake.systems.landing import ApexShot, Landing
 
     p, fr = OFF_AXIS, FrictionParams(enabled=False)
@@ -132,11 +133,13 @@ def test_off_axis_centres_of_mass_match_the_plant():
         M, Cv, g = K.drake_manipulator_terms(pl, ctx, q, v)
         qdd = np.linalg.solve(M, np.array([0.0, 0.4]) - Cv - g)
         # link 1's acceleration the landing's shot predicts for the elbow's
-        link1 = shot._link1_accel(shot._model(), *q, *v, qdd[1])
+        link1 = nominal_kernel.link1_accel(shot.constants, *q, *v, qdd[1])
+        compiled = nominal_kernel.rates(shot.constants, *q, *v, 0.4)[2:]
         worst = max(worst, np.abs(M - K.mass_matrix(q, p)).max(),
                     np.abs(Cv - K.bias_term(q, v, p)).max(),
                     np.abs(g - K.gravity_vector(q, p)).max(),
-                    np.abs(np.array(rates(*q, *v, 0.4)[2:]) - qdd).max(), abs(link1 - qdd[0]))
+                    np.abs(np.array(rates(*q, *v, 0.4)[2:]) - qdd).max(), abs(link1 - qdd[0]),
+                    np.abs(np.array(compiled) - qdd).max())
         # the potential is the gravity's integral: dV/dq = g(q)
         h = 1e-6
         dV = [(K.potential_energy(q + h * e, p) - K.potential_energy(q - h * e, p)) / (2 * h)

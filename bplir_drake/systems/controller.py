@@ -31,13 +31,14 @@ from functools import lru_cache
 
 import numpy as np
 from pydrake.autodiffutils import AutoDiffXd
-from pydrake.systems.framework import LeafSystem, LeafSystem_
+from pydrake.systems.framework import LeafSystem_
 from pydrake.systems.scalar_conversion import TemplateSystem
 
 from ..params import ControllerParams, FrictionParams, PlantParams
 from .friction import friction_torques
 from .motor import torque_window
 from .plant import bias_term, gravity_vector, mass_matrix
+from .base import PySystem, weak_callback
 from .schedule import declare_store, declare_tick_result
 from .state import RobotState
 
@@ -207,7 +208,7 @@ class _CpflLaw:
         return vec[:self.nF], vec[self.nF:self.nF + self.nK]
 
 
-class DiscreteCpflController(_CpflLaw, LeafSystem):
+class DiscreteCpflController(_CpflLaw, PySystem):
     """The controller at ``ctrl.period`` on the tick schedule
     (:mod:`bplir_drake.systems.schedule`): the tick's command is computed
     once from the stored filter states and the inputs, and the filter states
@@ -218,7 +219,7 @@ class DiscreteCpflController(_CpflLaw, LeafSystem):
     def __init__(self, plant: PlantParams, ctrl: ControllerParams,
                  friction: FrictionParams | None = None, use_prefilter: bool = True,
                  motor=None):
-        LeafSystem.__init__(self)
+        PySystem.__init__(self)
         self._setup(plant, ctrl, friction, False, use_prefilter, motor)
         # the discrete state, one named group each: the prefilter's state xF,
         # the outer loop's xK and the command of the previous tick (applied
@@ -275,9 +276,10 @@ def ContinuousCpflController_(T):
             self._setup(plant, ctrl, friction, True, use_prefilter)
             if self.nF + self.nK:
                 self.DeclareContinuousState(self.nF + self.nK)
-            self.DeclareVectorOutputPort("torque", 1, self._out(2))
-            self.DeclareVectorOutputPort("v", 1, self._out(3))
-            self.DeclareVectorOutputPort("torque_unsaturated", 1, self._out(4))
+            self.DeclareVectorOutputPort("torque", 1, weak_callback(self, self._out(2)))
+            self.DeclareVectorOutputPort("v", 1, weak_callback(self, self._out(3)))
+            self.DeclareVectorOutputPort("torque_unsaturated", 1,
+                                         weak_callback(self, self._out(4)))
 
         def _construct_copy(self, other, converter=None):
             Impl._construct(self, other.plant_params, other.ctrl, other.friction,

@@ -27,15 +27,14 @@ Carlo").
 """
 from __future__ import annotations
 
-import math
 
 import numpy as np
-from pydrake.systems.framework import EventStatus, LeafSystem
+from pydrake.systems.framework import EventStatus
 
+from .base import PySystem
 from ..params import FrictionParams, MotorParams, PlantParams
 from . import nominal_kernel
 from .schedule import declare_store
-from .state import RobotState
 
 #: the probe's torque pattern, in units of its amplitude, from tick 0: two
 #: opposite doublets (zero net impulse and zero net displacement)
@@ -93,7 +92,7 @@ def delay_fit(q0, commands, gyros, max_steps: int, period: float, latency: float
     return np.array(sse)
 
 
-class DelayIdentifier(LeafSystem):
+class DelayIdentifier(PySystem):
     """Inputs ``imu`` (the sample of the tick, ``IMU_COLUMNS`` order) and
     ``command`` (the controller's command of the tick, probe included);
     output ``delay_steps``: the delay (whole ticks) the controller should

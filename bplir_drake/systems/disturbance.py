@@ -22,8 +22,9 @@ import math
 
 import numpy as np
 from pydrake.common.value import AbstractValue
-from pydrake.systems.framework import BasicVector, LeafSystem
+from pydrake.systems.framework import BasicVector
 
+from .base import PySystem
 from ..params import ScenarioParams
 from .schedule import declare_sample, declare_store
 
@@ -60,7 +61,7 @@ def disturbance_schedule(sc: ScenarioParams, seed: int, period: float,
     return times, torque
 
 
-class DisturbanceSource(LeafSystem):
+class DisturbanceSource(PySystem):
     """The generalized forces of a :func:`disturbance_schedule`, held over
     each tick (output ``generalized_force`` (2), N m on joint 1 and 2).
 
@@ -104,7 +105,7 @@ def delay_steps(delay: float, period: float) -> int:
     return int(round(delay / period))
 
 
-class CommandDelay(LeafSystem):
+class CommandDelay(PySystem):
     """Delays a sampled signal by ``steps`` periods on the tick schedule
     (:mod:`bplir_drake.systems.schedule`): at ``t_k`` it stores the tick
     ``k - 1`` value of its input in a FIFO of ``steps`` values and outputs

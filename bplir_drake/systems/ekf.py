@@ -44,14 +44,13 @@ import numpy as np
 import pydrake.math as dmath
 from pydrake.autodiffutils import AutoDiffXd, ExtractGradient, ExtractValue, InitializeAutoDiff
 from pydrake.common.value import AbstractValue
-from pydrake.systems.framework import LeafSystem
 
+from .base import PySystem
 from ..params import EstimatorParams
 from . import ekf_kernel
 from .calibration import ImuCalibration
 from .line_sensor import line_gap
 from .schedule import declare_store, declare_tick_result
-from .state import AbsoluteState
 from .ekf_model import (  # noqa: F401 (re-exported)
     _per_block, _identity, state_layout, GROUP_NOISE, _pair, _gyro_terms, imu_radii, kinematic_f, kinematic_h, kinematic_h_printed, jacobians, EkfState, noise_matrices, _input_noises, initial_state, input_ends, discrete_f, kinematic_f_jacobians, discrete_f_jacobians, kinematic_h_jacobian, _walk_variances, misalignment_columns)
 
@@ -210,7 +209,7 @@ def prediction_input(u_prev, u, p: EstimatorParams) -> np.ndarray:
 
 # ----------------------------------------------------------- Drake system
 
-class KinematicEkf(LeafSystem):
+class KinematicEkf(PySystem):
     """Discrete EKF at ``params.period`` on the tick schedule
     (:mod:`bplir_drake.systems.schedule`).
 
@@ -339,8 +338,8 @@ class KinematicEkf(LeafSystem):
         out.SetFromVector(self._post.Eval(context)[0].x[:4])
 
     def _out_rel(self, context, out):
-        x = AbsoluteState(self._post.Eval(context)[0].x[:4])
-        out.SetFromVector([x.theta1, x.theta2 - x.theta1, x.omega1, x.omega2 - x.omega1])
+        x = self._post.Eval(context)[0].x   # theta1, theta2, omega1, omega2 (AbsoluteState)
+        out.SetFromVector((x[0], x[1] - x[0], x[2], x[3] - x[2]))
 
     def _out_cov(self, context, out):
         out.SetFromVector(np.diag(self._post.Eval(context)[0].P))

@@ -16,6 +16,7 @@ import pydrake.math as dmath
 from pydrake.systems.framework import LeafSystem_
 from pydrake.systems.scalar_conversion import TemplateSystem
 
+from .base import weak_callback
 from ..params import FrictionParams
 
 
@@ -59,7 +60,7 @@ def JointFriction_(T):
             LeafSystem_[T].__init__(self, converter)
             self.params = params
             self.DeclareVectorInputPort("state", 4)
-            self.DeclareVectorOutputPort("generalized_force", 2, self._calc,
+            self.DeclareVectorOutputPort("generalized_force", 2, weak_callback(self, self._calc),
                                          {self.all_input_ports_ticket()})
 
         def _construct_copy(self, other, converter=None):

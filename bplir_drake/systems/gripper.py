@@ -26,8 +26,9 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 from pydrake.common.containers import namedview
-from pydrake.systems.framework import EventStatus, LeafSystem
+from pydrake.systems.framework import EventStatus
 
+from .base import PySystem
 from ..params import ScenarioParams
 from .schedule import declare_store
 
@@ -147,7 +148,7 @@ def first_arrival(x0, x1, T: float, g: LineGeometry, sc: ScenarioParams, passed:
     return (s if found else None), x, passed, normal, closest
 
 
-class GripperInterlock(LeafSystem):
+class GripperInterlock(PySystem):
     """Inputs ``state`` (true plant state), ``tripped`` (driver interlock),
     ``estimate`` (the filter's relative state) and ``torque`` (applied).
     Output ``status`` = the first :attr:`N` entries of :attr:`State`: mode

@@ -28,8 +28,8 @@ import numpy as np
 from numba import njit
 from pydrake.common.containers import namedview
 from pydrake.common.value import AbstractValue
-from pydrake.systems.framework import LeafSystem
 
+from .base import PySystem
 from ..params import ImuParams
 from .schedule import declare_sample
 
@@ -90,15 +90,16 @@ def standstill_samples(params: ImuParams, theta, g: float, seed: int, n: int) ->
     """``n`` samples (n, 6) of the IMUs with the robot held still at the
     absolute link angles ``theta`` (rad): gravity ``g`` in each link frame,
     through the sensors' errors (:func:`corrupt`, constant gyro bias) with
-    noise from ``default_rng((seed, 3, k))`` -- a stream of its own, so the
-    swing's samples do not change.  The simulated sensor before a swing."""
+    noise drawn at once from ``default_rng((seed, 3))`` -- a stream of its
+    own, so the swing's samples do not change.  The simulated sensor before
+    a swing."""
     ideal = imu_kinematics(theta, (0.0, 0.0), (0.0, 0.0), params.r1, params.r2, 0.0, g)
     bias = np.array([params.gyro_bias1, params.gyro_bias2])
     # the noise-free reading is the same for every sample: corrupt it once
     still = corrupt(ideal, replace(params, noise=False), bias, None)
     if not params.noise:
         return np.tile(still, (n, 1))
-    draws = np.array([np.random.default_rng((seed, 3, k)).standard_normal(6) for k in range(n)])
+    draws = np.random.default_rng((seed, 3)).standard_normal((n, 6))
     return still + noise_sigmas(params) * draws
 
 
@@ -154,7 +155,7 @@ def sample_kernel(g1, g2, a1x, a1y, a2x, a2y, walk1, walk2, k, c, draws):
     return out
 
 
-class ImuSampler(LeafSystem):
+class ImuSampler(PySystem):
     """Samples Drake's four sensor outputs at the IMU rate (zero-order hold).
 
     Inputs ``gyro1``, ``gyro2`` (angular velocity in the sensor frame) and

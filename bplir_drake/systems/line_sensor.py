@@ -17,7 +17,8 @@ laws aim with.
 
 A reading is valid while the true gap lies within ``[-range, range]``;
 sample ``k``'s noise comes from ``numpy.random.default_rng((seed, k, 1))``
-(the IMUs use ``(seed, k)``).  Before the swing the free gripper holds
+(the IMUs draw theirs per block of ticks,
+:func:`~bplir_drake.systems.imu.noise_block`).  Before the swing the free gripper holds
 the line, where the true gap is 0: the standstill calibration measures the
 sensor's offset there (:func:`standstill_readings`).
 """
@@ -27,8 +28,8 @@ import math
 
 import numpy as np
 from pydrake.common.value import AbstractValue
-from pydrake.systems.framework import LeafSystem
 
+from .base import PySystem
 from ..params import LineSensorParams
 from .schedule import declare_sample
 from .state import RobotState
@@ -52,7 +53,7 @@ def standstill_readings(params: LineSensorParams, seed: int, n: int) -> np.ndarr
     return params.offset + params.sigma * noise
 
 
-class LineSensor(LeafSystem):
+class LineSensor(PySystem):
     """Input ``state`` (the plant's, relative angles ``q1, q2, q1', q2'``);
     output ``line_gap`` (2): the held reading (m) and 1 where it is valid
     (0 out of range).  Sample ``k`` at ``t_k = k T``

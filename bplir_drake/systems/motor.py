@@ -31,8 +31,9 @@ then limits the current to ``i_cont`` until ``h`` has returned to zero.
 from __future__ import annotations
 
 import numpy as np
-from pydrake.systems.framework import Diagram, LeafSystem
+from pydrake.systems.framework import Diagram
 
+from .base import PySystem
 from ..params import MotorParams
 
 
@@ -160,7 +161,7 @@ def rest_for(h: float, tripped: bool, currents, p: MotorParams, margin: float) -
     return hi
 
 
-class DriverLogic(LeafSystem):
+class DriverLogic(PySystem):
     """The driver's discrete logic (one Python evaluation a tick at most):
     the current it regulates to for the torque command
     (:func:`current_command`: saturation, dead-band, current limit) and the

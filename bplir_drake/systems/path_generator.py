@@ -15,6 +15,7 @@ from pydrake.systems.scalar_conversion import TemplateSystem
 from ..params import PathParams, PlantParams
 from .path import (PathGeometry, constraint_acceleration, path_derivatives, predict_rate_squared,
                    projected_rate, step_blend_end)
+from .base import weak_callback
 from .schedule import declare_store, declare_tick_result
 from .state import RobotState
 
@@ -131,11 +132,12 @@ def PathGenerator_(T):
             declare_store(self, period, self._store)
             dep = {self._next.ticket()}
             at = {self._path_at.ticket()}
-            self.reference_port = self.DeclareVectorOutputPort("reference", 1, self._out_ref, at)
-            self.feedforward_port = self.DeclareVectorOutputPort("feedforward", 1, self._out_ff,
-                                                                 at)
-            self.blend_end_port = self.DeclareVectorOutputPort("blend_end", 2, self._out_blend,
-                                                               dep)
+            self.reference_port = self.DeclareVectorOutputPort(
+                "reference", 1, weak_callback(self, self._out_ref), at)
+            self.feedforward_port = self.DeclareVectorOutputPort(
+                "feedforward", 1, weak_callback(self, self._out_ff), at)
+            self.blend_end_port = self.DeclareVectorOutputPort(
+                "blend_end", 2, weak_callback(self, self._out_blend), dep)
 
         def _construct_copy(self, other, converter=None):
             Impl._construct(self, other.plant_params, other.path, other.geometry, other.period,

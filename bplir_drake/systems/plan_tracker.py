@@ -31,13 +31,12 @@ import math
 from dataclasses import dataclass, fields, replace
 
 import numpy as np
-from pydrake.systems.framework import LeafSystem
 
+from .base import PySystem
 from ..params import PLAN_INDEXING
 from .motor import torque_window
 from .plant import bias_term, gravity_vector, mass_matrix
 from .schedule import declare_store, declare_tick_result
-from .state import RobotState
 from .landing import (  # noqa: F401 (re-exported)
     _LineServo, Reach, Landing, ApexShot, link1_share, resolved_landing, landing_law, height_rates, height_torque)
 
@@ -102,7 +101,7 @@ def plan_gains(model, times, states, torque,
     return TrackingGains(result.K, result.x0, result.u0, result.k0)
 
 
-class PlanTracker(LeafSystem):
+class PlanTracker(PySystem):
     """Input ``state`` (estimated relative state).  Outputs ``torque`` and
     ``reference`` (q2 of the plan), both held between ticks of ``period``.
 
@@ -186,13 +185,13 @@ class PlanTracker(LeafSystem):
         else:
             u = self.u0.value(t)[0, 0] - (self.K.value(t) @ (np.asarray(x) - x0))[0] \
                 - self.k0.value(t)[0, 0]
-        return float(min(max(u, lo), hi)), float(RobotState(x0).q2)
+        return float(min(max(u, lo), hi)), float(x0[1])   # the planned q2 (RobotState)
 
     def window(self, x) -> tuple[float, float]:
         """(lowest, highest) torque the tracker commands at the state ``x``."""
         if self.motor is None:
             return -self.torque_limit, self.torque_limit
-        return torque_window(float(RobotState(x).q2d), self.motor,
+        return torque_window(float(x[3]), self.motor,   # q2d (RobotState)
                              torque_limit=self.torque_limit)
 
     def phase(self, tau: float, x) -> float:

@@ -15,8 +15,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from pydrake.systems.framework import LeafSystem
 
+from .base import PySystem
 from ..params import FrictionParams, PlantParams
 from . import nominal_kernel
 from .schedule import declare_store, declare_tick_result
@@ -68,7 +68,7 @@ def predict_state(x, commands, period: float, plant: PlantParams, friction: Fric
                                   np.asarray(commands, dtype=float).ravel(), period, substeps)
 
 
-class DelayPredictor(LeafSystem):
+class DelayPredictor(PySystem):
     """Inputs ``estimate`` (q1, q2, q1d, q2d at tick k) and ``command`` (the
     controller's elbow torque of tick k); output ``predicted`` (the state
     ``steps`` ticks ahead, :func:`predict_state`).  Discrete state: the

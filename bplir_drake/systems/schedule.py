@@ -33,6 +33,8 @@ import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import TriggerType, ValueProducer
 
+from .base import weak_callback
+
 
 def _after_first_tick(period: float, update):
     """``update`` at the ticks ``t_k``, ``k >= 1`` (a no-op at ``t_0``)."""
@@ -71,7 +73,8 @@ def declare_tick_result(system, calc, prerequisites):
         value.set_value(calc(context))
 
     return system.DeclareCacheEntry(
-        "tick result", ValueProducer(allocate=lambda: AbstractValue.Make(None), calc=producer),
+        "tick result", ValueProducer(allocate=lambda: AbstractValue.Make(None),
+                                     calc=weak_callback(system, producer)),
         set(prerequisites))
 
 

@@ -90,7 +90,7 @@ class SwingResult(Result):
 
 #: integrator of a swing: error-controlled RK3 at this accuracy keeps the
 #: capture speed within 1e-3 m/s of RK5 at 1e-10 (README, "Speed")
-SWING_INTEGRATOR, SWING_ACCURACY = "runge_kutta3", 1e-4
+SWING_INTEGRATOR, SWING_ACCURACY = "runge_kutta3", 1e-3
 
 
 def swing_diagram(params: BplirParams, **kwargs):
@@ -128,10 +128,18 @@ class SwingRunner:
         self.built = None
         self.builds = 0
 
+    def release(self) -> None:
+        """Let the diagram built last go (:meth:`~bplir_drake.diagrams.parts.
+        Built.release`): the next swing builds its own."""
+        if self.built is not None:
+            self.built.release()
+            self.built = None
+
     def diagram_for(self, params: BplirParams, seed: int, use_estimator: bool):
         """``(built swing, fresh)`` for ``params``: reused when the structure
         matches (``fresh`` False: the sample must be set in the context)."""
         if self.built is None or self.built.structure != swing_structure(params, use_estimator):
+            self.release()
             self.built = swing_diagram(params, seed=seed, use_estimator=use_estimator)
             self.builds += 1
             return self.built, True
@@ -199,8 +207,12 @@ def run_swing(params: BplirParams, *, seed: int | None = None, use_estimator: bo
     ``live``: a :class:`~bplir_drake.analysis.live.LiveView` that shows the
     swing in Meshcat as it is simulated, at real time.  Many swings:
     :class:`SwingRunner`."""
-    return SwingRunner().run(params, seed=seed, use_estimator=use_estimator, accuracy=accuracy,
-                             integrator=integrator, driver_state=driver_state, live=live)
+    runner = SwingRunner()
+    try:
+        return runner.run(params, seed=seed, use_estimator=use_estimator, accuracy=accuracy,
+                          integrator=integrator, driver_state=driver_state, live=live)
+    finally:
+        runner.release()
 
 
 def arrival_height_error(p: BplirParams, est: Log, status: dict) -> float:

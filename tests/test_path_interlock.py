@@ -140,24 +140,25 @@ def test_line_metrics(params):
 
 
 def test_latch_lift_rescues_a_swing_that_stops_just_short_of_the_line():
-    """Sample 1 of the default study (root seed 0), adaptive path, the
+    """Sample 3 of the default study (root seed 0; of its first twelve
+    samples the one that crashes without the lift), adaptive path, the
     trapezoid filter the latch was built with: aimed at the line itself the
     latched path turns with the gripper just outside the band and meets the
-    line at 0.86 m/s; aimed 10 mm above it (``latch_lift``, a margin for the
-    elbow's tracking error) the swing is captured at 0.38 m/s."""
+    line at 0.62 m/s; aimed 10 mm above it (``latch_lift``, a margin for the
+    elbow's tracking error) the swing is captured at 0.26 m/s."""
     import dataclasses as dc
 
     from bplir_drake.analysis import montecarlo as mc
     from bplir_drake.analysis.swing.run import run_swing
     from bplir_drake.params import TRAPEZOID_LOOP_TUNING
 
-    p, seed, _ = mc.sample_params(mc.Study(samples=5, seed=0), 1)
+    p, seed, _ = mc.sample_params(mc.Study(samples=5, seed=0), 3)
     p = p.imu_only()   # the robot it was built for: no line sensor
     p = p.with_(path=dc.replace(p.path, mode="adaptive"),   # the latch is the adaptive path's
                 estimator=dc.replace(p.estimator, **TRAPEZOID_LOOP_TUNING))
     assert p.path.latch_lift == 0.01
     old = run_swing(p.with_(path=dc.replace(p.path, latch_lift=0.0)), seed=seed).summary
-    assert old["outcome"] == "crash" and old["capture_speed_mps"] > 0.8
+    assert old["outcome"] == "crash" and old["capture_speed_mps"] > 0.6
     assert old["swing_time_s"] > 1.45  # after falling back, not on the first approach
     new = run_swing(p, seed=seed).summary
     assert new["outcome"] == "captured" and new["capture_speed_mps"] < 0.5

@@ -186,8 +186,8 @@ def test_held_out_samples_of_the_realistic_study_land_on_the_grip(incline):
     """The default robot and controller on samples 0-15 of root seed 2 of
     ``examples/study_realistic.toml`` (held out: the landing was chosen on
     root seeds 0 and 100), every draw but the grip spacing (1.2 m, the
-    shipped plans).  Measured: 16 of 16 on every line, within 4, 4 and 7 cm
-    of the grip, the fastest at 0.367, 0.361 and 0.388 m/s."""
+    shipped plans).  Measured: 16 of 16 on every line, within 3.9, 4.5 and
+    7.6 cm of the grip, the fastest at 0.371, 0.380 and 0.405 m/s."""
     from bplir_drake.analysis.montecarlo import load_study, sample_params
     from bplir_drake.analysis.swing.run import SwingRunner
 
@@ -206,19 +206,19 @@ def test_held_out_samples_of_the_realistic_study_land_on_the_grip(incline):
     assert missed == []
     landed = [r for r in runs if r["success"]]
     assert all(abs(r["landing_error_m"]) < 0.08 for r in landed)
-    assert all(r["capture_speed_mps"] < {0.0: 0.37, 20.0: 0.37, -20.0: 0.39}[incline]
+    assert all(r["capture_speed_mps"] < {0.0: 0.38, 20.0: 0.39, -20.0: 0.41}[incline]
                for r in landed)
     assert all(r["peak_motor_power_W"] < 220.0 for r in runs)
 
 
-@pytest.mark.parametrize("incline,fails", [(0.0, []), (20.0, []), (-20.0, ["lc2 -10%"])])
-def test_link_2_parameters_off_by_10_percent(incline, fails):
+@pytest.mark.parametrize("incline", [0.0, 20.0, -20.0])
+def test_link_2_parameters_off_by_10_percent(incline):
     """m2, I2 or lc2 of the simulated robot 10 % off the nominal model the
     controller uses (seed 0, EKF in the loop, the default landing).  Every
-    case lands within 6.5 cm of the grip at 0 and +20 deg; at -20 deg the
-    aim law (the default robot's downhill landing) crashes lc2 -10 % -- a
-    5.5 cm shift of link 2's centre of mass, five times the realistic
-    study's draw; the line sensor's downhill shot lands it."""
+    case lands within 6.5 cm of the grip (measured 5.9 cm at most); the
+    hardest, lc2 -10 % at -20 deg under the aim law (a 5.5 cm shift of
+    link 2's centre of mass, five times the realistic study's draw),
+    arrives at 0.48 m/s, just inside the 0.5 m/s limit."""
     from bplir_drake.analysis.swing.run import SwingRunner
 
     runner = SwingRunner()
@@ -234,8 +234,4 @@ def test_link_2_parameters_off_by_10_percent(incline, fails):
                 missed.append(f"{field} {name}")
             else:
                 assert abs(r["landing_error_m"]) < 0.065
-    assert missed == fails
-    if fails:   # the line sensor's downhill shot lands it (measured 0.24 m/s)
-        sensed = p.with_hardware("line-sensor")
-        true = dc.replace(p.plant, lc2=p.plant.lc2 * 0.9)
-        assert runner.run(sensed.with_(true_plant=true), seed=0).summary["outcome"] == "captured"
+    assert missed == []

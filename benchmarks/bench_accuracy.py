@@ -1,8 +1,9 @@
 """Benchmark: what a cheaper integrator setting changes in what a study
 concludes (the yardstick of the speed issue), measured in one run.
 
-The same realistic swings (a study's draws, every sample's seed) run at the
-swing's accuracy and at a candidate one; printed per line: the share of
+The same realistic swings (a study's draws, every sample's seed) run at a
+baseline setting (default: RK3 at 1e-4, the swing's setting before 1e-3)
+and at a candidate (default: the swing's setting); printed per line: the share of
 samples that keep their outcome, both success rates with their Wilson
 intervals, both capture-speed p50 and p95, the median per-swing change of
 the capture speed, and the wall time per swing of each.  With
@@ -10,12 +11,15 @@ the capture speed, and the wall time per swing of each.  With
 (RK5 at 1e-10): the median per-swing capture-speed error of each setting.
 Last, how many of the default swing's seeds 0-19 keep their outcome.
 
-Run: python benchmarks/bench_accuracy.py [-n N] [--accuracy 1e-3]
-     [--integrator runge_kutta3] [--study examples/study_realistic.toml|default]
-     [--inclines 0,20,-20] [--seed ROOT] [--reference K]
-(prints figures, not a test; 2 worker processes).
+Run: python benchmarks/bench_accuracy.py [-n N] [--baseline 1e-4]
+     [--accuracy 1e-3] [--integrator runge_kutta3]
+     [--study examples/study_realistic.toml|default] [--inclines 0,20,-20]
+     [--seed ROOT] [--reference K] [--json PATH]
+(prints figures, not a test; 2 worker processes).  ``--json`` also writes
+them for the results pages (``results/accuracy``).
 """
 import argparse
+import json
 import math
 import multiprocessing
 import time
@@ -77,33 +81,43 @@ def main(argv=None) -> int:
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("-n", type=int, default=100)
-    ap.add_argument("--accuracy", type=float, default=1e-3)
+    ap.add_argument("--baseline", type=float, default=1e-4, help="the baseline's accuracy")
+    ap.add_argument("--accuracy", type=float, default=SWING_ACCURACY)
     ap.add_argument("--integrator", default=SWING_INTEGRATOR)
     ap.add_argument("--study", default=str(ROOT / "examples" / "study_realistic.toml"))
     ap.add_argument("--inclines", default="0,20,-20")
     ap.add_argument("--seed", type=int, default=300, help="root seed of the draws")
     ap.add_argument("--reference", type=int, default=0, help="swings also run at RK5 1e-10")
+    ap.add_argument("--json", help="write the figures to this file")
     args = ap.parse_args(argv)
     from bplir_drake.analysis.montecarlo.study import Study
 
     base = Study() if args.study == "default" else load_study(args.study)
-    settings = {"swing": (SWING_INTEGRATOR, SWING_ACCURACY),
+    settings = {"baseline": (SWING_INTEGRATOR, args.baseline),
                 "candidate": (args.integrator, args.accuracy)}
     print(f"{args.n} swings per line of {Path(args.study).name} study, root seed {args.seed}: "
-          f"{SWING_INTEGRATOR} {SWING_ACCURACY:g} against {args.integrator} {args.accuracy:g}")
+          f"{SWING_INTEGRATOR} {args.baseline:g} against {args.integrator} {args.accuracy:g}")
+    record = {"study": Path(args.study).name, "seed": args.seed, "samples": args.n,
+              "reference_swings": args.reference,
+              "settings": {k: [i, a] for k, (i, a) in settings.items()}, "lines": []}
     with multiprocessing.get_context("fork").Pool(2) as pool:
         for incline in (float(v) for v in args.inclines.split(",")):
             sc = replace(base.params.scenario, incline_deg=incline)
             study = replace(base, params=base.params.with_(scenario=sc), seed=args.seed)
             rows = compare(pool, study, args.n, settings)
-            a, b = rows["swing"], rows["candidate"]
+            a, b = rows["baseline"], rows["candidate"]
             same = np.mean([x[0] == y[0] for x, y in zip(a, b)])
             both = [(x[1], y[1]) for x, y in zip(a, b) if "captured" == x[0] == y[0]]
             dv = np.median([abs(x - y) for x, y in both]) if both else math.nan
             line = [f"{incline:+.0f} deg: same outcome {100 * same:.1f} %, "
                     f"median |change| of capture speed {dv:.4f} m/s"]
+            entry = {"incline_deg": incline, "same_outcome": float(same),
+                     "median_change_mps": float(dv), "settings": {}}
+            record["lines"].append(entry)
             for name, r in rows.items():
                 k, p50, p95 = _rates(r)
+                entry["settings"][name] = {"captured": k, "samples": len(r), "p50_mps": float(p50),
+                                           "p95_mps": float(p95)}
                 lo, hi = wilson(k, len(r))
                 line.append(f"  {name}: {k}/{len(r)} captured ({100 * lo:.1f}-{100 * hi:.1f} %), "
                             f"p50 {p50:.3f} p95 {p95:.3f} m/s, "
@@ -116,13 +130,19 @@ def main(argv=None) -> int:
                 for name, r in rows.items():
                     err = [abs(x[1] - y[1]) for x, y in zip(r, ref)
                            if "captured" == x[0] == y[0]]
+                    entry["settings"][name]["rk5_median_error_mps"] = (
+                        float(np.median(err)) if err else None)
                     line.append(f"  {name} against RK5 1e-10 on {args.reference}: median "
                                 f"|error| {np.median(err) if err else math.nan:.5f} m/s")
             print("\n".join(line), flush=True)
         default = compare(pool, None, 20, settings)
-    kept = sum(x[0] == y[0] for x, y in zip(default["swing"], default["candidate"]))
+    kept = sum(x[0] == y[0] for x, y in zip(default["baseline"], default["candidate"]))
     print(f"the default swing (bplir swing --seed K), seeds 0-19: {kept} of 20 keep their "
           "outcome", flush=True)
+    if args.json:
+        record["default_seeds_kept"] = int(kept)
+        Path(args.json).parent.mkdir(parents=True, exist_ok=True)
+        Path(args.json).write_text(json.dumps(record, indent=1) + "\n")
     return 0
 
 

@@ -95,12 +95,34 @@ def benchmark_rows(item: dict) -> list[list[str]]:
             for c, sc in res["scores"].items()]
 
 
+def accuracy_rows(item: dict) -> list[list[str]]:
+    """One row per line and setting of a stored integrator comparison
+    (``benchmarks/bench_accuracy.py --json``)."""
+    from bplir_drake.analysis.montecarlo.statistics import wilson_interval
+
+    res, out = item["summary"], []
+    for line in res["lines"]:
+        for name, st in line["settings"].items():
+            integrator, accuracy = res["settings"][name]
+            k, n = st["captured"], st["samples"]
+            err = st.get("rk5_median_error_mps")
+            out.append([f"{line['incline_deg']:+.0f}°", f"{integrator} {accuracy:g}",
+                        f"{k} / {n}", wilson({"success_rate_ci95": wilson_interval(k, n)}),
+                        f"{num(st['p50_mps'])} / {num(st['p95_mps'])}",
+                        pct(line["same_outcome"]), num(line["median_change_mps"], "{:.4f}"),
+                        "--" if err is None else num(err, "{:.5f}")])
+    return out
+
+
 HEADERS = {
     "swing": ["line", "root seed", "seeds", "captured", "Wilson 95 %",
               "capture speed p50 / p95 (m/s)", "peak voltage p95 / max (V)",
               "on the envelope p95 (s)", "misses"],
     "traverse": ["line", "root seed", "seeds", "passed", "Wilson 95 %", "supply",
                  "peak voltage max (V)", "misses"],
+    "accuracy": ["line", "integrator", "captured", "Wilson 95 %",
+                 "capture speed p50 / p95 (m/s)", "same outcome", "median change (m/s)",
+                 "median error against RK5 1e-10 (m/s)"],
 }
 
 
@@ -131,6 +153,11 @@ def page(items: list[dict]) -> str:
             cats = list(members[0]["summary"]["categories"])
             rows = [r for i in members for r in benchmark_rows(i)]
             out += table(["benchmark", "controller", "overall", *cats], rows) + [""]
+        elif kind == "accuracy":
+            rows = [r for i in members for r in accuracy_rows(i)]
+            out += table(HEADERS[kind], rows) + [""]
+            out += [f"The default swing's seeds 0-19: {i['summary']['default_seeds_kept']} of 20 "
+                    "keep their outcome." for i in members] + [""]
         else:
             rows = [swing_row(i) if kind == "swing" else traverse_row(i) for i in members]
             out += table(HEADERS[kind], rows) + [""]

@@ -85,6 +85,34 @@ def _f_jacobians(x, u0, u1, c):
 
 
 @njit(cache=True)
+def _mm(A, B):
+    """A B by loops (small matrices: no BLAS call, no temporaries)."""
+    n, k, m = A.shape[0], A.shape[1], B.shape[1]
+    out = np.zeros((n, m))
+    for i in range(n):
+        for j in range(m):
+            acc = 0.0
+            for r in range(k):
+                acc += A[i, r] * B[r, j]
+            out[i, j] = acc
+    return out
+
+
+@njit(cache=True)
+def _mmt(A, B):
+    """A B^T by loops."""
+    n, k, m = A.shape[0], A.shape[1], B.shape[0]
+    out = np.zeros((n, m))
+    for i in range(n):
+        for j in range(m):
+            acc = 0.0
+            for r in range(k):
+                acc += A[i, r] * B[j, r]
+            out[i, j] = acc
+    return out
+
+
+@njit(cache=True)
 def _predict(x, P, u, radial, c, walk):
     """(x, P) after one period with the inputs ``u`` (2, or 4 for both
     ends with Heun's step) and the corrected radial readings ``radial``
@@ -92,7 +120,6 @@ def _predict(x, P, u, radial, c, walk):
     n = x.shape[0]
     Ts = c[_TS]
     mode = int(c[_INT])
-    eye = np.eye(n)
     if mode == 2:
         if u.shape[0] == 4:
             u0a, u0b, u1a, u1b = u[0], u[1], u[2], u[3]
@@ -100,8 +127,15 @@ def _predict(x, P, u, radial, c, walk):
             u0a, u0b, u1a, u1b = u[0], u[1], u[0], u[1]
         f1, J1, B1 = _f_jacobians(x, u0a, u0b, c)
         f2, J2, B2 = _f_jacobians(x + Ts * f1, u1a, u1b, c)
-        A = eye + 0.5 * Ts * (J1 + J2 @ (eye + Ts * J1))
-        W0 = 0.5 * Ts * (B1 + Ts * J2 @ B1)
+        step = Ts * J1
+        for i in range(n):
+            step[i, i] += 1.0
+        JJ = _mm(J2, step)
+        JB = _mm(J2, B1)
+        A = 0.5 * Ts * (J1 + JJ)
+        for i in range(n):
+            A[i, i] += 1.0
+        W0 = 0.5 * Ts * (B1 + Ts * JB)
         W1 = 0.5 * Ts * B2
         if u.shape[0] == 4:
             W = np.hstack((W0, W1))
@@ -111,7 +145,9 @@ def _predict(x, P, u, radial, c, walk):
     else:
         f, Jx, Ju = _f_jacobians(x, u[0], u[1], c)
         x_new = x + Ts * f
-        A = eye + Ts * Jx
+        A = Ts * Jx
+        for i in range(n):
+            A[i, i] += 1.0
         W = Ts * Ju
         if mode == 1:
             h = 0.5 * Ts * Ts
@@ -121,13 +157,17 @@ def _predict(x, P, u, radial, c, walk):
                 W[i] += h * Ju[2 + i]
     mis = int(c[_MIS])
     if mis >= 0 and radial.shape[0] > 0:
-        cols = -W * radial.reshape(1, -1)
-        if W.shape[1] == 4:
-            A[:, mis:mis + 2] += cols[:, :2] + cols[:, 2:]
-        else:
-            A[:, mis:mis + 2] += cols
-    P_new = A @ P @ A.T + c[_QU] * (W @ W.T)
+        half = W.shape[1] // 2 if W.shape[1] == 4 else 0
+        for i in range(n):
+            for j in range(2):
+                A[i, mis + j] -= W[i, j] * radial[j]
+                if half:
+                    A[i, mis + j] -= W[i, j + 2] * radial[j + 2]
+    P_new = _mmt(_mm(A, P), A)
+    WW = _mmt(W, W)
     for i in range(n):
+        for j in range(n):
+            P_new[i, j] += c[_QU] * WW[i, j]
         P_new[i, i] += walk[i] * Ts
     return x_new, P_new
 
@@ -175,6 +215,32 @@ def _h_jacobian(x, u0, c):
 
 
 @njit(cache=True)
+def _cholesky_solve(S, B):
+    """S^-1 B for the symmetric positive definite S (m x m) and B (m x k)."""
+    m = S.shape[0]
+    L = np.zeros((m, m))
+    for i in range(m):
+        for j in range(i + 1):
+            acc = S[i, j]
+            for r in range(j):
+                acc -= L[i, r] * L[j, r]
+            L[i, j] = math.sqrt(acc) if i == j else acc / L[j, j]
+    out = B.copy()
+    for col in range(B.shape[1]):
+        for i in range(m):   # L y = b
+            acc = out[i, col]
+            for r in range(i):
+                acc -= L[i, r] * out[r, col]
+            out[i, col] = acc / L[i, i]
+        for i in range(m - 1, -1, -1):   # L^T z = y
+            acc = out[i, col]
+            for r in range(i + 1, m):
+                acc -= L[r, i] * out[r, col]
+            out[i, col] = acc / L[i, i]
+    return out
+
+
+@njit(cache=True)
 def _update(x, P, z, u, c, hold, hold_misalign):
     """(x, P) after the update with the readings ``z`` (gyro1, gyro2,
     mu_y1, mu_y2) and the tangential inputs ``u`` (Joseph form)."""
@@ -185,26 +251,37 @@ def _update(x, P, z, u, c, hold, hold_misalign):
         H[2, mis] -= u[0]
         H[3, mis + 1] -= u[1]
         H[3, mis] += c[_L1] * math.sin(x[1] - x[0]) / r1 * z[2]
-    R = np.zeros((4, 4))
+    PHt = _mmt(P, H)
+    S = _mm(H, PHt)
     for i in range(4):
-        R[i, i] = c[_RDIAG + i]
-    PHt = P @ H.T
-    S = H @ PHt + R
-    nu = z - h
+        S[i, i] += c[_RDIAG + i]
+    nu = (z - h).reshape(4, 1)
     if c[_NIS] > 0.0:
-        excess = (nu @ np.linalg.solve(S, nu)) / (c[_NIS] * 4)
+        w = _cholesky_solve(S, nu)
+        excess = (nu[0, 0] * w[0, 0] + nu[1, 0] * w[1, 0] + nu[2, 0] * w[2, 0]
+                  + nu[3, 0] * w[3, 0]) / (c[_NIS] * 4)
         if excess > 1.0:
             P = P * excess
-            PHt = P @ H.T
-            S = H @ PHt + R
-    K = np.linalg.solve(S, PHt.T).T
+            PHt = _mmt(P, H)
+            S = _mm(H, PHt)
+            for i in range(4):
+                S[i, i] += c[_RDIAG + i]
+    K = _cholesky_solve(S, PHt.T.copy()).T.copy()   # P H^T S^-1 (S symmetric)
     if hold and n > 4:
         K[4:] = 0.0
     if hold_misalign and mis >= 0:
         K[mis:mis + 2] = 0.0
-    x_new = x + K @ nu
-    IKH = np.eye(n) - K @ H
-    P_new = IKH @ P @ IKH.T + K @ R @ K.T
+    x_new = x + _mm(K, nu)[:, 0]
+    IKH = -_mm(K, H)
+    for i in range(n):
+        IKH[i, i] += 1.0
+    P_new = _mmt(_mm(IKH, P), IKH)
+    for i in range(n):
+        for j in range(n):
+            acc = 0.0
+            for r in range(4):
+                acc += K[i, r] * c[_RDIAG + r] * K[j, r]
+            P_new[i, j] += acc
     return x_new, 0.5 * (P_new + P_new.T)
 
 

@@ -88,8 +88,8 @@ class SwingResult(Result):
         return {name: data[:, i] for i, name in enumerate(cols)}
 
 
-#: integrator of a swing: error-controlled RK3 at this accuracy keeps the
-#: capture speed within 1e-3 m/s of RK5 at 1e-10 (README, "Speed")
+#: integrator of a swing: error-controlled RK3 at this accuracy keeps a
+#: study's outcomes and capture speeds (docs/results, the integrator's accuracy)
 SWING_INTEGRATOR, SWING_ACCURACY = "runge_kutta3", 1e-3
 
 

@@ -1,0 +1,115 @@
+"""The compiled per-tick arithmetic against the plain functions it stands in
+for: the EKF step, the IMU error model and the nominal model's rates."""
+import dataclasses as dc
+
+import numpy as np
+import pytest
+
+from bplir_drake.params import EstimatorParams, ImuParams, preset
+from bplir_drake.systems import ekf_kernel, imu, nominal_kernel
+from bplir_drake.systems.ekf import ekf_step, initial_state
+from bplir_drake.systems.predictor import nominal_rates
+
+
+@pytest.fixture(scope="module")
+def swing_samples():
+    """(the IMU samples (N, 6) of the default swing, seed 0; the absolute
+    start state the robot believes)."""
+    from bplir_drake.analysis.swing.run import run_swing
+    from bplir_drake.diagrams.swing import believed_start
+    from bplir_drake.systems.plant import absolute_from_relative
+
+    x0 = absolute_from_relative(np.r_[believed_start(preset())[:2], 0.0, 0.0])
+    return run_swing(preset(), seed=0).logs["imu"].data, x0
+
+
+LAYOUTS = {"bias": {}, "misalignment": {"estimate_misalignment": True},
+           "all": {"estimate_misalignment": True, "estimate_gyro_scale": True,
+                   "estimate_imu_position": True}}
+
+
+@pytest.mark.parametrize("integration", ["euler", "trapezoid", "heun"])
+@pytest.mark.parametrize("layout", list(LAYOUTS))
+@pytest.mark.parametrize("inflate", [0.0, 3.0])
+def test_the_compiled_filter_step_is_the_readable_one(swing_samples, integration, layout,
+                                                      inflate):
+    """Over a whole swing's samples, every state layout, integration and
+    covariance inflation: the compiled step's state and covariance are
+    :func:`ekf_step`'s to rounding (relative 1e-8), the Schmidt holds
+    included (the first 0.2 s hold the extra states, the misalignments
+    throughout)."""
+    p = dc.replace(EstimatorParams(), integration=integration, inflate_nis=inflate,
+                   **LAYOUTS[layout])
+    samples, x0 = swing_samples
+    s = initial_state(p, x0, (p.start_angle_sigma, p.start_rate_sigma, p.start_bias_sigma))
+    consts, walk = ekf_kernel.pack(p)
+    x, P, u = s.x.copy(), s.P.copy(), np.zeros(4)
+    u_ref = np.zeros(4)
+    worst = 0.0
+    for k, sample in enumerate(samples):
+        hold, hold_mis = k < 20, layout != "bias"
+        s, u_ref = ekf_step(s, u_ref, sample, p, first=k == 0, hold=hold, hold_misalign=hold_mis)
+        x, P, u = ekf_kernel.step(x, P, u, np.asarray(sample, float), k == 0, hold, hold_mis,
+                                  consts, walk, np.zeros(4))
+        worst = max(worst, np.abs(x - s.x).max() / (1.0 + np.abs(s.x).max()),
+                    np.abs(P - s.P).max() / np.abs(s.P).max(), np.abs(u - u_ref).max())
+    assert worst < 1e-8
+
+
+def test_the_compiled_calibration_correction_is_the_calibrations():
+    """A standstill calibration's misalignment and scale removed in the
+    compiled step (``cal``) equal :meth:`ImuCalibration.correct` followed by
+    the plain step."""
+    from bplir_drake.systems.calibration import ImuCalibration
+
+    p = EstimatorParams()
+    cal = ImuCalibration(misalign=(0.03, -0.02), scale=(0.01, -0.015))
+    s = initial_state(p, (0.05, -0.1, 0.0, 0.0))
+    sample = np.array([0.1, -0.2, 0.4, 9.7, -0.3, 9.9])
+    ref, u_ref = ekf_step(s, np.zeros(4), cal.correct(sample), p, first=True)
+    x, P, u = ekf_kernel.step(s.x.copy(), s.P.copy(), np.zeros(4), sample, True, False, False,
+                              *ekf_kernel.pack(p), np.array([*cal.misalign, *cal.scale]))
+    np.testing.assert_allclose(x, ref.x, rtol=1e-12, atol=1e-14)
+    np.testing.assert_allclose(P, ref.P, rtol=1e-12, atol=1e-16)
+    np.testing.assert_allclose(u, u_ref, rtol=1e-12)
+
+
+def test_the_compiled_sensor_error_model_is_corrupt():
+    """The sampler's compiled error model, on the tick's drawn normals, is
+    :func:`imu.corrupt` with the walk stepped first (its draws 0-1), the
+    white noise its draws 2-7."""
+    p = dc.replace(ImuParams(), gyro_bias1=0.02, gyro_bias2=-0.01, misalign1=0.03,
+                   misalign2=-0.02, accel_scale1=0.01, accel_scale2=-0.015, gyro_scale1=0.002,
+                   gyro_scale2=-0.003, gyro_drift=0.01)
+    draws = np.random.default_rng(5).standard_normal(8)
+    ideal = np.array([0.3, -1.2, 0.8, 9.6, -2.1, 10.4])
+    walk = np.array([0.001, -0.002]) + p.gyro_drift * np.sqrt(p.period) * draws[:2]
+
+    class Drawn:   # the rng corrupt() asks for its white noise
+        def standard_normal(self, n):
+            return draws[2:2 + n]
+
+    expected = imu.corrupt(ideal, p, np.array([p.gyro_bias1, p.gyro_bias2]) + walk, Drawn())
+    out = imu.sample_kernel(*ideal, 0.001, -0.002, 7, imu.pack(p), draws)
+    np.testing.assert_allclose(out[:6], expected, rtol=1e-14, atol=1e-15)
+    np.testing.assert_allclose(out[6:8], walk, rtol=1e-14)
+    assert out[8] == 8.0
+
+
+def test_the_compiled_nominal_model_is_the_plain_one():
+    """The compiled rates, link 1's passive acceleration and the elbow's
+    computed torque agree with the plain closed form to rounding, friction
+    on, at 200 random states."""
+    p = preset()
+    c = nominal_kernel.pack(p.plant, p.friction)
+    f = nominal_rates(p.plant, p.friction)
+    rng = np.random.default_rng(11)
+    for _ in range(200):
+        q1, q2, v1, v2, tau = rng.uniform(-3, 3, 5)
+        np.testing.assert_allclose(nominal_kernel.rates(c, q1, q2, v1, v2, tau),
+                                   f(q1, q2, v1, v2, tau), rtol=1e-12, atol=1e-12)
+        a2 = f(q1, q2, v1, v2, tau)[3]
+        assert nominal_kernel.link1_accel(c, q1, q2, v1, v2, a2) == pytest.approx(
+            f(q1, q2, v1, v2, tau)[2], rel=1e-9, abs=1e-9)
+        assert nominal_kernel.elbow_torque(c, q1, q2, v1, v2, a2) == pytest.approx(
+            tau, rel=1e-9, abs=1e-9)

@@ -106,7 +106,8 @@ def accuracy_rows(item: dict) -> list[list[str]]:
             integrator, accuracy = res["settings"][name]
             k, n = st["captured"], st["samples"]
             err = st.get("rk5_median_error_mps")
-            out.append([f"{line['incline_deg']:+.0f}°", f"{integrator} {accuracy:g}",
+            incline = line["incline_deg"]
+            out.append([f"{incline:+.0f}°" if incline else "0°", f"{integrator} {accuracy:g}",
                         f"{k} / {n}", wilson({"success_rate_ci95": wilson_interval(k, n)}),
                         f"{num(st['p50_mps'])} / {num(st['p95_mps'])}",
                         pct(line["same_outcome"]), num(line["median_change_mps"], "{:.4f}"),

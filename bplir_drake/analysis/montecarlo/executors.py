@@ -31,6 +31,10 @@ def _pool_map(fn: Callable, args: list[tuple], workers: int) -> Iterable:
     from concurrent.futures import ProcessPoolExecutor, as_completed
 
     method = "fork" if "fork" in mp.get_all_start_methods() else "spawn"
+    if method == "fork":
+        from ...systems.kernels import warm_up
+
+        warm_up()   # the workers inherit the compiled kernels
     ex = ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context(method),
                              initializer=quiet_worker, initargs=(os.getpid(),))
     futures = [ex.submit(fn, *a) for a in args]

@@ -62,6 +62,9 @@ class IsolatedRunners:
         if self._pool is not None and self._ran >= self.swings:
             self.close()
         if self._pool is None:
+            from ...systems.kernels import warm_up
+
+            warm_up()   # the worker inherits the compiled kernels
             ctx = mp.get_context("fork")
             self._pool = ctx.Pool(1, initializer=quiet_worker, initargs=(os.getpid(),))
             self._ran = 0

@@ -1,0 +1,44 @@
+"""The compiled kernels of the 100 Hz chain, loaded at once.
+
+Each kernel (numba, ``njit(cache=True)``) is compiled on its first call in a
+fresh install and loaded from its cache in later processes; the first call
+in a process also starts numba's compiler (about 0.3 s).  A process that
+forks workers calls :func:`warm_up` first, so that its workers inherit the
+kernels ready instead of each loading them."""
+from __future__ import annotations
+
+import numpy as np
+
+
+def _readonly(a) -> np.ndarray:
+    """``a`` as a read-only float array: the systems pass Drake's state
+    vectors, which numpy sees read-only (a kernel is compiled per
+    writability)."""
+    a = np.array(a, dtype=float)
+    a.flags.writeable = False
+    return a
+
+
+def warm_up() -> None:
+    """Call every kernel once with the argument types the systems pass
+    (the default swing's), loading or compiling each in this process."""
+    from ..params import preset
+    from . import ekf_kernel, gripper, imu, nominal_kernel
+
+    p = preset().resolved()
+    consts, walk = ekf_kernel.pack(p.estimator.for_loop())
+    n = len(walk)
+    ekf_kernel.step(_readonly(np.zeros(n)), _readonly(np.eye(n)), _readonly(np.zeros(4)),
+                    np.array([0.0, 0.0, 0.0, 9.8, 0.0, 9.8]), True, False, False, consts, walk,
+                    np.zeros(4))
+    c = nominal_kernel.pack(p.plant, p.friction)
+    x = np.array([0.1, 0.2, 0.5, 0.1])
+    nominal_kernel.predict(c, x, _readonly(np.zeros(1)), 0.01, 2)
+    nominal_kernel.solve_shot(c, x, 12, 0.0, -0.01, 0.1, 0.04, 0.03)
+    nominal_kernel.elbow_torque(c, 0.1, 0.2, 0.3, 0.4, 1.0)
+    nominal_kernel.probe_rates(c, 0.1, 0.2, np.zeros(2), 1, 0.01, 0.0,
+                               np.array([20.0, 0.1, 0.001]), 2)
+    imu.sample_kernel(0.0, 0.0, 0.0, 9.8, 0.0, 9.8, 0.0, 0.0, 0, imu.pack(p.imu),
+                      _readonly(np.zeros(8)))
+    gripper.arrival(np.zeros(4), np.zeros(4), 0.01, np.array([0.9, 0.9, 0.0, 1.2]), 0.02,
+                    0.6, False, 0.0, 8, 30)

@@ -113,6 +113,36 @@ def _mmt(A, B):
 
 
 @njit(cache=True)
+def _scaled(s, X):
+    """s X (2-d), by loops."""
+    out = np.empty(X.shape)
+    for i in range(X.shape[0]):
+        for j in range(X.shape[1]):
+            out[i, j] = s * X[i, j]
+    return out
+
+
+@njit(cache=True)
+def _scaled_sum(s, X, t, Y):
+    """s (X + t Y) (2-d), by loops."""
+    out = np.empty(X.shape)
+    for i in range(X.shape[0]):
+        for j in range(X.shape[1]):
+            out[i, j] = s * (X[i, j] + t * Y[i, j])
+    return out
+
+
+@njit(cache=True)
+def _transposed(X):
+    """X^T as a new C-ordered array."""
+    out = np.empty((X.shape[1], X.shape[0]))
+    for i in range(X.shape[0]):
+        for j in range(X.shape[1]):
+            out[j, i] = X[i, j]
+    return out
+
+
+@njit(cache=True)
 def _predict(x, P, u, radial, c, walk):
     """(x, P) after one period with the inputs ``u`` (2, or 4 for both
     ends with Heun's step) and the corrected radial readings ``radial``
@@ -120,48 +150,52 @@ def _predict(x, P, u, radial, c, walk):
     n = x.shape[0]
     Ts = c[_TS]
     mode = int(c[_INT])
+    x_new = np.empty(n)
     if mode == 2:
-        if u.shape[0] == 4:
-            u0a, u0b, u1a, u1b = u[0], u[1], u[2], u[3]
-        else:
-            u0a, u0b, u1a, u1b = u[0], u[1], u[0], u[1]
-        f1, J1, B1 = _f_jacobians(x, u0a, u0b, c)
-        f2, J2, B2 = _f_jacobians(x + Ts * f1, u1a, u1b, c)
-        step = Ts * J1
+        both = u.shape[0] == 4
+        f1, J1, B1 = _f_jacobians(x, u[0], u[1], c)
+        for i in range(n):
+            x_new[i] = x[i] + Ts * f1[i]
+        f2, J2, B2 = _f_jacobians(x_new, u[2 if both else 0], u[3 if both else 1], c)
+        step = _scaled(Ts, J1)
         for i in range(n):
             step[i, i] += 1.0
-        JJ = _mm(J2, step)
-        JB = _mm(J2, B1)
-        A = 0.5 * Ts * (J1 + JJ)
+        A = _scaled_sum(0.5 * Ts, J1, 1.0, _mm(J2, step))
         for i in range(n):
             A[i, i] += 1.0
-        W0 = 0.5 * Ts * (B1 + Ts * JB)
-        W1 = 0.5 * Ts * B2
-        if u.shape[0] == 4:
-            W = np.hstack((W0, W1))
-        else:
-            W = W0 + W1
-        x_new = x + 0.5 * Ts * (f1 + f2)
+        W0 = _scaled_sum(0.5 * Ts, B1, Ts, _mm(J2, B1))
+        W1 = _scaled(0.5 * Ts, B2)
+        W = np.empty((n, 4 if both else 2))
+        for i in range(n):
+            for j in range(2):
+                if both:
+                    W[i, j], W[i, 2 + j] = W0[i, j], W1[i, j]
+                else:
+                    W[i, j] = W0[i, j] + W1[i, j]
+        for i in range(n):
+            x_new[i] = x[i] + 0.5 * Ts * (f1[i] + f2[i])
     else:
         f, Jx, Ju = _f_jacobians(x, u[0], u[1], c)
-        x_new = x + Ts * f
-        A = Ts * Jx
+        for i in range(n):
+            x_new[i] = x[i] + Ts * f[i]
+        A = _scaled(Ts, Jx)
         for i in range(n):
             A[i, i] += 1.0
-        W = Ts * Ju
+        W = _scaled(Ts, Ju)
         if mode == 1:
             h = 0.5 * Ts * Ts
             for i in range(2):
                 x_new[i] += h * f[2 + i]
-                A[i] += h * Jx[2 + i]
-                W[i] += h * Ju[2 + i]
+                for j in range(n):
+                    A[i, j] += h * Jx[2 + i, j]
+                for j in range(2):
+                    W[i, j] += h * Ju[2 + i, j]
     mis = int(c[_MIS])
     if mis >= 0 and radial.shape[0] > 0:
-        half = W.shape[1] // 2 if W.shape[1] == 4 else 0
         for i in range(n):
             for j in range(2):
                 A[i, mis + j] -= W[i, j] * radial[j]
-                if half:
+                if W.shape[1] == 4:
                     A[i, mis + j] -= W[i, j + 2] * radial[j + 2]
     P_new = _mmt(_mm(A, P), A)
     WW = _mmt(W, W)
@@ -255,24 +289,31 @@ def _update(x, P, z, u, c, hold, hold_misalign):
     S = _mm(H, PHt)
     for i in range(4):
         S[i, i] += c[_RDIAG + i]
-    nu = (z - h).reshape(4, 1)
+    nu = np.empty((4, 1))
+    for i in range(4):
+        nu[i, 0] = z[i] - h[i]
     if c[_NIS] > 0.0:
         w = _cholesky_solve(S, nu)
         excess = (nu[0, 0] * w[0, 0] + nu[1, 0] * w[1, 0] + nu[2, 0] * w[2, 0]
                   + nu[3, 0] * w[3, 0]) / (c[_NIS] * 4)
         if excess > 1.0:
-            P = P * excess
+            P = _scaled(excess, P)
             PHt = _mmt(P, H)
             S = _mm(H, PHt)
             for i in range(4):
                 S[i, i] += c[_RDIAG + i]
-    K = _cholesky_solve(S, PHt.T.copy()).T.copy()   # P H^T S^-1 (S symmetric)
+    K = _transposed(_cholesky_solve(S, _transposed(PHt)))   # P H^T S^-1 (S symmetric)
     if hold and n > 4:
         K[4:] = 0.0
     if hold_misalign and mis >= 0:
         K[mis:mis + 2] = 0.0
-    x_new = x + _mm(K, nu)[:, 0]
-    IKH = -_mm(K, H)
+    Knu, KH = _mm(K, nu), _mm(K, H)
+    x_new = np.empty(n)
+    IKH = np.empty((n, n))
+    for i in range(n):
+        x_new[i] = x[i] + Knu[i, 0]
+        for j in range(n):
+            IKH[i, j] = -KH[i, j]
     for i in range(n):
         IKH[i, i] += 1.0
     P_new = _mmt(_mm(IKH, P), IKH)
@@ -282,7 +323,11 @@ def _update(x, P, z, u, c, hold, hold_misalign):
             for r in range(4):
                 acc += K[i, r] * c[_RDIAG + r] * K[j, r]
             P_new[i, j] += acc
-    return x_new, 0.5 * (P_new + P_new.T)
+    out = np.empty((n, n))
+    for i in range(n):
+        for j in range(n):
+            out[i, j] = 0.5 * (P_new[i, j] + P_new[j, i])
+    return x_new, out
 
 
 @njit(cache=True)
@@ -319,11 +364,11 @@ def step(x, P, u_prev, sample, first, hold, hold_misalign, c, walk, cal):
             uin = np.array([u_prev[0], u_prev[1], u[0], u[1]])
             radial = np.array([u_prev[2], u_prev[3], z[2], z[3]])
         elif mode == 1:
-            uin = 0.5 * (u_prev[:2] + u)
-            radial = 0.5 * (u_prev[2:4] + z[2:4])
+            uin = np.array([0.5 * (u_prev[0] + u[0]), 0.5 * (u_prev[1] + u[1])])
+            radial = np.array([0.5 * (u_prev[2] + z[2]), 0.5 * (u_prev[3] + z[3])])
         else:
-            uin = u_prev[:2].copy()
-            radial = u_prev[2:4].copy()
+            uin = np.array([u_prev[0], u_prev[1]])
+            radial = np.array([u_prev[2], u_prev[3]])
         x, P = _predict(x, P, uin, radial, c, walk)
     x, P = _update(x, P, z, u, c, hold, hold_misalign)
     return x, P, acc

@@ -9,6 +9,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..params import preset
+from . import ekf_kernel, gripper, imu, nominal_kernel
+
 
 def _readonly(a) -> np.ndarray:
     """``a`` as a read-only float array: the systems pass Drake's state
@@ -22,9 +25,6 @@ def _readonly(a) -> np.ndarray:
 def warm_up() -> None:
     """Call every kernel once with the argument types the systems pass
     (the default swing's), loading or compiling each in this process."""
-    from ..params import preset
-    from . import ekf_kernel, gripper, imu, nominal_kernel
-
     p = preset().resolved()
     consts, walk = ekf_kernel.pack(p.estimator.for_loop())
     n = len(walk)

@@ -11,6 +11,7 @@ from typing import Callable, Iterable
 from .study import StudyError
 from ...progress import progress_bar
 from ..workers import quiet_worker
+from ...systems.kernels import warm_up
 
 #: how long to try to reach a Dask scheduler before giving up (s)
 SCHEDULER_TIMEOUT = 10.0
@@ -32,8 +33,6 @@ def _pool_map(fn: Callable, args: list[tuple], workers: int) -> Iterable:
 
     method = "fork" if "fork" in mp.get_all_start_methods() else "spawn"
     if method == "fork":
-        from ...systems.kernels import warm_up
-
         warm_up()   # the workers inherit the compiled kernels
     ex = ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context(method),
                              initializer=quiet_worker, initargs=(os.getpid(),))

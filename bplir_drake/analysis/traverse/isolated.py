@@ -24,6 +24,7 @@ import os
 
 from ..swing.run import SwingRunner
 from ..workers import quiet_worker
+from ...systems.kernels import warm_up
 
 #: swings a worker runs before a fresh one replaces it (about 3 MB each)
 SWINGS_PER_WORKER = 50
@@ -62,8 +63,6 @@ class IsolatedRunners:
         if self._pool is not None and self._ran >= self.swings:
             self.close()
         if self._pool is None:
-            from ...systems.kernels import warm_up
-
             warm_up()   # the worker inherits the compiled kernels
             ctx = mp.get_context("fork")
             self._pool = ctx.Pool(1, initializer=quiet_worker, initargs=(os.getpid(),))

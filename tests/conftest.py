@@ -116,3 +116,14 @@ def ends_cleanly(argv) -> int | None:
         assert rc == 2 or rc == 1, (argv, rc, text)
         assert len(lines) == 1 and lines[0].startswith("bplir: error: "), (argv, text)
     return rc
+
+
+def pytest_configure(config):
+    """Before the workers start (in the controlling process, or in a run
+    without workers): load or compile the chain's compiled kernels, so that
+    on a fresh checkout every worker and every command the tests start loads
+    them from the cache instead of each compiling its own."""
+    if not hasattr(config, "workerinput"):
+        from bplir_drake.systems.kernels import warm_up
+
+        warm_up()

@@ -99,20 +99,6 @@ def _mm(A, B):
 
 
 @njit(cache=True)
-def _mmt(A, B):
-    """A B^T by loops."""
-    n, k, m = A.shape[0], A.shape[1], B.shape[0]
-    out = np.zeros((n, m))
-    for i in range(n):
-        for j in range(m):
-            acc = 0.0
-            for r in range(k):
-                acc += A[i, r] * B[j, r]
-            out[i, j] = acc
-    return out
-
-
-@njit(cache=True)
 def _scaled(s, X):
     """s X (2-d), by loops."""
     out = np.empty(X.shape)
@@ -140,6 +126,13 @@ def _transposed(X):
         for j in range(X.shape[1]):
             out[j, i] = X[i, j]
     return out
+
+
+@njit(cache=True)
+def _mmt(A, B):
+    """A B^T: :func:`_mm` of the transpose (the same products, summed in
+    the same order)."""
+    return _mm(A, _transposed(B))
 
 
 @njit(cache=True)

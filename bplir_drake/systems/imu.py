@@ -179,7 +179,7 @@ class ImuSampler(PySystem):
         self.gyro_ports = [self.DeclareVectorInputPort(f"gyro{i}", 3) for i in (1, 2)]
         self.accel_ports = [self.DeclareVectorInputPort(f"accel{i}", 3) for i in (1, 2)]
         self._sensor = self.DeclareAbstractParameter(AbstractValue.Make(
-            (params, self.seed, pack(params), self.seed)))
+            (params, self.seed, pack(params))))
         self._state = self.DeclareDiscreteState(len(self.State._fields))
         declare_sample(self, params.period, self._sample)
         self.imu_port = self.DeclareVectorOutputPort("imu", 6, self._output, {self.xd_ticket()})
@@ -192,10 +192,10 @@ class ImuSampler(PySystem):
                              f"sampler's {self.params.rate_hz:g} Hz")
         own = self.GetMyMutableContextFromRoot(context)
         own.get_mutable_abstract_parameter(self._sensor).set_value(
-            (params, int(seed), pack(params), int(seed)))
+            (params, int(seed), pack(params)))
 
     def _sample(self, context, discrete_state):
-        consts, seed = context.get_abstract_parameter(self._sensor).get_value()[2:]
+        _, seed, consts = context.get_abstract_parameter(self._sensor).get_value()
         xd = discrete_state.get_mutable_vector(self._state)
         s = context.get_discrete_state(self._state).get_value()
         k = int(round(s[8]))

@@ -26,9 +26,10 @@ def nominal_rates(plant: PlantParams, friction: FrictionParams):
     """``f(q1, q2, q1d, q2d, tau) -> (q1d, q2d, q1dd, q2dd)``: the plant's
     closed form (:func:`~bplir_drake.systems.plant.forward_dynamics`) with
     the friction (4.11) (:func:`~bplir_drake.systems.friction.friction_torques`)
-    on plain floats, its constants folded once: the predictor's hot path
-    (every tick integrates it 4 x 2 x D times).  Tested against the numpy
-    functions to rounding."""
+    on plain floats, its constants folded once: the readable form of the
+    compiled model the predictor integrates
+    (:func:`~bplir_drake.systems.nominal_kernel.rates`).  Tested against the
+    numpy functions to rounding."""
     m1, m2, l1, rc1, rc2, g = plant.m1, plant.m2, plant.l1, plant.rc1, plant.rc2, plant.g
     a = plant.I2 + m2 * rc2 ** 2
     m11c = m1 * rc1 ** 2 + plant.I1 + m2 * l1 ** 2 + a

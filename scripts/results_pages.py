@@ -115,12 +115,31 @@ def accuracy_rows(item: dict) -> list[list[str]]:
     return out
 
 
+def commission_rows(item: dict) -> list[list[str]]:
+    """One row per incline of a stored ``bplir commission`` (its
+    ``commission.json``)."""
+    res, out = item["summary"], []
+    plans = res["plans"]
+    for st in res["studies"]:
+        lo, hi = st["wilson95"]
+        out.append([item["label"], f"{st['incline_deg']:+g}°" if st["incline_deg"] else "0°",
+                    str(st["seed"]), f"{plans['solved']} / {plans['points']} "
+                    f"({plans['from_similarity']} by similarity)", f"{res['wall_s']:.0f}",
+                    f"{st['captured']} / {st['samples']}",
+                    f"{100 * lo:.1f} % - {100 * hi:.1f} %",
+                    f"{num(st['capture_speed_p50_mps'])} / {num(st['capture_speed_p95_mps'])}",
+                    "ready" if res["ready"] else "; ".join(res["limits"])])
+    return out
+
+
 HEADERS = {
     "swing": ["line", "root seed", "seeds", "captured", "Wilson 95 %",
               "capture speed p50 / p95 (m/s)", "peak voltage p95 / max (V)",
               "on the envelope p95 (s)", "misses"],
     "traverse": ["line", "root seed", "seeds", "passed", "Wilson 95 %", "supply",
                  "peak voltage max (V)", "misses"],
+    "commission": ["robot", "line", "root seed", "plans", "wall time (s)", "captured",
+                   "Wilson 95 %", "capture speed p50 / p95 (m/s)", "verdict"],
     "accuracy": ["line", "integrator", "captured", "Wilson 95 %",
                  "capture speed p50 / p95 (m/s)", "same outcome", "median change (m/s)",
                  "median error against RK5 1e-10 (m/s)"],
@@ -154,6 +173,9 @@ def page(items: list[dict]) -> str:
             cats = list(members[0]["summary"]["categories"])
             rows = [r for i in members for r in benchmark_rows(i)]
             out += table(["benchmark", "controller", "overall", *cats], rows) + [""]
+        elif kind == "commission":
+            rows = [r for i in members for r in commission_rows(i)]
+            out += table(HEADERS[kind], rows) + [""]
         elif kind == "accuracy":
             rows = [r for i in members for r in accuracy_rows(i)]
             out += table(HEADERS[kind], rows) + [""]

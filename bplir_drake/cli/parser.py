@@ -5,13 +5,13 @@ from __future__ import annotations
 import argparse
 
 from ..io import package_version
-from . import (benchmark, calibrate, estimate, freeswing, model, montecarlo, observability,
+from . import (benchmark, calibrate, commission, estimate, freeswing, model, montecarlo, observability,
                parameters, plan, qft, replay, swing, traverse)
 from .common import _Parser
 
 #: the commands in the order ``bplir --help`` lists them
 COMMANDS = (model, parameters, freeswing, estimate, observability, swing, montecarlo, benchmark,
-            traverse, plan, calibrate, replay, qft)
+            traverse, plan, commission, calibrate, replay, qft)
 
 
 def build_parser() -> argparse.ArgumentParser:

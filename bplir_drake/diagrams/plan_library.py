@@ -37,9 +37,9 @@ from ..systems.friction import friction_torques
 from ..systems.plan_tracker import RICCATI_ACCURACY, TrackerWeights, TrackingGains, plan_gains
 from ..systems.plant import start_configuration
 from ..io import atomic_path
-from .plan_cache import PACKAGED, damage, plan_key
+from .plan_cache import PACKAGED, cache_dir, damage, plan_key
 from .swing_plan import (HANGING_GUESSES, HANGING_KNOTS, HANGING_MINOR_ITERATIONS,
-                         PLAN_FRICTION_SMOOTHING, SwingPlan, hanging_planned, plan_envelope,
+                         PLAN_FRICTION_SMOOTHING, SwingPlan, hanging_planned, plan_envelope, plan_time_weight,
                          plan_friction, plan_torque_limit, planned_target, shifted_angles)
 
 #: the grid of the shipped libraries: line inclines (deg) and grip spacings (m)
@@ -66,6 +66,9 @@ class PlanLibrary:
     gain: np.ndarray          # (ni, ns, n, 4)
     offset: np.ndarray        # (ni, ns, n)
     reversals: np.ndarray     # (ni, ns): link-1 reversals of each plan
+    #: JSON of the robot a commissioned library was solved for (``plant``,
+    #: ``start``): a first guess for similar robots; "" in the shipped ones
+    robot: str = ""
 
     def covers(self, incline_deg: float, spacing: float) -> bool:
         """Whether the grid contains the scenario (edges included)."""
@@ -107,6 +110,28 @@ def library_path(params: BplirParams, directory: Path = PACKAGED) -> Path:
     return directory / f"library-{plan_key(model_inputs(params))}.npz"
 
 
+def robot_library_key(params: BplirParams) -> str:
+    """The key of a commissioned library for ``params``'s model:
+    :func:`model_inputs` without the grid (a commissioned library carries
+    its own) and with the planner's price of time."""
+    inputs = model_inputs(params)
+    for name in ("inclines", "spacings"):
+        inputs.pop(name)
+    inputs["time_weight"] = plan_time_weight(params.plant)
+    return plan_key(inputs)
+
+
+def robot_library_path(params: BplirParams) -> Path:
+    """Where a commissioned library for ``params``'s model is kept (the plan cache)."""
+    return cache_dir() / f"library-{robot_library_key(params)}.npz"
+
+
+def find_library(params: BplirParams) -> PlanLibrary | None:
+    """The shipped library for ``params``'s model, else one commissioned for
+    it (:func:`robot_library_path`), else None."""
+    return load_library(library_path(params)) or load_library(robot_library_path(params))
+
+
 def _resample(times, values, n: int = LIBRARY_SAMPLES) -> np.ndarray:
     """``values`` (rows at ``times``) at ``n`` equal fractions of the span."""
     s = np.linspace(times[0], times[-1], n)
@@ -121,27 +146,44 @@ def build_library(params: BplirParams, plans: dict, model) -> PlanLibrary:
     None}`` on the full grid; None: the planner found none), with each
     plan's tracking gains from Drake's finite-horizon LQR on ``model``
     (the nominal plant with friction, :func:`~.plan.plan_model`)."""
-    ni, ns, n = len(LIBRARY_INCLINES), len(LIBRARY_SPACINGS), LIBRARY_SAMPLES
+    entries = {}
+    for point, plan in plans.items():
+        entries[point] = None if plan is None else library_entry(
+            plan, plan_gains(model, plan.times, plan.states, plan.torque,
+                             TrackerWeights.of(params.plan)))
+    return assemble_library(plan_key(model_inputs(params)), LIBRARY_INCLINES,
+                            LIBRARY_SPACINGS, entries)
+
+
+def library_entry(plan: SwingPlan, gains) -> dict:
+    """One grid point of a library: ``plan`` and its tracking ``gains``
+    sampled at :data:`LIBRARY_SAMPLES` equal fractions of its duration."""
+    t = np.linspace(plan.times[0], plan.times[-1], LIBRARY_SAMPLES)
+    return dict(durations=plan.duration, states=_resample(plan.times, plan.states),
+                torque=_resample(plan.times, plan.torque),
+                gain=np.array([gains.K.value(x).ravel() for x in t]),
+                offset=np.array([gains.k0.value(x).ravel()[0] for x in t]),
+                reversals=plan.link1_reversals)
+
+
+def assemble_library(key: str, inclines, spacings, entries: dict) -> PlanLibrary:
+    """The library ``key`` on the grid ``inclines`` x ``spacings`` of
+    ``entries`` (``{(incline, spacing): library_entry or None}``; None: no
+    plan there, a hole that blends around it solve instead)."""
+    ni, ns, n = len(inclines), len(spacings), LIBRARY_SAMPLES
     arr = dict(durations=np.zeros((ni, ns)), states=np.zeros((ni, ns, n, 4)),
                torque=np.zeros((ni, ns, n)), gain=np.zeros((ni, ns, n, 4)),
                offset=np.zeros((ni, ns, n)), reversals=np.zeros((ni, ns), dtype=int))
-    for i, a in enumerate(LIBRARY_INCLINES):
-        for j, d in enumerate(LIBRARY_SPACINGS):
-            plan = plans[a, d]
-            if plan is None:   # no plan here: blends that would weigh it are solved
+    for i, a in enumerate(inclines):
+        for j, d in enumerate(spacings):
+            entry = entries.get((a, d))
+            if entry is None:
                 arr["durations"][i, j], arr["reversals"][i, j] = math.nan, -1
                 continue
-            g = plan_gains(model, plan.times, plan.states, plan.torque,
-                           TrackerWeights.of(params.plan))
-            t = np.linspace(plan.times[0], plan.times[-1], n)
-            arr["durations"][i, j] = plan.duration
-            arr["states"][i, j] = _resample(plan.times, plan.states)
-            arr["torque"][i, j] = _resample(plan.times, plan.torque)
-            arr["gain"][i, j] = np.array([g.K.value(x).ravel() for x in t])
-            arr["offset"][i, j] = np.array([g.k0.value(x).ravel()[0] for x in t])
-            arr["reversals"][i, j] = plan.link1_reversals
-    return PlanLibrary(plan_key(model_inputs(params)), np.array(LIBRARY_INCLINES),
-                       np.array(LIBRARY_SPACINGS), **arr)
+            for name, value in entry.items():
+                arr[name][i, j] = value
+    return PlanLibrary(key, np.array(inclines, dtype=float), np.array(spacings, dtype=float),
+                       **arr)
 
 
 def save_library(lib: PlanLibrary, path: Path) -> None:
@@ -149,9 +191,12 @@ def save_library(lib: PlanLibrary, path: Path) -> None:
     in single precision (1e-7 of their values: far below what the blend
     changes between grid points)."""
     arrays = {k: (v.astype(np.float32) if v.dtype == np.float64 and v.ndim > 2 else v)
-              for k, v in dataclasses.asdict(lib).items() if k != "key"}
+              for k, v in dataclasses.asdict(lib).items() if k not in ("key", "robot")}
+    if lib.robot:
+        arrays["robot"] = np.array(lib.robot)
     with atomic_path(path) as tmp, open(tmp, "wb") as fh:
         np.savez_compressed(fh, key=np.array(lib.key), **arrays)
+    load_library.cache_clear()   # a lookup before it was written found none
 
 
 @functools.lru_cache(maxsize=16)
@@ -174,7 +219,7 @@ def _check_library(lib: PlanLibrary) -> None:
     """Raise ``ValueError`` unless every plan of ``lib`` has a finite, positive
     duration and finite samples, on increasing grid axes."""
     for axis in (lib.inclines, lib.spacings):
-        if axis.ndim != 1 or len(axis) < 2 or np.any(np.diff(axis) <= 0):
+        if axis.ndim != 1 or len(axis) < 1 or np.any(np.diff(axis) <= 0):
             raise ValueError("its grid axes do not increase")
     grid = (len(lib.inclines), len(lib.spacings))
     held = lib.reversals >= 0
@@ -191,15 +236,18 @@ def _check_library(lib: PlanLibrary) -> None:
 def _load(path: Path) -> PlanLibrary:
     """The :class:`PlanLibrary` of :func:`save_library`'s file at ``path``."""
     with np.load(path, allow_pickle=False) as data:
-        return PlanLibrary(**{f.name: (str(data[f.name]) if f.name == "key"
+        return PlanLibrary(**{f.name: (str(data[f.name]) if f.name in ("key", "robot")
                                        else np.array(data[f.name], dtype=float
                                                      if data[f.name].dtype.kind == "f"
                                                      else data[f.name].dtype))
-                              for f in dataclasses.fields(PlanLibrary)})
+                              for f in dataclasses.fields(PlanLibrary) if f.name in data})
 
 
 def _corners(axis: np.ndarray, value: float):
-    """[(index, weight)] of the two grid points around ``value``."""
+    """[(index, weight)] of the two grid points around ``value`` (the
+    one point of a one-point axis)."""
+    if len(axis) == 1:
+        return [(0, 1.0)]
     i = int(np.clip(np.searchsorted(axis, value) - 1, 0, len(axis) - 2))
     w = float(np.clip((value - axis[i]) / (axis[i + 1] - axis[i]), 0.0, 1.0))
     return [(i, 1.0 - w), (i + 1, w)]
@@ -234,7 +282,7 @@ def library_plan(params: BplirParams):
     sc = params.scenario
     if not params.plan.library:
         return None
-    lib = load_library(library_path(params))
+    lib = find_library(params)
     if lib is None or not lib.covers(sc.incline_deg, sc.grip_spacing) \
             or not same_manoeuvre(lib, sc.incline_deg, sc.grip_spacing):
         return None

@@ -20,6 +20,21 @@ from .plan_plot import plot_plan
 PLAN_FRICTION_SMOOTHING = 0.2
 
 
+#: the planner's price of time in the robot's own units: its cost
+#: ``int tau^2 dt + w T`` over ``Q0^2 T0`` (torque scale ``Q0 = m g L``, time
+#: scale ``T0 = sqrt(L/g)``, reach ``L = l1 + l2``) is
+#: ``int (tau/Q0)^2 d(t/T0) + PLAN_TIME_PRICE T/T0``, so robots alike in shape
+#: get plans alike in shape (:func:`plan_time_weight`)
+PLAN_TIME_PRICE = 1e-4
+
+
+def plan_time_weight(plant) -> float:
+    """The planner's weight ``w`` on a plan's duration for the robot
+    ``plant`` (N^2 m^2 s / s): :data:`PLAN_TIME_PRICE` ``(m g L)^2``."""
+    q0 = (plant.m1 + plant.m2) * plant.g * (plant.l1 + plant.l2)
+    return PLAN_TIME_PRICE * q0 * q0
+
+
 #: how far beyond its torque limit a stored plan's torque may reach (relative:
 #: the solver's constraint tolerance and the dense samples between knots)
 PLAN_TORQUE_SLACK = 1e-3

@@ -1,6 +1,7 @@
 """Parameters in and out of files: TOML and plain dictionaries, with one-line errors naming the table and field."""
 from __future__ import annotations
 
+import math
 import warnings
 
 import tomllib
@@ -55,7 +56,8 @@ def from_dict(data: dict[str, Any], base: BplirParams | None = None,
             raise
         except TypeError as exc:  # pragma: no cover - defensive
             raise ParameterError(f"[{key}]: {exc}") from None
-    updates = follow_the_motor(params, follow_the_links(params, updates, data), data)
+    updates = follow_the_links(params, updates, data)
+    updates = follow_the_motor(params, follow_the_scales(params, updates, data), data)
     plan = updates.get("plan")
     if plan is not None and plan.file and base_dir is not None and "file" in data.get("plan", {}):
         updates["plan"] = replace(plan, file=str((Path(base_dir) / plan.file).resolve()))
@@ -139,10 +141,44 @@ SPACING_FIELDS = {"scenario": ("grip_spacing",), "plan": ("warm_spacing",),
                   "landing": ("reach_depth", "landing_depth", "shoot_depth")}
 
 
+def robot_scales(plant) -> tuple[float, float]:
+    """(time scale sqrt(L/g) s, torque scale m g L N m) of a robot (reach
+    ``L = l1 + l2``, mass ``m = m1 + m2``): its own units, in which robots
+    alike in shape swing alike."""
+    L = plant.l1 + plant.l2
+    return math.sqrt(L / plant.g), (plant.m1 + plant.m2) * plant.g * L
+
+
+def follow_the_scales(params: BplirParams, updates: dict, data: dict) -> dict:
+    """When a file gives another robot, the settings that are rules in the
+    robot's own units keep their dimensionless value (what the file gives
+    itself is kept): the delay probe's amplitude is the same share of the
+    torque scale m g L, the tracking LQR's torque weight the same in units
+    of 1/(m g L)^2 and its rate weights in units of sqrt(L/g)^2."""
+    plant = updates.get("plant")
+    if plant is None or plant == params.plant:
+        return updates
+    (t0, q0), (t1, q1) = robot_scales(params.plant), robot_scales(plant)
+    kq, kt = q1 / q0, t1 / t0
+    given = given_fields(data).get("plan", ())
+    plan, old = updates.get("plan", params.plan), params.plan
+    scaled = {}
+    if "delay_probe" not in given:
+        scaled["delay_probe"] = old.delay_probe * kq
+    if "lqr_torque" not in given:
+        scaled["lqr_torque"] = old.lqr_torque / kq ** 2
+    if "lqr_state" not in given:
+        w = old.lqr_state
+        scaled["lqr_state"] = (w[0], w[1], w[2] * kt ** 2, w[3] * kt ** 2)
+    return updates | {"plan": replace(plan, **scaled)}
+
+
 def follow_the_motor(params: BplirParams, updates: dict, data: dict) -> dict:
     """When a file gives the motor another torque limit but not the
-    controller's, the controller saturates at the motor's, and the delay
-    probe (half the limit by default) follows it."""
+    controller's, the controller saturates at the motor's; on the same
+    robot the delay probe (half the limit by default) and the tracking
+    LQR's torque weight follow the limit (on another robot they follow its
+    scales, :func:`follow_the_scales`)."""
     motor = updates.get("motor")
     if motor is None or motor.torque_limit == params.motor.torque_limit:
         return updates
@@ -151,6 +187,8 @@ def follow_the_motor(params: BplirParams, updates: dict, data: dict) -> dict:
     if "torque_limit" not in given.get("controller", ()):
         out["controller"] = replace(updates.get("controller", params.controller),
                                     torque_limit=motor.torque_limit)
+    if updates.get("plant", params.plant) != params.plant:
+        return out
     k = motor.torque_limit / params.motor.torque_limit
     plan = updates.get("plan", params.plan)
     if "delay_probe" not in given.get("plan", ()):

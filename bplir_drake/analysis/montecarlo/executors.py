@@ -124,7 +124,7 @@ def _dask_map(fn: Callable, args: list[tuple], scheduler: str | None, workers: i
 
 def map_jobs(fn: Callable, args: list[tuple], *, workers: int = 0, dask: bool = False,
              scheduler: str | None = None, progress: bool = False,
-             desc: str = "samples") -> Iterable:
+             desc: str = "samples", unit: str = "swings") -> Iterable:
     """Run ``fn(*a)`` for every ``a``; yields results as they finish."""
     workers = workers or os.cpu_count() or 1
     if dask or scheduler:
@@ -132,7 +132,7 @@ def map_jobs(fn: Callable, args: list[tuple], *, workers: int = 0, dask: bool = 
     else:
         it = _pool_map(fn, args, min(workers, max(1, len(args))))
 
-    with progress_bar(progress, desc=desc, unit="swings", total=len(args)) as bar:
+    with progress_bar(progress, desc=desc, unit=unit, total=len(args)) as bar:
         for result in it:
             bar.update()
             yield result

@@ -1,0 +1,130 @@
+"""A robot's plan library, solved: every grid point first from plans of
+similar robots scaled to it (:mod:`.similarity`), then from its solved
+neighbours (continuation), then from the planner's straight-line guesses;
+in parallel over the grid, each solve in the plan cache (so a stopped run
+resumes where it stopped), the library saved where ``swing``,
+``montecarlo`` and ``traverse`` look for it
+(:func:`~bplir_drake.diagrams.plan_library.robot_library_path`)."""
+from __future__ import annotations
+
+import dataclasses as dc
+import json
+import math
+import time
+from dataclasses import dataclass
+
+from ...diagrams import plan as P
+from ...diagrams.plan_library import (assemble_library, library_entry, robot_library_key,
+                                      robot_library_path, save_library)
+from ...diagrams.swing_plan import plan_time_weight
+from ...params import BplirParams
+from ...systems.plan_tracker import TrackerWeights
+from ..montecarlo.executors import map_jobs
+from .similarity import commissioned_references, shipped_references, similar_guesses
+
+
+@dataclass(frozen=True)
+class PointResult:
+    """How one grid point was solved: ``how`` is "similarity",
+    "continuation", "straight line" or "none"; ``plan`` the SwingPlan (None
+    without one); ``entry`` its library samples with the tracking gains."""
+
+    incline: float
+    spacing: float
+    how: str
+    plan: object
+    entry: dict | None
+    wall_s: float
+
+    def row(self) -> dict:
+        """The point as a table row."""
+        p = self.plan
+        ok = p is not None and p.feasible
+        return dict(incline_deg=self.incline, spacing_m=self.spacing, how=self.how,
+                    duration_s=p.duration if ok else math.nan,
+                    peak_torque_Nm=p.peak_torque if ok else math.nan,
+                    peak_voltage_V=p.peak_voltage if ok else math.nan,
+                    energy_in_J=p.energy_in if ok else math.nan,
+                    status=p.status if p is not None else "no plan", wall_s=self.wall_s)
+
+
+def at(params: BplirParams, incline: float, spacing: float) -> BplirParams:
+    """``params`` with the scenario on this incline (deg) and grip spacing (m)."""
+    return params.with_(scenario=dc.replace(params.scenario, incline_deg=float(incline),
+                                            grip_spacing=float(spacing)))
+
+
+def _solve(q: BplirParams, initial=None, guess_duration: float = 1.5):
+    """One planner run for ``q`` (cached on disk, the robot's price of time)."""
+    kw = dict(initial=initial) if initial is not None else dict(guess_duration=guess_duration)
+    return P.plan_swing(q, end_depth=q.plan.end_depth, time_weight=plan_time_weight(q.plant),
+                        **kw)
+
+
+def solve_point(params: BplirParams, incline: float, spacing: float,
+                neighbour=None) -> PointResult:
+    """The plan at one grid point with its library entry: from similar
+    robots' plans scaled to this one, else from ``neighbour`` (a solved
+    SwingPlan next to it), else from the straight-line guesses."""
+    t0 = time.perf_counter()
+    q = at(params, incline, spacing)
+    tries = [("similarity", g) for g in similar_guesses(
+        q, shipped_references() + commissioned_references())]
+    if neighbour is not None:
+        tries.insert(0, ("continuation", neighbour))
+    plan, how = None, "none"
+    for kind, guess in tries:
+        p = _solve(q, initial=guess)
+        if p.feasible:
+            plan, how = p, kind
+            break
+    if plan is None:
+        for duration in P.PLAN_GUESSES:
+            p = _solve(q, guess_duration=duration)
+            if p.feasible:
+                plan, how = p, "straight line"
+                break
+    entry = None
+    if plan is not None:
+        gains = P.tracking_gains(q.plant, q.friction, plan, weights=TrackerWeights.of(q.plan))
+        entry = library_entry(plan, gains)
+    return PointResult(float(incline), float(spacing), how, plan, entry,
+                       time.perf_counter() - t0)
+
+
+def _neighbour(point, solved: dict):
+    """The solved plan nearest ``point`` on the grid (None: none)."""
+    best, out = math.inf, None
+    for (a, d), res in solved.items():
+        if res.plan is None:
+            continue
+        cost = abs(a - point[0]) / 5.0 + abs(d - point[1]) / 0.1
+        if cost < best:
+            best, out = cost, res.plan
+    return out
+
+
+def solve_library(params: BplirParams, inclines, spacings, *, workers: int = 0,
+                  progress: bool = False) -> dict:
+    """``{(incline, spacing): PointResult}`` over the grid, the library
+    saved for ``params``'s model: every point from similar robots first (in
+    parallel), then the points without a plan from their solved neighbours."""
+    points = [(float(a), float(d)) for a in inclines for d in spacings]
+    solved = {}
+    for res in map_jobs(solve_point, [(params, a, d) for a, d in points], workers=workers,
+                        progress=progress, desc="plans", unit="plans"):
+        solved[res.incline, res.spacing] = res
+    missing = [p for p in points if solved[p].plan is None]
+    if missing and len(missing) < len(points):
+        args = [(params, a, d, _neighbour((a, d), solved)) for a, d in missing]
+        for res in map_jobs(solve_point, args, workers=workers, progress=progress,
+                            desc="plans (continued)", unit="plans"):
+            solved[res.incline, res.spacing] = res
+    robot = json.dumps({"plant": params.plant.as_dict(), "start": params.scenario.start})
+    lib = assemble_library(robot_library_key(params), sorted({a for a, _ in points}),
+                           sorted({d for _, d in points}),
+                           {p: r.entry for p, r in solved.items()})
+    path = robot_library_path(params)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    save_library(dc.replace(lib, robot=robot), path)
+    return solved

@@ -1,0 +1,110 @@
+"""Commissioning a robot: from its description to plans, gains and a
+verdict (:func:`commission`)."""
+from __future__ import annotations
+
+import shutil
+import tempfile
+import time
+from pathlib import Path
+
+from ...diagrams.plan_library import robot_library_path
+from ...io import atomic_path, write_json_atomic
+from ...params import BplirParams, save_toml
+from ..montecarlo.runner import run_study
+from .grid import at, solve_library
+from .result import CommissionResult
+from .similarity import commissioned_references, shipped_references, similar_guesses
+from .report import write_report
+from .verdict import (READY_RATE, electric_margins, no_plan_reason, study_verdict,
+                      verification_study)
+
+#: the default grid of grip spacings: the robot's own +/- this share of its
+#: reach (the verification study draws the spacing within it)
+SPACING_SHARE = 0.05
+
+
+def default_spacings(params: BplirParams) -> tuple[float, ...]:
+    """The robot's grip spacing and this share of its reach either side (mm)."""
+    d, L = params.scenario.grip_spacing, params.plant.l1 + params.plant.l2
+    return tuple(round(d + k * SPACING_SHARE * L, 3) for k in (-1, 0, 1))
+
+
+def commission(params: BplirParams, *, inclines=(0.0,), spacings=None, samples: int = 100,
+               seed: int = 1, out=None, workers: int = 0, progress: bool = False,
+               name: str = "robot") -> CommissionResult:
+    """Commission the robot ``params`` (its plant, friction, motor, IMUs
+    and gripper): solve its plan library over ``inclines`` (deg) x
+    ``spacings`` (m; default :func:`default_spacings`) from similar robots'
+    plans (:mod:`.grid`), run a verification study of ``samples`` swings at
+    each incline (root seed ``seed``, :func:`~.verdict.verification_study`)
+    and give the verdict.  With ``out`` the robot's parameters, its library,
+    the studies (resumable), ``commission.json``, ``report.md`` and the
+    figures are written there."""
+    t0 = time.perf_counter()
+    inclines = tuple(sorted(float(a) for a in inclines))
+    spacings = tuple(sorted(spacings or default_spacings(params)))
+    out = None if out is None else Path(out)
+    if out is not None:
+        out.mkdir(parents=True, exist_ok=True)
+        save_toml(params, out / "robot.toml")
+    solved = solve_library(params, inclines, spacings, workers=workers, progress=progress)
+    limits = [_no_plan(params, r) for r in solved.values() if r.plan is None]
+    studies = []
+    for a in inclines:
+        if all(solved[a, d].plan is None for d in spacings):
+            continue
+        study = verification_study(params, a, samples, seed, spacings)
+        where = None if out is None else out / "studies" / f"incline_{a:+05.1f}"
+        summary = _run(study, where, workers, progress)
+        v = study_verdict(a, summary) | {"seed": study.seed}
+        studies.append(v)
+        if v["rate"] < READY_RATE:
+            limits.append(_short(params, v))
+    result = CommissionResult(
+        name=name, params=params, points=[r.row() for r in solved.values()],
+        studies=studies, limits=limits,
+        margins=electric_margins(params, [r.plan for r in solved.values()]),
+        seed=seed, wall_s=time.perf_counter() - t0)
+    if out is not None:
+        _save(result, out)
+    return result
+
+
+def _run(study, where, workers, progress) -> dict:
+    """The study's summary (run in ``where`` when given, resumable)."""
+    if where is not None:
+        return dict(run_study(study, where, workers=workers, progress=progress))
+    with tempfile.TemporaryDirectory() as tmp:
+        return dict(run_study(study, Path(tmp) / "study", workers=workers, progress=progress))
+
+
+def _no_plan(params, res) -> str:
+    """The limit line of a grid point without a plan."""
+    q = at(params, res.incline, res.spacing)
+    guesses = similar_guesses(q, shipped_references() + commissioned_references(), count=1)
+    return no_plan_reason(params, res.incline, res.spacing, guesses[0] if guesses else None)
+
+
+def _short(params, v: dict) -> str:
+    """The limit line of a verification study below :data:`READY_RATE`."""
+    misses = {k: n for k, n in v["outcomes"].items() if k != "captured"}
+    lo, hi = v["wilson95"]
+    line = (f"{v['incline_deg']:+g} deg: captured {v['captured']}/{v['samples']} "
+            f"({100 * v['rate']:.0f} %, Wilson 95 % {100 * lo:.0f}-{100 * hi:.0f} %), below "
+            f"{100 * READY_RATE:.0f} %; misses {misses}")
+    speed, limit = v["capture_speed_p95_mps"], params.scenario.capture_speed
+    if misses.get("crash") and speed == speed and speed > limit:
+        line += (f"; capture speed p95 {speed:.2f} m/s against the gripper's "
+                 f"{limit:g} m/s")
+    return line
+
+
+def _save(result: CommissionResult, out: Path) -> None:
+    """The result's files in ``out``."""
+    lib = robot_library_path(result.params)
+    if lib.exists():
+        (out / "plans").mkdir(exist_ok=True)
+        with atomic_path(out / "plans" / lib.name) as tmp:
+            shutil.copyfile(lib, tmp)
+    write_json_atomic(out / "commission.json", result.to_dict())
+    write_report(result, out)

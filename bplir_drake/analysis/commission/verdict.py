@@ -1,0 +1,137 @@
+"""The verdict on a commissioned robot: a verification study at each
+incline with uncertainty scaled to the robot, and, where a manoeuvre has no
+plan, the physical limit that stops it with the number that shows it.
+
+The study draws what a real robot gets wrong, in the robot's own units:
+masses and inertias +/-10 %, centres of mass +/-0.5 % of the reach, link
+lengths +/-0.1 % of it, friction +/-20 %, its IMUs' noise x0.5 to x2, gyro
+biases +/-0.03 rad/s, accelerometer misalignment +/-2.5 deg, actuation delay
+0-20 ms, steady wind (sigma 0.2 % and 0.1 % of m g L on the joints) and
+gusts of up to 2 % of m g L once a second, the grip spacing over the
+commissioned grid's; the capture must land within 0.1 D of the planned grip.  (The
+default robot's instance of these rules is its realistic study.)
+"""
+from __future__ import annotations
+
+import dataclasses as dc
+import math
+
+import numpy as np
+
+from ...diagrams.plan import planned_i2t
+from ...systems.motor import interlock_budget
+from ..montecarlo.study import Distribution, Study
+from ..montecarlo.statistics import wilson_interval
+from .similarity import Scales
+
+#: the verification study's uncertainty: (name, kind, size); kind "rel" is
+#: relative to the nominal value, "reach" a share of the reach L, "torque" a
+#: share of m g L, "abs" in the parameter's own unit
+STUDY_RULES = (
+    ("true_plant.m1", "rel", 0.1), ("true_plant.m2", "rel", 0.1),
+    ("true_plant.I1", "rel", 0.1), ("true_plant.I2", "rel", 0.1),
+    ("true_plant.lc1", "reach", 0.0046), ("true_plant.lc2", "reach", 0.0046),
+    ("true_plant.l1", "reach", 0.00093), ("true_plant.l2", "reach", 0.00093),
+    ("true_friction.fv1", "rel", 0.2), ("true_friction.fv2", "rel", 0.2),
+    ("true_friction.fc1", "rel", 0.2), ("true_friction.fc2", "rel", 0.2),
+    ("imu.gyro_bias1", "abs", 0.03), ("imu.gyro_bias2", "abs", 0.03),
+    ("imu.misalign1", "abs", 0.0436), ("imu.misalign2", "abs", 0.0436),
+)
+#: steady wind on each joint (normal, sigma) and the gusts' peak (uniform
+#: 0 to it), as shares of m g L
+WIND_SHARES, GUST_SHARE = (0.002, 0.001), 0.02
+#: the capture must land within this share of D of the planned grip (2 D)
+LANDING_SHARE = 0.1
+#: a verification study at or above this capture rate passes
+READY_RATE = 0.97
+
+
+def verification_study(params, incline: float, samples: int, seed: int,
+                       spacings=None) -> Study:
+    """The verification study of the robot ``params`` on a line of
+    ``incline`` degrees (module docstring), the grip spacing drawn uniformly
+    between the least and the largest of ``spacings`` (m; default the
+    robot's own spacing, fixed)."""
+    s = Scales.of(params.plant)
+    lo, hi = (min(spacings), max(spacings)) if spacings else (params.scenario.grip_spacing,) * 2
+    sc = dc.replace(params.scenario, incline_deg=float(incline), gust_rate=1.0,
+                    gust_duration=0.1, min_travel_fraction=2.0 - LANDING_SHARE,
+                    grip_spacing=(lo + hi) / 2)
+    est = dc.replace(params.estimator, standstill_samples=500)
+    base = params.with_(scenario=sc, estimator=est)
+    dists = []
+    for name, kind, size in STUDY_RULES:
+        if kind == "rel":
+            dists.append(Distribution(name, "uniform", rel=size))
+        else:
+            dists.append(Distribution(name, "uniform", abs=size * (s.length if kind == "reach"
+                                                                   else 1.0)))
+    imu = params.imu
+    for name, sigma in (("imu.gyro_sigma", imu.gyro_sigma), ("imu.accel_sigma", imu.accel_sigma)):
+        if sigma > 0:   # x0.5 to x2 of the robot's own noise
+            dists.append(Distribution(name, "uniform", center=1.25 * sigma, abs=0.75 * sigma))
+    if hi > lo:
+        dists.append(Distribution("scenario.grip_spacing", "uniform", abs=(hi - lo) / 2))
+    dists.append(Distribution("scenario.actuation_delay", "uniform", center=0.01, abs=0.01))
+    for k, share in enumerate(WIND_SHARES, 1):
+        dists.append(Distribution(f"scenario.wind_torque{k}", "normal", abs=share * s.torque))
+    g = GUST_SHARE * s.torque
+    dists.append(Distribution("scenario.gust_torque", "uniform", center=g / 2, abs=g / 2))
+    return Study(base, tuple(dists), samples, seed)
+
+
+def study_verdict(incline: float, summary: dict) -> dict:
+    """One incline's line of the verdict from its study's summary."""
+    n, k = summary["samples"], summary["successes"]
+    lo, hi = wilson_interval(k, n)
+    pct = summary["percentiles"]
+    speed = pct.get("capture_speed_mps", {})
+    return dict(incline_deg=float(incline), captured=k, samples=n,
+                rate=k / n if n else math.nan, wilson95=[lo, hi],
+                capture_speed_p50_mps=speed.get("p50", math.nan),
+                capture_speed_p95_mps=speed.get("p95", math.nan),
+                peak_voltage_V=pct.get("peak_voltage_V", {}).get("max", math.nan),
+                peak_torque_Nm=pct.get("peak_torque_Nm", {}).get("max", math.nan),
+                outcomes=summary["outcomes"])
+
+
+def electric_margins(params, plans) -> dict:
+    """The plans' peak voltage, current and i^2 t against the motor's limits."""
+    m = params.motor
+    ok = [p for p in plans if p is not None and p.feasible]
+    if not ok:
+        return {}
+    return dict(peak_voltage_V=max(p.peak_voltage for p in ok), max_voltage_V=m.max_voltage,
+                peak_current_A=max(p.peak_torque for p in ok) / m.torque_per_amp,
+                peak_current_limit_A=m.i_peak,
+                i2t_A2s=max(planned_i2t(p, m) for p in ok), i2t_budget_A2s=interlock_budget(m))
+
+
+def no_plan_reason(params, incline: float, spacing: float, guess) -> str:
+    """Why the robot has no plan at this grid point, with the numbers: the
+    grip beyond its reach, or the scaled swing of a similar robot
+    (``guess``) needing more torque or elbow rate than its motor gives."""
+    p, m = params.plant, params.motor
+    reach = p.l1 + p.l2
+    where = f"{incline:+g} deg, {spacing:g} m"
+    if spacing >= reach:
+        return (f"no plan at {where}: the grip spacing is beyond the reach l1 + l2 = "
+                f"{reach:.3f} m; a spacing below it would")
+    if guess is None:
+        return f"no plan at {where}: no similar robot's plan to compare with"
+    tau = float(np.max(np.abs(guess.torque)))
+    rate = float(np.max(np.abs(guess.states[:, 3])))
+    limit = params.controller.torque_limit
+    parts = [f"a similar robot's swing scaled to this one needs {tau:.2f} N m "
+             f"(motor: {limit:g} N m)"]
+    fix = []
+    if tau > limit:
+        fix.append(f"{tau / limit:.2f}x the elbow torque")
+    if m.envelope:
+        free = m.max_voltage / (m.back_emf_constant * m.gear_ratio)
+        parts.append(f"and {rate:.1f} rad/s at the elbow (no-load rate at "
+                     f"{m.supply_voltage:g} V: {free:.1f} rad/s)")
+        if rate > free:
+            fix.append(f"a supply of {m.supply_voltage * rate / free:.0f} V")
+    return (f"no plan at {where}: " + " ".join(parts) + "; "
+            + (" or ".join(fix) + " would" if fix else "the solver found none from it either"))

@@ -1,0 +1,56 @@
+"""``bplir commission``: a robot's plans, gains and verdict from its description."""
+from __future__ import annotations
+
+from pathlib import Path
+
+from .common import InputError, _emit, _in_range, _load_params, _out_dir, _progress
+from .options import command, option, shared
+
+
+def cmd_commission(args) -> int:
+    """``bplir commission ROBOT.toml``: commission the robot the file describes."""
+    from ..analysis.commission import commission
+
+    if not Path(args.robot).is_file():
+        raise InputError(f"robot file '{args.robot}' does not exist; name a parameter TOML "
+                         "file describing the robot ([robot] file or [plant], [motor], ...)")
+    args.config = args.robot
+    params = _load_params(args)
+    inclines = args.incline or [0.0]
+    for a in inclines:
+        _in_range("--incline", a, -30.0, 30.0, unit="deg")
+    for d in args.spacing or []:
+        _in_range("--spacing", d, 0.0, 20.0, lo_open=True, unit="m")
+    _in_range("--samples", args.samples, 1, 100000)
+    _in_range("--seed", args.seed, 0, 2 ** 32 - 1)
+    out = _out_dir(args.out)
+    result = commission(params, inclines=inclines, spacings=args.spacing, samples=args.samples,
+                        seed=args.seed, out=out, workers=args.workers or 0,
+                        progress=_progress(args), name=Path(args.robot).stem)
+    s = result.summary()
+    lines = [f"{s['robot']}: {'READY' if s['ready'] else 'NOT READY'} "
+             f"({s['plans']['solved']}/{s['plans']['points']} plans, "
+             f"{s['plans']['from_similarity']} from similar robots; {s['wall_s']:.0f} s)"]
+    for st in s["studies"]:
+        lines.append(f"  {st['incline_deg']:+g} deg: captured {st['captured']}/{st['samples']}, "
+                     f"capture speed p95 {st['capture_speed_p95_mps']:.2f} m/s")
+    lines += [f"  limit: {x}" for x in s["limits"]]
+    lines.append(f"  wrote {out}/report.md, commission.json, robot.toml, plans/, studies/")
+    _emit(s, args.json, lines)
+    return 0 if s["ready"] else 1
+
+
+def add_parser(sub) -> None:
+    """Declare ``bplir commission`` and its options."""
+    p = command(sub, "commission", cmd_commission,
+                "commission a robot from its description: plans, gains and a verdict",
+                "out/commission")
+    p.add_argument("robot", help="parameter TOML file of the robot ([robot] file = URDF/SDF, "
+                   "or [plant]; [friction], [motor], [imu], [scenario] capture criterion)")
+    option(p, "--incline", float, None, "a line incline to commission, deg (repeatable; "
+           "default 0)", action="append")
+    option(p, "--spacing", float, None, "a grip spacing of the plan grid, m (repeatable; "
+           "default the robot's own and 5 %% of its reach either side)", action="append")
+    option(p, "--samples", int, 100, "swings of each verification study (default 100)")
+    option(p, "--seed", int, 1, "root seed of the verification studies (default 1)")
+    shared(p, "workers")

@@ -1,0 +1,125 @@
+"""Commissioning a robot from its description: plans from similar robots'
+plans, rules in the robot's own units, a verification study and a verdict."""
+from __future__ import annotations
+
+import json
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from bplir_drake.analysis.commission import commission, default_spacings
+from bplir_drake.analysis.commission.similarity import Scales, shipped_references
+from bplir_drake.analysis.commission.verdict import no_plan_reason, verification_study
+from bplir_drake.params import from_dict, load_toml, preset
+
+ROOT = Path(__file__).resolve().parents[1]
+SCALED = ROOT / "examples" / "scaled_bplir.toml"
+
+
+@pytest.fixture
+def own_cache(tmp_path, monkeypatch):
+    """An empty plan cache: only the package's shipped plans are read."""
+    monkeypatch.setenv("BPLIR_CACHE_DIR", str(tmp_path / "cache"))
+    return tmp_path
+
+
+def test_rules_in_the_robots_units_keep_the_default_robot_and_scale_for_another():
+    """The LQR's weights and the delay probe follow m g L and sqrt(L/g)."""
+    base, scaled = preset(), load_toml(SCALED)
+    kq = Scales.of(scaled.plant).torque / Scales.of(base.plant).torque
+    kt = Scales.of(scaled.plant).time / Scales.of(base.plant).time
+    assert kq == pytest.approx(0.7 ** 4, rel=1e-3) and kt == pytest.approx(0.7 ** 0.5)
+    assert scaled.plan.delay_probe == pytest.approx(base.plan.delay_probe * kq)
+    assert scaled.plan.lqr_torque == pytest.approx(base.plan.lqr_torque / kq ** 2)
+    assert scaled.plan.lqr_state[2] == pytest.approx(base.plan.lqr_state[2] * kt ** 2)
+    same = from_dict({"plant": base.plant.as_dict()})   # the default robot's instance
+    assert same.plan == base.plan
+
+
+def test_the_worked_example_commissions_a_similar_robot_end_to_end(own_cache, monkeypatch):
+    """docs/commission.md's example runs as written: the BPLIR at 0.7 scale
+    gets the BPLIR's plan, scaled (duration x sqrt(0.7), torque x 0.7^4),
+    and its verification study captures."""
+    (own_cache / "examples").mkdir()
+    for name in ("scaled_bplir.toml", "scaled_bplir.urdf"):
+        (own_cache / "examples" / name).write_text((ROOT / "examples" / name).read_text())
+    monkeypatch.chdir(own_cache)
+    page = (ROOT / "docs" / "commission.md").read_text()
+    namespace = {"__name__": "__main__"}
+    for code in re.findall(r"```python\n(.*?)```", page, re.S):
+        exec(compile(code, "commission.md", "exec"), namespace)
+    r, out = namespace["result"], own_cache / "out" / "scaled"
+    (point,) = r.points
+    assert point["how"] == "similarity"
+    ref = next(x for x in shipped_references() if x.start == "line").library
+    i, j = list(ref.inclines).index(0.0), list(ref.spacings).index(1.2)
+    assert point["duration_s"] == pytest.approx(ref.durations[i, j] * 0.7 ** 0.5, rel=0.03)
+    bplir_peak = float(np.max(np.abs(ref.torque[i, j])))
+    assert point["peak_torque_Nm"] == pytest.approx(bplir_peak * 0.7 ** 4, rel=0.15)
+    (study,) = r.studies
+    assert study["captured"] >= 19 and study["capture_speed_p95_mps"] <= 0.5
+    assert r.ready and r.limits == []
+    s = json.loads(r.to_json())
+    assert {"ready", "studies", "limits", "plans", "wall_s"} <= set(s)
+    assert s["plans"] == dict(points=1, solved=1, from_similarity=1, from_continuation=0,
+                              from_straight_line=0)
+    for name in ("report.md", "commission.json", "commission.png", "robot.toml"):
+        assert (out / name).stat().st_size > 0
+    assert len(list((out / "plans").glob("library-*.npz"))) == 1
+    assert load_toml(out / "robot.toml").plant == r.params.plant
+
+
+def test_the_commissioned_library_is_what_a_swing_reads(own_cache):
+    """After commissioning, a swing of the robot blends its plan from the
+    robot's library instead of solving."""
+    from bplir_drake.diagrams.plan import scenario_plan
+
+    params = load_toml(SCALED)
+    commission(params, spacings=[0.84], samples=1, seed=2, workers=1)
+    plan = scenario_plan(params)
+    assert plan.status == "interpolated"
+
+
+def test_the_verification_study_is_scaled_to_the_robot():
+    """Wind and gusts are shares of m g L; the spacing is drawn over the grid."""
+    base, scaled = preset(), load_toml(SCALED)
+    a, b = (verification_study(p, 0.0, 10, 1, default_spacings(p)) for p in (base, scaled))
+    da, db = ({d.name: d for d in s.distributions} for s in (a, b))
+    kq = Scales.of(scaled.plant).torque / Scales.of(base.plant).torque
+    assert da["scenario.gust_torque"].abs == pytest.approx(1.0, rel=0.01)   # the realistic study's
+    assert db["scenario.gust_torque"].abs == pytest.approx(da["scenario.gust_torque"].abs * kq)
+    L = scaled.plant.l1 + scaled.plant.l2   # the grid's spacings: 5 % of the reach either side
+    assert da["scenario.grip_spacing"].abs == pytest.approx(0.108, abs=1e-3)
+    assert db["scenario.grip_spacing"].abs == pytest.approx(0.05 * L, abs=1e-3)
+    assert "scenario.grip_spacing" not in {d.name for d in verification_study(
+        scaled, 0.0, 10, 1, [0.84]).distributions}
+
+
+def test_no_plan_names_the_physical_limit():
+    """Beyond the reach, or a motor too weak for the scaled swing: the number and the fix."""
+    params = preset()
+    line = no_plan_reason(params, 0.0, 2.3, None)
+    assert "beyond the reach" in line and "2.154" in line
+    ref = next(x for x in shipped_references() if x.start == "line")
+    from bplir_drake.analysis.commission.similarity import scaled_plan
+
+    guess = scaled_plan(ref, 4, 3, params.plant)
+    weak = params.with_(controller=params.controller.__class__(
+        **(params.controller.as_dict() | {"torque_limit": 1.0})))
+    line = no_plan_reason(weak, 0.0, 1.2, guess)
+    need = float(np.max(np.abs(guess.torque)))
+    assert f"{need:.2f} N m" in line and f"{need:.2f}x the elbow torque" in line
+
+
+def test_the_command_line_refuses_bad_input_in_one_line(tmp_path):
+    """A missing robot file or an incline out of range: exit 2, one line."""
+    for argv, word in ((["nowhere.toml"], "does not exist"),
+                       ([str(SCALED), "--incline", "50"], "--incline = 50")):
+        p = subprocess.run([sys.executable, "-m", "bplir_drake.cli", "commission", *argv,
+                            "--out", str(tmp_path / "o")], capture_output=True, text=True)
+        assert p.returncode == 2 and word in p.stderr
+        assert len(p.stderr.strip().splitlines()) == 1 and "Traceback" not in p.stderr

@@ -26,7 +26,8 @@ def cmd_commission(args) -> int:
     out = _out_dir(args.out)
     result = commission(params, inclines=inclines, spacings=args.spacing, samples=args.samples,
                         seed=args.seed, out=out, workers=args.workers or 0,
-                        progress=_progress(args), name=Path(args.robot).stem)
+                        progress=_progress(args), name=Path(args.robot).stem,
+                        dask=args.dask, scheduler=args.scheduler)
     s = result.summary()
     lines = [f"{s['robot']}: {'READY' if s['ready'] else 'NOT READY'} "
              f"({s['plans']['solved']}/{s['plans']['points']} plans, "
@@ -54,3 +55,7 @@ def add_parser(sub) -> None:
     option(p, "--samples", int, 100, "swings of each verification study (default 100)")
     option(p, "--seed", int, 1, "root seed of the verification studies (default 1)")
     shared(p, "workers")
+    g = p.add_mutually_exclusive_group()
+    g.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="solve the plans and run the studies on an existing Dask cluster")
+    g.add_argument("--dask", action="store_true", help="... on a local Dask cluster")

@@ -154,7 +154,10 @@ def follow_the_scales(params: BplirParams, updates: dict, data: dict) -> dict:
     robot's own units keep their dimensionless value (what the file gives
     itself is kept): the delay probe's amplitude is the same share of the
     torque scale m g L, the tracking LQR's torque weight the same in units
-    of 1/(m g L)^2 and its rate weights in units of sqrt(L/g)^2."""
+    of 1/(m g L)^2 and its rate weights in units of sqrt(L/g)^2, and the
+    landing's times, rates and gains the same in units of sqrt(L/g)
+    (:data:`LANDING_TIME_POWERS`; its shot's least stop time at least two
+    controller periods)."""
     plant = updates.get("plant")
     if plant is None or plant == params.plant:
         return updates
@@ -170,7 +173,26 @@ def follow_the_scales(params: BplirParams, updates: dict, data: dict) -> dict:
     if "lqr_state" not in given:
         w = old.lqr_state
         scaled["lqr_state"] = (w[0], w[1], w[2] * kt ** 2, w[3] * kt ** 2)
-    return updates | {"plan": replace(plan, **scaled)}
+    landing = updates.get("landing", params.landing)
+    given = given_fields(data).get("landing", ())
+    period = updates.get("controller", params.controller).period
+    timed = {}
+    for f in fields(params.landing):
+        power = LANDING_TIME_POWERS.get(f.metadata.get("unit", ""))
+        value = getattr(params.landing, f.name)
+        if power is None or f.name in given or isinstance(value, bool):
+            continue
+        timed[f.name] = value * kt ** power
+    if "shoot_min_time" in timed:   # never shorter than two controller periods
+        timed["shoot_min_time"] = max(timed["shoot_min_time"], 2 * period)
+    return updates | {"plan": replace(plan, **scaled), "landing": replace(landing, **timed)}
+
+
+#: how a landing setting follows the robot's time unit sqrt(L/g), by its unit:
+#: the power of the ratio of time units it is multiplied by (times, rates,
+#: gains and accelerations keep their value in the robot's own time; its
+#: heights inside the capture band are the gripper's and stay)
+LANDING_TIME_POWERS = {"s": 1, "1/s": -1, "rad/s": -1, "rad/s^2": -2, "m s/rad": 1}
 
 
 def follow_the_motor(params: BplirParams, updates: dict, data: dict) -> dict:

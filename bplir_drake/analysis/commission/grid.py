@@ -105,20 +105,21 @@ def _neighbour(point, solved: dict):
 
 
 def solve_library(params: BplirParams, inclines, spacings, *, workers: int = 0,
-                  progress: bool = False) -> dict:
+                  progress: bool = False, dask: bool = False, scheduler=None) -> dict:
     """``{(incline, spacing): PointResult}`` over the grid, the library
     saved for ``params``'s model: every point from similar robots first (in
-    parallel), then the points without a plan from their solved neighbours."""
+    parallel: ``workers`` processes, or Dask), then the points without a
+    plan from their solved neighbours."""
+    pool = dict(workers=workers, dask=dask, scheduler=scheduler, progress=progress)
     points = [(float(a), float(d)) for a in inclines for d in spacings]
     solved = {}
-    for res in map_jobs(solve_point, [(params, a, d) for a, d in points], workers=workers,
-                        progress=progress, desc="plans", unit="plans"):
+    for res in map_jobs(solve_point, [(params, a, d) for a, d in points], desc="plans",
+                        unit="plans", **pool):
         solved[res.incline, res.spacing] = res
     missing = [p for p in points if solved[p].plan is None]
     if missing and len(missing) < len(points):
         args = [(params, a, d, _neighbour((a, d), solved)) for a, d in missing]
-        for res in map_jobs(solve_point, args, workers=workers, progress=progress,
-                            desc="plans (continued)", unit="plans"):
+        for res in map_jobs(solve_point, args, desc="plans (continued)", unit="plans", **pool):
             solved[res.incline, res.spacing] = res
     robot = json.dumps({"plant": params.plant.as_dict(), "start": params.scenario.start})
     lib = assemble_library(robot_library_key(params), sorted({a for a, _ in points}),

@@ -15,8 +15,8 @@ from .grid import at, solve_library
 from .result import CommissionResult
 from .similarity import commissioned_references, shipped_references, similar_guesses
 from .report import write_report
-from .verdict import (READY_RATE, electric_margins, no_plan_reason, study_verdict,
-                      verification_study)
+from .verdict import (READY_RATE, electric_margins, miss_reasons, no_plan_reason,
+                      study_verdict, verification_study)
 
 #: the default grid of grip spacings: the robot's own +/- this share of its
 #: reach (the verification study draws the spacing within it)
@@ -31,7 +31,8 @@ def default_spacings(params: BplirParams) -> tuple[float, ...]:
 
 def commission(params: BplirParams, *, inclines=(0.0,), spacings=None, samples: int = 100,
                seed: int = 1, out=None, workers: int = 0, progress: bool = False,
-               name: str = "robot") -> CommissionResult:
+               name: str = "robot", dask: bool = False,
+               scheduler: str | None = None) -> CommissionResult:
     """Commission the robot ``params`` (its plant, friction, motor, IMUs
     and gripper): solve its plan library over ``inclines`` (deg) x
     ``spacings`` (m; default :func:`default_spacings`) from similar robots'
@@ -39,7 +40,9 @@ def commission(params: BplirParams, *, inclines=(0.0,), spacings=None, samples: 
     each incline (root seed ``seed``, :func:`~.verdict.verification_study`)
     and give the verdict.  With ``out`` the robot's parameters, its library,
     the studies (resumable), ``commission.json``, ``report.md`` and the
-    figures are written there."""
+    figures are written there.  ``workers`` processes on this machine, or
+    Dask (``dask``: a local cluster; ``scheduler``: an existing one's
+    address)."""
     t0 = time.perf_counter()
     inclines = tuple(sorted(float(a) for a in inclines))
     spacings = tuple(sorted(spacings or default_spacings(params)))
@@ -47,7 +50,8 @@ def commission(params: BplirParams, *, inclines=(0.0,), spacings=None, samples: 
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
         save_toml(params, out / "robot.toml")
-    solved = solve_library(params, inclines, spacings, workers=workers, progress=progress)
+    pool = dict(workers=workers, dask=dask, scheduler=scheduler)
+    solved = solve_library(params, inclines, spacings, progress=progress, **pool)
     limits = [_no_plan(params, r) for r in solved.values() if r.plan is None]
     studies = []
     for a in inclines:
@@ -55,11 +59,12 @@ def commission(params: BplirParams, *, inclines=(0.0,), spacings=None, samples: 
             continue
         study = verification_study(params, a, samples, seed, spacings)
         where = None if out is None else out / "studies" / f"incline_{a:+05.1f}"
-        summary = _run(study, where, workers, progress)
+        summary, rows = _run(study, where, pool, progress)
         v = study_verdict(a, summary) | {"seed": study.seed}
         studies.append(v)
         if v["rate"] < READY_RATE:
-            limits.append(_short(params, v))
+            why = miss_reasons(params, rows, [r.plan for r in solved.values()])
+            limits.append("; ".join([_short(params, v)] + why))
     result = CommissionResult(
         name=name, params=params, points=[r.row() for r in solved.values()],
         studies=studies, limits=limits,
@@ -70,12 +75,11 @@ def commission(params: BplirParams, *, inclines=(0.0,), spacings=None, samples: 
     return result
 
 
-def _run(study, where, workers, progress) -> dict:
-    """The study's summary (run in ``where`` when given, resumable)."""
-    if where is not None:
-        return dict(run_study(study, where, workers=workers, progress=progress))
+def _run(study, where, pool: dict, progress) -> tuple[dict, list]:
+    """The study's summary and rows (run in ``where`` when given, resumable)."""
     with tempfile.TemporaryDirectory() as tmp:
-        return dict(run_study(study, Path(tmp) / "study", workers=workers, progress=progress))
+        done = run_study(study, where or Path(tmp) / "study", progress=progress, **pool)
+        return dict(done), list(done.result.rows)
 
 
 def _no_plan(params, res) -> str:
@@ -92,10 +96,6 @@ def _short(params, v: dict) -> str:
     line = (f"{v['incline_deg']:+g} deg: captured {v['captured']}/{v['samples']} "
             f"({100 * v['rate']:.0f} %, Wilson 95 % {100 * lo:.0f}-{100 * hi:.0f} %), below "
             f"{100 * READY_RATE:.0f} %; misses {misses}")
-    speed, limit = v["capture_speed_p95_mps"], params.scenario.capture_speed
-    if misses.get("crash") and speed == speed and speed > limit:
-        line += (f"; capture speed p95 {speed:.2f} m/s against the gripper's "
-                 f"{limit:g} m/s")
     return line
 
 

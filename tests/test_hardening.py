@@ -588,7 +588,7 @@ def test_shipped_gains_serve_the_tests_plans(monkeypatch, tmp_path):
     from bplir_drake.diagrams import plan as P
     from bplir_drake.diagrams import plan_cache
     from bplir_drake.analysis.traverse.run import swing_params
-    from bplir_drake.params import load_toml, preset
+    from bplir_drake.params import from_dict, load_toml, preset
 
     monkeypatch.setenv("BPLIR_CACHE_DIR", str(tmp_path))
     monkeypatch.setattr(P, "_GAINS", {})
@@ -602,7 +602,7 @@ def test_shipped_gains_serve_the_tests_plans(monkeypatch, tmp_path):
     base = preset()
     down = up.with_(scenario=dc.replace(up.scenario, incline_deg=-20.0))
     flat = base.with_(path=dc.replace(base.path, mode="plan"))
-    heavy = base.with_(plant=dc.replace(base.plant, m2=1.6))   # --set plant.m2=1.6
+    heavy = from_dict({"plant": {"m2": 1.6}}, base=base)   # --set plant.m2=1.6
     cases = [up, down, flat, heavy] + [swing_params(base, g, base.traverse.grip_spacing, 0.0)
                                        for g in (1, 2)] + _quick_benchmark_swings()
     from bplir_drake.analysis.traverse.recovery import retry_params

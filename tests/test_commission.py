@@ -123,3 +123,15 @@ def test_the_command_line_refuses_bad_input_in_one_line(tmp_path):
                             "--out", str(tmp_path / "o")], capture_output=True, text=True)
         assert p.returncode == 2 and word in p.stderr
         assert len(p.stderr.strip().splitlines()) == 1 and "Traceback" not in p.stderr
+
+
+def test_acromonk_in_its_own_units_lands_as_docs_robots_says():
+    """examples/acromonk.toml, seed 0 (docs/robots.md): with the rules in
+    its own units it captures at 0.32 m/s, its estimate within 0.06 rad
+    (with the BPLIR's numbers it arrived at 0.51 m/s, a crash)."""
+    from bplir_drake.analysis.swing.run import run_swing
+
+    s = run_swing(load_toml(ROOT / "examples" / "acromonk.toml")).summary()
+    assert s["outcome"] == "captured"
+    assert s["capture_speed_mps"] == pytest.approx(0.319, abs=0.01)
+    assert s["max_estimation_error_rad"] < 0.06 and s["peak_torque_Nm"] <= 3.0

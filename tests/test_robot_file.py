@@ -139,8 +139,8 @@ def test_the_bplir_from_its_urdf_swings_as_the_hand_built_one():
 def test_a_short_link_robot_runs_every_command(tmp_path, monkeypatch):
     """AcroMonk's links (0.31 m, examples/acromonk.toml) through model, plan,
     swing and calibrate: no BPLIR default in the way (the IMU radii, grip
-    spacing, landing depths, delay probe and LQR torque weight follow its
-    links and its 3 N m motor).  The calibration fits a single swing's log
+    spacing, landing depths follow its links, the LQR weights, probe and
+    landing times its scales m g L, sqrt(L/g)).  The calibration fits a log
     (controlled from the true state: the BPLIR's filter tuning diverges on
     several of AcroMonk's seeds) from a friction and an inertia set wrong
     and recovers the simulated robot's (its friction drawn within the

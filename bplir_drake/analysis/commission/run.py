@@ -91,12 +91,11 @@ def _no_plan(params, res) -> str:
 
 def _short(params, v: dict) -> str:
     """The limit line of a verification study below :data:`READY_RATE`."""
-    misses = {k: n for k, n in v["outcomes"].items() if k != "captured"}
+    misses = ", ".join(f"{n} {k}" for k, n in v["outcomes"].items() if k != "captured")
     lo, hi = v["wilson95"]
-    line = (f"{v['incline_deg']:+g} deg: captured {v['captured']}/{v['samples']} "
+    return (f"{v['incline_deg']:+g} deg: captured {v['captured']}/{v['samples']} "
             f"({100 * v['rate']:.0f} %, Wilson 95 % {100 * lo:.0f}-{100 * hi:.0f} %), below "
-            f"{100 * READY_RATE:.0f} %; misses {misses}")
-    return line
+            f"{100 * READY_RATE:.0f} %; misses: {misses}")
 
 
 def _save(result: CommissionResult, out: Path) -> None:

@@ -524,8 +524,9 @@ def test_shipped_plans_serve_a_fresh_install(monkeypatch, tmp_path):
     # guesses, the first heats the driver too much, the next two are infeasible), and
     # examples/acromonk.toml's swing (its guesses and warm start) and `bplir plan`, and
     # the original robot's try from hanging at +2.6 deg, 1.05 m (test_hanging_library's),
-    # and the scaled robot's plan commissioned from the default robot's (docs/commission.md)
-    assert len(shipped) == 41
+    # and the scaled robot's plans commissioned from the default robot's, holding with
+    # either gripper (docs/commission.md)
+    assert len(shipped) == 42
     monkeypatch.setenv("BPLIR_CACHE_DIR", str(tmp_path))
 
     def no_solve(*a, **k):
@@ -626,10 +627,12 @@ def test_shipped_gains_serve_the_tests_plans(monkeypatch, tmp_path):
     assert blended == 14   # +-20 deg, the flat swing, both robots on the flat line (from the
     #                        line and tried again from hanging at 30 V and 48 V), the quick five
     from bplir_drake.analysis.commission.grid import solve_point   # docs/commission.md's robot
+    from bplir_drake.params import swapped
     scaled = load_toml(Path(__file__).resolve().parents[1] / "examples" / "scaled_bplir.toml")
-    point = solve_point(scaled, 0.0, 0.84)
-    keys.add(plan_cache.plan_key(P.gains_inputs(scaled.plant, scaled.friction, point.plan,
-                                                P.TrackerWeights.of(scaled.plan))))
+    for robot in (scaled, swapped(scaled)):   # holding with either gripper
+        point = solve_point(robot, 0.0, 0.84)
+        keys.add(plan_cache.plan_key(P.gains_inputs(robot.plant, robot.friction, point.plan,
+                                                    P.TrackerWeights.of(robot.plan))))
     shipped = {f.stem.split("-", 1)[1] for f in plan_cache.PACKAGED.glob("gains-*.npz")}
     assert shipped == keys and not list(tmp_path.glob("gains-*.npz"))
 

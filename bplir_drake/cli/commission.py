@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from .common import InputError, _emit, _in_range, _load_params, _out_dir, _progress
+from .common import InputError, _dpi, _emit, _in_range, _load_params, _out_dir, _progress
 from .options import command, option, shared
 
 
@@ -14,6 +14,9 @@ def cmd_commission(args) -> int:
     if not Path(args.robot).is_file():
         raise InputError(f"robot file '{args.robot}' does not exist; name a parameter TOML "
                          "file describing the robot ([robot] file or [plant], [motor], ...)")
+    if args.config:
+        raise InputError(f"--config {args.config}: the robot file is the command's argument "
+                         f"({args.robot}); give one")
     args.config = args.robot
     params = _load_params(args)
     inclines = args.incline or [0.0]
@@ -27,13 +30,16 @@ def cmd_commission(args) -> int:
     result = commission(params, inclines=inclines, spacings=args.spacing, samples=args.samples,
                         seed=args.seed, out=out, workers=args.workers or 0,
                         progress=_progress(args), name=Path(args.robot).stem,
-                        dask=args.dask, scheduler=args.scheduler)
+                        grippers=tuple(sorted(set(args.gripper or [1, 2]))),
+                        dask=args.dask, scheduler=args.scheduler,
+                        figure=(args.format, _dpi(args)))
     s = result.summary()
     lines = [f"{s['robot']}: {'READY' if s['ready'] else 'NOT READY'} "
              f"({s['plans']['solved']}/{s['plans']['points']} plans, "
              f"{s['plans']['from_similarity']} from similar robots; {s['wall_s']:.0f} s)"]
     for st in s["studies"]:
-        lines.append(f"  {st['incline_deg']:+g} deg: captured {st['captured']}/{st['samples']}, "
+        lines.append(f"  gripper {st['holding']}, {st['incline_deg']:+g} deg: captured "
+                     f"{st['captured']}/{st['samples']}, "
                      f"capture speed p95 {st['capture_speed_p95_mps']:.2f} m/s")
     lines += [f"  limit: {x}" for x in s["limits"]]
     lines.append(f"  wrote {out}/report.md, commission.json, robot.toml, plans/, studies/")
@@ -52,6 +58,8 @@ def add_parser(sub) -> None:
            "default 0)", action="append")
     option(p, "--spacing", float, None, "a grip spacing of the plan grid, m (repeatable; "
            "default the robot's own and 5 %% of its reach either side)", action="append")
+    option(p, "--gripper", int, None, "the gripper the robot holds with (repeatable; default "
+           "both: 2 is the robot seen from its other gripper)", action="append", choices=(1, 2))
     option(p, "--samples", int, 100, "swings of each verification study (default 100)")
     option(p, "--seed", int, 1, "root seed of the verification studies (default 1)")
     shared(p, "workers")

@@ -12,57 +12,57 @@ from ...plotting import figure_axes, finish, save_figure
 from .similarity import Scales, shipped_references
 from .verdict import READY_RATE
 
-FIGURE = "commission.png"
+FIGURE = "commission"
 
 
 def plot_commission(result, axes=None):
     """Three panels: each grid point's plan duration and peak torque in the
     robot's own units (over sqrt(L/g) and m g L) against the grip spacing
-    over the reach, a line per incline, beside the default robot's shipped
-    plans (grey, dashed) and the motor's torque limit (dotted); and each
-    incline's capture rate with its Wilson 95 % interval (the bar dotted)."""
+    over the reach, a line per holding gripper and incline, beside the
+    default robot's shipped single-swing plans (grey, dotted) and the
+    motor's torque limit (dash-dotted); and each study's capture rate with
+    its Wilson 95 % interval (the bar dotted)."""
     fig, ax = figure_axes(axes, 1, 3, figsize=(11, 3.6))
     own = Scales.of(result.params.plant)
     refs = [r for r in shipped_references() if r.start == "line"][:1]
-    inclines = sorted({p["incline_deg"] for p in result.points})
-    for a in inclines:
-        rows = sorted((p for p in result.points if p["incline_deg"] == a),
+    for g, a in sorted({(p["holding"], p["incline_deg"]) for p in result.points}):
+        rows = sorted((p for p in result.points if p["incline_deg"] == a and p["holding"] == g),
                       key=lambda p: p["spacing_m"])
         d = [p["spacing_m"] / own.length for p in rows]
-        ax[0].plot(d, [p["duration_s"] / own.time for p in rows], "o-", label=f"{a:+g} deg")
-        ax[1].plot(d, [p["peak_torque_Nm"] / own.torque for p in rows], "o-",
-                   label=f"{a:+g} deg")
+        style = "o-" if g == 1 else "s--"
+        label = f"gripper {g}, {a:+g} deg"
+        ax[0].plot(d, [p["duration_s"] / own.time for p in rows], style, label=label)
+        ax[1].plot(d, [p["peak_torque_Nm"] / own.torque for p in rows], style, label=label)
+    for a in sorted({p["incline_deg"] for p in result.points}):
         for ref in refs:
             lib, sc = ref.library, Scales.of(ref.plant)
             i = int(np.argmin(np.abs(lib.inclines - a)))
             x = lib.spacings / sc.length
-            ax[0].plot(x, lib.durations[i] / sc.time, "--", color="0.6", lw=1,
+            ax[0].plot(x, lib.durations[i] / sc.time, ":", color="0.6", lw=1,
                        label=f"default robot, {lib.inclines[i]:+g} deg")
-            ax[1].plot(x, np.max(np.abs(lib.torque[i]), axis=1) / sc.torque, "--",
+            ax[1].plot(x, np.max(np.abs(lib.torque[i]), axis=1) / sc.torque, ":",
                        color="0.6", lw=1, label=f"default robot, {lib.inclines[i]:+g} deg")
-    ax[1].axhline(result.params.controller.torque_limit / own.torque, ls=":", color="0.3",
+    ax[1].axhline(result.params.controller.torque_limit / own.torque, ls="-.", color="0.3",
                   lw=1, label="torque limit")
     ax[0].set(xlabel="grip spacing / reach  D / L", ylabel="plan duration / sqrt(L/g)",
               title="plans, in the robot's units")
     ax[1].set(xlabel="grip spacing / reach  D / L", ylabel="peak elbow torque / (m g L)",
               title="torque of the plans")
     ax[1].set_ylim(bottom=0)
-    ax[0].legend(fontsize=7)
-    ax[1].legend(fontsize=7)
-    if result.studies:
-        x = [s["incline_deg"] for s in result.studies]
-        y = np.array([100 * s["rate"] for s in result.studies])
-        lo = np.array([100 * s["wilson95"][0] for s in result.studies])
-        hi = np.array([100 * s["wilson95"][1] for s in result.studies])
-        ax[2].errorbar(x, y, yerr=[y - lo, hi - y], fmt="o", capsize=4)
-        for xi, s in zip(x, result.studies):
-            ax[2].annotate(f"{s['captured']}/{s['samples']}", (xi, 100 * s["rate"]),
-                           textcoords="offset points", xytext=(6, -12), fontsize=8)
-        span = max(abs(v) for v in x) + 5.0
-        ax[2].set_xlim(-span, span)
+    ax[0].legend(fontsize=6)
+    ax[1].legend(fontsize=6)
+    studies = sorted(result.studies, key=lambda s: (s["incline_deg"], s["holding"]))
+    for k, st in enumerate(studies):
+        y, (lo, hi) = 100 * st["rate"], st["wilson95"]
+        ax[2].errorbar([k], [y], yerr=[[y - 100 * lo], [100 * hi - y]], fmt="o" if
+                       st["holding"] == 1 else "s", capsize=4, color=f"C{st['holding'] - 1}")
+        ax[2].annotate(f"{st['captured']}/{st['samples']}", (k, y), textcoords="offset points",
+                       xytext=(0, 6), ha="center", fontsize=8)
+    ax[2].set_xticks(range(len(studies)), [f"gripper {st['holding']}\n{st['incline_deg']:+g} deg"
+                                          for st in studies], fontsize=8)
+    ax[2].set_xlim(-0.6, max(len(studies), 1) - 0.4)
     ax[2].axhline(100 * READY_RATE, ls=":", color="0.4", lw=1)
-    ax[2].set(xlabel="line incline (deg)", ylabel="captured (%)", ylim=(0, 102),
-              title="verification studies")
+    ax[2].set(ylabel="captured (%)", ylim=(0, 108), title="verification studies")
     caption = (f"{result.name}: reach L {own.length:.3f} m, mass m "
                f"{result.params.plant.m1 + result.params.plant.m2:.3f} kg, sqrt(L/g) "
                f"{own.time:.3f} s, m g L {own.torque:.2f} N m; studies' root seed "
@@ -74,8 +74,8 @@ def _num(x, fmt=".2f") -> str:
     return "-" if x is None or (isinstance(x, float) and math.isnan(x)) else format(x, fmt)
 
 
-def report_markdown(result) -> str:
-    """The report as markdown."""
+def report_markdown(result, fmt: str = "png") -> str:
+    """The report as markdown (its figure a ``fmt`` file)."""
     s = result.summary()
     lines = [f"# Commissioning report: {result.name}", "",
              f"**Verdict: {'ready' if s['ready'] else 'not ready'}.** "
@@ -86,11 +86,13 @@ def report_markdown(result) -> str:
         lines += ["## Limits", ""] + [f"- {x}" for x in s["limits"]] + [""]
     lines += ["## Verification studies", "",
               f"Root seed {result.seed}; uncertainty scaled to the robot.", "",
-              "| incline (deg) | captured | Wilson 95 % | capture speed p50 / p95 (m/s) "
-              "| peak voltage (V) | peak torque (N m) |", "| --- | --- | --- | --- | --- | --- |"]
+              "| holding | incline (deg) | captured | Wilson 95 % | capture speed p50 / p95 (m/s) "
+              "| peak voltage (V) | peak torque (N m) |",
+              "| --- | --- | --- | --- | --- | --- | --- |"]
     for st in result.studies:
         lo, hi = st["wilson95"]
-        lines.append(f"| {st['incline_deg']:+g} | {st['captured']}/{st['samples']} | "
+        lines.append(f"| gripper {st['holding']} | {st['incline_deg']:+g} | "
+                     f"{st['captured']}/{st['samples']} | "
                      f"{100 * lo:.1f}-{100 * hi:.1f} % | {_num(st['capture_speed_p50_mps'])} / "
                      f"{_num(st['capture_speed_p95_mps'])} | {_num(st['peak_voltage_V'], '.1f')} | "
                      f"{_num(st['peak_torque_Nm'])} |")
@@ -104,18 +106,19 @@ def report_markdown(result) -> str:
         f = s["flat_line"]
         lines += [f"- flat line, swinging alone: {f['energy_per_m_J']:.1f} J/m of elbow work, "
                   f"{f['metres_per_min']:.1f} m/min"]
-    lines += ["", "## Plans", "", "| incline (deg) | D (m) | solved from | duration (s) "
-              "| peak torque (N m) | peak voltage (V) |", "| --- | --- | --- | --- | --- | --- |"]
+    lines += ["", "## Plans", "", "| holding | incline (deg) | D (m) | solved from "
+              "| duration (s) | peak torque (N m) | peak voltage (V) |",
+              "| --- | --- | --- | --- | --- | --- | --- |"]
     for p in result.points:
-        lines.append(f"| {p['incline_deg']:+g} | {p['spacing_m']:.3f} | {p['how']} | "
+        lines.append(f"| gripper {p['holding']} | {p['incline_deg']:+g} | {p['spacing_m']:.3f} | "
+                     f"{p['how']} | "
                      f"{_num(p['duration_s'])} | {_num(p['peak_torque_Nm'])} | "
                      f"{_num(p['peak_voltage_V'], '.1f')} |")
-    lines += ["", f"![commissioning]({FIGURE})", ""]
+    lines += ["", f"![commissioning]({FIGURE}.{fmt})", ""]
     return "\n".join(lines)
 
 
-def write_report(result, out: Path) -> None:
-    """``report.md`` and its figure in ``out``."""
-    fig = result.plot()
-    save_figure(fig, Path(out) / FIGURE)
-    write_text_atomic(Path(out) / "report.md", report_markdown(result))
+def write_report(result, out: Path, fmt: str = "png", dpi: int = 150) -> None:
+    """``report.md`` and its figure (``commission.FMT`` at ``dpi``) in ``out``."""
+    save_figure(result.plot(), Path(out) / f"{FIGURE}.{fmt}", dpi=dpi)
+    write_text_atomic(Path(out) / "report.md", report_markdown(result, fmt))

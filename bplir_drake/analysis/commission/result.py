@@ -13,9 +13,10 @@ from .report import plot_commission
 
 @dataclass
 class CommissionResult(Result):
-    """A commissioned robot: its grid of plans (``points``: a row each, how
-    it was solved and its figures), the verification study at each incline
-    (``studies``), the electric margins of its plans, and ``limits``: one
+    """A commissioned robot: its grids of plans (``points``: a row each, the
+    gripper it holds with, how it was solved and its figures), the
+    verification study at each incline and holding gripper (``studies``),
+    the electric margins of its plans, and ``limits``: one
     line per manoeuvre without a plan or study below the bar, with the
     physical reason and the number that shows it (empty: ready)."""
 
@@ -39,7 +40,7 @@ class CommissionResult(Result):
         how = [p["how"] for p in self.points]
         return dict(
             robot=self.name, ready=self.ready,
-            studies=[dict(incline_deg=s["incline_deg"], captured=s["captured"],
+            studies=[dict(holding=s["holding"], incline_deg=s["incline_deg"], captured=s["captured"],
                           samples=s["samples"], capture_speed_p95_mps=s["capture_speed_p95_mps"],
                           capture_speed_p50_mps=s["capture_speed_p50_mps"],
                           wilson95=s["wilson95"], seed=s["seed"], outcomes=s["outcomes"],
@@ -59,7 +60,7 @@ class CommissionResult(Result):
         swinging alone (no riding, no re-grip)."""
         d = self.params.scenario.grip_spacing
         rows = [p for p in self.points if p["incline_deg"] == 0.0 and p["spacing_m"] == d
-                and p["how"] != "none"]
+                and p["how"] != "none" and p["holding"] == 1]
         if not rows:
             return {}
         r = rows[0]
@@ -75,9 +76,10 @@ class CommissionResult(Result):
         capture rates with their Wilson intervals."""
         return plot_commission(self, axes)
 
-    def rate(self, incline: float) -> float:
-        """The verification study's capture rate at ``incline`` (nan: none)."""
+    def rate(self, incline: float, holding: int = 1) -> float:
+        """The verification study's capture rate at ``incline`` holding with
+        gripper ``holding`` (nan: none)."""
         for s in self.studies:
-            if np.isclose(s["incline_deg"], incline):
+            if np.isclose(s["incline_deg"], incline) and s["holding"] == holding:
                 return s["rate"]
         return math.nan

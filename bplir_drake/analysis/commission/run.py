@@ -9,7 +9,7 @@ from pathlib import Path
 
 from ...diagrams.plan_library import robot_library_path
 from ...io import atomic_path, write_json_atomic
-from ...params import BplirParams, save_toml
+from ...params import BplirParams, save_toml, swapped
 from ..montecarlo.runner import run_study
 from .grid import at, solve_library
 from .result import CommissionResult
@@ -31,18 +31,20 @@ def default_spacings(params: BplirParams) -> tuple[float, ...]:
 
 def commission(params: BplirParams, *, inclines=(0.0,), spacings=None, samples: int = 100,
                seed: int = 1, out=None, workers: int = 0, progress: bool = False,
-               name: str = "robot", dask: bool = False,
-               scheduler: str | None = None) -> CommissionResult:
+               name: str = "robot", grippers=(1, 2), dask: bool = False,
+               scheduler: str | None = None, figure: tuple = ("png", 150)) -> CommissionResult:
     """Commission the robot ``params`` (its plant, friction, motor, IMUs
-    and gripper): solve its plan library over ``inclines`` (deg) x
+    and gripper) holding with each of ``grippers`` (2: the robot seen from
+    its other gripper, :func:`~bplir_drake.params.swapped`, commissioned by
+    the same rules): solve its plan library over ``inclines`` (deg) x
     ``spacings`` (m; default :func:`default_spacings`) from similar robots'
     plans (:mod:`.grid`), run a verification study of ``samples`` swings at
     each incline (root seed ``seed``, :func:`~.verdict.verification_study`)
-    and give the verdict.  With ``out`` the robot's parameters, its library,
-    the studies (resumable), ``commission.json``, ``report.md`` and the
-    figures are written there.  ``workers`` processes on this machine, or
-    Dask (``dask``: a local cluster; ``scheduler``: an existing one's
-    address)."""
+    and give the verdict.  With ``out`` the robot's parameters, its
+    libraries, the studies (resumable), ``commission.json``, ``report.md``
+    and the figure are written there.  ``workers`` processes on this
+    machine, or Dask (``dask``: a local cluster; ``scheduler``: an existing
+    one's address); ``figure``: the figure's format and resolution (dpi)."""
     t0 = time.perf_counter()
     inclines = tuple(sorted(float(a) for a in inclines))
     spacings = tuple(sorted(spacings or default_spacings(params)))
@@ -50,35 +52,47 @@ def commission(params: BplirParams, *, inclines=(0.0,), spacings=None, samples: 
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
         save_toml(params, out / "robot.toml")
-    pool = dict(workers=workers, dask=dask, scheduler=scheduler)
-    solved = solve_library(params, inclines, spacings, progress=progress, **pool)
-    limits = [_no_plan(params, r) for r in solved.values() if r.plan is None]
-    studies = []
-    for a in inclines:
-        if all(solved[a, d].plan is None for d in spacings):
-            continue
-        study = verification_study(params, a, samples, seed, spacings)
-        where = None if out is None else out / "studies" / f"incline_{a:+05.1f}"
-        summary, rows = _run(study, where, pool, progress)
-        v = study_verdict(a, summary) | {"seed": study.seed}
-        studies.append(v)
-        if v["rate"] < READY_RATE:
-            why = miss_reasons(params, rows, [r.plan for r in solved.values()])
-            limits.append("; ".join([_short(params, v)] + why))
-    result = CommissionResult(
-        name=name, params=params, points=[r.row() for r in solved.values()],
-        studies=studies, limits=limits,
-        margins=electric_margins(params, [r.plan for r in solved.values()]),
-        seed=seed, wall_s=time.perf_counter() - t0)
+    pool = dict(workers=workers, dask=dask, scheduler=scheduler, progress=progress)
+    points, studies, limits, plans = [], [], [], []
+    for g in grippers:
+        robot = params if g == 1 else swapped(params)
+        solved = solve_library(robot, inclines, spacings, **pool)
+        plans += [r.plan for r in solved.values()]
+        points += [r.row() | {"holding": g} for r in solved.values()]
+        limits += [f"gripper {g}: {_no_plan(robot, r)}" for r in solved.values()
+                   if r.plan is None]
+        for a in inclines:
+            if all(solved[a, d].plan is None for d in spacings):
+                continue
+            where = None if out is None else out / "studies" / f"gripper{g}_incline_{a:+05.1f}"
+            v, why = _verify(robot, a, solved, samples, seed, spacings, where, pool)
+            studies.append(v | {"holding": g})
+            if why:
+                limits.append(f"gripper {g}: {why}")
+    result = CommissionResult(name=name, params=params, points=points, studies=studies,
+                              limits=limits, margins=electric_margins(params, plans),
+                              seed=seed, wall_s=time.perf_counter() - t0)
     if out is not None:
-        _save(result, out)
+        _save(result, out, grippers, figure)
     return result
 
 
-def _run(study, where, pool: dict, progress) -> tuple[dict, list]:
+def _verify(robot, incline, solved, samples, seed, spacings, where, pool):
+    """(verdict of the verification study at ``incline``, its limit line or
+    "" when it passes)."""
+    study = verification_study(robot, incline, samples, seed, spacings)
+    summary, rows = _run(study, where, pool)
+    v = study_verdict(incline, summary) | {"seed": study.seed}
+    if v["rate"] >= READY_RATE:
+        return v, ""
+    why = miss_reasons(robot, rows, [r.plan for r in solved.values()])
+    return v, "; ".join([_short(v)] + why)
+
+
+def _run(study, where, pool: dict) -> tuple[dict, list]:
     """The study's summary and rows (run in ``where`` when given, resumable)."""
     with tempfile.TemporaryDirectory() as tmp:
-        done = run_study(study, where or Path(tmp) / "study", progress=progress, **pool)
+        done = run_study(study, where or Path(tmp) / "study", **pool)
         return dict(done), list(done.result.rows)
 
 
@@ -89,7 +103,7 @@ def _no_plan(params, res) -> str:
     return no_plan_reason(params, res.incline, res.spacing, guesses[0] if guesses else None)
 
 
-def _short(params, v: dict) -> str:
+def _short(v: dict) -> str:
     """The limit line of a verification study below :data:`READY_RATE`."""
     misses = ", ".join(f"{n} {k}" for k, n in v["outcomes"].items() if k != "captured")
     lo, hi = v["wilson95"]
@@ -98,12 +112,13 @@ def _short(params, v: dict) -> str:
             f"{100 * READY_RATE:.0f} %; misses: {misses}")
 
 
-def _save(result: CommissionResult, out: Path) -> None:
+def _save(result: CommissionResult, out: Path, grippers, figure) -> None:
     """The result's files in ``out``."""
-    lib = robot_library_path(result.params)
-    if lib.exists():
-        (out / "plans").mkdir(exist_ok=True)
-        with atomic_path(out / "plans" / lib.name) as tmp:
-            shutil.copyfile(lib, tmp)
+    for g in grippers:
+        lib = robot_library_path(result.params if g == 1 else swapped(result.params))
+        if lib.exists():
+            (out / "plans").mkdir(exist_ok=True)
+            with atomic_path(out / "plans" / lib.name) as tmp:
+                shutil.copyfile(lib, tmp)
     write_json_atomic(out / "commission.json", result.to_dict())
-    write_report(result, out)
+    write_report(result, out, *figure)

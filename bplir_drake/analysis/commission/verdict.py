@@ -134,32 +134,35 @@ def no_plan_reason(params, incline: float, spacing: float, guess) -> str:
         if rate > free:
             fix.append(f"a supply of {m.supply_voltage * rate / free:.0f} V")
     return (f"no plan at {where}: " + " ".join(parts) + "; "
-            + (" or ".join(fix) + " would" if fix else "the solver found none from it either"))
+            + (" and ".join(fix) + " would" if fix else "the solver found none from it either"))
 
 
 def miss_reasons(params, rows, plans) -> list[str]:
     """What the misses of a verification study (its ``rows``) show, with
-    the numbers: the elbow at its torque limit, the gripper arriving just
-    faster than the gripper's capture speed, or the estimate far from the
-    truth; and what would help."""
+    the numbers: the estimate lost (then the rest follows from it), the
+    elbow held at its torque limit (a weak motor when the plans already use
+    most of it, else the feedback's fight), or the gripper arriving faster
+    than the gripper's capture speed."""
     misses = [r for r in rows if r["outcome"] not in ("captured", "error")]
     if not misses:
         return []
-    out, n = [], len(misses)
-    limit = params.controller.torque_limit
+    n = len(misses)
+    far = [r for r in misses if r["max_estimation_error_rad"] > 0.1]
+    if len(far) * 2 > n:
+        return [f"{len(far)} of {n} misses had the estimate more than 0.1 rad from the truth "
+                "(median " + f"{float(np.median([r['max_estimation_error_rad'] for r in far])):.2f}"
+                " rad): the estimator, tuned as the default robot's, loses this robot"]
+    out, limit = [], params.controller.torque_limit
     saturated = [r for r in misses if r["peak_torque_Nm"] >= 0.99 * limit]
     if len(saturated) * 2 > n:
         used = max((p.peak_torque for p in plans if p is not None and p.feasible), default=0.0)
+        share = used / limit
         out.append(f"{len(saturated)} of {n} misses hold the elbow at its {limit:g} N m limit "
-                   f"(the plans use up to {used:.2f} N m, {100 * used / limit:.0f} % of it): "
-                   "more elbow torque would help")
+                   f"(the plans use up to {used:.2f} N m, {100 * share:.0f} % of it)"
+                   + (": more elbow torque would help" if share >= 0.8 else ""))
     crashes = [r["capture_speed_mps"] for r in misses if r["outcome"] == "crash"]
     speed = params.scenario.capture_speed
     if crashes and len(crashes) * 2 > n:
         out.append(f"{len(crashes)} of {n} misses reach the line faster than the gripper's "
-                   f"{speed:g} m/s (median {float(np.median(crashes)):.2f} m/s): a gripper that "
-                   "closes at that speed would capture them")
-    far = [r for r in misses if r["max_estimation_error_rad"] > 0.1]
-    if len(far) * 2 > n:
-        out.append(f"{len(far)} of {n} misses had the estimate more than 0.1 rad from the truth")
+                   f"{speed:g} m/s (median {float(np.median(crashes)):.2f} m/s)")
     return out

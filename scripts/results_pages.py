@@ -115,6 +115,13 @@ def accuracy_rows(item: dict) -> list[list[str]]:
     return out
 
 
+def _limits_of(res: dict, st: dict) -> list[str]:
+    """The limit lines of a commissioning that concern this study's gripper."""
+    g = st.get("holding", 1)
+    return [x.split(": ", 1)[1] if x.startswith(f"gripper {g}: ") else x for x in res["limits"]
+            if x.startswith(f"gripper {g}: ") or not x.startswith("gripper ")]
+
+
 def commission_rows(item: dict) -> list[list[str]]:
     """One row per incline of a stored ``bplir commission`` (its
     ``commission.json``)."""
@@ -122,13 +129,19 @@ def commission_rows(item: dict) -> list[list[str]]:
     plans = res["plans"]
     for st in res["studies"]:
         lo, hi = st["wilson95"]
-        out.append([item["label"], f"{st['incline_deg']:+g}°" if st["incline_deg"] else "0°",
+        out.append([f"{item['label']}, gripper {st.get('holding', 1)}",
+                    f"{st['incline_deg']:+g}°" if st["incline_deg"] else "0°",
                     str(st["seed"]), f"{plans['solved']} / {plans['points']} "
                     f"({plans['from_similarity']} by similarity)", f"{res['wall_s']:.0f}",
                     f"{st['captured']} / {st['samples']}",
                     f"{100 * lo:.1f} % - {100 * hi:.1f} %",
                     f"{num(st['capture_speed_p50_mps'])} / {num(st['capture_speed_p95_mps'])}",
-                    "ready" if res["ready"] else "; ".join(res["limits"])])
+                    "ready" if not _limits_of(res, st) else "; ".join(_limits_of(res, st))])
+    studied = {st.get("holding", 1) for st in res["studies"]}
+    for g in sorted({p.get("holding", 1) for p in res["grid"]} - studied):   # no plan at all
+        out.append([f"{item['label']}, gripper {g}", "0°", "--",
+                    f"{plans['solved']} / {plans['points']}", f"{res['wall_s']:.0f}", "--", "--",
+                    "--", "; ".join(_limits_of(res, {"holding": g}))])
     return out
 
 
@@ -138,8 +151,9 @@ HEADERS = {
               "on the envelope p95 (s)", "misses"],
     "traverse": ["line", "root seed", "seeds", "passed", "Wilson 95 %", "supply",
                  "peak voltage max (V)", "misses"],
-    "commission": ["robot", "line", "root seed", "plans", "wall time (s)", "captured",
-                   "Wilson 95 %", "capture speed p50 / p95 (m/s)", "verdict"],
+    "commission": ["robot, holding with", "line", "root seed", "plans (both grippers)",
+                   "wall time (s)", "captured", "Wilson 95 %", "capture speed p50 / p95 (m/s)",
+                   "verdict"],
     "accuracy": ["line", "integrator", "captured", "Wilson 95 %",
                  "capture speed p50 / p95 (m/s)", "same outcome", "median change (m/s)",
                  "median error against RK5 1e-10 (m/s)"],

@@ -139,7 +139,7 @@ def no_plan_reason(params, incline: float, spacing: float, guess) -> str:
 
 def miss_reasons(params, rows, plans) -> list[str]:
     """What the misses of a verification study (its ``rows``) show, with
-    the numbers: the estimate lost (then the rest follows from it), the
+    the numbers: the estimate lost (what follows from it is not listed), the
     elbow held at its torque limit (a weak motor when the plans already use
     most of it, else the feedback's fight), or the gripper arriving faster
     than the gripper's capture speed."""
@@ -149,9 +149,9 @@ def miss_reasons(params, rows, plans) -> list[str]:
     n = len(misses)
     far = [r for r in misses if r["max_estimation_error_rad"] > 0.1]
     if len(far) * 2 > n:
-        return [f"{len(far)} of {n} misses had the estimate more than 0.1 rad from the truth "
-                "(median " + f"{float(np.median([r['max_estimation_error_rad'] for r in far])):.2f}"
-                " rad): the estimator, tuned as the default robot's, loses this robot"]
+        err = float(np.median([r["max_estimation_error_rad"] for r in far]))
+        return [f"the estimate is lost: {len(far)} of {n} misses had it more than 0.1 rad from "
+                f"the truth (median {err:.2f} rad)"]
     out, limit = [], params.controller.torque_limit
     saturated = [r for r in misses if r["peak_torque_Nm"] >= 0.99 * limit]
     if len(saturated) * 2 > n:

@@ -39,8 +39,9 @@ from ..systems.plant import start_configuration
 from ..io import atomic_path
 from .plan_cache import PACKAGED, cache_dir, damage, plan_key
 from .swing_plan import (HANGING_GUESSES, HANGING_KNOTS, HANGING_MINOR_ITERATIONS,
-                         PLAN_FRICTION_SMOOTHING, SwingPlan, hanging_planned, plan_envelope, plan_time_weight,
-                         plan_friction, plan_torque_limit, planned_target, shifted_angles)
+                         PLAN_FRICTION_SMOOTHING, SwingPlan, hanging_planned, plan_envelope,
+                         plan_friction, plan_time_weight, plan_torque_limit, planned_target,
+                         shifted_angles)
 
 #: the grid of the shipped libraries: line inclines (deg) and grip spacings (m)
 LIBRARY_INCLINES = tuple(float(a) for a in range(-20, 21, 5))

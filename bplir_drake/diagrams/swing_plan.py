@@ -12,6 +12,7 @@ import numpy as np
 
 from ..io import Result
 from ..params import BplirParams
+from ..params.files import robot_scales
 from ..systems.plant import initial_configuration
 from .plan_plot import plot_plan
 
@@ -31,7 +32,7 @@ PLAN_TIME_PRICE = 1e-4
 def plan_time_weight(plant) -> float:
     """The planner's weight ``w`` on a plan's duration for the robot
     ``plant`` (N^2 m^2 s / s): :data:`PLAN_TIME_PRICE` ``(m g L)^2``."""
-    q0 = (plant.m1 + plant.m2) * plant.g * (plant.l1 + plant.l2)
+    q0 = robot_scales(plant)[1]
     return PLAN_TIME_PRICE * q0 * q0
 
 

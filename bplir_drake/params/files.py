@@ -163,24 +163,23 @@ def follow_the_scales(params: BplirParams, updates: dict, data: dict) -> dict:
         return updates
     (t0, q0), (t1, q1) = robot_scales(params.plant), robot_scales(plant)
     kq, kt = q1 / q0, t1 / t0
-    given = given_fields(data).get("plan", ())
+    given = given_fields(data)
     plan, old = updates.get("plan", params.plan), params.plan
     scaled = {}
-    if "delay_probe" not in given:
+    if "delay_probe" not in given.get("plan", ()):
         scaled["delay_probe"] = old.delay_probe * kq
-    if "lqr_torque" not in given:
+    if "lqr_torque" not in given.get("plan", ()):
         scaled["lqr_torque"] = old.lqr_torque / kq ** 2
-    if "lqr_state" not in given:
+    if "lqr_state" not in given.get("plan", ()):
         w = old.lqr_state
         scaled["lqr_state"] = (w[0], w[1], w[2] * kt ** 2, w[3] * kt ** 2)
     landing = updates.get("landing", params.landing)
-    given = given_fields(data).get("landing", ())
     period = updates.get("controller", params.controller).period
     timed = {}
     for f in fields(params.landing):
         power = LANDING_TIME_POWERS.get(f.metadata.get("unit", ""))
         value = getattr(params.landing, f.name)
-        if power is None or f.name in given or isinstance(value, bool):
+        if power is None or f.name in given.get("landing", ()) or isinstance(value, bool):
             continue
         timed[f.name] = value * kt ** power
     if "shoot_min_time" in timed:   # never shorter than two controller periods

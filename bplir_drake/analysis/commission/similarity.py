@@ -27,6 +27,7 @@ from ...diagrams.plan_library import (LIBRARY_SAMPLES, PlanLibrary, library_path
                                       load_library)
 from ...diagrams.swing_plan import SwingPlan
 from ...params import BplirParams, preset
+from ...params.files import robot_scales
 from ...params.robot import PlantParams
 from ..traverse.recovery import retry_params
 from ..traverse.swing_setup import swing_params
@@ -44,8 +45,7 @@ class Scales:
     @classmethod
     def of(cls, plant) -> "Scales":
         """The scales of a ``[plant]`` block."""
-        L = plant.l1 + plant.l2
-        return cls(L, math.sqrt(L / plant.g), (plant.m1 + plant.m2) * plant.g * L)
+        return cls(plant.l1 + plant.l2, *robot_scales(plant))
 
 
 def shape(plant) -> np.ndarray:

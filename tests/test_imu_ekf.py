@@ -1,4 +1,5 @@
 """IMU model, kinematic EKF (in the diagram and offline), observability."""
+import math
 import dataclasses as dc
 
 import numpy as np
@@ -214,8 +215,8 @@ def test_heuns_step_in_the_loop_estimates_the_landing_rates_better():
     it (``TRAPEZOID_LOOP_TUNING``: process noise 2.0, 0.05), both re-run
     over the IMU samples of the default swing (seeds 0-3; the tuning was
     chosen on the realistic study's root seed 0), from the believed start
-    pose.  Over the last 0.3 s before the capture, rate RMSE: q1' 4.8-6.2
-    against 11.8-15.4 mrad/s, q2' 4.4-7.9 against 15.2-18.9 (the shot
+    pose.  Over the last 0.3 s before the capture, rate RMSE: q1' 4.8-6.3
+    against 11.9-15.4 mrad/s, q2' 4.4-7.9 against 15.2-18.9 (the shot
     predicts link 1's stop from its rate)."""
     import dataclasses as dc
 
@@ -241,8 +242,8 @@ def test_heuns_step_in_the_loop_estimates_the_landing_rates_better():
             rates = np.column_stack([x[:, 2], x[:, 3] - x[:, 2]])
             rmse.append(np.sqrt(np.mean((rates[last] - truth[last, 2:]) ** 2, axis=0)))
         heun, trapezoid = rmse
-        assert heun[0] < 0.007 and trapezoid[0] > 0.011, (seed, rmse)
-        assert trapezoid[0] > 1.9 * heun[0] and trapezoid[1] > 1.9 * heun[1], (seed, rmse)
+        assert heun[0] < 0.0065 < 0.0115 < trapezoid[0], (seed, rmse)
+        assert heun[1] < 0.008 < 0.015 < trapezoid[1], (seed, rmse)
 
 
 def test_covariance_inflation_is_the_plain_update_on_the_inflated_prediction():
@@ -271,33 +272,34 @@ def test_covariance_inflation_is_the_plain_update_on_the_inflated_prediction():
 
 
 def test_inflation_lands_the_quick_benchmarks_torque_noise():
-    """The quick benchmark's torque-noise cases on root seed 0 (where the
-    inflation's 3 was chosen): with the in-flight misalignment estimate
-    (the default) ``loop_inflate_nis = 3`` lands the 3 N m case at
-    0.43 m/s, which crashes without the inflation (0.50); without that
-    estimate both crash, the inflation arriving slower (0.54 against
-    0.73 m/s)."""
+    """The quick benchmark's torque-noise cases on root seed 0: with the
+    in-flight misalignment estimate (the default) ``estimator.inflate_nis =
+    3`` lands the 3 N m case at 0.39 m/s, which times out without the
+    inflation (the default); without that estimate the inflation crashes
+    (0.54 m/s) where the plain filter times out (the robot left hanging,
+    to try again)."""
     import tempfile
 
     from bplir_drake.analysis.montecarlo.benchmark import run_benchmark
     from bplir_drake.params import BplirParams
 
     p = BplirParams()
-    assert p.estimator.loop_inflate_nis == 3.0 and p.traverse.swapped_inflate_nis == 0.0
+    assert p.estimator.inflate_nis == p.estimator.for_loop().inflate_nis == 0.0
     speeds = {}
     for flight in (False, True):
         for k in (3.0, 0.0):
-            q = p.with_(estimator=dc.replace(p.estimator, loop_inflate_nis=k,
+            q = p.with_(estimator=dc.replace(p.estimator, inflate_nis=k,
                                              loop_estimate_misalignment=flight))
             with tempfile.TemporaryDirectory() as d:
                 res = run_benchmark(q, ["plan"], quick=True, seed=0, workers=1, out=d,
                                     categories=("torque noise",))
             row = {r["label"]: r for r in res["rows"]}["3 N m"]
             speeds[flight, k] = (row["outcome"], row["capture_speed_mps"])
-    expected = {(False, 3.0): ("crash", 0.537), (False, 0.0): ("crash", 0.731),
-                (True, 3.0): ("captured", 0.431), (True, 0.0): ("crash", 0.501)}
+    expected = {(False, 3.0): ("crash", 0.537), (False, 0.0): ("timeout", math.nan),
+                (True, 3.0): ("captured", 0.388), (True, 0.0): ("timeout", math.nan)}
     for key, (outcome, speed) in expected.items():
-        assert speeds[key][0] == outcome and speeds[key][1] == pytest.approx(speed, abs=0.01)
+        assert speeds[key][0] == outcome
+        assert speeds[key][1] == pytest.approx(speed, abs=0.01, nan_ok=True)
 
 
 def test_misalignments_are_estimated_in_flight_unless_the_imus_are_very_noisy():

@@ -45,7 +45,7 @@ def test_lab_preset_geometry():
     (P.ScenarioParams, {"seed": -3}, ["scenario.seed"]),
     (P.ControllerParams, {"preset": "pid"}, ["controller.preset", "plan"]),
     (P.LandingParams, {"landing_law": "lqr"}, ["landing.landing_law", "aim, shoot"]),
-    (P.TraverseParams, {"swapped_landing_law": "x"}, ["traverse.swapped_landing_law", "shoot"]),
+    (P.TraverseParams, {"swing_mode": "x"}, ["traverse.swing_mode", "adaptive"]),
 ])
 def test_bad_parameters_name_field_and_range(block, kwargs, words):
     with pytest.raises(P.ParameterError) as err:
@@ -285,3 +285,27 @@ def test_the_imus_keep_their_place_along_shorter_links(tmp_path, capsys):
     assert main(["model", "--config", str(tmp_path / "small.toml"), "--no-swing",
                  "--out", str(tmp_path / "m")]) == 0
     assert "hanging eigenvalues" in capsys.readouterr().out
+
+
+def test_retired_fields_load_and_say_when_their_value_is_ignored():
+    """A file written before a variant field was retired still loads: the
+    field is dropped silently where its value is the one that decides now
+    (the swapped robot's shot height was always the landing's), with one
+    warning naming it and what decides where it is not."""
+    import warnings
+
+    from bplir_drake.params import from_dict
+    from bplir_drake.params.retired import RETIRED
+
+    same = {"traverse": {"swapped_shoot_height": -0.015, "swapped_landing_law": "auto"},
+            "estimator": {"loop_gyro_meas_sigma": 0.0166}, "plan": {"hanging_rate_limit": 0.0}}
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert from_dict(same) == P.BplirParams()
+    with pytest.warns(FutureWarning, match=r"traverse.swapped_shoot_rate_cap = 0.0 "
+                                           r"\(now landing.shoot_rate_cap \(0.3\)\)"):
+        p = from_dict({"traverse": {"swapped_shoot_rate_cap": 0.0}})
+    assert p.landing.shoot_rate_cap == 0.3
+    names = {r["name"] for r in P.parameter_reference()}
+    assert not {n for _, n in RETIRED} & names
+    assert len(P.parameter_reference()) < 243

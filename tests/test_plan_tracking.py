@@ -210,7 +210,8 @@ def test_the_shooting_landing_holds_no_shot_far_below_its_aim():
     from bplir_drake.systems.plan_tracker import ApexShot
 
     p = preset()
-    path = dc.replace(p.landing, landing_law="shoot", shoot_min_time=0.04, shoot_height=-0.018)
+    path = dc.replace(p.landing, landing_law="shoot", shoot_min_time=0.04, shoot_height=-0.018,
+                      shoot_rate_cap=0.0)   # the shot itself, its elbow uncapped as then
     x = [-0.010, 1.737, 0.06, 2.59]
     acc, T = ApexShot.from_params(p.plant, p.friction, math.radians(-20), path).solve(x)
     assert T == pytest.approx(0.194, abs=1e-3) and acc == pytest.approx(-19.6, abs=0.1)
@@ -267,8 +268,8 @@ def test_the_shooting_landing_gives_up_rather_than_chase_the_line():
 
     p = preset()
     assert p.landing.shoot_give_up_rate == 0.1
-    chase = ApexShot.from_params(p.plant, p.friction, 0.0,
-                                 dc.replace(p.landing, shoot_give_up_rate=0.0))
+    chase = ApexShot.from_params(p.plant, p.friction, 0.0,   # uncapped, as then
+                                 dc.replace(p.landing, shoot_give_up_rate=0.0, shoot_rate_cap=0.0))
     law = ApexShot.from_params(p.plant, p.friction, 0.0, p.landing)
     back, rising = [0.413, 1.849, -0.47, 0.70], [0.419, 1.844, 0.11, -0.46]
     assert law.landing.height(back) == pytest.approx(-0.039, abs=1e-3)
@@ -297,7 +298,7 @@ def test_a_shot_far_out_of_the_motors_reach_brakes_the_elbow():
     assert swing_params(p48, 2, 1.2, 0.0).landing.shoot_brake_ratio == 1.6
     assert swing_params(p, 2, 1.2, 0.0).landing.shoot_brake_ratio == 0.0
     fr = FrictionParams(enabled=False)
-    path = dc.replace(p.landing, landing_law="shoot", shoot_min_time=0.04,
+    path = dc.replace(p.landing, landing_law="shoot", shoot_min_time=0.04, shoot_rate_cap=0.0,
                       shoot_height=-0.018, shoot_min_rate=0.1, shoot_hold_depth=1.0)
     x = [-0.010, 1.737, 0.06, 2.59]
     alpha = math.radians(-20)

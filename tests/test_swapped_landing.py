@@ -1,4 +1,4 @@
-"""The swapped robot's landing shot: its elbow's rate capped near the line."""
+"""The landing shot's elbow rate capped near the line (either gripper holding)."""
 import dataclasses as dc
 import math
 from pathlib import Path
@@ -42,9 +42,9 @@ def test_the_swapped_robots_short_swing_lands_with_its_elbow_capped():
     """Draw 9 of the realistic traversal study (tuning root seed 777), 48 V,
     the swapped robot's 0.9 m swing on a flat line (the dense stretch's):
     the uncapped shot flings the elbow in and crashes (0.61 m/s); with
-    ``traverse.swapped_shoot_rate_cap`` it lands (measured 0.42 m/s).  Of
-    draws 0-59, the cap changed the outcome of two (this one, and draw 54,
-    a timeout it lands) and of no other."""
+    ``landing.shoot_rate_cap``, the same holding with either gripper, it
+    lands (measured 0.42 m/s).  Of draws 0-59, the cap changed the outcome
+    of two (this one, and draw 54, a timeout it lands) and of no other."""
     from bplir_drake.analysis.montecarlo.sampling import sample_params
     from bplir_drake.analysis.montecarlo.study import load_study
     from bplir_drake.analysis.swing.run import SwingRunner
@@ -54,8 +54,8 @@ def test_the_swapped_robots_short_swing_lands_with_its_elbow_capped():
     study = dc.replace(study, params=study.params.with_hardware("48v"))
     p, seed, _ = sample_params(study, 9)
     q = swing_params(p, 2, 0.9, 0.0)
-    assert q.landing.shoot_rate_cap == p.traverse.swapped_shoot_rate_cap > 0.0
-    assert swing_params(p, 1, 0.9, 0.0).landing.shoot_rate_cap == 0.0
+    assert q.landing.shoot_rate_cap == swing_params(p, 1, 0.9, 0.0).landing.shoot_rate_cap \
+        == p.landing.shoot_rate_cap > 0.0
     runner = SwingRunner()
     free = runner.run(q.with_(landing=dc.replace(q.landing, shoot_rate_cap=0.0)), seed=seed)
     assert free.summary["outcome"] == "crash" and free.summary["capture_speed_mps"] > 0.55

@@ -311,8 +311,7 @@ def hanging_plan(params: BplirParams, *, power_limit: float | None = None,
     """The plan from hanging at rest (``scenario.start = "hanging"``): the
     first feasible of the guesses :data:`HANGING_GUESSES` on ``knots``
     (:data:`HANGING_KNOTS`) with up to :data:`HANGING_MINOR_ITERATIONS`
-    minor iterations, the elbow rate within ``plan.hanging_rate_limit`` at
-    the knots, the torque within ``plan.hanging_torque_share`` of its limit
+    minor iterations, the torque within ``plan.hanging_torque_share`` of its limit
     and the voltage within the envelope of ``plan.hanging_supply``
     (:func:`hanging_planned`: a pump of several swings the tracker can
     follow with headroom), no warm start.  With ``plan.hanging_i2t_share``
@@ -368,11 +367,10 @@ def hanging_solve(made: BplirParams, *, power_limit: float | None = None,
                   knots: int = HANGING_KNOTS, progress: bool = False, **start) -> SwingPlan:
     """One solve of the plan from hanging of ``made`` (as
     :func:`hanging_planned` makes it): ``plan.end_depth``, its own iteration
-    limit and elbow-rate bound, started from ``start`` (``guess_duration``
+    limit, started from ``start`` (``guess_duration``
     or ``initial``, as :func:`plan_swing` takes them)."""
     return plan_swing(made, power_limit=power_limit, end_depth=made.plan.end_depth, knots=knots,
-                      minor_iterations=HANGING_MINOR_ITERATIONS,
-                      rate_limit=made.plan.hanging_rate_limit, progress=progress, **start)
+                      minor_iterations=HANGING_MINOR_ITERATIONS, progress=progress, **start)
 
 
 def planned_i2t(plan: SwingPlan, motor) -> float:

@@ -82,7 +82,8 @@ def model_inputs(params: BplirParams) -> dict:
     """Every input of a library plan and its gains other than the incline
     and the grip spacing (the planner's defaults for the solver settings;
     from hanging, its own: :func:`~.swing_plan.hanging_planned`, knots,
-    iteration limit, elbow-rate bound, guesses and i^2 t share)."""
+    iteration limit, guesses and i^2 t share; the elbow-rate bound 0, none,
+    kept in the key of the libraries shipped when it was a parameter)."""
     made, hanging = _as_planned(params), params.scenario.start == "hanging"
     out = dict(plant=params.plant.key_dict(), friction=params.friction.as_dict(),
                envelope=plan_envelope(made), tau_max=plan_torque_limit(made),
@@ -94,7 +95,7 @@ def model_inputs(params: BplirParams) -> dict:
                inclines=list(LIBRARY_INCLINES), spacings=list(LIBRARY_SPACINGS),
                samples=LIBRARY_SAMPLES)
     if hanging:
-        out.update(rate_limit=params.plan.hanging_rate_limit, guesses=list(HANGING_GUESSES),
+        out.update(rate_limit=0.0, guesses=list(HANGING_GUESSES),
                    minor_iterations=HANGING_MINOR_ITERATIONS,
                    i2t_share=params.plan.hanging_i2t_share)
     return out

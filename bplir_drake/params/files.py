@@ -11,6 +11,7 @@ from typing import Any
 from .base import ParameterError
 from .plan import split_path_table
 from .model import BLOCKS, BplirParams, preset
+from .retired import drop_retired
 from .robot import RobotFileParams
 from .robot_file import SHIPPED_ROBOTS, describe_robot, resolve_robot_file
 from ..io import read_text, write_text_atomic
@@ -29,6 +30,7 @@ def from_dict(data: dict[str, Any], base: BplirParams | None = None,
     if not isinstance(data, dict):
         raise ParameterError("parameter data must be a table of tables")
     data = split_path_table(dict(data))   # files written before [plan] and [landing]
+    data = drop_retired(data, BLOCKS)
     name = data.pop("preset", None)
     if name is not None and not isinstance(name, str):
         raise ParameterError(f"preset = {name!r} must be a string naming a preset")

@@ -26,7 +26,6 @@ class PlanParams(_Block):
     end_depth: float = _p(0.015, "m", 0, 0.1, doc="the planned swing comes to rest this far below the line, inside the capture band, so the band is entered slowly")
     voltage_share: float = _fraction(0.9, doc="share of the driver's largest voltage the plan may use at its knots (the rest is the feedback's headroom)")
     torque_share: float = _fraction(1.0, doc="share of the torque limit the plan may use (the rest is the feedback's headroom)")
-    hanging_rate_limit: float = _p(0.0, "rad/s", 0, 100, doc="largest elbow rate a plan from hanging (scenario.start) may use at its knots (0: the voltage envelope's alone, about 13 rad/s at 30 V)")
     hanging_torque_share: float = _fraction(1.0, doc="share of the torque limit a plan from hanging (scenario.start) may use, at most torque_share (the rest is the tracker's headroom over a pump of seconds)")
     hanging_supply: float = _p(0.0, "V", 0, 100, doc="supply voltage whose envelope a plan from hanging keeps to (0: motor.supply_voltage; a lower one paces the pump below what the robot's supply allows)")
     hanging_i2t_share: float = _p(0.0, "", 0, 1, doc="share of the driver's i^2 t budget a plan from hanging may use by itself from a reset driver; a guess whose plan uses more gives way to the next, and the least heating feasible plan is kept if none keeps to it (0: the first feasible guess)")
@@ -100,7 +99,7 @@ class LandingParams(_Block):
     shoot_hold_depth: float = _p(0.03, "m", 0, 1, doc="landing_law 'shoot': the stop time is held at shoot_min_time only within this of the aimed height")
     shoot_give_up_rate: float = _p(0.1, "rad/s", 0, 5, doc="landing_law 'shoot': once link 1 swings back faster than this with the gripper below its aim, the shot brakes the elbow and gives up")
     shoot_brake_ratio: float = _p(0.0, "", 0, 10, doc="landing_law 'shoot': a shot asking for more than this multiple of the torque the motor can give at the elbow's rate to lift the gripper towards the line brakes the elbow instead (0: never)")
-    shoot_rate_cap: float = _p(0.0, "rad/s", 0, 5, doc="landing_law 'shoot': within shoot_hold_depth of the aimed height the shot brakes the elbow back to this rate where it would turn it faster (0: no cap)")
+    shoot_rate_cap: float = _p(0.3, "rad/s", 0, 5, doc="landing_law 'shoot': within shoot_hold_depth of the aimed height the shot brakes the elbow back to this rate where it would turn it faster (the elbow's rate is most of the gripper's speed at capture; 0: no cap)")
     shoot_link1_share: float = _p(0.5, "", 0, 1, doc="landing_law 'auto': the shot where link 1 makes at least this share of the planned gripper's rise rate near the line, else the lift rule")
 
     def _check(self):

@@ -58,7 +58,7 @@ def checked_seed(seed, name: str = "seed") -> int:
 
 
 # ---------------------------------------------------------------- traversal
-TRAVERSE_SWING_MODES = ("plan", "params")
+TRAVERSE_SWING_MODES = ("plan", "adaptive")
 
 
 @dataclass(frozen=True)
@@ -97,13 +97,7 @@ class TraverseParams(_Block):
     # swing_mode 'plan': the single swing's apex landing and delay compensation
     # (landing.landing_*, plan.delay_compensation) on every traversal swing
     landing: bool = field(default=True, metadata=dict(doc="traversal swings end with the single swing's landing law"))
-    swapped_landing_margin: float = _p(0.0, "m", 0, 0.1, doc="landing.landing_margin of the swings holding with gripper 2")
-    swapped_landing_law: str = field(default="shoot", metadata=dict(doc="landing.landing_law of the swings holding with gripper 2 (the swapped robot)", allowed="auto, shoot, aim"))
-    swapped_shoot_min_time: float = _p(0.04, "s", 0.02, 0.5, doc="landing.shoot_min_time of the swings holding with gripper 2")
-    swapped_shoot_height: float = _p(-0.015, "m", -0.02, 0, doc="landing.shoot_height of the swings holding with gripper 2")
-    swapped_shoot_rate_cap: float = _p(0.3, "rad/s", 0, 5, doc="landing.shoot_rate_cap of the swings holding with gripper 2 (0: no cap)")
     swapped_line_range: float = _p(0.0, "m", 0, 1, doc="the largest line_sensor.range of the swings holding with gripper 2 (0: they estimate with the IMUs alone)")
-    swapped_inflate_nis: float = _p(0.0, "", 0, 1000, doc="estimator.loop_inflate_nis of the swings holding with gripper 2 (0: no inflation; its large landing corrections read as model error)")
     landing_learning: float = _p(0.5, "", 0, 1, doc="each swing aims this share of the mean landing height error of the earlier captures holding with the same gripper higher (0: no learning)")
     rest: bool = field(default=True, metadata=dict(doc="rest before a swing, and before a try again, until the driver's i^2 t state allows the planned swing"))
     i2t_margin: float = _p(0.2, "", 0, 0.9, doc="share of the driver's i^2 t budget a swing may not use: the planner rests until the planned swing keeps this share free")
@@ -127,5 +121,4 @@ class TraverseParams(_Block):
                 f"spacing_max] = [{self.spacing_min:g}, {self.spacing_max:g}] m; allowed "
                 "spacing_min <= grip_spacing <= spacing_max")
         self._off_or_at_least("retry_lift_min_time", 0.02, "the landing's own")
-        self._one_of("swapped_landing_law", LANDING_LAWS)
         self._one_of("swing_mode", TRAVERSE_SWING_MODES)

@@ -101,7 +101,6 @@ class EstimatorParams(_Block):
     accel_meas_sigma: float = _positive(0.427, "m/s^2", doc="accelerometer measurement noise (5.39)")
     integration: str = field(default="euler", metadata=dict(doc="prediction step of the offline filter: euler (5.3), trapezoid or heun", allowed="euler, trapezoid, heun"))
     loop_accel_process_sigma: float = _positive(0.2, "m/s^2", doc="in-loop tuning: process noise on the accelerometer inputs (with Heun's step)")
-    loop_gyro_meas_sigma: float = _positive(0.0166, "rad/s", doc="in-loop tuning: gyro noise (Table 5.1)")
     loop_accel_meas_sigma: float = _positive(0.1, "m/s^2", doc="in-loop tuning: accelerometer measurement noise")
     # Heun's step with the accelerations at both ends of the period (was
     # "trapezoid"): its smaller discretisation error lets the filter trust the
@@ -113,13 +112,12 @@ class EstimatorParams(_Block):
     start_rate_sigma: float = _positive(0.05, "rad/s", doc="initial rate sd at a swing start (at rest)")
     start_bias_sigma: float = _positive(0.002, "rad/s", doc="gyro-bias sd at a swing start (calibrated while held on the line)")
     standstill_samples: int = _count(500, "samples", 0, 100000, doc="IMU samples averaged at rest on the line before a swing to calibrate gyro biases and misalignments (0: none, the dissertation's filter; 500 = 5 s)")
-    tuned_gyro_noise: float = _positive(0.0166, "rad/s", doc="gyro noise per sample the in-loop tuning assumes (Table 5.1); a standstill calibration measuring more widens R by the ratio")
+    tuned_gyro_noise: float = _positive(0.0166, "rad/s", doc="gyro noise per sample the swing's filter assumes (Table 5.1), its gyro R; a standstill calibration measuring more widens R by the ratio")
     tuned_accel_noise: float = _positive(0.02156, "m/s^2", doc="accelerometer noise per sample the in-loop tuning assumes (Table 5.1); a standstill calibration measuring more widens R by the ratio")
     noise_tolerance: float = _p(1.2, "", 1, 100, doc="R is widened only when the measured noise exceeds the tuned one by more than this factor (500 samples measure it within 6 %)")
     inflate_nis: float = _p(0.0, "", 0, 1000, doc="covariance inflation: a tick whose normalised innovation squared exceeds this multiple of its expectation inflates the predicted covariance by the excess (0: never)")
     loop_estimate_misalignment: bool = field(default=True, metadata=dict(doc="in-loop tuning: the swing's filter goes on estimating each accelerometer's misalignment in flight, from the standstill calibration's value"))
     misalign_max_noise: float = _p(3.0, "", 1, 100, doc="misalignment states are held at the standstill calibration's values when it measures the IMUs noisier than this many times the tuned noise (their in-flight estimate then wanders)")
-    loop_inflate_nis: float = _p(3.0, "", 0, 1000, doc="in-loop tuning: inflate_nis of the swing's filter (lets torque noise and heavy sensor noise move the estimate)")
     estimate_bias: bool = field(default=True, metadata=dict(doc="estimate a constant gyro bias per IMU (two extra states)"))
     bias_sigma0: float = _positive(0.05, "rad/s", doc="initial gyro-bias standard deviation")
     bias_walk: float = _positive(1e-3, "rad/s/sqrt(s)", doc="gyro-bias random walk")
@@ -178,8 +176,8 @@ class EstimatorParams(_Block):
     def for_loop(self) -> "EstimatorParams":
         """The same filter with the in-loop tuning (used by the swing)."""
         return replace(self, accel_process_sigma=self.loop_accel_process_sigma,
-                       gyro_meas_sigma=self.loop_gyro_meas_sigma,
+                       gyro_meas_sigma=self.tuned_gyro_noise,
                        accel_meas_sigma=self.loop_accel_meas_sigma,
-                       integration=self.loop_integration, inflate_nis=self.loop_inflate_nis,
+                       integration=self.loop_integration,
                        estimate_misalignment=(self.estimate_misalignment
                                               or self.loop_estimate_misalignment))

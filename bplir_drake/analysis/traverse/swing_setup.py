@@ -30,15 +30,12 @@ def swing_params(params: BplirParams, holding: int, spacing: float,
     incline is rounded to 0.1 deg and the spacing to 1 mm (the planned swings
     of a line are then a few, cached; 0.05 deg is 1 mm over a grip spacing).
     With ``traverse.landing`` (the default) the swing lands as a single
-    swing does (the apex landing, the delay probe and its compensation),
-    the swapped robot by ``traverse.swapped_landing_law`` (its fallback
-    aiming at ``traverse.swapped_landing_margin``, its shot aimed at
-    ``traverse.swapped_shoot_height`` and held from
-    ``traverse.swapped_shoot_min_time``, its elbow capped near the line at
-    ``traverse.swapped_shoot_rate_cap``, its filter's covariance inflation
-    ``traverse.swapped_inflate_nis``, its line sensor's range at most
-    ``traverse.swapped_line_range``); its landing shot brakes at
-    ``traverse.shoot_brake_ratio`` where that is set."""
+    swing does (the apex landing, the delay probe and its compensation), by
+    the same landing settings holding with either gripper (the swapped robot
+    is another robot, landed by the same rules); the swapped robot's line
+    sensor reads at most ``traverse.swapped_line_range`` (with none, its
+    shot aims as the robot without the sensor does); the landing shot
+    brakes at ``traverse.shoot_brake_ratio`` where that is set."""
     p = params if holding == 1 else swapped(params)
     sc = dc.replace(p.scenario, grip_spacing=round(float(spacing), 3),
                     incline_deg=round(math.degrees(incline), 1))
@@ -49,6 +46,8 @@ def swing_params(params: BplirParams, holding: int, spacing: float,
         # gripper first moves slowly, sliding along the line if it must, where
         # a traversal has to land on the planned grip between obstacles: with
         # it, seed 0 of examples/line_span.toml landed on a spacer)
+        if tp.landing and holding == 2 and p.line_sensor.range > tp.swapped_line_range:
+            p = _other_jaw(p, tp.swapped_line_range)
         path = dc.replace(p.path, mode="plan")
         plan = dc.replace(p.plan, end_depth=tp.plan_end_depth)
         landing = dc.replace(p.landing, reach_speed=0.0)
@@ -57,18 +56,18 @@ def swing_params(params: BplirParams, holding: int, spacing: float,
         if not tp.landing:   # plan tracking alone, as traversals were first built
             landing = dc.replace(landing, landing_lead=0.0)
             plan = dc.replace(plan, delay_compensation=0.0, delay_probe=0.0)
-        elif holding == 2:
-            landing = dc.replace(landing, landing_margin=tp.swapped_landing_margin,
-                                 landing_law=tp.swapped_landing_law,
-                                 shoot_min_time=tp.swapped_shoot_min_time,
-                                 shoot_height=tp.swapped_shoot_height,
-                                 shoot_rate_cap=tp.swapped_shoot_rate_cap)
-            p = p.with_(estimator=dc.replace(p.estimator,
-                                             loop_inflate_nis=tp.swapped_inflate_nis),
-                        line_sensor=dc.replace(p.line_sensor, range=min(
-                            p.line_sensor.range, tp.swapped_line_range)))
         p = p.with_(path=path, plan=plan, landing=landing)
     return p
+
+
+def _other_jaw(p: BplirParams, reach: float) -> BplirParams:
+    """``p`` whose landing jaw reads the line only up to ``reach`` (m); with
+    no reading at all it lands as the robot without the sensor does
+    (:meth:`~bplir_drake.params.BplirParams.imu_only`: the shot's aim and
+    hold follow what the robot knows of its gripper's height)."""
+    if reach <= 0.0:
+        return p.imu_only()
+    return p.with_(line_sensor=dc.replace(p.line_sensor, range=reach))
 
 
 def learnt_landing(p: BplirParams, errors) -> BplirParams:

@@ -11,7 +11,8 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, LogVectorOutput
 
-from bplir_drake.params import (EstimatorParams, FrictionParams, MotorParams, ScenarioParams,
+from bplir_drake.params import (EstimatorParams, FrictionParams, GripperParams, MotorParams,
+                                ScenarioParams,
                                 preset)
 from bplir_drake.systems import ekf as E
 from bplir_drake.systems.friction import (JointFriction, friction_system, friction_torques,
@@ -183,12 +184,13 @@ def test_interlock_locates_the_arrival_between_ticks_exactly():
     # closed form: the first time the gripper is within 2 cm below the line
     from scipy.optimize import brentq
 
-    t_exact = brentq(lambda t: line_metrics(x_at(t), geo)[0] + sc.capture_distance, 0.0, 0.2)
+    t_exact = brentq(lambda t: line_metrics(x_at(t), geo)[0] + GripperParams().capture_distance,
+                    0.0, 0.2)
     T = 0.01
     k = int(t_exact // T)
     s, xa, passed, normal, _ = first_arrival(x_at(k * T), x_at((k + 1) * T), T, geo, sc,
                                              True, line_metrics(x_at(k * T), geo)[0])
-    assert passed and normal == pytest.approx(-sc.capture_distance, abs=1e-9)
+    assert passed and normal == pytest.approx(-GripperParams().capture_distance, abs=1e-9)
     assert k * T + s * T == pytest.approx(t_exact, abs=1e-9)
     assert line_metrics(xa, geo)[3] == pytest.approx(line_metrics(x_at(t_exact), geo)[3],
                                                      abs=1e-9)

@@ -37,7 +37,7 @@ def test_the_arrival_height_error_is_the_estimates_error_at_the_arrival():
         assert 0.0 <= t - est.t[k] < p.controller.period
         # the arrival is found between integrator steps: the true height
         # there is within 35 um of the band's edge (measured up to 32 um)
-        assert true_h == pytest.approx(-p.scenario.capture_distance, abs=3.5e-5)
+        assert true_h == pytest.approx(-p.gripper.capture_distance, abs=3.5e-5)
         assert s["landing_height_error_m"] == pytest.approx(h + rate * (t - est.t[k]) - true_h,
                                                             abs=3.5e-5)
         assert s["landing_height_error_m"] == pytest.approx(error, abs=2e-5)

@@ -309,3 +309,21 @@ def test_retired_fields_load_and_say_when_their_value_is_ignored():
     names = {r["name"] for r in P.parameter_reference()}
     assert not {n for _, n in RETIRED} & names
     assert len(P.parameter_reference()) < 243
+
+
+def test_the_capture_criterion_is_the_grippers():
+    """The capture criterion and width are the gripper's (``[gripper]``);
+    a file or ``--set`` naming them where they were (``scenario``,
+    ``traverse.gripper_width``) still sets them, with a warning; the
+    gripper's own table wins."""
+    from bplir_drake.params import from_dict
+
+    with pytest.warns(FutureWarning, match="scenario.capture_speed is now gripper.capture_speed"):
+        p = from_dict({"scenario": {"capture_speed": 2.0, "grip_spacing": 0.34},
+                       "traverse": {"gripper_width": 0.05}})
+    assert (p.gripper.capture_speed, p.gripper.width, p.scenario.grip_spacing) == (2.0, 0.05, 0.34)
+    with pytest.warns(FutureWarning):
+        q = from_dict({"scenario": {"capture_distance": 0.05}, "gripper": {"capture_distance": 0.03}})
+    assert q.gripper.capture_distance == 0.03
+    assert P.BplirParams().gripper == P.GripperParams(capture_distance=0.02, capture_speed=0.5,
+                                                      width=0.08)

@@ -131,7 +131,7 @@ def test_the_swing_figure_draws_the_gripper_against_its_inclined_line():
     cols, data = log_table(res)
     end = dict(zip(cols, data[-1]))
     assert res.summary["outcome"] == "captured"
-    assert abs(end["gripper_above"]) <= p.scenario.capture_distance + 1e-3
+    assert abs(end["gripper_above"]) <= p.gripper.capture_distance + 1e-3
     assert end["gripper_along"] == pytest.approx(p.scenario.grip_spacing, abs=0.05)
     assert end["gripper_y"] == pytest.approx(1.2 * np.sin(np.radians(20.0)), abs=0.03)
     fig = res.plot()

@@ -20,8 +20,8 @@ def test_default_swing_is_captured(default_swing, params):
     s = default_swing.summary
     assert s["success"] and s["outcome"] == "captured"
     assert 1.0 <= s["swing_time_s"] <= 2.0          # the dissertation: ~1.5 s (sim), 1.25 s (lab)
-    assert s["capture_speed_mps"] <= params.scenario.capture_speed
-    assert s["capture_distance_m"] <= params.scenario.capture_distance
+    assert s["capture_speed_mps"] <= params.gripper.capture_speed
+    assert s["capture_distance_m"] <= params.gripper.capture_distance
     assert s["peak_torque_Nm"] <= 20.0 + 1e-9
     assert s["fixed_gripper_open"]
     assert s["estimator_in_loop"] and s["max_estimation_error_rad"] < 0.02
@@ -40,7 +40,7 @@ def test_final_configuration_mirrors_the_start(default_swing, params):
     from bplir_drake.systems.plant import gripper_position
 
     x, y = gripper_position(s["final_configuration_rad"], p.l1, p.l2)
-    assert abs(y) <= params.scenario.capture_distance
+    assert abs(y) <= params.gripper.capture_distance
     assert abs(x - params.scenario.grip_spacing) < 0.06
     assert np.allclose(s["final_configuration_rad"], s["target_configuration_rad"], atol=0.06)
 

@@ -149,7 +149,7 @@ def test_route_grips_lie_off_obstacles_and_within_reach(name):
     for plan in plans:
         for s in _grips(plan):
             assert 0.0 <= s <= line.length
-            assert line.obstacle_at(s, tp.gripper_width / 2 + tp.clearance) is None
+            assert line.obstacle_at(s, p.gripper.width / 2 + tp.clearance) is None
         for a, b in ((plan.rear, plan.hold), (plan.hold, plan.landing1),
                      (plan.landing1, plan.landing2)):
             assert lo < line.chord(a, b)[0] < hi
@@ -158,7 +158,7 @@ def test_route_grips_lie_off_obstacles_and_within_reach(name):
         # planned landings keep the landing tolerance from obstacles and the
         # stretch's end (8.0 m long, line_flat's last landing lay 4.5 cm from
         # the end: 7 of 200 realistic traversals on root seed 0 landed past it)
-        land = tp.gripper_width / 2 + tp.clearance + tp.landing_tolerance
+        land = p.gripper.width / 2 + tp.clearance + tp.landing_tolerance
         for s in (plan.landing1, plan.landing2):
             assert line.obstacle_at(s, land) is None and s <= line.length - land
     # the catenary: incline 0 at the low point, about 15 deg at the tower
@@ -233,7 +233,7 @@ def test_the_route_chooses_shorter_spacings_between_close_obstacles():
     p = preset()
     tp = p.traverse
     gap = closest_gap(p, 0.3, 0.3)
-    assert gap == pytest.approx(tp.spacing_min + 2 * (tp.clearance + tp.gripper_width / 2)
+    assert gap == pytest.approx(tp.spacing_min + 2 * (tp.clearance + p.gripper.width / 2)
                                 + tp.landing_tolerance, abs=2e-3)
     fixed = p.with_(traverse=dc.replace(tp, spacing_min=1.2, spacing_max=1.2))
     assert closest_gap(fixed, 0.3, 0.3) == pytest.approx(1.54, abs=2e-3)
@@ -345,7 +345,7 @@ def _traverse_cli_rests_before_a_swing_that_would_trip(tmp_path, capsys):
     assert rests[1]["i2t_end_A2s"] == pytest.approx(0.0, abs=1e-9)
     assert max(r["i2t_end_A2s"] for r in rows) < totals["i2t_budget_A2s"]
     # grips: every landing off the obstacles, spacing set back between swings
-    tp = preset().traverse
+    half = preset().gripper.width / 2
     obstacles = [(o["position"], o["position"] + o["width"]) for o in TRIP_LINE["obstacles"]]
     for r in rows:
         if r["kind"] == "swing":
@@ -353,7 +353,7 @@ def _traverse_cli_rests_before_a_swing_that_would_trip(tmp_path, capsys):
             assert 0.02 < r["capture_speed_mps"] < 0.5
             assert r["capture_impulse_Ns"] > 0.0
             for s in (r["hold_m"], r["to_m"]):
-                assert all(s + tp.gripper_width / 2 <= a or s - tp.gripper_width / 2 >= b
+                assert all(s + half <= a or s - half >= b
                            for a, b in obstacles)
             assert r["to_m"] - r["hold_m"] == pytest.approx(1.2, abs=0.06)
     # grippers alternate: swing 1 of each obstacle holds with gripper 1
@@ -595,7 +595,7 @@ def test_a_front_gripper_landed_close_to_the_next_obstacle_rides_back():
     p = preset()
     ob = line.obstacles[2]
     plan = hold_position(line, p, 2, ob.start - 0.08)
-    near = p.traverse.clearance + p.traverse.gripper_width / 2
+    near = p.traverse.clearance + p.gripper.width / 2
     assert plan.hold <= ob.start - near < ob.start - 0.08
     with pytest.raises(LineError, match="touches it"):
         hold_position(line, p, 2, ob.start - 0.03)

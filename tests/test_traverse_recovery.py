@@ -227,7 +227,7 @@ def test_a_try_that_missed_in_the_robots_own_estimate_aims_higher_next():
     changes nothing."""
     line = BplirParams()
     raise_ = line.traverse.retry_aim_raise
-    band = line.scenario.capture_distance
+    band = line.gripper.capture_distance
     assert 0.0 < raise_ <= 0.01 and line.landing.landing_bias == 0.0
     missed = {"outcome": "timeout", "estimated_peak_height_m": -0.75 * band}
     # a swing from the line that missed so: its try from hanging aims as before
@@ -270,7 +270,7 @@ def test_a_near_miss_from_hanging_lands_when_the_try_after_it_aims_higher():
     first = retry_params(swing_params(p, 2, 1.2, math.radians(2.6)), holding=2)
     runner = SwingRunner()
     s = runner.run(first, seed=seed).summary
-    band = first.scenario.capture_distance
+    band = first.gripper.capture_distance
     assert s["outcome"] == "timeout" and s["closest_distance_m"] > band
     assert -band < s["estimated_peak_height_m"] < -0.5 * band
     again = retry_params(first, s, holding=2)

@@ -95,9 +95,9 @@ def plan_swing(params: BplirParams, *, power_limit: float | None = None, knots: 
     if not (power > 0 and math.isfinite(power)):
         raise ParameterError(f"power limit = {power:g} W is not allowed; allowed (0, inf) W")
     tmax = params.scenario.max_time if max_duration is None else float(max_duration)
-    if not 0.0 <= end_depth < params.scenario.capture_distance:
+    if not 0.0 <= end_depth < params.gripper.capture_distance:
         raise ParameterError(f"end depth = {end_depth:g} m is out of range; allowed "
-                             f"[0, {params.scenario.capture_distance:g}) m (the capture band)")
+                             f"[0, {params.gripper.capture_distance:g}) m (the capture band)")
     if params.scenario.start == "plan":
         raise ParameterError("scenario.start = 'plan' tracks plan.file; the planner plans from "
                              "line or hanging")

@@ -232,7 +232,7 @@ def add_interlock(builder, params: BplirParams, robot: Robot, estimate_port, lin
     believes, for its record)."""
 
     lock = builder.AddNamedSystem("interlock", GripperInterlock(
-        line_geometry, params.scenario, params.controller.period))
+        line_geometry, params.scenario, params.controller.period, params.gripper))
     builder.Connect(robot.plant.get_state_output_port(), lock.GetInputPort("state"))
     builder.Connect(robot.motor.GetOutputPort("tripped"), lock.GetInputPort("tripped"))
     builder.Connect(estimate_port, lock.GetInputPort("estimate"))

@@ -52,7 +52,7 @@ def swing_setup(params: BplirParams) -> SwingSetup:
                       np.asarray(target_configuration(sc.grip_spacing, true_p, alpha)),
                       believed,
                       PathGeometry.from_scenario(params.plant, sc.grip_spacing, alpha,
-                                                 sc.capture_distance),
+                                                 params.gripper.capture_distance),
                       LineGeometry(true_p.l1, true_p.l2, alpha, sc.grip_spacing))
 
 

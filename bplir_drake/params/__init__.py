@@ -69,6 +69,7 @@ from .scenario import (  # noqa: F401
     ScenarioParams,
     TRAVERSE_SWING_MODES,
     DriveParams,
+    GripperParams,
     TraverseParams)
 from .model import (  # noqa: F401
     BplirParams,
@@ -96,7 +97,7 @@ __all__ = [
     "BplirParams", "preset", "PRESETS", "HARDWARE_OPTIONS", "LINE_SENSOR_OPTION",
     "SUPPLY_48V_OPTION",
     "from_dict", "load_toml", "to_toml",
-    "save_toml", "to_dict", "sigma_from_density", "DriveParams", "TraverseParams",
+    "save_toml", "to_dict", "sigma_from_density", "DriveParams", "GripperParams", "TraverseParams",
     "swapped", "swapped_plant", "swapped_imu", "parameter_reference", "BLOCKS", "plugin_name",
 ]
 

@@ -8,7 +8,7 @@ from .robot import FrictionParams, MotorParams, PlantParams, RobotFileParams
 from .sensing import EstimatorParams, ImuParams, LineSensorParams
 from .control import CONTROLLER_PRESETS, ControllerParams, current_preset_name, HARDWARE_OPTIONS, IMU_ONLY_TUNING, LINE_SENSOR_OPTION, PathParams, SUPPLY_48V_OPTION
 from .plan import LandingParams, PlanParams
-from .scenario import DriveParams, ScenarioParams, TraverseParams
+from .scenario import DriveParams, GripperParams, ScenarioParams, TraverseParams
 
 
 @dataclass(frozen=True)
@@ -27,6 +27,7 @@ class BplirParams:
     plan: PlanParams = field(default_factory=PlanParams)
     landing: LandingParams = field(default_factory=LandingParams)
     scenario: ScenarioParams = field(default_factory=ScenarioParams)
+    gripper: GripperParams = field(default_factory=GripperParams)
     drive: DriveParams = field(default_factory=DriveParams)
     traverse: TraverseParams = field(default_factory=TraverseParams)
     line_sensor: LineSensorParams = field(default_factory=LineSensorParams)
@@ -205,7 +206,7 @@ BLOCKS = {
     "robot": RobotFileParams, "plant": PlantParams, "friction": FrictionParams, "motor": MotorParams,
     "imu": ImuParams, "estimator": EstimatorParams, "controller": ControllerParams,
     "path": PathParams, "plan": PlanParams, "landing": LandingParams,
-    "scenario": ScenarioParams, "drive": DriveParams,
+    "scenario": ScenarioParams, "gripper": GripperParams, "drive": DriveParams,
     "traverse": TraverseParams, "line_sensor": LineSensorParams,
     "true_plant": PlantParams, "true_friction": FrictionParams,
 }

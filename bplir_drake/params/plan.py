@@ -6,6 +6,7 @@ from dataclasses import dataclass, field, fields
 
 from .base import MAX_LENGTH, ParameterError, _Block, _count, _fraction, _p, _positive
 import warnings
+from .retired import MOVED
 
 PLAN_INDEXING = ("time", "state")
 PLAN_FILE_ANGLES = ("package", "robot")
@@ -119,13 +120,13 @@ MOVED_TO_LANDING = {f.name: f.name for f in fields(LandingParams)}
 
 def moved_field(block: str, name: str) -> tuple[str, str]:
     """Where ``block.name`` lives now: a former ``path.plan_*`` field in
-    ``plan``, a former ``path`` landing field in ``landing``; any other
-    unchanged."""
+    ``plan``, a former ``path`` landing field in ``landing``, a field moved
+    since (:data:`~.retired.MOVED`); any other unchanged."""
     if block == "path" and name in MOVED_TO_PLAN:
         return "plan", MOVED_TO_PLAN[name]
     if block == "path" and name in MOVED_TO_LANDING:
         return "landing", name
-    return block, name
+    return MOVED.get((block, name), (block, name))
 
 
 def split_path_table(data: dict) -> dict:

@@ -28,9 +28,38 @@ RETIRED: dict[tuple[str, str], tuple[str, str] | float] = {
 }
 
 
+#: fields that moved to another block: ``(block, field)`` -> ``(block, field)``
+#: (the capture criterion is the gripper's, a property of the robot)
+MOVED: dict[tuple[str, str], tuple[str, str]] = {
+    ("scenario", "capture_distance"): ("gripper", "capture_distance"),
+    ("scenario", "capture_speed"): ("gripper", "capture_speed"),
+    ("traverse", "gripper_width"): ("gripper", "width"),
+}
+
+
+def move_fields(data: dict[str, Any]) -> dict[str, Any]:
+    """``data`` (tables by block) with moved fields in their new block (a
+    value the new block gives itself wins), with one ``FutureWarning``."""
+    out, moved = dict(data), []
+    for (block, name), (to, new) in MOVED.items():
+        table = out.get(block)
+        if not isinstance(table, dict) or name not in table:
+            continue
+        out[block] = {k: v for k, v in table.items() if k != name}
+        target = out.get(to)
+        target = dict(target) if isinstance(target, dict) else {}
+        out[to] = {new: table[name]} | target
+        moved.append(f"{block}.{name} is now {to}.{new}")
+    if moved:
+        warnings.warn("; ".join(moved), FutureWarning, stacklevel=3)
+    return out
+
+
 def drop_retired(data: dict[str, Any], blocks: dict[str, type]) -> dict[str, Any]:
-    """``data`` (tables by block) without its retired fields; one
-    ``FutureWarning`` lists those whose value is not what decides now."""
+    """``data`` (tables by block) with moved fields moved (:func:`move_fields`)
+    and without its retired fields; one ``FutureWarning`` lists those whose
+    value is not what decides now."""
+    data = move_fields(data)
     out, ignored = dict(data), []
     for (block, name), now in RETIRED.items():
         table = out.get(block)

@@ -21,8 +21,6 @@ class ScenarioParams(_Block):
     incline_deg: float = _p(0.0, "deg", -90, 90, lo_open=True, hi_open=True,
                             doc="line incline (positive: rising in the direction of travel)")
     max_time: float = _p(3.0, "s", 0, 60, lo_open=True, doc="timeout of one swing")
-    capture_distance: float = _positive(0.02, "m", doc="gripper-to-line distance that counts as arrival")
-    capture_speed: float = _positive(0.5, "m/s", doc="largest gripper speed at arrival (faster is a crash)")
     min_travel_fraction: float = _p(0.8, "", 0, 2, lo_open=True, doc="arrival must be at least this fraction of D along the line")
     friction_uncertainty: float = _p(0.2, "", 0, 0.99, doc="simulated friction drawn within +/- this fraction of nominal")
     wind_torque1: float = _p(0.0, "N m", -20, 20, doc="constant external torque on joint 1 (wind)")
@@ -62,6 +60,20 @@ TRAVERSE_SWING_MODES = ("plan", "adaptive")
 
 
 @dataclass(frozen=True)
+class GripperParams(_Block):
+    """The free gripper taking the line: its capture criterion, a property of
+    the robot.  An active clamp (the default robot's jaw) closes on the line
+    once the gripper comes within ``capture_distance`` of it, at up to
+    ``capture_speed``; a passive hook takes the bar within its throat at up
+    to the speed it withstands.  Both grippers are alike."""
+
+    _name = "gripper"
+    capture_distance: float = _positive(0.02, "m", doc="gripper-to-line distance at which the gripper takes the line (the capture band)")
+    capture_speed: float = _positive(0.5, "m/s", doc="largest gripper speed at which it takes the line (faster is a crash)")
+    width: float = _p(0.08, "m", 0, 0.5, doc="length of line a clasped gripper covers")
+
+
+@dataclass(frozen=True)
 class DriveParams(_Block):
     """The wrist-wheel drive that rides the line between obstacles (ours: the
     dissertation names the wheels, chapter 1, but gives no drive data).  A
@@ -90,7 +102,6 @@ class TraverseParams(_Block):
     spacing_min: float = _p(0.9, "m", 0, 2 * MAX_LENGTH, lo_open=True, doc="shortest grip spacing the route may choose for a swing where the set-up spacing does not fit between obstacles")
     spacing_max: float = _p(1.5, "m", 0, 2 * MAX_LENGTH, lo_open=True, doc="longest grip spacing the route may choose for a swing (the reach; wider obstacles need it)")
     clearance: float = _p(0.05, "m", 0, 1, doc="gap kept between a clasped gripper and an obstacle")
-    gripper_width: float = _p(0.08, "m", 0, 0.5, doc="length of line a clasped gripper covers")
     landing_tolerance: float = _p(0.08, "m", 0, 1, doc="planned landings lie at least this much further from obstacles (the swing's landing error)")
     swing_mode: str = field(default="plan", metadata=dict(doc="how traversal swings are steered: plan (plan tracking) or the path generator (adaptive)", allowed="plan, adaptive"))
     plan_end_depth: float = _p(0.013, "m", 0, 0.02, doc="swing_mode 'plan': the planned swing comes to rest this far below the line (plan.end_depth of every traversal swing)")

@@ -29,7 +29,7 @@ from pydrake.common.containers import namedview
 from pydrake.systems.framework import EventStatus
 
 from .base import PySystem
-from ..params import ScenarioParams
+from ..params import GripperParams, ScenarioParams
 from .schedule import declare_store
 
 OUTCOMES = ("swinging", "captured", "crash", "timeout", "fault")
@@ -127,13 +127,15 @@ def arrival(x0, x1, T, geo, band, travel_min, passed, last_normal, substeps, bis
 
 
 def first_arrival(x0, x1, T: float, g: LineGeometry, sc: ScenarioParams, passed: bool,
-                  last_normal: float, substeps: int = 8, bisections: int = 30):
+                  last_normal: float, substeps: int = 8, bisections: int = 30, *,
+                  gripper: GripperParams | None = None):
     """The first arrival between two ticks, if any.
 
     Scans the Hermite interpolant between the tick states ``x0`` and ``x1``
     at ``substeps`` points; an arrival is the first point after the vertical
     (``passed``), at least ``min_travel_fraction * D`` along the line, within
-    ``capture_distance`` of it or across it since the previous point; its
+    ``gripper.capture_distance`` of it (default :class:`GripperParams`) or
+    across it since the previous point; its
     time is then refined by bisection.  The scan is skipped when the gripper
     cannot come near the line between the ticks (its distance at both ticks
     exceeds the band by more than twice the distance it can travel at the
@@ -143,8 +145,8 @@ def first_arrival(x0, x1, T: float, g: LineGeometry, sc: ScenarioParams, passed:
     :func:`arrival`)."""
     found, s, x, passed, normal, closest = arrival(
         np.asarray(x0, dtype=float), np.asarray(x1, dtype=float), T,
-        np.array([g.l1, g.l2, g.alpha, g.grip_spacing]), sc.capture_distance,
-        sc.min_travel_fraction * sc.grip_spacing, passed, last_normal, substeps, bisections)
+        np.array([g.l1, g.l2, g.alpha, g.grip_spacing]),
+        (gripper or GripperParams()).capture_distance, sc.min_travel_fraction * sc.grip_spacing, passed, last_normal, substeps, bisections)
     return (s if found else None), x, passed, normal, closest
 
 
@@ -169,9 +171,11 @@ class GripperInterlock(PySystem):
         "passed", "last_normal", "q1", "q2", "q1d", "q2d"])
     N = 7
 
-    def __init__(self, geometry: LineGeometry, scenario: ScenarioParams, period: float = 0.01):
+    def __init__(self, geometry: LineGeometry, scenario: ScenarioParams, period: float = 0.01,
+                 gripper: GripperParams | None = None):
         super().__init__()
         self.geometry, self.scenario, self.period = geometry, scenario, period
+        self.gripper = gripper or GripperParams()   # its capture criterion
         self._geo = np.array([geometry.l1, geometry.l2, geometry.alpha, geometry.grip_spacing])
         self._travel_min = scenario.min_travel_fraction * scenario.grip_spacing
         self.state_port = self.DeclareVectorInputPort("state", 4)
@@ -204,13 +208,13 @@ class GripperInterlock(PySystem):
         sc = self.scenario
         x = self.state_port.Eval(context)
         found, s, xa, passed, normal, closest = arrival(
-            d[9:13], x, self.period, self._geo, sc.capture_distance, self._travel_min,
+            d[9:13], x, self.period, self._geo, self.gripper.capture_distance, self._travel_min,
             d[7] > 0.5, d[8], 8, 30)
         d[6] = min(d[6], closest)   # closest
         d[7] = 1.0 if passed else 0.0
         if found:
             _, _, travel, speed = line_metrics(xa, self.geometry)
-            ok = speed <= sc.capture_speed
+            ok = speed <= self.gripper.capture_speed
             # mode, fixed open, event time, speed, distance, travel
             d[0:6] = (OUTCOMES.index("captured" if ok else "crash"), 1.0 if ok else 0.0,
                       t - self.period + s * self.period, speed, abs(normal), travel)

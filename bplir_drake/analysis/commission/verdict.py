@@ -161,7 +161,7 @@ def miss_reasons(params, rows, plans) -> list[str]:
                    f"(the plans use up to {used:.2f} N m, {100 * share:.0f} % of it)"
                    + (": more elbow torque would help" if share >= 0.8 else ""))
     crashes = [r["capture_speed_mps"] for r in misses if r["outcome"] == "crash"]
-    speed = params.scenario.capture_speed
+    speed = params.gripper.capture_speed
     if crashes and len(crashes) * 2 > n:
         out.append(f"{len(crashes)} of {n} misses reach the line faster than the gripper's "
                    f"{speed:g} m/s (median {float(np.median(crashes)):.2f} m/s)")

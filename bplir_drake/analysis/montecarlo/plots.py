@@ -69,7 +69,7 @@ def plot_success_vs_parameters(study: Study, rows: list[dict], axes=None):
     fig, axes = figure_axes(axes, nrow, ncol, figsize=(4.6 * ncol, 3.4 * nrow), squeeze=False)
     speed = np.array([r.capture_speed_mps for r in rows], dtype=float)
     succ = np.array([bool(r.success) for r in rows])
-    limit = study.params.scenario.capture_speed
+    limit = study.params.gripper.capture_speed
     top = max(limit, np.nanmax(speed, initial=limit)) / SPEED_TOP
     for ax, name in zip(axes.flat, names):
         x = np.array([r[name] for r in rows], dtype=float)
@@ -126,7 +126,7 @@ def plot_histograms(study: Study, rows: list[dict], axes=None):
     the figure."""
     rows = study_rows(rows)
     every = study.line is not None   # a traversal's figures: its worst swing, its swings' sum
-    fields = [("capture_speed_mps", "capture speed [m/s]", study.params.scenario.capture_speed,
+    fields = [("capture_speed_mps", "capture speed [m/s]", study.params.gripper.capture_speed,
                "limit"),
               ("swing_time_s", "time swinging, all swings [s]" if every else "swing time [s]",
                None, ""),

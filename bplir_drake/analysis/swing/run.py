@@ -218,7 +218,7 @@ def run_swing(params: BplirParams, *, seed: int | None = None, use_estimator: bo
 def arrival_height_error(p: BplirParams, est: Log, status: dict) -> float:
     """How far above the truth the robot's estimate put the gripper (m) at
     its arrival at the line (nan: no arrival).  At the arrival (the first
-    time the gripper comes within ``scenario.capture_distance`` of the line,
+    time the gripper comes within ``gripper.capture_distance`` of the line,
     the moment its jaw senses the line) the gripper is that far below the
     line; the estimate's distance there (the nominal model; the last
     tick's estimate before the arrival carried to it at its own rate of
@@ -233,7 +233,7 @@ def arrival_height_error(p: BplirParams, est: Log, status: dict) -> float:
         return math.nan
     k = max(int(np.searchsorted(est.t, t, side="right")) - 1, 0)
     h, rate, _ = height_rates(p.plant, math.radians(p.scenario.incline_deg), est.data[k])
-    return float(h + rate * (t - est.t[k]) + p.scenario.capture_distance)
+    return float(h + rate * (t - est.t[k]) + p.gripper.capture_distance)
 
 
 def estimated_peak_height(p: BplirParams, est: Log) -> float:
@@ -332,8 +332,8 @@ def swing_summary(p: BplirParams, lg: dict[str, Log], status: dict, seed: int,
         "incline_deg": sc.incline_deg,
         "grip_spacing_m": sc.grip_spacing,
         "seed": seed,
-        "thresholds": {"capture_distance_m": sc.capture_distance,
-                       "capture_speed_mps": sc.capture_speed,
+        "thresholds": {"capture_distance_m": p.gripper.capture_distance,
+                       "capture_speed_mps": p.gripper.capture_speed,
                        "min_travel_fraction": sc.min_travel_fraction,
                        "max_time_s": sc.max_time,
                        "torque_limit_Nm": min(p.controller.torque_limit, p.motor.torque_limit)},

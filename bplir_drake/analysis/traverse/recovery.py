@@ -110,7 +110,7 @@ def retry_params(p: BplirParams, summary: dict | None = None, holding: int = 1) 
         p = p.with_(landing=dc.replace(p.landing, shoot_lift_min_time=tp.retry_lift_min_time))
     peak = missed.get("estimated_peak_height_m", math.nan)
     if tp.retry_aim_raise > 0.0 and from_hanging and missed.get("outcome") == "timeout" \
-            and peak >= -p.scenario.capture_distance:
+            and peak >= -p.gripper.capture_distance:
         bias = min(MAX_LANDING_BIAS, p.landing.landing_bias + tp.retry_aim_raise)
         p = p.with_(landing=dc.replace(p.landing, landing_bias=bias))
     return p

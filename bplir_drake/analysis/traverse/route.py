@@ -62,7 +62,7 @@ SPACING_STEP = 0.05
 def max_width(params: BplirParams) -> float:
     """The widest obstacle a swing of the longest grip spacing straddles (m)."""
     tp = params.traverse
-    margin = tp.clearance + tp.gripper_width / 2
+    margin = tp.clearance + params.gripper.width / 2
     return tp.spacing_max - 2 * margin - tp.landing_tolerance
 
 
@@ -122,7 +122,7 @@ def hold_position(line: Line, params: BplirParams, k: int, front: float) -> Obst
             f"traverse.spacing_max (reach < {params.plant.l1 + params.plant.l2:.3g} m)")
     # a front gripper that landed within the clearance of the obstacle rides
     # back to a grip before it; one touching it cannot
-    if front + tp.gripper_width / 2 > ob.start + 1e-9:
+    if front + params.gripper.width / 2 > ob.start + 1e-9:
         raise LineError(f"{where}: the front gripper at {front:.3g} m touches it; the "
                         f"obstacles are too close together for {reach}")
     found = _first_fit(line, params, k)
@@ -138,7 +138,7 @@ def hold_position(line: Line, params: BplirParams, k: int, front: float) -> Obst
 def _first_fit(line: Line, params: BplirParams, k: int) -> ObstaclePlan | None:
     """The grips of the first of :func:`spacing_pairs` that fits obstacle ``k``."""
     tp = params.traverse
-    near = tp.clearance + tp.gripper_width / 2
+    near = tp.clearance + params.gripper.width / 2
     hi = line.obstacles[k].start - near
     behind = line.obstacles[k - 1].end + near if k > 0 else 0.0
     for d1, d2 in spacing_pairs(params):
@@ -182,7 +182,7 @@ def plan_route(line: Line, params: BplirParams) -> list[ObstaclePlan]:
     """The planned grips of every obstacle, landings where planned; raises
     :class:`LineError` when the line cannot be crossed."""
     tp = params.traverse
-    hw = tp.gripper_width / 2
+    hw = params.gripper.width / 2
     D = tp.grip_spacing
     if line.start - D < 0.0 - 1e-9 or line.obstacle_at(line.start - D, hw + tp.clearance):
         raise LineError(f"the rear gripper's start {line.start - D:.3g} m (start - grip spacing "

@@ -352,7 +352,7 @@ class _Traversal:
             self.outcome = f"swing {s['outcome']}"
             return False
         landed = hold + s.travel_m - spacing
-        hit = self.line.obstacle_at(landed, tp.gripper_width / 2)
+        hit = self.line.obstacle_at(landed, self.params.gripper.width / 2)
         if hit is not None or landed > self.line.length:
             if row is not None:
                 row.outcome = "landed on obstacle"
@@ -431,7 +431,7 @@ def run_traverse(line: Line, params: BplirParams, *, seed: int = 0, progress: bo
                 break
             bar.update(1)
         else:
-            end = line.length - tp.gripper_width / 2
+            end = line.length - params.gripper.width / 2
             tr.move("ride", end, end - D, "")
     finally:
         bar.close()

@@ -342,7 +342,6 @@ class _Traversal:
 
     def _land(self, s, obstacle: str, hold: float, spacing: float) -> bool:
         """After the last try: stop the traversal, or clamp the landed gripper."""
-        tp = self.params.traverse
         swing_g = 3 - self.front_gripper
         row = self.rows[-1] if self.rows[-1].kind == "swing" else None
         if s.driver_tripped:

@@ -42,7 +42,7 @@ def scenarios():
     from bplir_drake.analysis.traverse.line import load_line
     from bplir_drake.analysis.traverse.route import plan_route
     from bplir_drake.analysis.traverse.run import swing_params
-    from bplir_drake.params import load_toml, preset
+    from bplir_drake.params import from_dict, load_toml, preset
 
     base = preset()
     up = load_toml(ROOT / "examples" / "uphill_plan.toml")
@@ -56,7 +56,7 @@ def scenarios():
     quick = ([at(base, incline_deg=a) for a in (-10.0, 10.0)]
              + [at(base, grip_spacing=d) for d in (1.1, 1.15, 1.3)])
     tracked += quick + [swing_params(base, g, base.traverse.grip_spacing, 0.0) for g in (1, 2)]
-    tracked.append(base.with_(plant=dc.replace(base.plant, m2=1.6)))   # --set plant.m2=1.6
+    tracked.append(from_dict({"plant": {"m2": 1.6}}, base=base))   # as --set plant.m2=1.6
     acromonk = load_toml(ROOT / "examples" / "acromonk.toml")   # another robot: its swing
     tracked.append(acromonk)                                     # and its `bplir plan`
     plans.append(lambda: P.plan_swing(acromonk, power_limit=None, knots=41))

@@ -327,3 +327,24 @@ def test_the_capture_criterion_is_the_grippers():
     assert q.gripper.capture_distance == 0.03
     assert P.BplirParams().gripper == P.GripperParams(capture_distance=0.02, capture_speed=0.5,
                                                       width=0.08)
+
+
+def test_a_plant_tables_friction_follows_its_units():
+    """A robot given as a ``[plant]`` table (joints undescribed) has the
+    default robot's friction in its own units: Coulomb torques the same
+    share of m g L, viscous ones the same at its own rates (x m g L
+    sqrt(L/g)), the smoothing rate / sqrt(L/g); what the file gives is
+    kept.  The 1.6 kg link 2: m g L x 1.018."""
+    from bplir_drake.params import from_dict
+
+    base = P.BplirParams().friction
+    small = {"m1": 1.0, "m2": 0.5, "l1": 0.6, "l2": 0.8}
+    p = from_dict({"plant": small, "friction": {"fc2": 0.05}})
+    L0, m0 = 0.9091 + 1.2451, 3.2287 + 1.5155
+    kq, kt = (1.5 * 1.4) / (m0 * L0), math.sqrt(1.4 / L0)
+    assert p.friction.fc1 == pytest.approx(base.fc1 * kq, rel=1e-12)
+    assert p.friction.fv2 == pytest.approx(base.fv2 * kq * kt, rel=1e-12)
+    assert p.friction.b == pytest.approx(base.b / kt, rel=1e-12) and p.friction.fc2 == 0.05
+    heavy = from_dict({"plant": {"m2": 1.6}})
+    assert heavy.friction.fc2 / base.fc2 == pytest.approx((3.2287 + 1.6) / m0, rel=1e-12)
+    assert from_dict({"plant": {"m2": 1.5155}}).friction == base   # the default robot's own

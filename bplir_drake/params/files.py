@@ -159,7 +159,10 @@ def follow_the_scales(params: BplirParams, updates: dict, data: dict) -> dict:
     of 1/(m g L)^2 and its rate weights in units of sqrt(L/g)^2, and the
     landing's times, rates and gains the same in units of sqrt(L/g)
     (:data:`LANDING_TIME_POWERS`; its shot's least stop time at least two
-    controller periods)."""
+    controller periods).  A robot given as a ``[plant]`` table, whose joints
+    no description gives, has the default robot's friction in its own units
+    (:data:`FRICTION_POWERS`) where the file gives none; a robot read from
+    its own file has its own (:func:`robot_file_updates`)."""
     plant = updates.get("plant")
     if plant is None or plant == params.plant:
         return updates
@@ -186,7 +189,26 @@ def follow_the_scales(params: BplirParams, updates: dict, data: dict) -> dict:
         timed[f.name] = value * kt ** power
     if "shoot_min_time" in timed:   # never shorter than two controller periods
         timed["shoot_min_time"] = max(timed["shoot_min_time"], 2 * period)
-    return updates | {"plan": replace(plan, **scaled), "landing": replace(landing, **timed)}
+    out = updates | {"plan": replace(plan, **scaled), "landing": replace(landing, **timed)}
+    robot = data.get("robot")
+    if not (isinstance(robot, dict) and robot.get("file")):   # a [plant] table: no joints
+        out["friction"] = _similar_friction(updates.get("friction", params.friction), kq, kt,
+                                            given.get("friction", set()))
+    return out
+
+
+#: how the default robot's friction follows a robot given as a [plant] table
+#: (its joints undescribed): the power of the torque unit's ratio kq and of
+#: the time unit's kt each coefficient is multiplied by (Coulomb torques keep
+#: their share of m g L, viscous ones their share at the robot's own rates)
+FRICTION_POWERS = {"fv1": (1, 1), "fv2": (1, 1), "fc1": (1, 0), "fc2": (1, 0), "b": (0, -1)}
+
+
+def _similar_friction(friction, kq: float, kt: float, given: set):
+    """``friction`` (the default robot's) in another robot's units
+    (:data:`FRICTION_POWERS`), the coefficients ``given`` kept."""
+    return replace(friction, **{n: getattr(friction, n) * kq ** a * kt ** b
+                                for n, (a, b) in FRICTION_POWERS.items() if n not in given})
 
 
 #: how a landing setting follows the robot's time unit sqrt(L/g), by its unit:

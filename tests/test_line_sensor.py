@@ -171,8 +171,10 @@ def test_a_calibrated_offset_does_not_move_the_landing():
 def test_the_presets_and_the_swapped_robot_choose_their_sensing():
     """The default robot is the dissertation's (IMUs alone, the landing aimed
     for them); the line sensor is a named hardware option that brings its
-    landing aim; a traversal's swapped robot estimates with its IMUs alone
-    (``traverse.swapped_line_range`` = 0)."""
+    landing aim; a traversal's swapped robot reads its own jaw's sensor and
+    lands as the robot does (it was left with its IMUs alone: 93 of 100
+    traversals of the flat line at 30 V passed on root seed 223, 99 with
+    the sensor)."""
     from bplir_drake.analysis.traverse.run import swing_params
     from bplir_drake.params import IMU_ONLY_TUNING, LINE_SENSOR_OPTION
 
@@ -191,4 +193,5 @@ def test_the_presets_and_the_swapped_robot_choose_their_sensing():
         p.with_hardware("solar")
     assert swing_params(s, 1, 1.2, 0.0).line_sensor.range == 0.2
     swapped = swing_params(s, 2, 1.2, 0.0)
-    assert (swapped.line_sensor.range, swapped.landing.shoot_height) == (0.0, -0.015)
+    assert swapped.line_sensor == s.line_sensor
+    assert swapped.landing == swing_params(s, 1, 1.2, 0.0).landing

@@ -24,6 +24,7 @@ RETIRED: dict[tuple[str, str], tuple[str, str] | float] = {
     ("traverse", "swapped_shoot_height"): ("landing", "shoot_height"),
     ("traverse", "swapped_shoot_rate_cap"): ("landing", "shoot_rate_cap"),
     ("traverse", "swapped_inflate_nis"): ("estimator", "inflate_nis"),
+    ("traverse", "swapped_line_range"): ("line_sensor", "range"),
     ("plan", "hanging_rate_limit"): 0.0,
 }
 

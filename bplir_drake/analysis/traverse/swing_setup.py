@@ -32,9 +32,8 @@ def swing_params(params: BplirParams, holding: int, spacing: float,
     With ``traverse.landing`` (the default) the swing lands as a single
     swing does (the apex landing, the delay probe and its compensation), by
     the same landing settings holding with either gripper (the swapped robot
-    is another robot, landed by the same rules); the swapped robot's line
-    sensor reads at most ``traverse.swapped_line_range`` (with none, its
-    shot aims as the robot without the sensor does); the landing shot
+    is another robot, landed by the same rules, and reads the line sensor of
+    its jaw as the robot does); the landing shot
     brakes at ``traverse.shoot_brake_ratio`` where that is set."""
     p = params if holding == 1 else swapped(params)
     sc = dc.replace(p.scenario, grip_spacing=round(float(spacing), 3),
@@ -46,8 +45,6 @@ def swing_params(params: BplirParams, holding: int, spacing: float,
         # gripper first moves slowly, sliding along the line if it must, where
         # a traversal has to land on the planned grip between obstacles: with
         # it, seed 0 of examples/line_span.toml landed on a spacer)
-        if tp.landing and holding == 2 and p.line_sensor.range > tp.swapped_line_range:
-            p = _other_jaw(p, tp.swapped_line_range)
         path = dc.replace(p.path, mode="plan")
         plan = dc.replace(p.plan, end_depth=tp.plan_end_depth)
         landing = dc.replace(p.landing, reach_speed=0.0)
@@ -58,16 +55,6 @@ def swing_params(params: BplirParams, holding: int, spacing: float,
             plan = dc.replace(plan, delay_compensation=0.0, delay_probe=0.0)
         p = p.with_(path=path, plan=plan, landing=landing)
     return p
-
-
-def _other_jaw(p: BplirParams, reach: float) -> BplirParams:
-    """``p`` whose landing jaw reads the line only up to ``reach`` (m); with
-    no reading at all it lands as the robot without the sensor does
-    (:meth:`~bplir_drake.params.BplirParams.imu_only`: the shot's aim and
-    hold follow what the robot knows of its gripper's height)."""
-    if reach <= 0.0:
-        return p.imu_only()
-    return p.with_(line_sensor=dc.replace(p.line_sensor, range=reach))
 
 
 def learnt_landing(p: BplirParams, errors) -> BplirParams:

@@ -6,7 +6,7 @@ from dataclasses import dataclass, field, fields
 
 from .base import MAX_LENGTH, ParameterError, _Block, _count, _fraction, _p, _positive
 import warnings
-from .retired import MOVED
+from .retired import MOVED, relocate
 
 PLAN_INDEXING = ("time", "state")
 PLAN_FILE_ANGLES = ("package", "robot")
@@ -136,17 +136,9 @@ def split_path_table(data: dict) -> dict:
     path = data.get("path")
     if not isinstance(path, dict):
         return data
-    moved = {k for k in path if moved_field("path", k)[0] != "path"}
-    if not moved:
-        return data
-
-    warnings.warn("the [path] table's plan tracking fields are now in [plan] (without the "
-                  "plan_ prefix) and [landing]", FutureWarning, stacklevel=3)
-    out = dict(data)
-    out["path"] = {k: v for k, v in path.items() if k not in moved}
-    for key in moved:
-        block, name = moved_field("path", key)
-        table = out.setdefault(block, {})
-        if isinstance(table, dict):
-            out[block] = {name: path[key]} | table
+    out, moved = relocate(data, {("path", k): moved_field("path", k) for k in path
+                                 if moved_field("path", k)[0] != "path"})
+    if moved:
+        warnings.warn("the [path] table's plan tracking fields are now in [plan] (without the "
+                      "plan_ prefix) and [landing]", FutureWarning, stacklevel=3)
     return out

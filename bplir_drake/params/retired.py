@@ -38,19 +38,28 @@ MOVED: dict[tuple[str, str], tuple[str, str]] = {
 }
 
 
-def move_fields(data: dict[str, Any]) -> dict[str, Any]:
-    """``data`` (tables by block) with moved fields in their new block (a
-    value the new block gives itself wins), with one ``FutureWarning``."""
+def relocate(data: dict[str, Any], moves: dict[tuple[str, str], tuple[str, str]]
+             ) -> tuple[dict[str, Any], list[str]]:
+    """``data`` (tables by block) with each field of ``moves`` the data gives
+    in its new block (a value the new block gives itself wins), and the
+    moves made, as ``"block.field is now block.field"``."""
     out, moved = dict(data), []
-    for (block, name), (to, new) in MOVED.items():
+    for (block, name), (to, new) in moves.items():
         table = out.get(block)
         if not isinstance(table, dict) or name not in table:
             continue
         out[block] = {k: v for k, v in table.items() if k != name}
-        target = out.get(to)
-        target = dict(target) if isinstance(target, dict) else {}
-        out[to] = {new: table[name]} | target
+        target = out.setdefault(to, {})
+        if isinstance(target, dict):   # a malformed one is left to be refused
+            out[to] = {new: table[name]} | target
         moved.append(f"{block}.{name} is now {to}.{new}")
+    return out, moved
+
+
+def move_fields(data: dict[str, Any]) -> dict[str, Any]:
+    """``data`` with the fields of :data:`MOVED` in their new block
+    (:func:`relocate`), with one ``FutureWarning``."""
+    out, moved = relocate(data, MOVED)
     if moved:
         warnings.warn("; ".join(moved), FutureWarning, stacklevel=3)
     return out

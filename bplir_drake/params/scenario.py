@@ -4,7 +4,7 @@ from __future__ import annotations
 import numbers
 from dataclasses import dataclass, field
 from .base import MAX_LENGTH, ParameterError, _Block, _count, _fraction, _p, _positive
-from .plan import LANDING_LAWS, MAX_LANDING_BIAS
+from .plan import MAX_LANDING_BIAS
 
 
 # ---------------------------------------------------------------- scenario

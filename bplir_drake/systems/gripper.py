@@ -146,7 +146,8 @@ def first_arrival(x0, x1, T: float, g: LineGeometry, sc: ScenarioParams, passed:
     found, s, x, passed, normal, closest = arrival(
         np.asarray(x0, dtype=float), np.asarray(x1, dtype=float), T,
         np.array([g.l1, g.l2, g.alpha, g.grip_spacing]),
-        (gripper or GripperParams()).capture_distance, sc.min_travel_fraction * sc.grip_spacing, passed, last_normal, substeps, bisections)
+        (gripper or GripperParams()).capture_distance, sc.min_travel_fraction * sc.grip_spacing,
+        passed, last_normal, substeps, bisections)
     return (s if found else None), x, passed, normal, closest
 
 

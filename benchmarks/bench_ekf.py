@@ -14,7 +14,7 @@ from bplir_drake.systems.ekf import ekf_step, initial_state
 
 def main():
     p = preset()
-    est = p.estimator
+    est = p.estimator.chapter5()
     # a 26 s log (the length of the dissertation's combined test)
     run = simulate_estimation(p, duration=26.0, seed=0)
     t, imu = run.t, run.imu

@@ -66,10 +66,10 @@ def main():
     p = preset()
     # the gyros' bias random walk as its datasheet would give it (the logs'
     # 0.002 rad/s/sqrt(s)); the default filter assumes 0.001
-    calibrating = dc.replace(p.estimator.self_calibrating().with_sensor_noise(p.imu),
+    calibrating = dc.replace(p.estimator.chapter5().self_calibrating().with_sensor_noise(p.imu),
                              bias_walk=DRIFT)
-    methods = {"chapter-5 filter": dc.replace(p.estimator, estimate_bias=False),
-               "project filter": p.estimator, "self-calibrating filter": calibrating}
+    methods = {"chapter-5 filter": dc.replace(p.estimator.chapter5(), estimate_bias=False),
+               "project filter": p.estimator.chapter5(), "self-calibrating filter": calibrating}
     rows = []
     for seed in range(args.first, args.first + args.logs):
         run, err = realistic_imu_log(p, seed, args.duration, drift=DRIFT)

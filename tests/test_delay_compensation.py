@@ -8,7 +8,7 @@ import pytest
 
 from bplir_drake.analysis.swing import SwingRunner
 from bplir_drake.diagrams import build_free_swing
-from bplir_drake.params import TRAPEZOID_LOOP_TUNING, BplirParams
+from bplir_drake.params import TRAPEZOID_TUNING, BplirParams
 from bplir_drake.simulate import make_simulator
 from bplir_drake.systems.friction import friction_torques
 from bplir_drake.systems.plant import forward_dynamics
@@ -54,7 +54,7 @@ def test_a_known_delay_is_compensated(delay):
     p = BplirParams()
     p = p.with_(scenario=dc.replace(p.scenario, actuation_delay=delay),
                 path=dc.replace(p.path, mode="adaptive"),
-                estimator=dc.replace(p.estimator, **TRAPEZOID_LOOP_TUNING))
+                estimator=dc.replace(p.estimator, **TRAPEZOID_TUNING))
     runner = SwingRunner()
 
     def captured(params):

@@ -82,8 +82,8 @@ def test_current_loop_is_first_order_with_the_time_constant():
     np.testing.assert_allclose(power, p.torque_per_amp * i * 2.0, rtol=1e-12)
 
 
-@pytest.mark.parametrize("est", [EstimatorParams(), EstimatorParams().for_loop(),
-                                 EstimatorParams(estimate_bias=False)])
+@pytest.mark.parametrize("est", [EstimatorParams().chapter5(), EstimatorParams(),
+                                 EstimatorParams(estimate_bias=False).chapter5()])
 def test_closed_form_ekf_jacobians_equal_autodiff(est):
     rng = np.random.default_rng(1)
     n = 6 if est.estimate_bias else 4
@@ -167,7 +167,7 @@ def test_tick_schedule_estimates_from_the_sample_of_the_same_tick():
     imu, est = lg["imu"], lg["estimate"]
     np.testing.assert_allclose(imu.t, np.arange(len(imu.t)) * params.imu.period, atol=1e-12)
     assert len(est.t) == len(imu.t) >= 99
-    offline = estimate(imu.t, imu.data, params.estimator, x0).x
+    offline = estimate(imu.t, imu.data, params.estimator.chapter5(), x0).x
     np.testing.assert_allclose(est.data, offline, rtol=0, atol=1e-10)
 
 

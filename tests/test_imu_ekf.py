@@ -138,7 +138,7 @@ def test_estimation_error_does_not_grow_with_plant_changes(params, nominal_run):
 
 def test_offline_and_diagram_estimates_identical(params, nominal_run):
     r = nominal_run
-    off = estimate(r.t, r.imu, params.estimator, r.x0_estimate)
+    off = estimate(r.t, r.imu, params.estimator.chapter5(), r.x0_estimate)
     assert np.abs(off.x - r.estimate).max() < 1e-12
     np.testing.assert_allclose(off.gyro_integral, r.gyro_integral, atol=1e-12)
 
@@ -147,7 +147,7 @@ def test_isolated_nan_sample_is_skipped_not_fatal(params, nominal_run):
     r = nominal_run
     imu = r.imu.copy()
     imu[300, 3] = np.nan
-    off = estimate(r.t, imu, params.estimator, r.x0_estimate)
+    off = estimate(r.t, imu, params.estimator.chapter5(), r.x0_estimate)
     assert off.skipped == 1
     assert np.abs(off.x[:, :2] - r.truth[:, :2]).max() < 0.06
 
@@ -212,7 +212,7 @@ def test_gyro_scale_error_multiplies_the_rate_before_the_bias():
 def test_heuns_step_in_the_loop_estimates_the_landing_rates_better():
     """The in-loop tuning (Heun's step, process noise
     0.2 m/s^2, accelerometer noise 0.1) against the trapezoid tuning before
-    it (``TRAPEZOID_LOOP_TUNING``: process noise 2.0, 0.05), both re-run
+    it (``TRAPEZOID_TUNING``: process noise 2.0, 0.05), both re-run
     over the IMU samples of the default swing (seeds 0-3; the tuning was
     chosen on the realistic study's root seed 0), from the believed start
     pose.  Over the last 0.3 s before the capture, rate RMSE: q1' 4.8-6.3
@@ -223,13 +223,12 @@ def test_heuns_step_in_the_loop_estimates_the_landing_rates_better():
     from bplir_drake.analysis.swing.run import run_swing
     from bplir_drake.diagrams.swing import believed_start
     from bplir_drake.estimation import estimate
-    from bplir_drake.params import TRAPEZOID_LOOP_TUNING, BplirParams
+    from bplir_drake.params import TRAPEZOID_TUNING, BplirParams
     from bplir_drake.systems.plant import absolute_from_relative
 
     p = BplirParams()
     x0 = absolute_from_relative(np.r_[believed_start(p)[:2], 0.0, 0.0])
-    tunings = (p.estimator.for_loop(),
-               dc.replace(p.estimator, **TRAPEZOID_LOOP_TUNING).for_loop())
+    tunings = (p.estimator, dc.replace(p.estimator, **TRAPEZOID_TUNING))
     for seed in range(4):
         res = run_swing(p, seed=seed)
         imu = res.logs["imu"]
@@ -251,7 +250,7 @@ def test_covariance_inflation_is_the_plain_update_on_the_inflated_prediction():
     exactly the plain one (``inflate_nis = 0``) on the predicted covariance
     times ``NIS / (4 k)``; below it, exactly the plain update (the filter
     without misalignment states, whose columns of H the update adds)."""
-    base = dc.replace(EstimatorParams(loop_estimate_misalignment=False).for_loop(),
+    base = dc.replace(EstimatorParams(estimate_misalignment=False),
                       inflate_nis=0.0)
     p = dc.replace(base, inflate_nis=3.0)
     _, n = E.state_layout(p)
@@ -284,12 +283,12 @@ def test_inflation_lands_the_quick_benchmarks_torque_noise():
     from bplir_drake.params import BplirParams
 
     p = BplirParams()
-    assert p.estimator.inflate_nis == p.estimator.for_loop().inflate_nis == 0.0
+    assert p.estimator.inflate_nis == p.estimator.inflate_nis == 0.0
     speeds = {}
     for flight in (False, True):
         for k in (3.0, 0.0):
             q = p.with_(estimator=dc.replace(p.estimator, inflate_nis=k,
-                                             loop_estimate_misalignment=flight))
+                                             estimate_misalignment=flight))
             with tempfile.TemporaryDirectory() as d:
                 res = run_benchmark(q, ["plan"], quick=True, seed=0, workers=1, out=d,
                                     categories=("torque noise",))
@@ -313,17 +312,17 @@ def test_misalignments_are_estimated_in_flight_unless_the_imus_are_very_noisy():
     from bplir_drake.systems.calibration import ImuCalibration
     from bplir_drake.systems.ekf import KinematicEkf, misalign_held, state_layout
 
-    p = EstimatorParams().for_loop()
+    p = EstimatorParams()
     assert p.estimate_misalignment and p.misalign_max_noise == 3.0
     assert not misalign_held(p, (0.0, 0.0))
-    assert not misalign_held(p, (2.9 * p.tuned_gyro_noise, 2.9 * p.tuned_accel_noise))
+    assert not misalign_held(p, (2.9 * p.gyro_meas_sigma, 2.9 * p.tuned_accel_noise))
     assert misalign_held(p, (0.0, 3.1 * p.tuned_accel_noise))
-    assert misalign_held(p, (3.1 * p.tuned_gyro_noise, 0.0))
+    assert misalign_held(p, (3.1 * p.gyro_meas_sigma, 0.0))
     sl = state_layout(p)[0]["misalign"]
     for factor, held in ((1.5, False), (5.0, True)):
         ekf = KinematicEkf(p, (0.1, -0.2, 0.0, 0.0))
         ctx = ekf.CreateDefaultContext()
-        cal = ImuCalibration(misalign=(0.01, -0.02), noise=(factor * p.tuned_gyro_noise,
+        cal = ImuCalibration(misalign=(0.01, -0.02), noise=(factor * p.gyro_meas_sigma,
                                                             factor * p.tuned_accel_noise))
         ekf.set_calibration(ctx, cal)
         P = ekf.filter_state(ctx)[0].P

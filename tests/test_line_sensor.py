@@ -110,7 +110,7 @@ def test_the_sensor_removes_the_landing_error_that_link_length_errors_leave():
         q = initial_configuration(1.2, true)
         L = -line_gap(q[0], q[0] + q[1], p0.plant.l1, p0.plant.l2, 0.0)[0]
         base = p0.with_(true_plant=true, imu=dc.replace(p0.imu, noise=False))
-        still = base.with_(estimator=dc.replace(base.estimator, loop_estimate_misalignment=False))
+        still = base.with_(estimator=dc.replace(base.estimator, estimate_misalignment=False))
         runs = [run_swing(q, seed=0).summary for q in (
             still, base, base.with_hardware("line-sensor").with_(
                 line_sensor=LineSensorParams(range=0.2, sigma=0.0)))]

@@ -311,6 +311,35 @@ def test_retired_fields_load_and_say_when_their_value_is_ignored():
     assert len(P.parameter_reference()) < 243
 
 
+def test_a_file_with_the_two_filter_tunings_loads_the_swings():
+    """A file written when ``[estimator]`` held the offline tuning beside the
+    swing's ``loop_*`` fields loads as the swing's filter (its values decide);
+    its dissertation values are ``chapter5()``'s, silently; an offline value
+    of its own is named as ignored."""
+    import warnings
+
+    from bplir_drake.params import from_dict
+
+    old = {"accel_process_sigma": 0.427, "gyro_meas_sigma": 0.02, "accel_meas_sigma": 0.427,
+           "integration": "euler", "estimate_misalignment": False,
+           "loop_accel_process_sigma": 2.0, "loop_accel_meas_sigma": 0.05,
+           "loop_integration": "trapezoid", "loop_estimate_misalignment": False,
+           "tuned_gyro_noise": 0.03}
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        e = from_dict({"estimator": old}).estimator
+    assert (e.accel_process_sigma, e.accel_meas_sigma, e.integration, e.gyro_meas_sigma,
+            e.estimate_misalignment) == (2.0, 0.05, "trapezoid", 0.03, False)
+    assert e.chapter5() == dc.replace(e, accel_process_sigma=0.427, accel_meas_sigma=0.427,
+                                      gyro_meas_sigma=0.02, integration="euler")
+    with pytest.warns(FutureWarning, match=r"estimator.accel_process_sigma = 0.5 \(the offline"):
+        e = from_dict({"estimator": old | {"accel_process_sigma": 0.5}}).estimator
+    assert e.accel_process_sigma == 2.0
+    d = P.BplirParams().estimator   # the defaults: the swing's filter as it was
+    assert (d.accel_process_sigma, d.accel_meas_sigma, d.integration, d.gyro_meas_sigma,
+            d.estimate_misalignment) == (0.2, 0.1, "heun", 0.0166, True)
+
+
 def test_the_capture_criterion_is_the_grippers():
     """The capture criterion and width are the gripper's (``[gripper]``);
     a file or ``--set`` naming them where they were (``scenario``,

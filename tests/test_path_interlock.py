@@ -150,12 +150,12 @@ def test_latch_lift_rescues_a_swing_that_stops_just_short_of_the_line():
 
     from bplir_drake.analysis import montecarlo as mc
     from bplir_drake.analysis.swing.run import run_swing
-    from bplir_drake.params import TRAPEZOID_LOOP_TUNING
+    from bplir_drake.params import TRAPEZOID_TUNING
 
     p, seed, _ = mc.sample_params(mc.Study(samples=5, seed=0), 3)
     p = p.imu_only()   # the robot it was built for: no line sensor
     p = p.with_(path=dc.replace(p.path, mode="adaptive"),   # the latch is the adaptive path's
-                estimator=dc.replace(p.estimator, **TRAPEZOID_LOOP_TUNING))
+                estimator=dc.replace(p.estimator, **TRAPEZOID_TUNING))
     assert p.path.latch_lift == 0.01
     old = run_swing(p.with_(path=dc.replace(p.path, latch_lift=0.0)), seed=seed).summary
     assert old["outcome"] == "crash" and old["capture_speed_mps"] > 0.6

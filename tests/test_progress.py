@@ -89,9 +89,9 @@ def test_long_estimation_logs_count_their_samples(capsys, monkeypatch):
     t = np.arange(n) * 0.01
     samples = np.zeros((n, 6))
     samples[:, [3, 5]] = 9.81  # hanging still: each accelerometer reads gravity
-    E.estimate(t, samples, EstimatorParams(), progress=True)
+    E.estimate(t, samples, EstimatorParams().chapter5(), progress=True)
     assert _last_count(capsys.readouterr().err, "estimate") == 3_000
-    E.estimate(t[:2_999], samples[:2_999], EstimatorParams(), progress=True)
+    E.estimate(t[:2_999], samples[:2_999], EstimatorParams().chapter5(), progress=True)
     assert capsys.readouterr().err == ""  # a shorter log is quick: no bar
 
 

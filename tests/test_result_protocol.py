@@ -55,7 +55,7 @@ def _estimate(tmp):
 
     p = BplirParams()
     r = simulate_estimation(p, duration=1.0)
-    res = estimate(r.t, r.imu, p.estimator)
+    res = estimate(r.t, r.imu, p.estimator.chapter5())
     return res, ["t", "theta1", "theta2", "omega1", "omega2", "gyro_bias1", "gyro_bias2"], len(r.t)
 
 

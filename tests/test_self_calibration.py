@@ -85,7 +85,7 @@ def test_heun_step_is_second_order_and_unbiases_the_calibration():
     run = simulate_estimation(real, duration=25.0, seed=3)
     for integration, scale_bound, misalign_bound in (("heun", 0.0006, 0.02),
                                                      ("trapezoid", None, None)):
-        cal = dc.replace(p.estimator.self_calibrating(), calibrate_after=0.0,
+        cal = dc.replace(p.estimator.chapter5().self_calibrating(), calibrate_after=0.0,
                          integration=integration)
         r = estimate(run.t, run.imu, cal, run.truth[0], sigmas=(0.01, 0.05))
         scale, misalign = r.gyro_scale[-1], np.degrees(r.misalignment[-1])
@@ -101,7 +101,7 @@ def constant_bias_logs():
     """Three held-out realistic logs (25 s) with constant gyro biases, and
     the self-calibrating filter + smoother over each."""
     p = preset()
-    est = p.estimator.self_calibrating()
+    est = p.estimator.chapter5().self_calibrating()
     out = []
     for seed in (300, 301, 302):
         run, err = realistic_imu_log(p, seed, drift=0.0)
@@ -134,7 +134,7 @@ def test_a_log_at_rest_identifies_the_biases_and_nothing_else():
     are identified, the misalignments, scales and distances are not (at
     rest a misalignment is indistinguishable from the link angle)."""
     p = preset()
-    est = p.estimator.self_calibrating()
+    est = p.estimator.chapter5().self_calibrating()
     run = simulate_estimation(p, q0=(0.0, 0.0), duration=8.0, elbow_torque=((0.0,), (0.0,)),
                               knock=(100.0, 0.1, 0.0), seed=7)
     x0 = run.truth[0] + np.r_[0.2, -0.2, 0.0, 0.0]
@@ -154,7 +154,7 @@ def test_benchmark_targets_on_held_out_logs():
     filter's in every log and angle, against the truth and against the
     encoders once their estimated lead is taken out."""
     p = preset()
-    est = dc.replace(p.estimator.self_calibrating().with_sensor_noise(p.imu),
+    est = dc.replace(p.estimator.chapter5().self_calibrating().with_sensor_noise(p.imu),
                      bias_walk=0.002)   # the logs' drift
     for seed in (100, 101, 102):
         run, err = realistic_imu_log(p, seed)
@@ -184,7 +184,7 @@ def test_held_states_are_not_updated_and_the_cli_reports_them(tmp_path, capsys):
     from bplir_drake.cli import main
     from bplir_drake.estimation import write_imu_csv
 
-    p = dc.replace(preset().estimator, estimate_misalignment=True)
+    p = dc.replace(preset().estimator.chapter5(), estimate_misalignment=True)
     s = E.initial_state(p, [0.3, 0.1, 0.0, 0.0])
     z, u = np.array([0.05, -0.02, 9.0, 9.5]), np.array([1.0, -0.5])
     held = E.ekf_update(s, z, u, p, hold=True)

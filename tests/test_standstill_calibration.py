@@ -108,10 +108,10 @@ def test_measured_noise_widens_the_filter_only_beyond_the_tolerance():
         assert cal.noise[0] == pytest.approx(imu.gyro_sigma, rel=0.06)
         assert cal.noise[1] == pytest.approx(imu.accel_sigma, rel=0.06)
         assert cal.summary()["gyro_noise_rad_s"] == cal.noise[0]
-    est = EstimatorParams().for_loop()
-    assert est.with_measured_noise(1.15 * est.tuned_gyro_noise, 0.0) is est
+    est = EstimatorParams()
+    assert est.with_measured_noise(1.15 * est.gyro_meas_sigma, 0.0) is est
     assert est.with_measured_noise(0.0, 0.0) is est
-    wide = est.with_measured_noise(5 * est.tuned_gyro_noise, 3 * est.tuned_accel_noise)
+    wide = est.with_measured_noise(5 * est.gyro_meas_sigma, 3 * est.tuned_accel_noise)
     assert wide.gyro_meas_sigma == pytest.approx(5 * est.gyro_meas_sigma)
     assert wide.accel_meas_sigma == pytest.approx(3 * est.accel_meas_sigma)
 

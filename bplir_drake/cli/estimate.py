@@ -16,7 +16,7 @@ def cmd_estimate(args) -> int:
     from ..estimation import estimate, read_imu_csv, write_estimate_csv
 
     params = _load_params(args)
-    est = params.estimator
+    est = params.estimator.chapter5()   # from an unknown pose
     geo = {k: getattr(args, k) for k in ("r1", "r2", "l1") if getattr(args, k) is not None}
     if geo:
         est = replace(est, **geo)

@@ -73,12 +73,15 @@ def build_plant_with_friction(params: BplirParams, *, nominal: bool = False) -> 
 
 def build_sensor_swing(params: BplirParams, x0_estimate=(0.0, 0.0, 0.0, 0.0), *,
                        elbow_torque=0.0, knock=None, ekf: bool = True, seed: int | None = None,
-                       log_period: float = 0.01) -> Built:
+                       log_period: float = 0.01, estimator=None) -> Built:
     """Open loop: plant + friction + two IMUs (+ EKF).
 
     ``elbow_torque`` as in :func:`build_free_swing`; ``knock = (t, duration,
     torque)`` applies a torque pulse on link 1 (the "knock" of 5.5).
-    ``x0_estimate`` is the filter's initial absolute state.  Loggers:
+    ``x0_estimate`` is the filter's initial absolute state, which may be
+    far off: the filter is ``estimator``, by default ``params.estimator``
+    with the dissertation's tuning for an unknown pose
+    (:meth:`~bplir_drake.params.EstimatorParams.chapter5`).  Loggers:
     ``state``, ``imu`` (sampled IMU, at the IMU rate), ``estimate`` and
     ``covariance`` (at the filter rate) when the EKF is present.
     """
@@ -94,13 +97,14 @@ def build_sensor_swing(params: BplirParams, x0_estimate=(0.0, 0.0, 0.0, 0.0), *,
     loggers = {"state": LogVectorOutput(plant.get_state_output_port(), builder, log_period),
                "imu": TickLogger(builder, sampler.GetOutputPort("imu"), params.imu.period)}
     if ekf:
-        est = builder.AddSystem(KinematicEkf(params.estimator, x0_estimate))
+        est_params = params.estimator.chapter5() if estimator is None else estimator
+        est = builder.AddSystem(KinematicEkf(est_params, x0_estimate))
         est.set_name("ekf")
         builder.Connect(sampler.GetOutputPort("imu"), est.GetInputPort("imu"))
         systems["ekf"] = est
         for name, port in (("estimate", "estimate"), ("covariance", "covariance_diagonal"),
                            ("bias", "gyro_bias")):
-            loggers[name] = TickLogger(builder, est.GetOutputPort(port), params.estimator.period)
+            loggers[name] = TickLogger(builder, est.GetOutputPort(port), est_params.period)
     diagram = builder.Build()
     diagram.set_name("sensor_swing")
     return Built(diagram, plant, systems, loggers, params)

@@ -190,7 +190,7 @@ def add_sensing(builder, params: BplirParams, robot: Robot, setup: SwingSetup, s
         user = builder.AddNamedSystem("estimator", make_plugin(params, "estimator", estimator))
         builder.Connect(sampler.GetOutputPort("imu"), user.GetInputPort("imu"))
         return sampler, user, user.GetOutputPort("state")
-    est = params.estimator.for_loop()
+    est = params.estimator
     x0_abs = absolute_from_relative(setup.believed)
     ls = params.line_sensor
     alpha = math.radians(params.scenario.incline_deg)

@@ -44,7 +44,7 @@ from .sensing import (  # noqa: F401
     sigma_from_density,
     EstimatorParams)
 from .control import (  # noqa: F401
-    TRAPEZOID_LOOP_TUNING,
+    TRAPEZOID_TUNING,
     IMU_ONLY_TUNING,
     LINE_SENSOR_OPTION,
     SUPPLY_48V_OPTION,

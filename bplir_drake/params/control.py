@@ -8,12 +8,12 @@ import warnings
 import numpy as _np
 
 
-#: the in-loop filter tuning with the trapezoid step (``EstimatorParams``
-#: fields), which needs 10x the process noise of Heun's step, and no
-#: in-flight misalignment estimate; the adaptive path's delay compensation
-#: and latch were built with it
-TRAPEZOID_LOOP_TUNING = {"loop_integration": "trapezoid", "loop_accel_process_sigma": 2.0,
-                         "loop_accel_meas_sigma": 0.05, "loop_estimate_misalignment": False}
+#: the swing's filter with the trapezoid step (``EstimatorParams`` fields),
+#: which needs 10x the process noise of Heun's step, and no in-flight
+#: misalignment estimate; the adaptive path's delay compensation and latch
+#: were built with it
+TRAPEZOID_TUNING = {"integration": "trapezoid", "accel_process_sigma": 2.0,
+                    "accel_meas_sigma": 0.05, "estimate_misalignment": False}
 
 
 #: the shooting landing's aim and hold of the robot without the jaw's line

@@ -13,10 +13,12 @@ import warnings
 from dataclasses import fields
 from typing import Any
 
+from .sensing import CHAPTER5_TUNING
+
 #: retired ``(block, field)`` -> ``(block, field)`` whose value decides now,
 #: or a value the retired field always had where nothing replaces it
 RETIRED: dict[tuple[str, str], tuple[str, str] | float] = {
-    ("estimator", "loop_gyro_meas_sigma"): ("estimator", "tuned_gyro_noise"),
+    ("estimator", "loop_gyro_meas_sigma"): ("estimator", "gyro_meas_sigma"),
     ("estimator", "loop_inflate_nis"): ("estimator", "inflate_nis"),
     ("traverse", "swapped_landing_margin"): ("landing", "landing_margin"),
     ("traverse", "swapped_landing_law"): ("landing", "landing_law"),
@@ -65,12 +67,47 @@ def move_fields(data: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
+#: the swing's filter tuning, once beside the dissertation's as ``loop_*``
+#: fields (and its gyro noise as ``tuned_gyro_noise``): in a table that has
+#: them, their values are the filter's fields; the table's own values of
+#: those fields were the offline filter's, now ``EstimatorParams.chapter5()``
+LOOP_TUNING = {"loop_accel_process_sigma": "accel_process_sigma",
+               "loop_accel_meas_sigma": "accel_meas_sigma",
+               "tuned_gyro_noise": "gyro_meas_sigma",
+               "loop_integration": "integration",
+               "loop_estimate_misalignment": "estimate_misalignment"}
+
+
+def loop_tuning(table: dict[str, Any]) -> tuple[dict[str, Any], list[str]]:
+    """An ``[estimator]`` table written before the filter had one tuning, as
+    the filter's fields (:data:`LOOP_TUNING`); and the offline values it set
+    that are not the dissertation's, which no longer decide.  A table
+    without ``loop_*`` fields is returned as it is."""
+    if not any(k in table for k in LOOP_TUNING):
+        return table, []
+    offline = {new: table[new] for new in LOOP_TUNING.values() if new in table}
+    out = {k: v for k, v in table.items() if k not in LOOP_TUNING and k not in offline}
+    for old, new in LOOP_TUNING.items():
+        if old in table:
+            out[new] = table[old]
+    if "loop_estimate_misalignment" in table:   # the swing estimated them when either said so
+        out["estimate_misalignment"] = bool(table["loop_estimate_misalignment"]
+                                            or offline.get("estimate_misalignment", False))
+    ignored = [f"estimator.{k} = {v!r} (the offline filter's; now EstimatorParams.chapter5())"
+               for k, v in offline.items() if k in CHAPTER5_TUNING and v != CHAPTER5_TUNING[k]
+               and k != "estimate_misalignment"]
+    return out, ignored
+
+
 def drop_retired(data: dict[str, Any], blocks: dict[str, type]) -> dict[str, Any]:
     """``data`` (tables by block) with moved fields moved (:func:`move_fields`)
     and without its retired fields; one ``FutureWarning`` lists those whose
     value is not what decides now."""
     data = move_fields(data)
     out, ignored = dict(data), []
+    if isinstance(out.get("estimator"), dict):
+        out["estimator"], ignored = loop_tuning(out["estimator"])
+        data = out
     for (block, name), now in RETIRED.items():
         table = out.get(block)
         if not isinstance(table, dict) or name not in table:

@@ -64,21 +64,26 @@ def sigma_from_density(density: float, rate_hz: float) -> float:
 
 
 # ---------------------------------------------------------------- estimator
+#: the dissertation's filter tuning, (5.39)-(5.40) with explicit Euler (5.3)
+CHAPTER5_TUNING = {"accel_process_sigma": 0.427, "accel_meas_sigma": 0.427,
+                   "gyro_meas_sigma": 0.02, "integration": "euler",
+                   "estimate_misalignment": False}
+
+
 @dataclass(frozen=True)
 class EstimatorParams(_Block):
-    """Kinematic EKF (chapter 5): geometry and noise only.
+    """Kinematic EKF: geometry and noise only.
 
     No mass, inertia or friction may appear here (the filter is kinematic).
 
-    Two tunings, both here.  The defaults are the dissertation's (5.39)-
-    (5.40) with explicit Euler (5.3): robust from an unknown initial pose
-    (1 rad errors converge in ~0.25 s).  Inside the control loop of a swing
-    they lag (~30 ms in the rates) and the rectangle-rule angle update drifts
-    during the fast elbow motion, which destabilises the loop; a swing starts
-    from its known pose on the line, so :meth:`for_loop` applies the
-    ``loop_*`` tuning (gyro-trusting rates, second-order angle step): about
-    7x smaller angle errors, but it can lock onto a wrong solution from a
-    1 rad initial error, so it is only used from a known start.
+    The fields are the filter of a swing, which starts from its known pose
+    on the line: it trusts the gyros (R the IMUs' Table 5.1 noise), takes
+    Heun's second-order step and goes on estimating each accelerometer's
+    misalignment from the standstill calibration's value.  It can lock onto
+    a wrong solution from a 1 rad initial error; estimating from an unknown
+    pose, :meth:`chapter5` gives the dissertation's tuning ((5.39)-(5.40)
+    with explicit Euler (5.3)), which converges from 1 rad errors in about
+    0.25 s but lags by about 30 ms inside a control loop.
     """
 
     _name = "estimator"
@@ -88,40 +93,34 @@ class EstimatorParams(_Block):
             raise ParameterError(f"estimator.r1 = {self.r1:g} m exceeds estimator.l1 = "
                                  f"{self.l1:g} m; allowed (0, l1]")
         self._check_plugin()
-        for name in ("integration", "loop_integration"):
-            self._one_of(name, ("euler", "trapezoid", "heun"))
+        self._one_of("integration", ("euler", "trapezoid", "heun"))
 
     r1: float = _length(0.5, doc="IMU 1 distance from joint 1 (filter geometry)")
     r2: float = _length(0.5, doc="IMU 2 distance from the elbow")
     l1: float = _length(0.9091, doc="link 1 length (filter geometry)")
     g: float = _p(9.81, "m/s^2", 0, 30, lo_open=True, doc="gravity used by the filter")
     period: float = _p(0.01, "s", 0, 1, lo_open=True, doc="filter period (100 Hz)")
-    accel_process_sigma: float = _positive(0.427, "m/s^2", doc="(5.39) process noise on the accelerometer inputs")
-    gyro_meas_sigma: float = _positive(0.02, "rad/s", doc="(5.40) gyro measurement noise")
-    accel_meas_sigma: float = _positive(0.427, "m/s^2", doc="accelerometer measurement noise (5.39)")
-    integration: str = field(default="euler", metadata=dict(doc="prediction step of the offline filter: euler (5.3), trapezoid or heun", allowed="euler, trapezoid, heun"))
-    loop_accel_process_sigma: float = _positive(0.2, "m/s^2", doc="in-loop tuning: process noise on the accelerometer inputs (with Heun's step)")
-    loop_accel_meas_sigma: float = _positive(0.1, "m/s^2", doc="in-loop tuning: accelerometer measurement noise")
-    # Heun's step with the accelerations at both ends of the period (was
-    # "trapezoid"): its smaller discretisation error lets the filter trust the
-    # accelerometers' gravity 10x more (process noise 0.2 instead of 2.0 m/s^2)
-    loop_integration: str = field(default="heun", metadata=dict(doc="in-loop tuning: prediction step of the swing's filter (heun: the accelerations at both ends of the period)", allowed="euler, trapezoid, heun"))
+    accel_process_sigma: float = _positive(0.2, "m/s^2", doc="process noise on the accelerometer inputs (the part of a link's acceleration the kinematic model does not predict)")
+    gyro_meas_sigma: float = _positive(0.0166, "rad/s", doc="gyro measurement noise per sample the filter assumes, its gyro R (Table 5.1); a standstill calibration measuring more widens R by the ratio")
+    accel_meas_sigma: float = _positive(0.1, "m/s^2", doc="accelerometer measurement noise the filter assumes, its accelerometer R")
+    # Heun's step takes the accelerations at both ends of the period: its
+    # smaller discretisation error lets the filter trust the accelerometers'
+    # gravity 10x more than the trapezoid (process noise 0.2, not 2.0 m/s^2)
+    integration: str = field(default="heun", metadata=dict(doc="prediction step: euler (5.3), trapezoid, or heun (the accelerations at both ends of the period)", allowed="euler, trapezoid, heun"))
     p0_angle: float = _positive(1.0, "rad", doc="initial angle standard deviation")
     p0_rate: float = _positive(0.5, "rad/s", doc="initial rate standard deviation")
     start_angle_sigma: float = _positive(0.02, "rad", doc="initial angle sd when a swing starts at rest on the line, about the pose the robot believes it is in")
     start_rate_sigma: float = _positive(0.05, "rad/s", doc="initial rate sd at a swing start (at rest)")
     start_bias_sigma: float = _positive(0.002, "rad/s", doc="gyro-bias sd at a swing start (calibrated while held on the line)")
     standstill_samples: int = _count(500, "samples", 0, 100000, doc="IMU samples averaged at rest on the line before a swing to calibrate gyro biases and misalignments (0: none, the dissertation's filter; 500 = 5 s)")
-    tuned_gyro_noise: float = _positive(0.0166, "rad/s", doc="gyro noise per sample the swing's filter assumes (Table 5.1), its gyro R; a standstill calibration measuring more widens R by the ratio")
-    tuned_accel_noise: float = _positive(0.02156, "m/s^2", doc="accelerometer noise per sample the in-loop tuning assumes (Table 5.1); a standstill calibration measuring more widens R by the ratio")
+    tuned_accel_noise: float = _positive(0.02156, "m/s^2", doc="accelerometer noise per sample the filter's accel_meas_sigma was set for (Table 5.1); a standstill calibration measuring more widens R by the ratio")
     noise_tolerance: float = _p(1.2, "", 1, 100, doc="R is widened only when the measured noise exceeds the tuned one by more than this factor (500 samples measure it within 6 %)")
     inflate_nis: float = _p(0.0, "", 0, 1000, doc="covariance inflation: a tick whose normalised innovation squared exceeds this multiple of its expectation inflates the predicted covariance by the excess (0: never)")
-    loop_estimate_misalignment: bool = field(default=True, metadata=dict(doc="in-loop tuning: the swing's filter goes on estimating each accelerometer's misalignment in flight, from the standstill calibration's value"))
     misalign_max_noise: float = _p(3.0, "", 1, 100, doc="misalignment states are held at the standstill calibration's values when it measures the IMUs noisier than this many times the tuned noise (their in-flight estimate then wanders)")
     estimate_bias: bool = field(default=True, metadata=dict(doc="estimate a constant gyro bias per IMU (two extra states)"))
     bias_sigma0: float = _positive(0.05, "rad/s", doc="initial gyro-bias standard deviation")
     bias_walk: float = _positive(1e-3, "rad/s/sqrt(s)", doc="gyro-bias random walk")
-    estimate_misalignment: bool = field(default=False, metadata=dict(doc="self-calibration: estimate each accelerometer's misalignment"))
+    estimate_misalignment: bool = field(default=True, metadata=dict(doc="estimate each accelerometer's misalignment (in a swing from the standstill calibration's value)"))
     misalign_sigma0: float = _positive(0.05, "rad", doc="initial accelerometer-misalignment standard deviation (self-calibration states)")
     misalign_walk: float = _positive(1e-4, "rad/sqrt(s)", doc="accelerometer-misalignment random walk")
     estimate_gyro_scale: bool = field(default=False, metadata=dict(doc="self-calibration: estimate each gyro's scale error"))
@@ -134,6 +133,12 @@ class EstimatorParams(_Block):
     datasheet_process_sigma: float = _positive(0.05, "m/s^2", doc="process noise on the accelerometer inputs when R is the IMUs' own noise (with_sensor_noise; NIS-consistent on the estimation benchmark)")
     plugin: str = field(default="", metadata=dict(doc="module:factory (or registered name) of your own estimator, used in a swing instead of the EKF ('' : the EKF)", allowed="module:factory, a registered name or ''"))
     plugin_args: tuple = field(default=(), metadata=dict(doc="keyword arguments of the plug-in's factory, each 'key=value' (numbers, true/false or text)"))
+
+    def chapter5(self) -> "EstimatorParams":
+        """The same filter with the dissertation's tuning for estimating from
+        an unknown pose: (5.39)-(5.40) with explicit Euler (5.3), no
+        misalignment states (:data:`CHAPTER5_TUNING`)."""
+        return replace(self, **CHAPTER5_TUNING)
 
     def self_calibrating(self) -> "EstimatorParams":
         """The same filter with the self-calibration states (accelerometer
@@ -160,24 +165,16 @@ class EstimatorParams(_Block):
     def with_measured_noise(self, gyro: float, accel: float) -> "EstimatorParams":
         """The same filter with its measurement noise widened to the noise
         a standstill calibration measured (per sample: ``gyro`` rad/s,
-        ``accel`` m/s^2), by its ratio to ``tuned_*_noise`` where that is
+        ``accel`` m/s^2), by its ratio to ``gyro_meas_sigma`` and
+        ``tuned_accel_noise`` where that is
         above ``noise_tolerance`` (never narrowed; 0: not measured,
         unchanged)."""
         def widen(ratio):
             return ratio if ratio > self.noise_tolerance else 1.0
 
-        kg = widen(gyro / self.tuned_gyro_noise)
+        kg = widen(gyro / self.gyro_meas_sigma)
         ka = widen(accel / self.tuned_accel_noise)
         if kg == 1.0 and ka == 1.0:
             return self
         return replace(self, gyro_meas_sigma=self.gyro_meas_sigma * kg,
                        accel_meas_sigma=self.accel_meas_sigma * ka)
-
-    def for_loop(self) -> "EstimatorParams":
-        """The same filter with the in-loop tuning (used by the swing)."""
-        return replace(self, accel_process_sigma=self.loop_accel_process_sigma,
-                       gyro_meas_sigma=self.tuned_gyro_noise,
-                       accel_meas_sigma=self.loop_accel_meas_sigma,
-                       integration=self.loop_integration,
-                       estimate_misalignment=(self.estimate_misalignment
-                                              or self.loop_estimate_misalignment))

@@ -158,10 +158,10 @@ def misalign_held(p: EstimatorParams, noise) -> bool:
     """Whether the misalignment states are held at the calibration's values
     (not estimated in flight): the standstill calibration measured the
     gyros or the accelerometers (``noise`` = (gyro, accel) per sample)
-    noisier than ``p.misalign_max_noise`` times the tuned noise."""
+    noisier than ``p.misalign_max_noise`` times the noise the filter assumes."""
     gyro, accel = noise
     k = p.misalign_max_noise
-    return bool(gyro > k * p.tuned_gyro_noise or accel > k * p.tuned_accel_noise)
+    return bool(gyro > k * p.gyro_meas_sigma or accel > k * p.tuned_accel_noise)
 
 
 def correct_sample(sample, x, p: EstimatorParams) -> np.ndarray:

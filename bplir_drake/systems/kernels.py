@@ -26,7 +26,7 @@ def warm_up() -> None:
     """Call every kernel once with the argument types the systems pass
     (the default swing's), loading or compiling each in this process."""
     p = preset().resolved()
-    consts, walk = ekf_kernel.pack(p.estimator.for_loop())
+    consts, walk = ekf_kernel.pack(p.estimator)
     n = len(walk)
     ekf_kernel.step(_readonly(np.zeros(n)), _readonly(np.eye(n)), _readonly(np.zeros(4)),
                     np.array([0.0, 0.0, 0.0, 9.8, 0.0, 9.8]), True, False, False, consts, walk,

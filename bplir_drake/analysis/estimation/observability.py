@@ -124,7 +124,7 @@ def observability_along(t, x_abs, u, p: EstimatorParams, *, threshold: float = D
     lose rank.
     """
 
-    p4 = replace(p, estimate_bias=False)
+    p4 = replace(p, estimate_bias=False, estimate_misalignment=False)   # the four angles and rates
     S = np.diag([angle_scale, angle_scale, rate_scale, rate_scale])
     Sinv = np.linalg.inv(S)
     x_abs, u, t = np.asarray(x_abs, float), np.asarray(u, float), np.asarray(t, float)

@@ -81,14 +81,16 @@ class EstimationRun(Result):
 
 def simulate_estimation(params: BplirParams, q0=(0.8, 0.4), duration: float = 10.0, *,
                         initial_error=(0.0, 0.0, 0.0, 0.0), elbow_torque=DEFAULT_TORQUE,
-                        knock=DEFAULT_KNOCK, seed: int | None = None) -> EstimationRun:
+                        knock=DEFAULT_KNOCK, seed: int | None = None,
+                        estimator=None) -> EstimationRun:
     """Simulate plant + IMUs + EKF from rest at ``q0`` (relative angles); the
-    filter starts at the true absolute state plus ``initial_error``."""
+    filter (``estimator``, by default ``params.estimator.chapter5()``) starts
+    at the true absolute state plus ``initial_error``."""
     seed = params.scenario.seed if seed is None else seed
     x_true0 = absolute_from_relative(np.array([q0[0], q0[1], 0.0, 0.0]))
     x0_est = x_true0 + np.asarray(initial_error, dtype=float)
     built = build_sensor_swing(params, x0_est, elbow_torque=elbow_torque, knock=knock,
-                               seed=seed, log_period=0.002)
+                               seed=seed, log_period=0.002, estimator=estimator)
     sim = make_simulator(built, q0)
     run(sim, duration)
     lg = logs(built, sim)

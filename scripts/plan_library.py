@@ -52,8 +52,8 @@ def libraries(hardware=()):
     single = base.with_(path=dc.replace(base.path, mode="plan"))
     line = {g: swing_params(base, g, 1.2, 0.0) for g in (1, 2)}
     return {"swing": single, "traverse-1": line[1], "traverse-2": line[2],
-            "hanging-1": retry_params(line[1], holding=1),
-            "hanging-2": retry_params(line[2], holding=2)}
+            "hanging-1": retry_params(line[1]),
+            "hanging-2": retry_params(line[2])}
 
 
 def _at(params, incline: float, spacing: float):
@@ -115,7 +115,7 @@ def _from(q, ref, depth):
     """The plan of ``q`` started from its neighbour's ``ref``: as the
     planner solves it (a plan from hanging with its own knots, iteration
     limit, elbow-rate bound and envelope, and no plan that heats the
-    driver beyond ``plan.hanging_i2t_share``: that one is not feasible)."""
+    driver beyond ``hanging.i2t_share``: that one is not feasible)."""
     from bplir_drake.diagrams import plan as P
 
     if q.scenario.start != "hanging":

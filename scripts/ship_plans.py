@@ -17,7 +17,7 @@ weighs 1.6 kg (the documented ``--set plant.m2=1.6``), the swing of
 them, and the original robot's at +2.6 deg and 1.05 m, between grid
 points) and the 48 V swapped robot's on the span's +2.6 deg chord planned
 by guesses within 85 % of the torque limit and 35 % of the driver's i^2 t
-budget, ending at the line (``traverse.swapped_retry_end_depth``) and 13 mm
+budget, ending at the line (as its free link's pose decides) and 13 mm
 below it (the plans its guesses gave before one heated the driver little
 enough); gains for the swings the tests track
 that the plan libraries (``scripts/plan_library.py``) do not cover.
@@ -65,18 +65,18 @@ def scenarios():
     # guesses within 85 % of the torque limit and 35 % of the driver's i^2 t
     # budget (test_traverse_recovery's: the first guess heats the driver too much)
     from bplir_drake.analysis.traverse.recovery import retry_params
-    tracked += [retry_params(swing_params(base, g, base.traverse.grip_spacing, 0.0), holding=g)
+    tracked += [retry_params(swing_params(base, g, base.traverse.grip_spacing, 0.0))
                 for g in (1, 2)]
     b48 = base.with_hardware("48v")
-    b48 = b48.with_(plan=dc.replace(b48.plan, hanging_torque_share=0.85, hanging_i2t_share=0.35))
-    deeper = b48.with_(traverse=dc.replace(b48.traverse, swapped_retry_end_depth=0.013))
-    tracked += [retry_params(swing_params(b, 2, b.traverse.grip_spacing, math.radians(2.6)),
-                             holding=2) for b in (b48, deeper)]   # test_traverse_recovery's
+    b48 = b48.with_(hanging=dc.replace(b48.hanging, torque_share=0.85, i2t_share=0.35))
+    chord = retry_params(swing_params(b48, 2, b48.traverse.grip_spacing, math.radians(2.6)))
+    tracked += [chord, retry_params(swing_params(b48, 2, b48.traverse.grip_spacing,
+                                                 math.radians(2.6)), end_at_line=False)]
     solved = base.with_(plan=dc.replace(base.plan, library=False))   # the libraries' own
     plans += [lambda g=g: P.scenario_plan(retry_params(                 # plans at 0 deg, 1.2 m
-        swing_params(solved, g, solved.traverse.grip_spacing, 0.0), holding=g)) for g in (1, 2)]
+        swing_params(solved, g, solved.traverse.grip_spacing, 0.0))) for g in (1, 2)]
     plans.append(lambda: P.scenario_plan(retry_params(   # and between grid points (+2.6 deg,
-        swing_params(solved, 1, 1.05, math.radians(2.6)), holding=1)))   # 1.05 m)
+        swing_params(solved, 1, 1.05, math.radians(2.6)))))   # 1.05 m)
     q127 = at(base, grip_spacing=1.27)   # the warm start's test: its cold solve too
     plans += [lambda: P.scenario_plan(q127),
               lambda: P.plan_swing(q127, end_depth=q127.plan.end_depth, guess_duration=1.0)]

@@ -19,10 +19,10 @@ def paced_48v(p):
     """``p`` at 48 V with its tries from hanging planned by guesses within
     85 % of the torque limit, on a pump whose torque alone uses at most 35 %
     of the driver's i^2 t budget where a guess gives one
-    (plan.hanging_torque_share, plan.hanging_i2t_share; the shipped plans of
+    (hanging.torque_share, hanging.i2t_share; the shipped plans of
     the tests of those mechanisms are made so)."""
     p = p.with_hardware("48v")
-    return p.with_(plan=dc.replace(p.plan, hanging_torque_share=0.85, hanging_i2t_share=0.35))
+    return p.with_(hanging=dc.replace(p.hanging, torque_share=0.85, i2t_share=0.35))
 
 
 def parse_strict_json(text):

@@ -24,7 +24,7 @@ def _solved(p):
 @pytest.fixture(scope="module")
 def tries():
     """{holding gripper: a try from hanging of the default robot}."""
-    return {g: retry_params(swing_params(preset(), g, 1.2, 0.0), holding=g) for g in (1, 2)}
+    return {g: retry_params(swing_params(preset(), g, 1.2, 0.0)) for g in (1, 2)}
 
 
 #: cells (of 48) where a try from hanging is blended, holding with gripper 1 / 2
@@ -116,7 +116,7 @@ def test_between_grid_points_the_blend_is_the_solved_manoeuvre_and_lands(tries):
 
     from bplir_drake.analysis.swing.run import run_swing
 
-    p = retry_params(swing_params(preset(), 1, 1.05, math.radians(2.6)), holding=1)
+    p = retry_params(swing_params(preset(), 1, 1.05, math.radians(2.6)))
     plan, _ = P.tracking_plan(p)
     solved = _solved(p)
     assert plan.status == "interpolated" and solved.status != "interpolated"
@@ -138,7 +138,7 @@ def test_the_swapped_robots_try_on_the_span_chord_is_blended_and_lands(tries):
 
     from bplir_drake.analysis.swing.run import run_swing
 
-    p = retry_params(swing_params(preset(), 2, 1.2, math.radians(2.6)), holding=2)
+    p = retry_params(swing_params(preset(), 2, 1.2, math.radians(2.6)))
     assert P.tracking_plan(p)[0].status == "interpolated"
     out = [run_swing(p, seed=s).summary for s in range(3)]
     assert [r["outcome"] for r in out] == ["captured"] * 3

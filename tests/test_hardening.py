@@ -564,11 +564,9 @@ def test_shipped_plans_serve_a_fresh_install(monkeypatch, tmp_path):
     assert len(seen) == 8
     from bplir_drake.analysis.traverse.recovery import retry_params
     volt48 = paced_48v(base)   # tries planned by guesses (test_traverse_recovery's)
-    assert P.scenario_plan(retry_params(swing_params(volt48, 2, 1.2, math.radians(2.6)),
-                                        holding=2)).feasible
-    deeper = volt48.with_(traverse=dc.replace(volt48.traverse, swapped_retry_end_depth=0.013))
-    assert P.scenario_plan(retry_params(swing_params(deeper, 2, 1.2, math.radians(2.6)),
-                                        holding=2)).duration > 4.5   # the fourth guess's
+    assert P.scenario_plan(retry_params(swing_params(volt48, 2, 1.2, math.radians(2.6)))).feasible
+    deeper = retry_params(swing_params(volt48, 2, 1.2, math.radians(2.6)), end_at_line=False)
+    assert P.scenario_plan(deeper).duration > 4.5   # the fourth guess's
     acromonk = load_toml(Path(__file__).resolve().parents[1] / "examples" / "acromonk.toml")
     assert P.scenario_plan(acromonk).feasible
     assert P.plan_swing(acromonk, knots=41).status == "iteration limit"   # `bplir plan`'s
@@ -607,13 +605,12 @@ def test_shipped_gains_serve_the_tests_plans(monkeypatch, tmp_path):
     cases = [up, down, flat, heavy] + [swing_params(base, g, base.traverse.grip_spacing, 0.0)
                                        for g in (1, 2)] + _quick_benchmark_swings()
     from bplir_drake.analysis.traverse.recovery import retry_params
-    cases += [retry_params(c, holding=g) for g, c in ((1, cases[4]), (2, cases[5]))]   # tried again
-    cases += [retry_params(swing_params(base.with_hardware("48v"), g, 1.2, 0.0), holding=g)
+    cases += [retry_params(c) for c in cases[4:6]]   # tried again
+    cases += [retry_params(swing_params(base.with_hardware("48v"), g, 1.2, 0.0))
               for g in (1, 2)]   # at 48 V the 30 V robot's tries (its libraries)
     b48 = paced_48v(base)   # tries planned by guesses (test_traverse_recovery's)
-    deeper = b48.with_(traverse=dc.replace(b48.traverse, swapped_retry_end_depth=0.013))
-    cases += [retry_params(swing_params(b, 2, 1.2, math.radians(2.6)), holding=2)
-              for b in (b48, deeper)]   # the span's chord, ending at the line and below
+    cases += [retry_params(swing_params(b48, 2, 1.2, math.radians(2.6)), end_at_line=at)
+              for at in (True, False)]   # the span's chord, ending at the line and below
     cases.append(load_toml(Path(__file__).resolve().parents[1] / "examples" / "acromonk.toml"))
     keys, blended = set(), 0
     for p in cases:

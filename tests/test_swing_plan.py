@@ -128,8 +128,8 @@ def test_the_plan_command_plans_a_swing_from_hanging_as_the_swing_does(monkeypat
                                                                        capsys):
     """``bplir plan --set scenario.start=hanging`` solves as a swing from
     hanging does -- the guesses of 3-6 s in turn on 61 knots, SNOPT's
-    150 000 minor iterations, the torque within plan.hanging_torque_share of
-    its limit (here 0.85), at 48 V the 30 V envelope (plan.hanging_supply), from the
+    150 000 minor iterations, the torque within hanging.torque_share of
+    its limit (here 0.85), at 48 V the 30 V envelope (hanging.supply_voltage), from the
     hanging pose -- and with none feasible reports the last one, exit 1 (the
     solver is replaced by one that stops at once)."""
     import numpy as np
@@ -154,7 +154,7 @@ def test_the_plan_command_plans_a_swing_from_hanging_as_the_swing_does(monkeypat
     p = BplirParams().with_hardware("48v")   # its tries from hanging are planned at 30 V
     hanging = tuple(start_configuration("hanging", p.scenario.grip_spacing, p.plant, 0.0))
     assert main(["plan", "--hardware", "48v", "--set", "scenario.start=hanging", "--set",
-                 "plan.hanging_torque_share=0.85", "--out", str(tmp_path / "h"),
+                 "hanging.torque_share=0.85", "--out", str(tmp_path / "h"),
                  "--json"]) == 1
     assert [c[1] for c in calls] == [3.0, 4.0, 5.0, 6.0]
     assert {c[0] for c in calls} == {61} and {c[2] for c in calls} == {150_000}
@@ -172,7 +172,7 @@ def test_the_plan_command_plans_a_swing_from_hanging_as_the_swing_does(monkeypat
 
 def test_a_plan_from_hanging_that_heats_the_driver_gives_way_to_a_cooler_guess(
         monkeypatch, tmp_path, capsys):
-    """With ``plan.hanging_i2t_share`` (here 0.35, at 48 V) a feasible plan
+    """With ``hanging.i2t_share`` (here 0.35, at 48 V) a feasible plan
     from hanging whose torque alone uses more of the driver's i^2 t budget
     gives way to the next guess; the least heating feasible plan is kept if
     none keeps to it; without it (the 30 V robot) the first feasible guess
@@ -185,8 +185,8 @@ def test_a_plan_from_hanging_that_heats_the_driver_gives_way_to_a_cooler_guess(
 
     monkeypatch.setenv("BPLIR_CACHE_DIR", str(tmp_path / "cache"))
     p48 = BplirParams().with_hardware("48v")
-    assert p48.plan.hanging_i2t_share == BplirParams().plan.hanging_i2t_share == 0.0
-    p48 = p48.with_(plan=dc.replace(p48.plan, hanging_i2t_share=0.35))
+    assert p48.hanging.i2t_share == BplirParams().hanging.i2t_share == 0.0
+    p48 = p48.with_(hanging=dc.replace(p48.hanging, i2t_share=0.35))
     m = p48.motor
     budget = interlock_budget(m)
 
@@ -215,7 +215,7 @@ def test_a_plan_from_hanging_that_heats_the_driver_gives_way_to_a_cooler_guess(
     assert P.planned_i2t(plan, m) == pytest.approx(0.2 * budget, rel=1e-9)
     # `bplir plan` reports the kept plan and its share of the budget
     assert main(["plan", "--hardware", "48v", "--set", "scenario.start=hanging", "--set",
-                 "plan.hanging_i2t_share=0.35", "--json", "--out", str(tmp_path / "plan")]) == 0
+                 "hanging.i2t_share=0.35", "--json", "--out", str(tmp_path / "plan")]) == 0
     assert json.loads(capsys.readouterr().out)["i2t_share"] == pytest.approx(0.2, rel=1e-9)
     calls.clear()   # none keeps to 0.35: the least heating of the four
     heat.update({3.0: 0.9, 4.0: 0.6, 5.0: 0.45, 6.0: 0.7})

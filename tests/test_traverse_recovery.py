@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 from bplir_drake.analysis.traverse.line import load_line
-from bplir_drake.analysis.traverse.recovery import damp, retry_params, swing_energy
+from bplir_drake.analysis.traverse.recovery import (damp, free_link_upright, retry_params,
+                                                   swing_energy)
 from bplir_drake.analysis.traverse.run import run_traverse
 from bplir_drake.params import BplirParams, ParameterError, swapped
 from conftest import paced_48v
@@ -160,7 +161,7 @@ def test_a_swing_that_trips_the_driver_is_tried_again():
 
 def test_the_48v_robot_tries_again_on_the_30v_robots_plan():
     """The 48 V option plans a swing from hanging as the 30 V robot does,
-    within the 30 V envelope (plan.hanging_supply; the 48 V envelope alone
+    within the 30 V envelope (hanging.supply_voltage; the 48 V envelope alone
     lets the pump flip the elbow at 21 rad/s, faster than the tracker
     follows): both robots' tries read the same plan libraries, so the 48 V
     robot's try is the 30 V robot's plan and gains, blended, and its pump
@@ -171,8 +172,8 @@ def test_the_48v_robot_tries_again_on_the_30v_robots_plan():
     from bplir_drake.analysis.traverse.run import swing_params
 
     p, b = BplirParams().with_hardware("48v"), BplirParams()
-    assert p.motor.supply_voltage == 48.0 and p.plan.hanging_supply == 30.0
-    assert p.plan.hanging_torque_share == b.plan.hanging_torque_share == 1.0
+    assert p.motor.supply_voltage == 48.0 and p.hanging.supply_voltage == 30.0
+    assert p.hanging.torque_share == b.hanging.torque_share == 1.0
     assert p.traverse.retry_max_time == b.traverse.retry_max_time == 6.0
     res = run_traverse(load_line(LINE), p, seed=0, adjust=headwind(0, -6.0))
     swings = [r for r in res.rows if r["kind"] == "swing"]
@@ -181,10 +182,8 @@ def test_the_48v_robot_tries_again_on_the_30v_robots_plan():
     assert swings[1]["capture_speed_mps"] < 0.5 and swings[1]["peak_voltage_V"] < 29.4
     assert res.totals["outcome"] == "passed" and res.totals["retries"] == 1
     for g, a in ((1, 2.6), (2, -7.0)):
-        plan, gains = tracking_plan(retry_params(swing_params(p, g, 1.15, np.radians(a)),
-                                                 holding=g))
-        at30, gains30 = tracking_plan(retry_params(swing_params(b, g, 1.15, np.radians(a)),
-                                                   holding=g))
+        plan, gains = tracking_plan(retry_params(swing_params(p, g, 1.15, np.radians(a))))
+        at30, gains30 = tracking_plan(retry_params(swing_params(b, g, 1.15, np.radians(a))))
         assert plan.status == "interpolated" and np.array_equal(plan.torque, at30.torque)
         assert np.allclose(gains.K.value(1.0), gains30.K.value(1.0))
         assert 3.0 < plan.duration <= 6.0
@@ -195,7 +194,7 @@ def test_a_try_from_hanging_with_an_i2t_share_keeps_the_driver_cool_on_the_span_
     """The 48 V swapped robot's try from hanging on examples/line_span.toml's
     +2.6 deg chord planned by guesses (:func:`conftest.paced_48v`): the first guess's
     plan is a 3.6 s pump whose torque alone uses more than 35 % of the
-    driver's i^2 t budget (plan.hanging_i2t_share; 3 of 16 draws of the realistic study's robot crashed
+    driver's i^2 t budget (hanging.i2t_share; 3 of 16 draws of the realistic study's robot crashed
     on it at the torque limit), so the planner keeps the next feasible
     guess's, a 4.8 s pump using under 20 %.  The nominal robot lands on it
     with the driver's i^2 t at 26 % of the budget."""
@@ -207,7 +206,7 @@ def test_a_try_from_hanging_with_an_i2t_share_keeps_the_driver_cool_on_the_span_
     from bplir_drake.systems.motor import interlock_budget
 
     p = retry_params(swing_params(paced_48v(BplirParams()), 2, 1.2,
-                                  math.radians(2.6)), holding=2).resolved()
+                                  math.radians(2.6))).resolved()
     budget = interlock_budget(p.motor)
     hot = P.plan_swing(P.hanging_planned(p), end_depth=p.plan.end_depth, guess_duration=3.0,
                        knots=P.HANGING_KNOTS, minor_iterations=P.HANGING_MINOR_ITERATIONS)
@@ -251,8 +250,8 @@ def test_a_try_that_missed_in_the_robots_own_estimate_aims_higher_next():
 def test_a_near_miss_from_hanging_lands_when_the_try_after_it_aims_higher():
     """Draw 28 of the realistic traversal study (tuning root seed 777), 48 V
     (:func:`conftest.paced_48v`), the swapped robot's try from hanging on examples/line_span.toml's +2.6
-    deg chord planned to end 13 mm below the line (``traverse.
-    swapped_retry_end_depth``): it stops 21 mm below (the band is 20 mm) while its
+    deg chord planned to end 13 mm below the line (``retry_params(...,
+    end_at_line=False)``): it stops 21 mm below (the band is 20 mm) while its
     estimate put the gripper 16 mm below, and times out.  Tried again
     aiming ``traverse.retry_aim_raise`` (5 mm) higher it lands below the
     crash speed (measured 0.30 m/s)."""
@@ -265,15 +264,14 @@ def test_a_near_miss_from_hanging_lands_when_the_try_after_it_aims_higher():
 
     study = load_study(LINE.parent / "study_traverse.toml").with_(seed=777)
     p = paced_48v(study.params)
-    p = p.with_(traverse=dc.replace(p.traverse, swapped_retry_end_depth=0.013))
     p, seed, _ = sample_params(dc.replace(study, params=p), 28)
-    first = retry_params(swing_params(p, 2, 1.2, math.radians(2.6)), holding=2)
+    first = retry_params(swing_params(p, 2, 1.2, math.radians(2.6)), end_at_line=False)
     runner = SwingRunner()
     s = runner.run(first, seed=seed).summary
     band = first.gripper.capture_distance
     assert s["outcome"] == "timeout" and s["closest_distance_m"] > band
     assert -band < s["estimated_peak_height_m"] < -0.5 * band
-    again = retry_params(first, s, holding=2)
+    again = retry_params(first, s, end_at_line=False)
     assert again.landing.landing_bias == pytest.approx(0.005)
     s2 = runner.run(again, seed=seed).summary
     assert s2["outcome"] == "captured" and 0.2 < s2["capture_speed_mps"] < 0.4
@@ -322,7 +320,8 @@ def test_the_swapped_robots_try_from_hanging_ends_at_the_line_and_lands_from_the
     swapped robot tried again from hanging on the span's +2.6 deg chord, from
     where the damping leaves it under its steady wind (link 1 0.016 rad off):
     planned to end 13 mm below the line its pump stops 38 mm below and times
-    out; planned to end at the line (``traverse.swapped_retry_end_depth``) it
+    out; planned to end at the line (its free link ends upright,
+    :func:`free_link_upright`) it
     lands (measured 0.37 m/s).  The original robot's plan keeps its depth."""
     import math
 
@@ -334,14 +333,14 @@ def test_the_swapped_robots_try_from_hanging_ends_at_the_line_and_lands_from_the
     study = load_study(LINE.parent / "study_traverse.toml").with_(seed=777)
     study = dc.replace(study, params=paced_48v(study.params))
     p, seed, _ = sample_params(study, 5)
-    assert p.traverse.swapped_retry_end_depth == 0.0
-    again = retry_params(swing_params(p, 2, 1.2, math.radians(2.6)), holding=2)
+    assert free_link_upright(swing_params(p, 2, 1.2, 0.0))
+    assert not free_link_upright(swing_params(p, 1, 1.2, 0.0))
+    again = retry_params(swing_params(p, 2, 1.2, math.radians(2.6)))
     assert again.plan.end_depth == 0.0
-    assert retry_params(swing_params(p, 1, 1.2, 0.0), holding=1).plan.end_depth == 0.013
+    assert retry_params(swing_params(p, 1, 1.2, 0.0)).plan.end_depth == 0.013
     start = damp(again, np.array([0.05, 0.0, 0.0, 0.0])).state
     assert 0.01 < start[0] < 0.03
-    deeper = p.with_(traverse=dc.replace(p.traverse, swapped_retry_end_depth=0.013))
-    deeper = retry_params(swing_params(deeper, 2, 1.2, math.radians(2.6)), holding=2)
+    deeper = retry_params(swing_params(p, 2, 1.2, math.radians(2.6)), end_at_line=False)
     runner = SwingRunner()
     short = runner.run(deeper, seed=seed, start_state=start).summary
     assert short["outcome"] == "timeout" and short["closest_distance_m"] > 0.03
@@ -352,7 +351,7 @@ def test_the_swapped_robots_try_from_hanging_ends_at_the_line_and_lands_from_the
 def test_the_swapped_robots_try_keeps_the_deeper_plan_where_the_one_ending_at_the_line_runs_hot(
         monkeypatch):
     """Where the swapped robot's plan from hanging ending at the line uses more
-    of the driver's i^2 t budget than plan.hanging_i2t_share (no guess kept
+    of the driver's i^2 t budget than hanging.i2t_share (no guess kept
     to it: on the span's +7.6 deg chord a 44 % pump, on which 4 of 16 draws
     of tuning root seed 777 crashed and none on the plan ending 13 mm below),
     its try keeps ``traverse.plan_end_depth``; at 30 V (no share) and for a
@@ -370,9 +369,9 @@ def test_the_swapped_robots_try_keeps_the_deeper_plan_where_the_one_ending_at_th
     b48 = paced_48v(BplirParams())
     swing = swing_params(b48, 2, 1.2, math.radians(7.6))
     heat[0.0] = 0.44
-    assert retry_params(swing, holding=2).plan.end_depth == 0.013
+    assert retry_params(swing).plan.end_depth == 0.013
     heat[0.0] = 0.34
-    assert retry_params(swing, holding=2).plan.end_depth == 0.0
+    assert retry_params(swing).plan.end_depth == 0.0
     heat[0.0] = 0.9
-    assert retry_params(swing_params(BplirParams(), 2, 1.2, 0.0), holding=2).plan.end_depth == 0.0
-    assert retry_params(swing_params(b48, 1, 1.2, 0.0), holding=1).plan.end_depth == 0.013
+    assert retry_params(swing_params(BplirParams(), 2, 1.2, 0.0)).plan.end_depth == 0.0
+    assert retry_params(swing_params(b48, 1, 1.2, 0.0)).plan.end_depth == 0.013

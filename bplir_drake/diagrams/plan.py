@@ -311,10 +311,10 @@ def hanging_plan(params: BplirParams, *, power_limit: float | None = None,
     """The plan from hanging at rest (``scenario.start = "hanging"``): the
     first feasible of the guesses :data:`HANGING_GUESSES` on ``knots``
     (:data:`HANGING_KNOTS`) with up to :data:`HANGING_MINOR_ITERATIONS`
-    minor iterations, the torque within ``plan.hanging_torque_share`` of its limit
-    and the voltage within the envelope of ``plan.hanging_supply``
+    minor iterations, the torque within ``hanging.torque_share`` of its limit
+    and the voltage within the envelope of ``hanging.supply_voltage``
     (:func:`hanging_planned`: a pump of several swings the tracker can
-    follow with headroom), no warm start.  With ``plan.hanging_i2t_share``
+    follow with headroom), no warm start.  With ``hanging.i2t_share``
     a feasible plan that by itself uses more of the driver's i^2 t budget
     (:func:`planned_i2t`) gives way to the next guess, and the least
     heating feasible plan is kept if none keeps to it.  Where no guess is
@@ -384,8 +384,8 @@ def planned_i2t(plan: SwingPlan, motor) -> float:
 def i2t_allowance(params: BplirParams) -> float:
     """The driver's i^2 t (A^2 s) a plan from hanging of ``params`` (as
     :func:`hanging_planned` makes it) may use by itself:
-    ``plan.hanging_i2t_share`` of the budget (infinite with the share 0)."""
-    share = params.plan.hanging_i2t_share
+    ``hanging.i2t_share`` of the budget (infinite with the share 0)."""
+    share = params.hanging.i2t_share
     return share * interlock_budget(params.motor) if share > 0.0 else math.inf
 
 

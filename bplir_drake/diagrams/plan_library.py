@@ -97,7 +97,7 @@ def model_inputs(params: BplirParams) -> dict:
     if hanging:
         out.update(rate_limit=0.0, guesses=list(HANGING_GUESSES),
                    minor_iterations=HANGING_MINOR_ITERATIONS,
-                   i2t_share=params.plan.hanging_i2t_share)
+                   i2t_share=params.hanging.i2t_share)
     return out
 
 

@@ -227,11 +227,11 @@ HANGING_MINOR_ITERATIONS = 150_000
 
 def hanging_planned(params: BplirParams) -> BplirParams:
     """``params`` as a plan from hanging is made with: ``plan.torque_share``
-    at most ``plan.hanging_torque_share``, and the motor at
-    ``plan.hanging_supply`` when that is set (the robot swings at its own
+    at most ``hanging.torque_share``, and the motor at
+    ``hanging.supply_voltage`` when that is set (the robot swings at its own
     supply; only the plan keeps to the other's envelope)."""
-    pl, motor = params.plan, params.motor
-    if pl.hanging_supply > 0:
-        motor = replace(motor, supply_voltage=pl.hanging_supply)
+    pl, motor, h = params.plan, params.motor, params.hanging
+    if h.supply_voltage > 0:
+        motor = replace(motor, supply_voltage=h.supply_voltage)
     return params.with_(motor=motor, plan=replace(
-        pl, torque_share=min(pl.torque_share, pl.hanging_torque_share)))
+        pl, torque_share=min(pl.torque_share, h.torque_share)))

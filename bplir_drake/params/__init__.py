@@ -60,6 +60,7 @@ from .plan import (  # noqa: F401
     PLAN_INDEXING,
     LANDING_LAWS,
     PlanParams,
+    HangingParams,
     LandingParams,
     moved_field,
     split_path_table)
@@ -98,6 +99,7 @@ __all__ = [
     "SUPPLY_48V_OPTION",
     "from_dict", "load_toml", "to_toml",
     "save_toml", "to_dict", "sigma_from_density", "DriveParams", "GripperParams", "TraverseParams",
+    "PlanParams", "HangingParams", "LandingParams",
     "swapped", "swapped_plant", "swapped_imu", "parameter_reference", "BLOCKS", "plugin_name",
 ]
 

@@ -36,7 +36,7 @@ LINE_SENSOR_OPTION = {"range": 0.2, "shoot_height": -0.018, "shoot_min_time": 0.
 #: 1.6 times the torque the motor gives to lift the gripper (link 1 stopped
 #: short, and chasing the line flings the elbow into it; a timed-out swing is
 #: tried again, a crash ends the traversal)
-SUPPLY_48V_OPTION = {"supply_voltage": 48.0, "hanging_supply": 30.0, "shoot_brake_ratio": 1.6}
+SUPPLY_48V_OPTION = {"supply_voltage": 48.0, "hanging_supply_voltage": 30.0, "shoot_brake_ratio": 1.6}
 
 
 #: named hardware options on top of a preset (:meth:`BplirParams.with_hardware`)

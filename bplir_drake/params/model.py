@@ -7,7 +7,7 @@ from .base import ParameterError, _is_plugin, _range_text
 from .robot import FrictionParams, MotorParams, PlantParams, RobotFileParams
 from .sensing import EstimatorParams, ImuParams, LineSensorParams
 from .control import CONTROLLER_PRESETS, ControllerParams, current_preset_name, HARDWARE_OPTIONS, IMU_ONLY_TUNING, LINE_SENSOR_OPTION, PathParams, SUPPLY_48V_OPTION
-from .plan import LandingParams, PlanParams
+from .plan import HangingParams, LandingParams, PlanParams
 from .scenario import DriveParams, GripperParams, ScenarioParams, TraverseParams
 
 
@@ -25,6 +25,7 @@ class BplirParams:
     controller: ControllerParams = field(default_factory=ControllerParams)
     path: PathParams = field(default_factory=PathParams)
     plan: PlanParams = field(default_factory=PlanParams)
+    hanging: HangingParams = field(default_factory=HangingParams)
     landing: LandingParams = field(default_factory=LandingParams)
     scenario: ScenarioParams = field(default_factory=ScenarioParams)
     gripper: GripperParams = field(default_factory=GripperParams)
@@ -120,7 +121,7 @@ class BplirParams:
             elif name == "48v":
                 o = SUPPLY_48V_OPTION
                 p = replace(p, motor=replace(p.motor, supply_voltage=o["supply_voltage"]),
-                            plan=replace(p.plan, hanging_supply=o["hanging_supply"]),
+                            hanging=replace(p.hanging, supply_voltage=o["hanging_supply_voltage"]),
                             traverse=replace(p.traverse, shoot_brake_ratio=o["shoot_brake_ratio"]))
             else:
                 raise ParameterError(f"unknown hardware option '{name}'; allowed: "
@@ -205,7 +206,7 @@ def parameter_reference(blocks=None) -> list[dict[str, Any]]:
 BLOCKS = {
     "robot": RobotFileParams, "plant": PlantParams, "friction": FrictionParams, "motor": MotorParams,
     "imu": ImuParams, "estimator": EstimatorParams, "controller": ControllerParams,
-    "path": PathParams, "plan": PlanParams, "landing": LandingParams,
+    "path": PathParams, "plan": PlanParams, "hanging": HangingParams, "landing": LandingParams,
     "scenario": ScenarioParams, "gripper": GripperParams, "drive": DriveParams,
     "traverse": TraverseParams, "line_sensor": LineSensorParams,
     "true_plant": PlantParams, "true_friction": FrictionParams,

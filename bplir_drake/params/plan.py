@@ -27,9 +27,6 @@ class PlanParams(_Block):
     end_depth: float = _p(0.015, "m", 0, 0.1, doc="the planned swing comes to rest this far below the line, inside the capture band, so the band is entered slowly")
     voltage_share: float = _fraction(0.9, doc="share of the driver's largest voltage the plan may use at its knots (the rest is the feedback's headroom)")
     torque_share: float = _fraction(1.0, doc="share of the torque limit the plan may use (the rest is the feedback's headroom)")
-    hanging_torque_share: float = _fraction(1.0, doc="share of the torque limit a plan from hanging (scenario.start) may use, at most torque_share (the rest is the tracker's headroom over a pump of seconds)")
-    hanging_supply: float = _p(0.0, "V", 0, 100, doc="supply voltage whose envelope a plan from hanging keeps to (0: motor.supply_voltage; a lower one paces the pump below what the robot's supply allows)")
-    hanging_i2t_share: float = _p(0.0, "", 0, 1, doc="share of the driver's i^2 t budget a plan from hanging may use by itself from a reset driver; a guess whose plan uses more gives way to the next, and the least heating feasible plan is kept if none keeps to it (0: the first feasible guess)")
     spacing_step: float = _p(0.01, "m", 0, 0.1, doc="plans are made for the measured grip spacing rounded to this step, so a study drawing the spacing solves few plans (0: exact)")
     library: bool = field(default=True, metadata=dict(doc="a scenario the shipped plan library of its nominal robot covers gets its plan and gains interpolated from it, in milliseconds (false: every plan solved)"))
     warm_spacing: float = _p(1.2, "m", 0, 2 * MAX_LENGTH, doc="a plan for another spacing is also solved from this spacing's plan and the cheaper one kept (0: straight-line guesses only)")
@@ -63,6 +60,18 @@ class PlanParams(_Block):
                                   and 0 <= v < float("inf") for v in w):
             raise ParameterError(f"plan.lqr_state = {list(w)} must be four numbers; allowed: "
                                  "each >= 0 and finite")
+
+
+@dataclass(frozen=True)
+class HangingParams(_Block):
+    """How a swing from hanging at rest (``scenario.start = "hanging"``: a
+    traversal's try again) is planned: it pumps for seconds before it
+    reaches, so its plan may keep more headroom than a swing from the line."""
+
+    _name = "hanging"
+    torque_share: float = _fraction(1.0, doc="share of the torque limit the plan may use, at most plan.torque_share (the rest is the tracker's headroom over a pump of seconds)")
+    supply_voltage: float = _p(0.0, "V", 0, 100, doc="supply voltage whose envelope the plan keeps to (0: motor.supply_voltage; a lower one paces the pump below what the robot's supply allows)")
+    i2t_share: float = _p(0.0, "", 0, 1, doc="share of the driver's i^2 t budget the plan may use by itself from a reset driver; a guess whose plan uses more gives way to the next, and the least heating feasible plan is kept if none keeps to it (0: the first feasible guess)")
 
 
 @dataclass(frozen=True)

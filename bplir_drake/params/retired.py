@@ -28,15 +28,20 @@ RETIRED: dict[tuple[str, str], tuple[str, str] | float] = {
     ("traverse", "swapped_inflate_nis"): ("estimator", "inflate_nis"),
     ("traverse", "swapped_line_range"): ("line_sensor", "range"),
     ("plan", "hanging_rate_limit"): 0.0,
+    ("traverse", "swapped_retry_end_depth"): 0.0,   # the free link's pose decides
 }
 
 
 #: fields that moved to another block: ``(block, field)`` -> ``(block, field)``
-#: (the capture criterion is the gripper's, a property of the robot)
+#: (the capture criterion is the gripper's, a property of the robot; how a
+#: swing from hanging is planned is the ``[hanging]`` block's)
 MOVED: dict[tuple[str, str], tuple[str, str]] = {
     ("scenario", "capture_distance"): ("gripper", "capture_distance"),
     ("scenario", "capture_speed"): ("gripper", "capture_speed"),
     ("traverse", "gripper_width"): ("gripper", "width"),
+    ("plan", "hanging_torque_share"): ("hanging", "torque_share"),
+    ("plan", "hanging_supply_voltage"): ("hanging", "supply_voltage"),
+    ("plan", "hanging_i2t_share"): ("hanging", "i2t_share"),
 }
 
 

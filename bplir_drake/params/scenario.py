@@ -115,7 +115,6 @@ class TraverseParams(_Block):
     retries: int = _count(2, "", 0, 5, doc="swings tried again after a timeout, each from hanging at rest (0: a timeout ends the traversal)")
     shoot_brake_ratio: float = _p(0.0, "", 0, 10, doc="landing.shoot_brake_ratio of the traversal's swings, where a timed-out swing is tried again and a crash ends the run (0: the landing's own)")
     retry_aim_raise: float = _p(0.005, "m", 0, MAX_LANDING_BIAS, doc="after a try from hanging that timed out with the robot's estimate of the gripper within the capture band (the estimate ran above the truth), the next try aims this much higher")
-    swapped_retry_end_depth: float = _p(0.0, "m", 0, 0.02, doc="plan.end_depth of a swing tried again from hanging holding with gripper 2 (the swapped robot): its planned pump comes to rest this far below the line, unless that plan uses more of the driver's i^2 t budget than plan.hanging_i2t_share allows (then traverse.plan_end_depth)")
     retry_lift_min_time: float = _p(0.05, "s", 0, 0.5, doc="landing.shoot_lift_min_time of a swing tried again from hanging: where its plan lifts the gripper with the elbow, the apex shot held from this instead of the aim law (0: the landing's own)")
     retry_max_time: float = _p(6.0, "s", 1, 60, doc="scenario.max_time of a swing tried again from hanging (it pumps before it reaches)")
     recover_limit: float = _p(240.0, "s", 1, 3600, doc="longest the robot damps its swing after a timeout before it gives up")

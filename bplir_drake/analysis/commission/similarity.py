@@ -75,8 +75,8 @@ def shipped_references() -> list[Reference]:
     single = base.with_(path=dc.replace(base.path, mode="plan"))
     line = {g: swing_params(base, g, 1.2, 0.0) for g in (1, 2)}
     out = []
-    for p in (single, line[1], line[2], retry_params(line[1], holding=1),
-              retry_params(line[2], holding=2)):
+    for p in (single, line[1], line[2], retry_params(line[1]),
+              retry_params(line[2])):
         lib = load_library(library_path(p))
         if lib is not None:
             out.append(Reference(lib, p.plant, p.scenario.start))

@@ -24,7 +24,7 @@ from ...params import BplirParams, ParameterError
 from ...params.plan import MAX_LANDING_BIAS
 from ...diagrams.plan import hanging_planned, i2t_allowance, planned_i2t, scenario_plan
 from ...simulate import make_simulator, run
-from ...systems.plant import kinetic_energy, potential_energy
+from ...systems.plant import initial_configuration, kinetic_energy, potential_energy
 from ...diagrams.open_loop import build_damping
 
 
@@ -78,17 +78,33 @@ def damp(params: BplirParams, x0) -> Damping:
                    st.sample_times(), st.data().T, tq.data()[0])
 
 
-def retry_params(p: BplirParams, summary: dict | None = None, holding: int = 1) -> BplirParams:
-    """The swing of ``p`` (holding with gripper ``holding``) tried again:
-    from hanging at rest below the holding gripper, with
-    ``traverse.retry_max_time`` to arrive; the swapped robot's (``holding``
-    2) plan ends ``traverse.swapped_retry_end_depth`` below the line (it
-    starts the try from where the damping left it, tilted by a steady wind,
-    and its swinging link points almost straight up at the end, so its shot
-    cannot make up a pump that falls short of a plan ending deeper) unless
-    that plan by itself uses more of the driver's i^2 t budget than
-    ``plan.hanging_i2t_share`` (no guess kept to it: a hot pump ends at the
-    torque limit and crashes), where it keeps ``plan.end_depth``; where its
+#: a try from hanging ends at the line when, in the robot's end pose on a
+#: level line at its own grip spacing, its free link stands within this
+#: angle of upright: turning it there lifts the gripper at less than half the
+#: speed it moves it (sin 30 deg), so the landing shot cannot make up a pump
+#: that falls short of a plan ending below the line
+UPRIGHT_FREE_LINK = math.radians(30.0)
+
+
+def free_link_upright(p: BplirParams) -> bool:
+    """Whether the free link of the robot ``p`` describes stands within
+    :data:`UPRIGHT_FREE_LINK` of upright in its end pose on a level line at
+    ``traverse.grip_spacing`` (the nominal model's)."""
+    q = initial_configuration(p.traverse.grip_spacing, p.plant, 0.0)
+    free = (q[0] + q[1] + math.pi) % (2.0 * math.pi) - math.pi   # 0: hanging down
+    return math.pi - abs(free) < UPRIGHT_FREE_LINK
+
+
+def retry_params(p: BplirParams, summary: dict | None = None, *,
+                 end_at_line: bool | None = None) -> BplirParams:
+    """The swing of ``p`` tried again: from hanging at rest below the
+    holding gripper, with ``traverse.retry_max_time`` to arrive.  Its plan
+    ends at the line where the robot's free link ends upright
+    (:func:`free_link_upright`; ``end_at_line`` says so instead: the swapped
+    BPLIR's, whose try starts from where the damping left it, tilted by a
+    steady wind) unless that plan by itself uses more of the driver's i^2 t
+    budget than ``hanging.i2t_share`` (no guess kept to it: a hot pump ends
+    at the torque limit and crashes), where it keeps ``plan.end_depth``; where its
     plan lifts the gripper with the elbow (the original robot's pump), the
     apex shot held from ``traverse.retry_lift_min_time`` lands it instead of
     the aim law (which chases the line as link 1 falls back).  When the
@@ -103,8 +119,9 @@ def retry_params(p: BplirParams, summary: dict | None = None, holding: int = 1) 
     from_hanging = p.scenario.start == "hanging"
     sc = dc.replace(p.scenario, start="hanging", max_time=tp.retry_max_time)
     p = p.with_(scenario=sc)
-    if holding == 2 and tp.swapped_retry_end_depth != p.plan.end_depth:
-        ended = p.with_(plan=dc.replace(p.plan, end_depth=tp.swapped_retry_end_depth))
+    at_line = free_link_upright(p) if end_at_line is None else end_at_line
+    if at_line and p.plan.end_depth != 0.0:
+        ended = p.with_(plan=dc.replace(p.plan, end_depth=0.0))
         p = p if _too_hot(ended) else ended
     if tp.retry_lift_min_time > 0.0:
         p = p.with_(landing=dc.replace(p.landing, shoot_lift_min_time=tp.retry_lift_min_time))
@@ -119,7 +136,7 @@ def retry_params(p: BplirParams, summary: dict | None = None, holding: int = 1) 
 def _too_hot(p: BplirParams) -> bool:
     """Whether the plan from hanging of ``p`` by itself uses more of the
     driver's i^2 t than :func:`~bplir_drake.diagrams.plan.i2t_allowance`
-    (never with ``plan.hanging_i2t_share`` 0, or without a plan)."""
+    (never with ``hanging.i2t_share`` 0, or without a plan)."""
     made = hanging_planned(p)
     allowance = i2t_allowance(made)
     if math.isinf(allowance):

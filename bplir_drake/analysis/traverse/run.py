@@ -261,7 +261,7 @@ class _Traversal:
             s, x_end = self._attempt(p, obstacle, attempt, x_start)
             if s.outcome not in ("timeout", "fault") or attempt > tp.retries:
                 break
-            retry = retry_params(p, s, hold_g)
+            retry = retry_params(p, s)
             if not can_retry(retry):
                 self._row("recover", 0.0, obstacle=obstacle, holding_gripper=str(hold_g),
                           hold_m=hold, outcome="no plan from hanging")

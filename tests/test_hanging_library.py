@@ -56,7 +56,7 @@ def test_both_robots_have_a_library_of_tries_from_hanging(tries):
 
 def test_no_library_pump_from_hanging_heats_the_driver_beyond_its_share(tries):
     """Every plan of both libraries of tries from hanging uses by itself at
-    most 35 % of the driver's i^2 t budget (scripts/plan_library.py's
+    most 35 % of the driver's i^2 t budget (the library builder's
     ``cool``: the swapped robot's short pumps at 0 deg / 0.9 m and +10 deg /
     1.0 m used 41 % and 40 %, its 1.4 m pumps from +10 deg up 38-50 %, and
     the dense example's robots heavier than the model tripped the driver on
@@ -145,18 +145,6 @@ def test_the_swapped_robots_try_on_the_span_chord_is_blended_and_lands(tries):
     assert max(r["capture_speed_mps"] for r in out) < 0.4
 
 
-def _plan_library_script():
-    """scripts/plan_library.py as a module (a maintainer's tool, not the package's)."""
-    import importlib.util
-    from pathlib import Path
-
-    path = Path(__file__).resolve().parents[1] / "scripts" / "plan_library.py"
-    spec = importlib.util.spec_from_file_location("plan_library_script", path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
 def test_the_library_builder_re_solves_a_hot_pump_from_its_coolest_neighbour(tries,
                                                                               monkeypatch):
     """``cool``: a plan from hanging using more than COOL_SHARE of the
@@ -167,7 +155,8 @@ def test_the_library_builder_re_solves_a_hot_pump_from_its_coolest_neighbour(tri
 
     from bplir_drake.systems.motor import interlock_budget
 
-    lib = _plan_library_script()
+    from bplir_drake.analysis.commission import refine as lib
+
     assert lib.COOL_SHARE == 0.35
     budget = interlock_budget(tries[2].motor)
     monkeypatch.setattr(P, "planned_i2t", lambda plan, motor: plan.heat * budget)
@@ -179,16 +168,17 @@ def test_the_library_builder_re_solves_a_hot_pump_from_its_coolest_neighbour(tri
              (5.0, 1.0): fake(0.2)}
     refs = []
 
-    def cool_from(q, ref, depth):
+    def cool_from(q, ref):
         refs.append((q.scenario.incline_deg, q.scenario.grip_spacing, ref.heat))
         return fake(ref.heat + 0.04, ref.link1_reversals)
 
-    monkeypatch.setattr(lib, "_from", cool_from)
-    out = lib.cool(tries[2], plans, log=lambda *a, **k: None)
+    monkeypatch.setattr(lib, "solve_from", cool_from)
+    out, changed = lib.cool(tries[2], plans)
+    assert changed == {(0.0, 0.9)}
     assert refs == [(0.0, 0.9, 0.12)]              # the coolest neighbour, any manoeuvre
     assert out[0.0, 0.9].heat == pytest.approx(0.16) and out[0.0, 0.9].link1_reversals == 8
     assert all(out[k] is plans[k] for k in plans if k != (0.0, 0.9))
-    monkeypatch.setattr(lib, "_from", lambda q, ref, depth: fake(0.5))
-    assert lib.cool(tries[2], plans, log=lambda *a, **k: None)[0.0, 0.9] is plans[0.0, 0.9]
+    monkeypatch.setattr(lib, "solve_from", lambda q, ref: fake(0.5))
+    assert lib.cool(tries[2], plans)[0][0.0, 0.9] is plans[0.0, 0.9]
     line = swing_params(preset(), 2, 1.2, 0.0)       # a swing from the line: untouched
-    assert lib.cool(line, plans, log=lambda *a, **k: None) == plans
+    assert lib.cool(line, plans) == (plans, set())

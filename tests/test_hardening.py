@@ -526,7 +526,7 @@ def test_shipped_plans_serve_a_fresh_install(monkeypatch, tmp_path):
     # the original robot's try from hanging at +2.6 deg, 1.05 m (test_hanging_library's),
     # and the scaled robot's plans commissioned from the default robot's, holding with
     # either gripper (docs/commission.md)
-    assert len(shipped) == 42
+    assert len(shipped) == 44
     monkeypatch.setenv("BPLIR_CACHE_DIR", str(tmp_path))
 
     def no_solve(*a, **k):

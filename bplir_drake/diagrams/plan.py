@@ -38,8 +38,8 @@ from .plan_plot import (  # noqa: F401 (re-exported)
     plot_plan)
 from .swing_plan import (  # noqa: F401 (re-exported)
     HANGING_GUESSES, HANGING_KNOTS, HANGING_MINOR_ITERATIONS, PLAN_FRICTION_SMOOTHING,
-    SwingPlan, hanging_planned, plan_envelope, plan_friction, plan_torque_limit,
-    planned_target, shifted_angles)
+    SwingPlan, hanging_planned, plan_envelope, plan_friction, plan_time_weight,
+    plan_torque_limit, planned_target, shifted_angles)
 from .plan_library import library_plan
 from .plan_file import read_plan_file
 from .open_loop import build_plant_with_friction
@@ -64,7 +64,7 @@ def plan_model(params: BplirParams):
 
 
 def plan_swing(params: BplirParams, *, power_limit: float | None = None, knots: int = 41,
-               time_weight: float = 1.0, max_duration: float | None = None,
+               time_weight: float | None = None, max_duration: float | None = None,
                guess_duration: float = 1.5, tolerance: float = 1e-4,
                iterations: int = 1500, end_depth: float = 0.0,
                initial: SwingPlan | None = None, minor_iterations: int | None = None,
@@ -87,11 +87,14 @@ def plan_swing(params: BplirParams, *, power_limit: float | None = None, knots: 
     while it solves.  ``minor_iterations``: SNOPT's limit on all its
     (minor) iterations (default SNOPT's own, which a swing from hanging
     exceeds).  ``rate_limit``: the largest elbow rate (rad/s) at the knots
-    (0: none but the voltage envelope's)."""
+    (0: none but the voltage envelope's).  ``time_weight``: the price of the
+    plan's duration (default: the robot's, :func:`plan_time_weight`)."""
 
     if not 5 <= knots <= 400:
         raise ParameterError(f"knots = {knots} is out of range; allowed [5, 400]")
     power = params.motor.power_rating if power_limit is None else float(power_limit)
+    if time_weight is None:
+        time_weight = plan_time_weight(params.plant)
     if not (power > 0 and math.isfinite(power)):
         raise ParameterError(f"power limit = {power:g} W is not allowed; allowed (0, inf) W")
     tmax = params.scenario.max_time if max_duration is None else float(max_duration)
@@ -298,7 +301,8 @@ def scenario_plan(params: BplirParams) -> SwingPlan:
     if warm > 0 and not hanging and abs(params.scenario.grip_spacing - warm) > 1e-9:
         ref = scenario_plan(params.with_(scenario=replace(params.scenario, grip_spacing=warm)))
         started = plan_swing(params, end_depth=depth, initial=ref)
-        if started.feasible and (not plan.feasible or started.objective() < plan.objective()):
+        w = plan_time_weight(params.plant)
+        if started.feasible and (not plan.feasible or started.objective(w) < plan.objective(w)):
             plan = started
     if not plan.feasible:
         raise ParameterError(no_plan_message(plan))

@@ -25,15 +25,17 @@ PLAN_FRICTION_SMOOTHING = 0.2
 #: ``int tau^2 dt + w T`` over ``Q0^2 T0`` (torque scale ``Q0 = m g L``, time
 #: scale ``T0 = sqrt(L/g)``, reach ``L = l1 + l2``) is
 #: ``int (tau/Q0)^2 d(t/T0) + PLAN_TIME_PRICE T/T0``, so robots alike in shape
-#: get plans alike in shape (:func:`plan_time_weight`)
-PLAN_TIME_PRICE = 1e-4
+#: get plans alike in shape (:func:`plan_time_weight`); its value is the
+#: dissertation robot's price, w = 1 N^2 m^2 at m g L = 100.258 N m
+PLAN_TIME_PRICE = 9.948646e-5
 
 
 def plan_time_weight(plant) -> float:
     """The planner's weight ``w`` on a plan's duration for the robot
-    ``plant`` (N^2 m^2 s / s): :data:`PLAN_TIME_PRICE` ``(m g L)^2``."""
+    ``plant`` (N^2 m^2 s / s): :data:`PLAN_TIME_PRICE` ``(m g L)^2``, to six
+    significant digits (finer than the solver's tolerance tells)."""
     q0 = robot_scales(plant)[1]
-    return PLAN_TIME_PRICE * q0 * q0
+    return float(f"{PLAN_TIME_PRICE * q0 * q0:.6g}")
 
 
 #: how far beyond its torque limit a stored plan's torque may reach (relative:

@@ -1,7 +1,7 @@
 """A robot's plan library, solved: every grid point first from plans of
 similar robots scaled to it (:mod:`.similarity`), then from its solved
-neighbours (continuation), then from the planner's straight-line guesses;
-in parallel over the grid, each solve in the plan cache (so a stopped run
+neighbours (continuation), then from the planner's straight-line guesses,
+then made fit to blend (:mod:`.refine`); in parallel over the grid, each solve in the plan cache (so a stopped run
 resumes where it stopped), the library saved where ``swing``,
 ``montecarlo`` and ``traverse`` look for it
 (:func:`~bplir_drake.diagrams.plan_library.robot_library_path`)."""
@@ -12,14 +12,15 @@ import json
 import math
 import time
 from dataclasses import dataclass
+from pathlib import Path
 
 from ...diagrams import plan as P
 from ...diagrams.plan_library import (assemble_library, library_entry, robot_library_key,
                                       robot_library_path, save_library)
-from ...diagrams.swing_plan import plan_time_weight
 from ...params import BplirParams
 from ...systems.plan_tracker import TrackerWeights
 from ..montecarlo.executors import map_jobs
+from .refine import at, refined, solve_from
 from .similarity import commissioned_references, shipped_references, similar_guesses
 
 
@@ -48,19 +49,6 @@ class PointResult:
                     status=p.status if p is not None else "no plan", wall_s=self.wall_s)
 
 
-def at(params: BplirParams, incline: float, spacing: float) -> BplirParams:
-    """``params`` with the scenario on this incline (deg) and grip spacing (m)."""
-    return params.with_(scenario=dc.replace(params.scenario, incline_deg=float(incline),
-                                            grip_spacing=float(spacing)))
-
-
-def _solve(q: BplirParams, initial=None, guess_duration: float = 1.5):
-    """One planner run for ``q`` (cached on disk, the robot's price of time)."""
-    kw = dict(initial=initial) if initial is not None else dict(guess_duration=guess_duration)
-    return P.plan_swing(q, end_depth=q.plan.end_depth, time_weight=plan_time_weight(q.plant),
-                        **kw)
-
-
 def solve_point(params: BplirParams, incline: float, spacing: float,
                 neighbour=None) -> PointResult:
     """The plan at one grid point with its library entry: from similar
@@ -74,22 +62,27 @@ def solve_point(params: BplirParams, incline: float, spacing: float,
         tries.insert(0, ("continuation", neighbour))
     plan, how = None, "none"
     for kind, guess in tries:
-        p = _solve(q, initial=guess)
+        p = solve_from(q, initial=guess)
         if p.feasible:
             plan, how = p, kind
             break
     if plan is None:
-        for duration in P.PLAN_GUESSES:
-            p = _solve(q, guess_duration=duration)
+        hanging = q.scenario.start == "hanging"
+        for duration in P.HANGING_GUESSES if hanging else P.PLAN_GUESSES:
+            p = solve_from(q, guess_duration=duration)
             if p.feasible:
                 plan, how = p, "straight line"
                 break
-    entry = None
-    if plan is not None:
-        gains = P.tracking_gains(q.plant, q.friction, plan, weights=TrackerWeights.of(q.plan))
-        entry = library_entry(plan, gains)
-    return PointResult(float(incline), float(spacing), how, plan, entry,
+    return PointResult(float(incline), float(spacing), how, plan, _entry(q, plan),
                        time.perf_counter() - t0)
+
+
+def _entry(q: BplirParams, plan) -> dict | None:
+    """The library samples of ``plan`` with its tracking gains (None: no plan)."""
+    if plan is None:
+        return None
+    gains = P.tracking_gains(q.plant, q.friction, plan, weights=TrackerWeights.of(q.plan))
+    return library_entry(plan, gains)
 
 
 def _neighbour(point, solved: dict):
@@ -105,11 +98,15 @@ def _neighbour(point, solved: dict):
 
 
 def solve_library(params: BplirParams, inclines, spacings, *, workers: int = 0,
-                  progress: bool = False, dask: bool = False, scheduler=None) -> dict:
+                  progress: bool = False, dask: bool = False, scheduler=None,
+                  path=None, key: str | None = None) -> dict:
     """``{(incline, spacing): PointResult}`` over the grid, the library
     saved for ``params``'s model: every point from similar robots first (in
     parallel: ``workers`` processes, or Dask), then the points without a
-    plan from their solved neighbours."""
+    plan from their solved neighbours, then the grid made fit to blend
+    (:func:`~.refine.refined`; a replaced point's ``how`` says so).  Saved at
+    ``path`` under ``key`` (default: the plan cache's commissioned library,
+    :func:`~bplir_drake.diagrams.plan_library.robot_library_path`)."""
     pool = dict(workers=workers, dask=dask, scheduler=scheduler, progress=progress)
     points = [(float(a), float(d)) for a in inclines for d in spacings]
     solved = {}
@@ -121,11 +118,15 @@ def solve_library(params: BplirParams, inclines, spacings, *, workers: int = 0,
         args = [(params, a, d, _neighbour((a, d), solved)) for a, d in missing]
         for res in map_jobs(solve_point, args, desc="plans (continued)", unit="plans", **pool):
             solved[res.incline, res.spacing] = res
+    plans, changed = refined(params, {p: r.plan for p, r in solved.items()})
+    for a, d in changed:
+        solved[a, d] = dc.replace(solved[a, d], how="refined", plan=plans[a, d],
+                                  entry=_entry(at(params, a, d), plans[a, d]))
     robot = json.dumps({"plant": params.plant.as_dict(), "start": params.scenario.start})
-    lib = assemble_library(robot_library_key(params), sorted({a for a, _ in points}),
+    lib = assemble_library(key or robot_library_key(params), sorted({a for a, _ in points}),
                            sorted({d for _, d in points}),
                            {p: r.entry for p, r in solved.items()})
-    path = robot_library_path(params)
+    path = robot_library_path(params) if path is None else Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     save_library(dc.replace(lib, robot=robot), path)
     return solved

@@ -377,3 +377,28 @@ def test_a_plant_tables_friction_follows_its_units():
     heavy = from_dict({"plant": {"m2": 1.6}})
     assert heavy.friction.fc2 / base.fc2 == pytest.approx((3.2287 + 1.6) / m0, rel=1e-12)
     assert from_dict({"plant": {"m2": 1.5155}}).friction == base   # the default robot's own
+
+
+@pytest.mark.filterwarnings("ignore:robot.file")
+def test_saved_parameters_and_studies_name_their_robot_file_relative_to_themselves(tmp_path,
+                                                                                    monkeypatch):
+    """A parameter or study file written elsewhere names the robot's URDF
+    relative to itself, so a results directory moved with the files it names
+    (or read from another working directory) still loads the same robot."""
+    from pathlib import Path
+
+    from bplir_drake.analysis.montecarlo.study import Study, load_study, save_study
+
+    root = Path(__file__).resolve().parents[1]
+    robot = P.load_toml(root / "examples" / "commission" / "acromonk_hook.toml")
+    assert Path(robot.robot.file).is_absolute()
+    out = tmp_path / "results" / "acromonk"
+    out.mkdir(parents=True)
+    P.save_toml(robot, out / "robot.toml")
+    save_study(Study(robot, {}, 3, 5), out / "study.toml")
+    for name in ("robot.toml", "study.toml"):
+        text = (out / name).read_text()
+        assert str(tmp_path) not in text and "acromonk.urdf" in text
+    monkeypatch.chdir(tmp_path)   # another working directory
+    assert P.load_toml(out / "robot.toml").plant == robot.plant
+    assert load_study(out / "study.toml").params.plant == robot.plant

@@ -90,6 +90,7 @@ from .files import (  # noqa: F401
     to_dict,
     to_toml,
     save_toml,
+    relative_files,
     as_jsonable)
 
 __all__ = [

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import math
+import os
 import warnings
 
 import tomllib
@@ -278,10 +279,26 @@ def to_toml(params: BplirParams) -> str:
     return tomli_w.dumps(to_dict(params))
 
 
-def save_toml(params: BplirParams, path: str | Path) -> None:
-    """Write the parameters as TOML at ``path`` (atomic)."""
+def relative_files(data: dict[str, Any], base_dir: str | Path) -> dict[str, Any]:
+    """``data`` (tables by block) with its files (``robot.file``,
+    ``plan.file``) relative to ``base_dir`` where they are absolute paths,
+    as a file in ``base_dir`` reads them, so a results directory moves
+    with the files it names."""
+    out = dict(data)
+    for block in ("robot", "plan"):
+        table = out.get(block)
+        name = table.get("file") if isinstance(table, dict) else None
+        if isinstance(name, str) and Path(name).is_absolute():
+            out[block] = table | {"file": os.path.relpath(name, Path(base_dir).resolve())}
+    return out
 
-    write_text_atomic(path, to_toml(params))
+
+def save_toml(params: BplirParams, path: str | Path) -> None:
+    """Write the parameters as TOML at ``path`` (atomic), their files
+    relative to its directory (:func:`relative_files`)."""
+    import tomli_w
+
+    write_text_atomic(path, tomli_w.dumps(relative_files(to_dict(params), Path(path).parent)))
 
 
 def as_jsonable(params: BplirParams) -> dict[str, Any]:

@@ -10,7 +10,8 @@ from pathlib import Path
 import numpy as np
 
 from ...io import Record, write_text_atomic
-from ...params import BLOCKS, BplirParams, ParameterError, from_dict, read_toml, to_dict
+from ...params import (BLOCKS, BplirParams, ParameterError, from_dict, read_toml,
+                      relative_files, to_dict)
 from ..traverse.line import line_from_dict
 
 
@@ -201,8 +202,9 @@ class Study:
         return d
 
 
-def study_from_dict(data: dict, source: str = "study") -> Study:
-    """A :class:`Study` from a parsed study document; errors name ``source``."""
+def study_from_dict(data: dict, source: str = "study", base_dir=None) -> Study:
+    """A :class:`Study` from a parsed study document; errors name ``source``;
+    its parameters' relative files are read from ``base_dir``."""
     if not isinstance(data, dict):
         raise StudyError(f"{source}: a study must be a table")
     allowed = {"samples", "seed", "parameters", "uncertain", "line"}
@@ -213,7 +215,7 @@ def study_from_dict(data: dict, source: str = "study") -> Study:
     table = data.get("parameters", {})
     if not isinstance(table, dict):
         raise StudyError(f"{source}: [parameters] must be a table of parameter blocks")
-    params = from_dict(table)
+    params = from_dict(table, base_dir=base_dir)
     unc = data.get("uncertain")
     if unc is None:
         dists = dissertation_distributions()
@@ -244,7 +246,7 @@ def load_study(path) -> Study:
     path = Path(path)
     data = read_toml(path, "study file", StudyError)
     try:
-        return study_from_dict(data, str(path))
+        return study_from_dict(data, str(path), base_dir=path.parent)
     except StudyError:
         raise
     except ParameterError as exc:
@@ -252,9 +254,12 @@ def load_study(path) -> Study:
 
 
 def save_study(study: Study, path) -> None:
-    """Write ``study`` as TOML at ``path`` (atomic)."""
+    """Write ``study`` as TOML at ``path`` (atomic), its parameters' files
+    relative to its directory."""
     import tomli_w
 
-    write_text_atomic(path, tomli_w.dumps(study.as_dict()))
+    data = study.as_dict()
+    data["parameters"] = relative_files(data["parameters"], Path(path).parent)
+    write_text_atomic(path, tomli_w.dumps(data))
 
 

@@ -340,6 +340,27 @@ def test_a_file_with_the_two_filter_tunings_loads_the_swings():
             d.estimate_misalignment) == (0.2, 0.1, "heun", 0.0166, True)
 
 
+def test_every_stored_study_loads_as_it_was_run():
+    """Each study file under results/ (written before fields moved or were
+    retired) still loads, its moved fields where they are now: the 48 V
+    tries' supply in ``[hanging]``, the filter of the swing as it ran."""
+    import warnings
+    from pathlib import Path
+
+    from bplir_drake.analysis.montecarlo.study import load_study
+
+    root = Path(__file__).resolve().parents[1] / "results"
+    files = sorted(root.rglob("study.toml"))
+    assert len(files) > 30
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        studies = {f.relative_to(root).as_posix(): load_study(f) for f in files}
+    flat48 = studies["traverse/line_flat-48v/study.toml"].params
+    assert (flat48.motor.supply_voltage, flat48.hanging.supply_voltage) == (48.0, 30.0)
+    est = studies["realistic/flat/study.toml"].params.estimator
+    assert (est.integration, est.accel_process_sigma, est.gyro_meas_sigma) == ("heun", 0.2, 0.0166)
+
+
 def test_the_capture_criterion_is_the_grippers():
     """The capture criterion and width are the gripper's (``[gripper]``);
     a file or ``--set`` naming them where they were (``scenario``,

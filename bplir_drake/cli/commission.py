@@ -31,6 +31,7 @@ def cmd_commission(args) -> int:
                         seed=args.seed, out=out, workers=args.workers or 0,
                         progress=_progress(args), name=Path(args.robot).stem,
                         grippers=tuple(sorted(set(args.gripper or [1, 2]))),
+                        hanging=not args.no_hanging,
                         dask=args.dask, scheduler=args.scheduler,
                         figure=(args.format, _dpi(args)))
     s = result.summary()
@@ -60,6 +61,8 @@ def add_parser(sub) -> None:
            "default the robot's own and 5 %% of its reach either side)", action="append")
     option(p, "--gripper", int, None, "the gripper the robot holds with (repeatable; default "
            "both: 2 is the robot seen from its other gripper)", action="append", choices=(1, 2))
+    option(p, "--no-hanging", bool, help="no library of swings tried again from hanging "
+           "(a traversal's recovery)")
     option(p, "--samples", int, 100, "swings of each verification study (default 100)")
     option(p, "--seed", int, 1, "root seed of the verification studies (default 1)")
     shared(p, "workers")

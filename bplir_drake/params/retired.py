@@ -40,7 +40,7 @@ MOVED: dict[tuple[str, str], tuple[str, str]] = {
     ("scenario", "capture_speed"): ("gripper", "capture_speed"),
     ("traverse", "gripper_width"): ("gripper", "width"),
     ("plan", "hanging_torque_share"): ("hanging", "torque_share"),
-    ("plan", "hanging_supply_voltage"): ("hanging", "supply_voltage"),
+    ("plan", "hanging_supply"): ("hanging", "supply_voltage"),
     ("plan", "hanging_i2t_share"): ("hanging", "i2t_share"),
 }
 

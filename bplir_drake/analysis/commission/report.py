@@ -25,8 +25,9 @@ def plot_commission(result, axes=None):
     fig, ax = figure_axes(axes, 1, 3, figsize=(11, 3.6))
     own = Scales.of(result.params.plant)
     refs = [r for r in shipped_references() if r.start == "line"][:1]
-    for g, a in sorted({(p["holding"], p["incline_deg"]) for p in result.points}):
-        rows = sorted((p for p in result.points if p["incline_deg"] == a and p["holding"] == g),
+    line = [p for p in result.points if p.get("start", "line") == "line"]
+    for g, a in sorted({(p["holding"], p["incline_deg"]) for p in line}):
+        rows = sorted((p for p in line if p["incline_deg"] == a and p["holding"] == g),
                       key=lambda p: p["spacing_m"])
         d = [p["spacing_m"] / own.length for p in rows]
         style = "o-" if g == 1 else "s--"
@@ -106,11 +107,12 @@ def report_markdown(result, fmt: str = "png") -> str:
         f = s["flat_line"]
         lines += [f"- flat line, swinging alone: {f['energy_per_m_J']:.1f} J/m of elbow work, "
                   f"{f['metres_per_min']:.1f} m/min"]
-    lines += ["", "## Plans", "", "| holding | incline (deg) | D (m) | solved from "
+    lines += ["", "## Plans", "", "| holding | from | incline (deg) | D (m) | solved from "
               "| duration (s) | peak torque (N m) | peak voltage (V) |",
-              "| --- | --- | --- | --- | --- | --- | --- |"]
+              "| --- | --- | --- | --- | --- | --- | --- | --- |"]
     for p in result.points:
-        lines.append(f"| gripper {p['holding']} | {p['incline_deg']:+g} | {p['spacing_m']:.3f} | "
+        lines.append(f"| gripper {p['holding']} | {p.get('start', 'line')} | "
+                     f"{p['incline_deg']:+g} | {p['spacing_m']:.3f} | "
                      f"{p['how']} | "
                      f"{_num(p['duration_s'])} | {_num(p['peak_torque_Nm'])} | "
                      f"{_num(p['peak_voltage_V'], '.1f')} |")

@@ -60,7 +60,8 @@ class CommissionResult(Result):
         swinging alone (no riding, no re-grip)."""
         d = self.params.scenario.grip_spacing
         rows = [p for p in self.points if p["incline_deg"] == 0.0 and p["spacing_m"] == d
-                and p["how"] != "none" and p["holding"] == 1]
+                and p["how"] != "none" and p["holding"] == 1
+                and p.get("start", "line") == "line"]
         if not rows:
             return {}
         r = rows[0]

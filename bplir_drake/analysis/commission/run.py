@@ -11,6 +11,8 @@ from ...diagrams.plan_library import robot_library_path
 from ...io import atomic_path, write_json_atomic
 from ...params import BplirParams, save_toml, swapped
 from ..montecarlo.runner import run_study
+from ..traverse.recovery import retry_params
+from ..traverse.swing_setup import swing_params
 from .grid import at, solve_library
 from .result import CommissionResult
 from .similarity import commissioned_references, shipped_references, similar_guesses
@@ -31,7 +33,7 @@ def default_spacings(params: BplirParams) -> tuple[float, ...]:
 
 def commission(params: BplirParams, *, inclines=(0.0,), spacings=None, samples: int = 100,
                seed: int = 1, out=None, workers: int = 0, progress: bool = False,
-               name: str = "robot", grippers=(1, 2), dask: bool = False,
+               name: str = "robot", grippers=(1, 2), hanging: bool = True, dask: bool = False,
                scheduler: str | None = None, figure: tuple = ("png", 150)) -> CommissionResult:
     """Commission the robot ``params`` (its plant, friction, motor, IMUs
     and gripper) holding with each of ``grippers`` (2: the robot seen from
@@ -40,7 +42,10 @@ def commission(params: BplirParams, *, inclines=(0.0,), spacings=None, samples: 
     ``spacings`` (m; default :func:`default_spacings`) from similar robots'
     plans (:mod:`.grid`), run a verification study of ``samples`` swings at
     each incline (root seed ``seed``, :func:`~.verdict.verification_study`)
-    and give the verdict.  With ``out`` the robot's parameters, its
+    and give the verdict.  With ``hanging`` also the library of each
+    gripper's swings tried again from hanging (a traversal's recovery,
+    :func:`~bplir_drake.analysis.traverse.recovery.retry_params`) on the
+    same grid: a point without a plan there is a limit too.  With ``out`` the robot's parameters, its
     libraries, the studies (resumable), ``commission.json``, ``report.md``
     and the figure are written there.  ``workers`` processes on this
     machine, or Dask (``dask``: a local cluster; ``scheduler``: an existing
@@ -58,9 +63,17 @@ def commission(params: BplirParams, *, inclines=(0.0,), spacings=None, samples: 
         robot = params if g == 1 else swapped(params)
         solved = solve_library(robot, inclines, spacings, **pool)
         plans += [r.plan for r in solved.values()]
-        points += [r.row() | {"holding": g} for r in solved.values()]
+        points += [r.row() | {"holding": g, "start": "line"} for r in solved.values()]
         limits += [f"gripper {g}: {_no_plan(robot, r)}" for r in solved.values()
                    if r.plan is None]
+        if hanging:
+            tries = retry_params(swing_params(params, g, params.scenario.grip_spacing, 0.0))
+            from_hanging = solve_library(tries, inclines, spacings, **pool)
+            plans += [r.plan for r in from_hanging.values()]
+            points += [r.row() | {"holding": g, "start": "hanging"}
+                       for r in from_hanging.values()]
+            limits += [f"gripper {g}, from hanging: {_no_plan(tries, r)}"
+                       for r in from_hanging.values() if r.plan is None]
         for a in inclines:
             if all(solved[a, d].plan is None for d in spacings):
                 continue
@@ -114,8 +127,11 @@ def _short(v: dict) -> str:
 
 def _save(result: CommissionResult, out: Path, grippers, figure) -> None:
     """The result's files in ``out``."""
-    for g in grippers:
-        lib = robot_library_path(result.params if g == 1 else swapped(result.params))
+    libs = [robot_library_path(result.params if g == 1 else swapped(result.params))
+            for g in grippers]
+    libs += [robot_library_path(retry_params(swing_params(
+        result.params, g, result.params.scenario.grip_spacing, 0.0))) for g in grippers]
+    for lib in libs:
         if lib.exists():
             (out / "plans").mkdir(exist_ok=True)
             with atomic_path(out / "plans" / lib.name) as tmp:

@@ -525,8 +525,8 @@ def test_shipped_plans_serve_a_fresh_install(monkeypatch, tmp_path):
     # examples/acromonk.toml's swing (its guesses and warm start) and `bplir plan`, and
     # the original robot's try from hanging at +2.6 deg, 1.05 m (test_hanging_library's),
     # and the scaled robot's plans commissioned from the default robot's, holding with
-    # either gripper (docs/commission.md)
-    assert len(shipped) == 44
+    # either gripper, from the line and from hanging (docs/commission.md)
+    assert len(shipped) == 46
     monkeypatch.setenv("BPLIR_CACHE_DIR", str(tmp_path))
 
     def no_solve(*a, **k):
@@ -626,7 +626,8 @@ def test_shipped_gains_serve_the_tests_plans(monkeypatch, tmp_path):
     from bplir_drake.analysis.commission.grid import solve_point   # docs/commission.md's robot
     from bplir_drake.params import swapped
     scaled = load_toml(Path(__file__).resolve().parents[1] / "examples" / "scaled_bplir.toml")
-    for robot in (scaled, swapped(scaled)):   # holding with either gripper
+    tries = [retry_params(swing_params(scaled, g, 0.84, 0.0)) for g in (1, 2)]
+    for robot in (scaled, swapped(scaled), *tries):   # either gripper, from the line, hanging
         point = solve_point(robot, 0.0, 0.84)
         keys.add(plan_cache.plan_key(P.gains_inputs(robot.plant, robot.friction, point.plan,
                                                     P.TrackerWeights.of(robot.plan))))

@@ -138,3 +138,29 @@ def test_acromonk_in_its_own_units_lands_as_docs_robots_says():
     assert s["outcome"] == "captured"
     assert s["capture_speed_mps"] == pytest.approx(0.319, abs=0.01)
     assert s["max_estimation_error_rad"] < 0.06 and s["peak_torque_Nm"] <= 3.0
+
+
+def test_the_verdict_names_what_the_misses_show():
+    """A verification study's misses in numbers: the elbow at its limit
+    (more torque only where the plans use most of it) and swings that stop
+    just short of the grip, at longer spacings than the study's."""
+    from types import SimpleNamespace
+
+    from bplir_drake.analysis.commission.verdict import miss_reasons
+
+    robot = preset()
+    ok = dict(outcome="captured", max_estimation_error_rad=0.01, peak_torque_Nm=5.0,
+              closest_distance_m=0.019, capture_speed_mps=0.3)
+    rows = [ok | {"scenario.grip_spacing": 1.1 + 0.002 * k} for k in range(90)]
+    rows += [ok | dict(outcome="timeout", closest_distance_m=0.0205 + 0.001 * k,
+                       peak_torque_Nm=20.0, capture_speed_mps=float("nan"),
+                       **{"scenario.grip_spacing": 1.3}) for k in range(10)]
+    weak = [SimpleNamespace(peak_torque=19.0, feasible=True)]
+    strong = [SimpleNamespace(peak_torque=5.0, feasible=True)]
+    first, second = miss_reasons(robot, rows, weak)
+    assert first == ("10 of 10 misses hold the elbow at its 20 N m limit (the plans use up to "
+                     "19.00 N m, 95 % of it): more elbow torque would help")
+    assert second == ("10 of 10 misses stop short: the gripper's closest approach 25.0 mm "
+                      "(median) against the 20 mm capture distance, at grip spacings 1.300 m "
+                      "on average (the study's 1.200 m)")
+    assert not miss_reasons(robot, rows, strong)[0].endswith("would help")

@@ -137,12 +137,30 @@ def no_plan_reason(params, incline: float, spacing: float, guess) -> str:
             + (" and ".join(fix) + " would" if fix else "the solver found none from it either"))
 
 
+def _short_of_the_grip(params, rows, misses) -> list[str]:
+    """The timeouts whose gripper came within twice the capture distance of
+    the line and stopped there (most of the misses), and the grip spacing
+    they drew against the study's: a swing that falls just short."""
+    band = params.gripper.capture_distance
+    short = [r for r in misses if r["outcome"] == "timeout"
+             and r["closest_distance_m"] < 2.0 * band]
+    if len(short) * 2 <= len(misses):
+        return []
+    gap = 1e3 * float(np.median([r["closest_distance_m"] for r in short]))
+    d_short = float(np.mean([r["scenario.grip_spacing"] for r in short]))
+    d_all = float(np.mean([r["scenario.grip_spacing"] for r in rows]))
+    return [f"{len(short)} of {len(misses)} misses stop short: the gripper's closest approach "
+            f"{gap:.1f} mm (median) against the {1e3 * band:g} mm capture distance, at grip "
+            f"spacings {d_short:.3f} m on average (the study's {d_all:.3f} m)"]
+
+
 def miss_reasons(params, rows, plans) -> list[str]:
     """What the misses of a verification study (its ``rows``) show, with
     the numbers: the estimate lost (what follows from it is not listed), the
     elbow held at its torque limit (a weak motor when the plans already use
-    most of it, else the feedback's fight), or the gripper arriving faster
-    than the gripper's capture speed."""
+    most of it, else the feedback's fight), the swing stopping just short
+    of the grip, or the gripper arriving faster than the gripper's capture
+    speed."""
     misses = [r for r in rows if r["outcome"] not in ("captured", "error")]
     if not misses:
         return []
@@ -160,6 +178,7 @@ def miss_reasons(params, rows, plans) -> list[str]:
         out.append(f"{len(saturated)} of {n} misses hold the elbow at its {limit:g} N m limit "
                    f"(the plans use up to {used:.2f} N m, {100 * share:.0f} % of it)"
                    + (": more elbow torque would help" if share >= 0.8 else ""))
+    out += _short_of_the_grip(params, rows, misses)
     crashes = [r["capture_speed_mps"] for r in misses if r["outcome"] == "crash"]
     speed = params.gripper.capture_speed
     if crashes and len(crashes) * 2 > n:

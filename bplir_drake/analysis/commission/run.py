@@ -45,7 +45,8 @@ def commission(params: BplirParams, *, inclines=(0.0,), spacings=None, samples: 
     and give the verdict.  With ``hanging`` also the library of each
     gripper's swings tried again from hanging (a traversal's recovery,
     :func:`~bplir_drake.analysis.traverse.recovery.retry_params`) on the
-    same grid: a point without a plan there is a limit too.  With ``out`` the robot's parameters, its
+    same grid where its swing from the line has a plan (no try of a swing
+    that has none): a point without a plan there is a limit too.  With ``out`` the robot's parameters, its
     libraries, the studies (resumable), ``commission.json``, ``report.md``
     and the figure are written there.  ``workers`` processes on this
     machine, or Dask (``dask``: a local cluster; ``scheduler``: an existing
@@ -66,7 +67,7 @@ def commission(params: BplirParams, *, inclines=(0.0,), spacings=None, samples: 
         points += [r.row() | {"holding": g, "start": "line"} for r in solved.values()]
         limits += [f"gripper {g}: {_no_plan(robot, r)}" for r in solved.values()
                    if r.plan is None]
-        if hanging:
+        if hanging and any(r.plan is not None for r in solved.values()):
             tries = retry_params(swing_params(params, g, params.scenario.grip_spacing, 0.0))
             from_hanging = solve_library(tries, inclines, spacings, **pool)
             plans += [r.plan for r in from_hanging.values()]

@@ -22,7 +22,6 @@ a solve cache (``--cache``), so a run that stops can be resumed.
 from __future__ import annotations
 
 import argparse
-import dataclasses as dc
 import os
 import sys
 import time
@@ -30,24 +29,6 @@ from collections import Counter
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-
-
-def libraries(hardware=()):
-    """{name: parameters of the robot and scenario the library is for}:
-    the single swing of the default robot (with the ``hardware`` options),
-    the traversal's swings holding with either gripper, and those swings
-    tried again from hanging (:func:`retry_params`)."""
-    from bplir_drake.analysis.traverse.recovery import retry_params
-    from bplir_drake.analysis.traverse.swing_setup import swing_params
-    from bplir_drake.params import preset
-
-    base = preset().with_hardware(*hardware)
-    base = base.with_(plan=dc.replace(base.plan, library=False))   # solve, never read
-    single = base.with_(path=dc.replace(base.path, mode="plan"))
-    line = {g: swing_params(base, g, 1.2, 0.0) for g in (1, 2)}
-    return {"swing": single, "traverse-1": line[1], "traverse-2": line[2],
-            "hanging-1": retry_params(line[1]),
-            "hanging-2": retry_params(line[2])}
 
 
 def main(argv=None) -> int:
@@ -63,11 +44,12 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     os.environ["BPLIR_CACHE_DIR"] = args.cache
     from bplir_drake.analysis.commission.grid import solve_library
+    from bplir_drake.analysis.commission.similarity import shipped_robots
     from bplir_drake.diagrams.plan_cache import plan_key
     from bplir_drake.diagrams.plan_library import (LIBRARY_INCLINES, LIBRARY_SPACINGS, describe,
                                                    library_path, load_library, model_inputs)
 
-    libs = libraries([h for h in args.hardware.split(",") if h])
+    libs = shipped_robots([h for h in args.hardware.split(",") if h])
     names = [args.only] if args.only else list(libs)
     for name in names:
         params, path = libs[name], library_path(libs[name])

@@ -31,6 +31,15 @@ def default_spacings(params: BplirParams) -> tuple[float, ...]:
     return tuple(round(d + k * SPACING_SHARE * L, 3) for k in (-1, 0, 1))
 
 
+def held_by(params: BplirParams, gripper: int) -> tuple[BplirParams, BplirParams]:
+    """The robot ``params`` holding with ``gripper`` (2: seen from its other
+    gripper), as its swing from the line and as that swing tried again from
+    hanging (a traversal's recovery) are commissioned."""
+    robot = params if gripper == 1 else swapped(params)
+    tries = retry_params(swing_params(params, gripper, params.scenario.grip_spacing, 0.0))
+    return robot, tries
+
+
 def commission(params: BplirParams, *, inclines=(0.0,), spacings=None, samples: int = 100,
                seed: int = 1, out=None, workers: int = 0, progress: bool = False,
                name: str = "robot", grippers=(1, 2), hanging: bool = True, dask: bool = False,
@@ -61,14 +70,13 @@ def commission(params: BplirParams, *, inclines=(0.0,), spacings=None, samples: 
     pool = dict(workers=workers, dask=dask, scheduler=scheduler, progress=progress)
     points, studies, limits, plans = [], [], [], []
     for g in grippers:
-        robot = params if g == 1 else swapped(params)
+        robot, tries = held_by(params, g)
         solved = solve_library(robot, inclines, spacings, **pool)
         plans += [r.plan for r in solved.values()]
         points += [r.row() | {"holding": g, "start": "line"} for r in solved.values()]
         limits += [f"gripper {g}: {_no_plan(robot, r)}" for r in solved.values()
                    if r.plan is None]
         if hanging and any(r.plan is not None for r in solved.values()):
-            tries = retry_params(swing_params(params, g, params.scenario.grip_spacing, 0.0))
             from_hanging = solve_library(tries, inclines, spacings, **pool)
             plans += [r.plan for r in from_hanging.values()]
             points += [r.row() | {"holding": g, "start": "hanging"}
@@ -128,11 +136,7 @@ def _short(v: dict) -> str:
 
 def _save(result: CommissionResult, out: Path, grippers, figure) -> None:
     """The result's files in ``out``."""
-    libs = [robot_library_path(result.params if g == 1 else swapped(result.params))
-            for g in grippers]
-    libs += [robot_library_path(retry_params(swing_params(
-        result.params, g, result.params.scenario.grip_spacing, 0.0))) for g in grippers]
-    for lib in libs:
+    for lib in (robot_library_path(r) for g in grippers for r in held_by(result.params, g)):
         if lib.exists():
             (out / "plans").mkdir(exist_ok=True)
             with atomic_path(out / "plans" / lib.name) as tmp:

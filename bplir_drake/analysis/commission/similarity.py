@@ -67,16 +67,24 @@ class Reference:
     start: str
 
 
-def shipped_references() -> list[Reference]:
-    """The libraries shipped with the package whose robots it knows: the
-    default robot's single swing and its traversal swings holding with
-    either gripper, from the line and from hanging."""
-    base = preset()
-    single = base.with_(path=dc.replace(base.path, mode="plan"))
+def shipped_robots(hardware=()) -> dict[str, BplirParams]:
+    """``{name: parameters}`` of the robots and manoeuvres the package ships
+    libraries for: the default robot's single swing (with the ``hardware``
+    options), its traversal swings holding with either gripper and those
+    swings tried again from hanging (``scripts/plan_library.py`` builds
+    them)."""
+    base = preset().with_hardware(*hardware)
     line = {g: swing_params(base, g, 1.2, 0.0) for g in (1, 2)}
+    return {"swing": base.with_(path=dc.replace(base.path, mode="plan")),
+            "traverse-1": line[1], "traverse-2": line[2],
+            "hanging-1": retry_params(line[1]), "hanging-2": retry_params(line[2])}
+
+
+def shipped_references() -> list[Reference]:
+    """The libraries shipped with the package whose robots it knows
+    (:func:`shipped_robots`)."""
     out = []
-    for p in (single, line[1], line[2], retry_params(line[1]),
-              retry_params(line[2])):
+    for p in shipped_robots().values():
         lib = load_library(library_path(p))
         if lib is not None:
             out.append(Reference(lib, p.plant, p.scenario.start))

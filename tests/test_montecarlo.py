@@ -74,8 +74,12 @@ def test_wilson_interval_matches_closed_form():
         c = (p + z * z / (2 * n)) / (1 + z * z / n)
         h = z / (1 + z * z / n) * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n))
         return c - h, c + h
-    for k, n in ((19, 20), (1000, 1000), (0, 10), (937, 1000)):
+    from scipy.stats import binomtest
+
+    for k, n in ((19, 20), (1000, 1000), (0, 10), (937, 1000), (3, 7)):
         assert mc.wilson_interval(k, n) == pytest.approx(wilson(k, n), abs=1e-12)
+        ci = binomtest(k, n).proportion_ci(0.95, method="wilson")   # scipy's, beside it
+        assert mc.wilson_interval(k, n) == pytest.approx((ci.low, ci.high), abs=1e-12)
     lo, hi = mc.wilson_interval(1000, 1000)
     assert lo == pytest.approx(0.99617, abs=1e-5) and hi == 1.0
 

@@ -26,6 +26,7 @@ comparisons.
 """
 from __future__ import annotations
 
+import sys
 from dataclasses import dataclass
 from functools import lru_cache
 
@@ -260,7 +261,8 @@ class DiscreteCpflController(_CpflLaw, PySystem):
         return calc
 
 
-@TemplateSystem.define("ContinuousCpflController_", T_list=(float, AutoDiffXd))
+@TemplateSystem.define("ContinuousCpflController_", T_list=(float, AutoDiffXd),
+                       scope=sys.modules[__name__])
 def ContinuousCpflController_(T):
     """The CPFL controller in continuous time, scalar-templated (double, AutoDiffXd) so a loop
     holding it linearises; ports as :func:`CpflController`."""

@@ -10,6 +10,7 @@ containing it still linearises with ``Linearize``.
 from __future__ import annotations
 
 import math
+import sys
 
 import numpy as np
 import pydrake.math as dmath
@@ -49,7 +50,7 @@ def friction_torques(qd, p: FrictionParams):
                      joint_friction(qd[1], p.fv2, p.fc2, p.b, k2)])
 
 
-@TemplateSystem.define("JointFriction_")
+@TemplateSystem.define("JointFriction_", scope=sys.modules[__name__])
 def JointFriction_(T):
     """Joint friction as a scalar-templated system (double, AutoDiffXd, Expression), for
     ``Linearize`` and the planner."""

@@ -5,6 +5,7 @@ in :mod:`.path`."""
 from __future__ import annotations
 
 import math
+import sys
 
 import numpy as np
 from pydrake.autodiffutils import AutoDiffXd
@@ -98,7 +99,8 @@ PATH_STATE = namedview("PathState", ["blend_end", "blend_floor", "latched", "cal
                                      "calibration_Y0", "link1_damping"])
 
 
-@TemplateSystem.define("PathGenerator_", T_list=(float, AutoDiffXd))
+@TemplateSystem.define("PathGenerator_", T_list=(float, AutoDiffXd),
+                       scope=sys.modules[__name__])
 def PathGenerator_(T):
     """The path generator (chapter 7), scalar-templated (double, AutoDiffXd)."""
     class Impl(LeafSystem_[T]):

@@ -3,6 +3,7 @@ outcome classes, percentiles, and which quantity drives the result."""
 from __future__ import annotations
 
 import math
+from statistics import NormalDist
 
 import numpy as np
 
@@ -12,13 +13,16 @@ from .study import Study, study_rows
 # ------------------------------------------------------------ statistics
 
 def wilson_interval(successes: int, n: int, confidence: float = 0.95) -> tuple[float, float]:
-    """Wilson score interval of a binomial proportion (scipy)."""
+    """Wilson score interval of a binomial proportion (no continuity
+    correction; the normal quantile from the standard library, so a study's
+    summary does not import scipy.stats)."""
     if n == 0:
         return (math.nan, math.nan)
-    from scipy.stats import binomtest
-
-    ci = binomtest(successes, n).proportion_ci(confidence, method="wilson")
-    return (float(ci.low), float(ci.high))
+    z = NormalDist().inv_cdf(0.5 + confidence / 2)
+    p, z2 = successes / n, z * z
+    centre = (p + z2 / (2 * n)) / (1 + z2 / n)
+    half = z * math.sqrt(p * (1 - p) / n + z2 / (4 * n * n)) / (1 + z2 / n)
+    return (max(0.0, centre - half), min(1.0, centre + half))
 
 
 PERCENTILE_FIELDS = ("capture_speed_mps", "swing_time_s", "peak_torque_Nm", "peak_motor_power_W",

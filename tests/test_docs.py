@@ -118,6 +118,29 @@ def test_the_results_pages_and_the_readme_table_match_the_stored_outputs():
     assert "| 30 V, line sensor |" in readme
 
 
+def test_every_stored_output_can_be_run_again_beside_itself(tmp_path):
+    """``scripts/rerun_results.py`` stages each manifest command away from
+    the stored output: the staged command names neither the stored
+    directory nor a study inside it (a study kept there is read from a
+    copy, which is made), and writes under the stage."""
+    import importlib.util
+
+    root = DOC.parents[1]
+    spec = importlib.util.spec_from_file_location("rerun_results",
+                                                  root / "scripts" / "rerun_results.py")
+    rr = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(rr)
+    items = rr.entries()
+    assert len(items) == 42
+    for k, item in enumerate(items):
+        target, stage, kept = rr.out_dir(item), tmp_path / f"s{k}", tmp_path / f"k{k}"
+        command = rr.staged(item, stage, kept)
+        assert f"{target} " not in command + " " and f"{target}/" not in command, command
+        assert str(stage) in command, command
+    kept_study = tmp_path / "k17" / "study.toml"   # landing/imu-true-lengths reads its own study
+    assert items[17]["path"] == "landing/imu-true-lengths" and kept_study.is_file()
+
+
 def test_the_readme_is_a_front_door():
     """At most 300 lines, nothing dated, the two quick-start commands, and
     every local link pointing at a file of the repository."""

@@ -82,6 +82,8 @@ def test_wilson_interval_matches_closed_form():
         assert mc.wilson_interval(k, n) == pytest.approx((ci.low, ci.high), abs=1e-12)
     lo, hi = mc.wilson_interval(1000, 1000)
     assert lo == pytest.approx(0.99617, abs=1e-5) and hi == 1.0
+    assert [mc.wilson_interval(k, n)[k > 0] for k, n in ((0, 400), (400, 400), (0, 7))] \
+        == [0.0, 1.0, 0.0]   # exactly, as scipy's
 
 
 def test_same_seed_same_table_with_one_and_two_workers(tmp_path, study, two_worker_dir):

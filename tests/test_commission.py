@@ -143,7 +143,8 @@ def test_acromonk_in_its_own_units_lands_as_docs_robots_says():
 def test_the_verdict_names_what_the_misses_show():
     """A verification study's misses in numbers: the elbow at its limit
     (more torque only where the plans use most of it) and swings that stop
-    just short of the grip, at longer spacings than the study's."""
+    just short of the grip, at longer spacings than the study's -- where
+    the free link ends near upright, with why the landing cannot help."""
     from types import SimpleNamespace
 
     from bplir_drake.analysis.commission.verdict import miss_reasons
@@ -164,3 +165,12 @@ def test_the_verdict_names_what_the_misses_show():
                       "(median) against the 20 mm capture distance, at grip spacings 1.300 m "
                       "on average (the study's 1.200 m)")
     assert not miss_reasons(robot, rows, strong)[0].endswith("would help")
+    # held by gripper 2 its free link (link 1) ends 24 deg from upright at 1.3 m (46 deg held
+    # by gripper 1, above: no such clause), and the shot's lift is sin 24 deg of its speed
+    from bplir_drake.analysis.traverse.swing_setup import swing_params
+
+    held_by_2 = miss_reasons(swing_params(robot, 2, 1.2, 0.0), rows, strong)[1]
+    assert held_by_2 == second + ("; there the free link ends 24 deg from upright, where turning "
+                                  "it lifts the gripper at 0.41 of the speed it moves it: the "
+                                  "landing cannot make up a swing that falls short, a shorter "
+                                  "grip spacing would")

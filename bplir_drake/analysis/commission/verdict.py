@@ -22,6 +22,7 @@ from ...diagrams.plan import planned_i2t
 from ...systems.motor import interlock_budget
 from ..montecarlo.study import Distribution, Study
 from ..montecarlo.statistics import wilson_interval
+from ..traverse.recovery import free_link_tilt, UPRIGHT_FREE_LINK
 from .similarity import Scales
 
 #: the verification study's uncertainty: (name, kind, size); kind "rel" is
@@ -140,7 +141,9 @@ def no_plan_reason(params, incline: float, spacing: float, guess) -> str:
 def _short_of_the_grip(params, rows, misses) -> list[str]:
     """The timeouts whose gripper came within twice the capture distance of
     the line and stopped there (most of the misses), and the grip spacing
-    they drew against the study's: a swing that falls just short."""
+    they drew against the study's: a swing that falls just short; where the
+    robot's free link ends within :data:`UPRIGHT_FREE_LINK` of upright at
+    those spacings, why the landing cannot make that up."""
     band = params.gripper.capture_distance
     short = [r for r in misses if r["outcome"] == "timeout"
              and r["closest_distance_m"] < 2.0 * band]
@@ -149,9 +152,16 @@ def _short_of_the_grip(params, rows, misses) -> list[str]:
     gap = 1e3 * float(np.median([r["closest_distance_m"] for r in short]))
     d_short = float(np.mean([r["scenario.grip_spacing"] for r in short]))
     d_all = float(np.mean([r["scenario.grip_spacing"] for r in rows]))
-    return [f"{len(short)} of {len(misses)} misses stop short: the gripper's closest approach "
+    line = (f"{len(short)} of {len(misses)} misses stop short: the gripper's closest approach "
             f"{gap:.1f} mm (median) against the {1e3 * band:g} mm capture distance, at grip "
-            f"spacings {d_short:.3f} m on average (the study's {d_all:.3f} m)"]
+            f"spacings {d_short:.3f} m on average (the study's {d_all:.3f} m)")
+    tilt = free_link_tilt(params, d_short)
+    if tilt < UPRIGHT_FREE_LINK:
+        line += (f"; there the free link ends {math.degrees(tilt):.0f} deg from upright, where "
+                 f"turning it lifts the gripper at {math.sin(tilt):.2f} of the speed it moves "
+                 "it: the landing cannot make up a swing that falls short"
+                 + (", a shorter grip spacing would" if d_short > d_all else ""))
+    return [line]
 
 
 def miss_reasons(params, rows, plans) -> list[str]:

@@ -86,13 +86,21 @@ def damp(params: BplirParams, x0) -> Damping:
 UPRIGHT_FREE_LINK = math.radians(30.0)
 
 
-def free_link_upright(p: BplirParams) -> bool:
-    """Whether the free link of the robot ``p`` describes stands within
-    :data:`UPRIGHT_FREE_LINK` of upright in its end pose on a level line at
-    ``traverse.grip_spacing`` (the nominal model's)."""
-    q = initial_configuration(p.traverse.grip_spacing, p.plant, 0.0)
+def free_link_tilt(p: BplirParams, spacing: float | None = None) -> float:
+    """How far (rad) the free link of the robot ``p`` describes stands from
+    upright in its end pose on a level line at ``spacing`` (default
+    ``traverse.grip_spacing``; the nominal model's)."""
+    d = p.traverse.grip_spacing if spacing is None else spacing
+    q = initial_configuration(d, p.plant, 0.0)
     free = (q[0] + q[1] + math.pi) % (2.0 * math.pi) - math.pi   # 0: hanging down
-    return math.pi - abs(free) < UPRIGHT_FREE_LINK
+    return math.pi - abs(free)
+
+
+def free_link_upright(p: BplirParams) -> bool:
+    """Whether the free link of the robot ``p`` stands within
+    :data:`UPRIGHT_FREE_LINK` of upright in its end pose on a level line at
+    ``traverse.grip_spacing`` (:func:`free_link_tilt`)."""
+    return free_link_tilt(p) < UPRIGHT_FREE_LINK
 
 
 def retry_params(p: BplirParams, summary: dict | None = None, *,

@@ -379,6 +379,27 @@ def test_the_capture_criterion_is_the_grippers():
                                                       width=0.08)
 
 
+def test_the_landings_aims_keep_their_share_of_the_capture_band():
+    """A gripper with another capture distance keeps the landing's heights
+    inside the band as the same share of it (a 30 mm hook: the shot aims
+    22.5 mm inside, not the default gripper's 15 mm); a height the file
+    gives is kept; an aim below the band is refused, naming the band.  So
+    do a planned swing's end depths."""
+    from bplir_drake.params import from_dict
+    from bplir_drake.params.files import BAND_FIELDS
+
+    d, hook = P.BplirParams(), from_dict({"gripper": {"capture_distance": 0.03}})
+    for block, names in BAND_FIELDS.items():
+        assert [getattr(getattr(hook, block), f) for f in names] == pytest.approx(
+            [1.5 * getattr(getattr(d, block), f) for f in names], rel=1e-12)
+    assert (hook.landing.shoot_height, hook.plan.end_depth) == pytest.approx((-0.0225, 0.0225))
+    kept = from_dict({"gripper": {"capture_distance": 0.03}, "landing": {"shoot_height": -0.01}})
+    assert (kept.landing.shoot_height, kept.landing.landing_margin) == pytest.approx((-0.01, 0.015))
+    with pytest.raises(P.ParameterError, match=r"landing.shoot_height = -0.025 m lies below the "
+                       r"capture band; allowed within gripper.capture_distance = 0.02 m"):
+        from_dict({"landing": {"shoot_height": -0.025}})
+
+
 def test_a_plant_tables_friction_follows_its_units():
     """A robot given as a ``[plant]`` table (joints undescribed) has the
     default robot's friction in its own units: Coulomb torques the same

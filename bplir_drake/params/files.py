@@ -61,6 +61,7 @@ def from_dict(data: dict[str, Any], base: BplirParams | None = None,
             raise ParameterError(f"[{key}]: {exc}") from None
     updates = follow_the_links(params, updates, data)
     updates = follow_the_motor(params, follow_the_scales(params, updates, data), data)
+    updates = follow_the_gripper(params, updates, data)
     plan = updates.get("plan")
     if plan is not None and plan.file and base_dir is not None and "file" in data.get("plan", {}):
         updates["plan"] = replace(plan, file=str((Path(base_dir) / plan.file).resolve()))
@@ -215,8 +216,35 @@ def _similar_friction(friction, kq: float, kt: float, given: set):
 #: how a landing setting follows the robot's time unit sqrt(L/g), by its unit:
 #: the power of the ratio of time units it is multiplied by (times, rates,
 #: gains and accelerations keep their value in the robot's own time; its
-#: heights inside the capture band are the gripper's and stay)
+#: heights inside the capture band follow the gripper's, :data:`BAND_FIELDS`)
 LANDING_TIME_POWERS = {"s": 1, "1/s": -1, "rad/s": -1, "rad/s^2": -2, "m s/rad": 1}
+
+
+#: the heights and depths measured inside the gripper's capture band, by
+#: block: the landing's aims, the shot's hold zone, the aim law's margin and
+#: the reach's aim, and where a planned swing comes to rest below the line
+#: (a swing's and a traversal's); a gripper with another capture distance
+#: keeps their share of it
+BAND_FIELDS = {"landing": ("shoot_height", "shoot_lift_height", "shoot_hold_depth",
+                           "landing_margin", "reach_lift"),
+               "plan": ("end_depth",), "traverse": ("plan_end_depth",)}
+
+
+def follow_the_gripper(params: BplirParams, updates: dict, data: dict) -> dict:
+    """When a file gives the gripper another capture distance, the heights
+    inside the band (:data:`BAND_FIELDS`) keep their share of it; what the
+    file gives itself is kept."""
+    gripper = updates.get("gripper")
+    if gripper is None or gripper.capture_distance == params.gripper.capture_distance:
+        return updates
+    k = gripper.capture_distance / params.gripper.capture_distance
+    given = given_fields(data)
+    out = dict(updates)
+    for block, names in BAND_FIELDS.items():
+        base, current = getattr(params, block), updates.get(block, getattr(params, block))
+        out[block] = replace(current, **{f: getattr(base, f) * k for f in names
+                                         if f not in given.get(block, ())})
+    return out
 
 
 def follow_the_motor(params: BplirParams, updates: dict, data: dict) -> dict:

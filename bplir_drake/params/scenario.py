@@ -104,7 +104,7 @@ class TraverseParams(_Block):
     clearance: float = _p(0.05, "m", 0, 1, doc="gap kept between a clasped gripper and an obstacle")
     landing_tolerance: float = _p(0.08, "m", 0, 1, doc="planned landings lie at least this much further from obstacles (the swing's landing error)")
     swing_mode: str = field(default="plan", metadata=dict(doc="how traversal swings are steered: plan (plan tracking) or the path generator (adaptive)", allowed="plan, adaptive"))
-    plan_end_depth: float = _p(0.013, "m", 0, 0.02, doc="swing_mode 'plan': the planned swing comes to rest this far below the line (plan.end_depth of every traversal swing)")
+    plan_end_depth: float = _p(0.013, "m", 0, 0.1, doc="swing_mode 'plan': the planned swing comes to rest this far below the line (plan.end_depth of every traversal swing)")
     # swing_mode 'plan': the single swing's apex landing and delay compensation
     # (landing.landing_*, plan.delay_compensation) on every traversal swing
     landing: bool = field(default=True, metadata=dict(doc="traversal swings end with the single swing's landing law"))

@@ -64,6 +64,13 @@ def staged(item: dict, stage: Path, kept: Path) -> str:
     return command.replace(target + "/", f"{stage}/")   # a file written inside it
 
 
+def finished(returncode: int, stage: Path) -> bool:
+    """Whether a command finished its output: exit 0, or ``bplir
+    commission``'s exit 1 for a robot that is not ready, with its report
+    written."""
+    return returncode == 0 or (returncode == 1 and (stage / "commission.json").is_file())
+
+
 def _restamp(stage: Path, target: Path) -> None:
     """Name ``target`` where the run's text files (its summary, report,
     study) name ``stage``: both are under the root at the same depth, so
@@ -93,7 +100,9 @@ def rerun(item: dict, dry_run: bool = False) -> float:
         env = dict(os.environ, PATH=f"{Path(sys.executable).parent}{os.pathsep}{os.environ['PATH']}")
         t0 = time.monotonic()
         try:
-            subprocess.run(["bash", "-c", command], cwd=ROOT, env=env, check=True)
+            rc = subprocess.run(["bash", "-c", command], cwd=ROOT, env=env).returncode
+            if not finished(rc, stage):
+                raise subprocess.CalledProcessError(rc, command)
         except BaseException:
             shutil.rmtree(stage, ignore_errors=True)
             raise

@@ -122,7 +122,8 @@ def test_every_stored_output_can_be_run_again_beside_itself(tmp_path):
     """``scripts/rerun_results.py`` stages each manifest command away from
     the stored output: the staged command names neither the stored
     directory nor a study inside it (a study kept there is read from a
-    copy, which is made), and writes under the stage."""
+    copy, which is made), and writes under the stage; a robot commissioned
+    not ready (exit 1, its report written) counts as finished."""
     import importlib.util
 
     root = DOC.parents[1]
@@ -139,6 +140,10 @@ def test_every_stored_output_can_be_run_again_beside_itself(tmp_path):
         assert str(stage) in command, command
     kept_study = tmp_path / "k17" / "study.toml"   # landing/imu-true-lengths reads its own study
     assert items[17]["path"] == "landing/imu-true-lengths" and kept_study.is_file()
+    # finished: exit 0, or a commissioning's exit 1 (not ready) with its report written
+    assert rr.finished(0, tmp_path) and not rr.finished(1, tmp_path)
+    (tmp_path / "commission.json").write_text("{}")
+    assert rr.finished(1, tmp_path) and not rr.finished(2, tmp_path)
 
 
 def test_the_readme_is_a_front_door():

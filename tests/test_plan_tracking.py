@@ -30,7 +30,7 @@ def test_planned_target_rests_inside_the_band(uphill):
     a = math.radians(20.0)
     along, normal = x * math.cos(a) + y * math.sin(a), -x * math.sin(a) + y * math.cos(a)
     assert along == pytest.approx(1.2, abs=1e-9) and normal == pytest.approx(-0.017, abs=1e-9)
-    with pytest.raises(ParameterError, match="end depth"):
+    with pytest.raises(ParameterError, match="plan.end_depth = 0.03 m lies below the capture"):
         tracking_plan(
             uphill.with_(plan=dc.replace(uphill.plan, end_depth=0.03)))
 

@@ -44,11 +44,12 @@ class BplirParams:
                 f"imu.r1 = {self.imu.r1:g} m / imu.r2 = {self.imu.r2:g} m must lie on "
                 f"the links; allowed (0, {p.l1:g}] / (0, {p.l2:g}] m")
         band = self.gripper.capture_distance
-        for block, name, h in (("landing", "shoot_height", -self.landing.shoot_height),
-                               ("landing", "shoot_lift_height", -self.landing.shoot_lift_height),
-                               ("plan", "end_depth", self.plan.end_depth),
-                               ("traverse", "plan_end_depth", self.traverse.plan_end_depth)):
-            if h > band:
+        for block, name, h, rest in (
+                ("landing", "shoot_height", -self.landing.shoot_height, False),
+                ("landing", "shoot_lift_height", -self.landing.shoot_lift_height, False),
+                ("plan", "end_depth", self.plan.end_depth, True),   # the plan comes to rest
+                ("traverse", "plan_end_depth", self.traverse.plan_end_depth, True)):
+            if h > band or (rest and h == band):
                 raise ParameterError(
                     f"{block}.{name} = {getattr(getattr(self, block), name):g} m lies below the "
                     f"capture band; allowed within gripper.capture_distance = {band:g} m of "

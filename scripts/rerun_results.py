@@ -11,9 +11,9 @@ the checkout's root, with this interpreter's ``bin`` first on ``PATH`` (so
 fresh directory beside the stored one; only when it finishes does that
 directory take the stored one's place (the paths its summary names set to
 the stored one's), so a failed or interrupted run leaves the stored output
-as it was.  A study the command reads from its own
-output directory is read from a copy.  Then
-``scripts/results_pages.py`` writes the pages from what is stored.
+as it was.  A study the command reads from its own output directory is
+read from a copy.  Then ``scripts/results_pages.py`` writes the pages from
+what is stored.  ``--dry-run`` prints the commands and touches nothing.
 """
 from __future__ import annotations
 
@@ -88,15 +88,15 @@ def rerun(item: dict, dry_run: bool = False) -> float:
     replaced only when the command succeeded."""
     target = ROOT / out_dir(item)
     stage = target.parent / f".{target.name}.rerun"   # a sibling: the same depth
-    if stage.exists():
-        shutil.rmtree(stage)
-    if "--out" not in item["command"].split():
-        stage.mkdir()
     with tempfile.TemporaryDirectory(prefix="bplir-rerun-") as kept:
         command = staged(item, stage.relative_to(ROOT), Path(kept))
         print(f"+ {command}", flush=True)
         if dry_run:
             return 0.0
+        if stage.exists():   # a run that was stopped
+            shutil.rmtree(stage)
+        if "--out" not in item["command"].split():
+            stage.mkdir()
         env = dict(os.environ, PATH=f"{Path(sys.executable).parent}{os.pathsep}{os.environ['PATH']}")
         t0 = time.monotonic()
         try:

@@ -33,14 +33,13 @@ def free_swing_rate(duration: float = 20.0) -> float:
     return duration / (time.perf_counter() - t0)
 
 
-def python_tick_floor(systems: int = 7, duration: float = 20.0, period: float = 0.01):
+def python_tick_floor(systems: int = 3, duration: float = 20.0, period: float = 0.01):
     """(rate without, rate with) ``systems`` Python LeafSystems that do no
     work but tick at the controller's rate (each reads the plant state at
     its periodic discrete update and stores one number) on the free swing
     of :func:`free_swing_rate`, in one run: the cost of the closed loop's
-    100 Hz Python chain (IMU sampler, EKF, delay identifier, delay
-    predictor, plan tracker, interlock, driver logic) before any of them
-    computes anything."""
+    100 Hz Python chain (the onboard computer, the interlock, the driver
+    logic) before any of them computes anything."""
     from pydrake.systems.analysis import Simulator
     from pydrake.systems.framework import DiagramBuilder, LeafSystem
     from pydrake.systems.primitives import ConstantVectorSource, LogVectorOutput
@@ -85,8 +84,9 @@ def python_tick_floor(systems: int = 7, duration: float = 20.0, period: float = 
 
 def python_systems() -> int:
     """How many of the default swing diagram's systems are Python
-    ``LeafSystem`` s (the 100 Hz chain: IMU sampler, EKF, delay
-    identifier, predictor, plan tracker, interlock, driver logic)."""
+    ``LeafSystem`` s (the 100 Hz chain: the onboard computer -- IMU
+    sampler, EKF, delay identifier, predictor and plan tracker as one
+    system -- the interlock and the driver logic)."""
     from bplir_drake.analysis.swing.run import swing_diagram
     from bplir_drake.params import preset
 
@@ -232,14 +232,14 @@ def reuse(seeds: int):
 
 
 def breakdown():
-    """Wall time of the Python callbacks of one swing (exclusive of nested
-    calls is not separated: the plan tracker's tick pulls the predictor's,
-    which pulls the estimator's; on the path generator the controller's
-    tick pulls the path's)."""
+    """Wall time of the Python callbacks of one swing, inclusive: the
+    onboard computer's tick (the EKF, the predictor and the plan tracker
+    with its landing law, each also timed within it), its store-and-sample
+    event (the IMU sampler within it), the interlock and the driver."""
     from bplir_drake.analysis.swing.run import run_swing
     from bplir_drake.params import preset
-    from bplir_drake.systems import ekf, gripper, imu, motor, path, plan_tracker, predictor
-    from bplir_drake.systems.controller import DiscreteCpflController
+    from bplir_drake.systems import (ekf, gripper, imu, motor, onboard, plan_tracker,
+                                     predictor)
 
     spent = collections.defaultdict(float)
 
@@ -257,17 +257,15 @@ def breakdown():
 
     p = preset()
     run_swing(p, seed=0)
-    wrap(path, "step_blend_end", "path: arrival predictor (adaptation)")
-    wrap(ekf.KinematicEkf, "_posterior", "EKF update")
-    wrap(imu.ImuSampler, "_sample", "IMU sampler")
+    wrap(onboard.OnboardComputer, "_result", "onboard tick (EKF, predictor, tracker)")
+    wrap(onboard.OnboardComputer, "_store", "onboard store and IMU sample")
+    wrap(ekf.KinematicEkf, "posterior", "  EKF update")
+    wrap(predictor.DelayPredictor, "prediction", "  delay predictor")
+    wrap(plan_tracker.PlanTracker, "tick", "  plan tracker (its landing law too)")
+    wrap(imu.ImuSampler, "next_state", "  IMU sample")
     wrap(gripper.GripperInterlock, "_update", "interlock")
-    wrap(DiscreteCpflController, "_tick_law", "controller tick (incl. path, EKF)")
     wrap(motor.DriverLogic, "_update", "driver i2t")
-    # the default: plan tracking (its tick pulls the predictor's, which
-    # pulls the EKF's), the delay predictor, the apex landing
-    wrap(plan_tracker.PlanTracker, "_tick_law", "plan tracker tick (incl. predictor, EKF)")
-    wrap(predictor.DelayPredictor, "_predict", "delay predictor (incl. EKF)")
-    wrap(plan_tracker.Landing, "torque", "apex landing law")
+    wrap(motor.DriverLogic, "_calc_target", "driver target current")
     t0 = time.perf_counter()
     run_swing(p, seed=0)
     total = time.perf_counter() - t0
@@ -322,8 +320,8 @@ def main():
           f"(samples set in the context) {reused:.2f} s: ratio {reused / fresh:.3f}")
     total, spent = breakdown()
     print(f"one swing {total * 1e3:.0f} ms; Python callbacks (inclusive):")
-    for k, v in sorted(spent.items(), key=lambda kv: -kv[1]):
-        print(f"  {k:40s} {v * 1e3:6.1f} ms ({v / total:4.0%})")
+    for k, v in spent.items():
+        print(f"  {k:42s} {v * 1e3:6.1f} ms ({v / total:4.0%})")
 
 
 if __name__ == "__main__":

@@ -216,3 +216,31 @@ def test_fast_swing_matches_an_accurate_reference():
         assert ref.summary["outcome"] == "captured", seed
         errors.append(abs(fast.summary["capture_speed_mps"] - ref.summary["capture_speed_mps"]))
     assert np.median(errors) <= 2e-3 and max(errors) <= 5e-3
+
+
+def test_the_onboard_computer_is_its_parts_wired_one_by_one():
+    """The robot's computer as one system (IMU sampler, EKF, delay
+    identifier and predictor, plan tracker: systems.onboard) gives every
+    log bit for bit as the parts wired one by one do: the default robot,
+    a second seed of it through the same diagram (its sensors, calibration
+    and friction set in the context), the line sensor's robot (its reading
+    fused) and a sample of the realistic study."""
+    from pathlib import Path
+
+    from bplir_drake.analysis.montecarlo import load_study, sample_params
+    from bplir_drake.analysis.swing.run import SwingRunner
+
+    study = load_study(Path(__file__).resolve().parents[1] / "examples" / "study_realistic.toml")
+    runs = [(preset(), 3), (preset(), 4), (preset().with_hardware("line-sensor"), 1),
+            sample_params(study.with_(seed=5), 0)[:2]]
+    fused, parts = SwingRunner(), SwingRunner(onboard=False)
+    for p, seed in runs:
+        a, b = fused.run(p, seed=seed), parts.run(p, seed=seed)
+        assert fused.built.diagram.HasSubsystemNamed("onboard")
+        assert parts.built.diagram.HasSubsystemNamed("ekf")
+        assert a.summary["outcome"] == "captured"
+        assert a.logs.keys() == b.logs.keys()
+        for name in a.logs:
+            assert np.array_equal(a.logs[name].t, b.logs[name].t), name
+            assert np.array_equal(a.logs[name].data, b.logs[name].data, equal_nan=True), name
+    assert (fused.builds, parts.builds) == (3, 3)   # the second seed reused the first's

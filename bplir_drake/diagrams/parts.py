@@ -99,6 +99,17 @@ def torque_source(builder, elbow_torque, interpolation: str = "zoh"):
     return builder.AddSystem(ConstantVectorSource([float(elbow_torque)]))
 
 
+@dataclass
+class Robot:
+    """The simulated robot in a swing diagram: plant, friction, external
+    forces and motor."""
+
+    plant: Any
+    friction: Any
+    disturbance: Any
+    motor: Any
+
+
 def add_plant_with_friction(builder, plant_params: PlantParams,
                             friction_params: FrictionParams, *, scene_graph=False,
                             disturbance=None, linearizable: bool = False,

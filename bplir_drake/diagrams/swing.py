@@ -30,8 +30,7 @@ needs its own build.
 from __future__ import annotations
 
 import json
-import math
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -41,20 +40,21 @@ from pydrake.systems.primitives import LogVectorOutput, ZeroOrderHold
 from ..params import BplirParams, ParameterError, ScenarioParams, to_dict
 from ..systems.disturbance import (CommandDelay, DisturbanceSource, delay_steps,
                                    disturbance_schedule, has_disturbance)
-from ..systems.line_sensor import LineSensor
 from ..systems.ekf import KinematicEkf
 from ..systems.friction import FRICTION_PARAMETERS, set_friction
 from ..systems.motor import MotorDriver
-from ..systems.plant import INERTIAL_FIELDS, absolute_from_relative, set_inertial_parameters
+from ..systems.plant import INERTIAL_FIELDS, set_inertial_parameters
 from ..systems.schedule import TickLogger
-from .parts import Built, add_imus, add_plant_with_friction, sampled
+from .parts import Built, Robot, add_plant_with_friction, sampled  # noqa: F401 (re-exported)
 from .swing_controller import (  # noqa: F401 (re-exported)
     add_swing_controller)
 from ..systems.gripper import GripperInterlock
-from .plugin import make_plugin
 from .swing_ports import (SWING_PORTS, SWING_SIGNALS,  # noqa: F401 (re-exported)
-                          add_estimate_input, add_external_torque, export_swing_ports)
+                          add_external_torque, export_swing_ports)
 from .plan import tracking_plan
+from .onboard import add_onboard, fuses
+from .sensing import add_sensing
+from ..systems.onboard import OnboardComputer
 from .swing_setup import (SwingSetup, believed_start, start_state,  # noqa: F401 (re-exported)
                           standstill_calibration, swing_geometry, swing_setup)
 
@@ -135,17 +135,6 @@ def _disturbance_torques(sc: ScenarioParams, seed: int, period: float) -> np.nda
     return disturbance_schedule(sc, seed, period)[1]
 
 
-@dataclass
-class Robot:
-    """The simulated robot in a swing diagram: plant, friction, external
-    forces and motor."""
-
-    plant: Any
-    friction: Any
-    disturbance: Any
-    motor: Any
-
-
 def add_robot(builder, params: BplirParams, seed: int, external_torque: bool = False) -> Robot:
     """The simulated (true) plant with friction, the external forces of the
     scenario (a :class:`DisturbanceSource`, when it has wind, gusts or torque
@@ -168,44 +157,6 @@ def add_robot(builder, params: BplirParams, seed: int, external_torque: bool = F
     builder.Connect(plant.get_state_output_port(), motor.GetInputPort("state"))
     builder.Connect(motor.GetOutputPort("torque"), plant.get_actuation_input_port())
     return Robot(plant, friction, dist, motor)
-
-
-def add_sensing(builder, params: BplirParams, robot: Robot, setup: SwingSetup, seed: int,
-                estimator=None, estimate_input: bool = False):
-    """Two IMUs on the simulated links and the kinematic EKF (nominal
-    geometry, started in the state the robot believes, ``setup.believed``,
-    with the standstill calibration made in the true pose ``setup.q0``,
-    :meth:`SwingSetup.calibration`), or a user's estimator
-    (``estimator``, a factory, or ``estimator.plugin``: :mod:`.plugin`), or,
-    with ``estimate_input``, the diagram's ``estimate`` input (:mod:`.swing_ports`).
-    Returns ``(sampler, estimator, estimate port)``."""
-    sampler = add_imus(builder, robot.plant, params, seed)
-    if estimate_input:
-        if estimator is not None or params.estimator.plugin:
-            raise ParameterError("estimate_input replaces the estimator; give no estimator "
-                                 "plug-in with it")
-        return (sampler, *add_estimate_input(builder))
-    if estimator is not None or params.estimator.plugin:
-
-        user = builder.AddNamedSystem("estimator", make_plugin(params, "estimator", estimator))
-        builder.Connect(sampler.GetOutputPort("imu"), user.GetInputPort("imu"))
-        return sampler, user, user.GetOutputPort("state")
-    est = params.estimator
-    x0_abs = absolute_from_relative(setup.believed)
-    ls = params.line_sensor
-    alpha = math.radians(params.scenario.incline_deg)
-    line = (params.plant.l1, params.plant.l2, alpha, ls.filter_sigma) if ls.range > 0 else None
-    ekf = builder.AddNamedSystem("ekf", KinematicEkf(
-        est, x0_abs, sigmas=(est.start_angle_sigma, est.start_rate_sigma, est.start_bias_sigma),
-        calibration=setup.calibration(params, seed), line=line))
-    builder.Connect(sampler.GetOutputPort("imu"), ekf.GetInputPort("imu"))
-    if line is not None:
-        true = params.simulated_plant
-        sensor = builder.AddNamedSystem("line_sensor", LineSensor(
-            ls, true.l1, true.l2, alpha, params.imu.period, seed))
-        builder.Connect(robot.plant.get_state_output_port(), sensor.state_port)
-        builder.Connect(sensor.GetOutputPort("line_gap"), ekf.line_port)
-    return sampler, ekf, ekf.GetOutputPort("estimate_relative")
 
 
 def add_actuation(builder, params: BplirParams, command, motor) -> None:
@@ -274,7 +225,7 @@ def add_swing_loggers(builder, params: BplirParams, robot: Robot, sampler, estim
 def build_swing(params: BplirParams, *, seed: int | None = None, use_estimator: bool | None = None,
                 log_period: float = 0.005, plan_gains=None, controller=None,
                 estimator=None, external_torque: bool = False,
-                estimate_input: bool = False) -> Built:
+                estimate_input: bool = False, onboard: bool = True) -> Built:
     """The full closed loop of one swing (see the module docstring).
 
     ``seed`` (default ``scenario.seed``) seeds the IMU noise and the
@@ -288,9 +239,12 @@ def build_swing(params: BplirParams, *, seed: int | None = None, use_estimator: 
     instead of the parameters' ones.  ``external_torque`` and
     ``estimate_input`` give the diagram those input ports (:mod:`.swing_ports`:
     a disturbance added to the joints, the estimate the controller reads);
-    its outputs are always :data:`~.swing_ports.SWING_SIGNALS`.  The returned
-    record carries the start configuration ``q0`` and the ``structure`` a
-    context cannot change (:func:`set_swing_sample`).
+    its outputs are always :data:`~.swing_ports.SWING_SIGNALS`.  With
+    ``onboard`` (the default) the EKF-and-plan-tracker chain runs as one
+    system (:mod:`~bplir_drake.diagrams.onboard`: the same numbers as its
+    parts wired one by one, ``onboard=False``, in less time).  The
+    returned record carries the start configuration ``q0`` and the
+    ``structure`` a context cannot change (:func:`set_swing_sample`).
     """
     if isinstance(controller, str):  # a spec travels in the parameters
         params, controller = params.with_controller(controller), None
@@ -312,14 +266,21 @@ def build_swing(params: BplirParams, *, seed: int | None = None, use_estimator: 
     q0 = setup.q0
     builder = DiagramBuilder()
     robot = add_robot(builder, params, seed, external_torque)
-    sampler, est, estimate_port = add_sensing(builder, params, robot, setup, seed, estimator,
-                                              estimate_input)
-    state_port = (estimate_port if use_est
-                  else sampled(builder, robot.plant.get_state_output_port(),
-                               params.controller.period))
-    control = add_swing_controller(builder, params, state_port, robot, setup.path, plan_gains,
-                                   controller, imu_port=sampler.GetOutputPort("imu"),
-                                   q0=setup.believed[:2])
+    custom = (controller is not None or estimator is not None or estimate_input
+              or bool(params.controller.plugin or params.estimator.plugin))
+    if onboard and fuses(params, use_est, custom):
+        sampler, control = add_onboard(builder, params, robot, setup, seed, plan_gains)
+        est, estimate_port = sampler, sampler.GetOutputPort("estimate_relative")
+    else:
+        sampler, est, estimate_port = add_sensing(builder, params, robot, setup, seed,
+                                                  estimator, estimate_input)
+        state_port = (estimate_port if use_est
+                      else sampled(builder, robot.plant.get_state_output_port(),
+                                   params.controller.period))
+        control = add_swing_controller(builder, params, state_port, robot, setup.path,
+                                       plan_gains, controller,
+                                       imu_port=sampler.GetOutputPort("imu"),
+                                       q0=setup.believed[:2])
     add_actuation(builder, params, control["controller"].GetOutputPort("torque"), robot.motor)
     lock = add_interlock(builder, params, robot, estimate_port, setup.line)
     loggers = add_swing_loggers(builder, params, robot, sampler, estimate_port, control,
@@ -332,7 +293,7 @@ def build_swing(params: BplirParams, *, seed: int | None = None, use_estimator: 
     diagram = builder.Build()
     diagram.set_name("brachiation_swing")
     systems = {"friction": robot.friction, "motor": robot.motor, "imu": sampler,
-               "ekf" if isinstance(est, KinematicEkf) else "estimator": est,
+               "ekf" if isinstance(est, (KinematicEkf, OnboardComputer)) else "estimator": est,
                **control, "interlock": lock}
     if robot.disturbance is not None:
         systems["disturbance"] = robot.disturbance

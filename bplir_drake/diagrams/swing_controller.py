@@ -82,28 +82,13 @@ def _add_delay_compensation(builder, params, state_port, imu_port, q0) -> DelayC
     """The delay predictor (``controller.delay_compensation``, or for the plan
     tracker ``plan.delay_compensation``) and, with ``plan.delay_probe``
     and the IMU samples, the delay identifier feeding it."""
-    T, pp = params.controller.period, params.path
-    assumed = params.controller.delay_compensation
-    if pp.mode == "plan" and not assumed:
-        assumed = params.plan.delay_compensation
-    steps = delay_steps(assumed, T)
-    probe = (planned_probe(pp, params.plan, params.controller) if imu_port is not None
-             else ())
-    comp = DelayCompensation(state_port, steps, probe)
-    size = steps   # the predictor's ticks (with identification: the most it may need)
-    if probe:
-
-        size = max(delay_steps(params.plan.delay_max, T), 1)
-        comp.identifier = builder.AddNamedSystem("delay_id", DelayIdentifier(
-            q0, params.plant, params.friction, params.motor, T,
-            params.controller.compute_latency, size, min(steps, size),
-            params.plan.delay_window, params.plan.delay_min_ratio))
+    comp = delay_compensation(params, state_port, imu_port is not None, q0)
+    if comp.identifier is not None:
+        builder.AddNamedSystem("delay_id", comp.identifier)
         builder.Connect(imu_port, comp.identifier.imu_port)
-    if size:
-
-        comp.predictor = builder.AddNamedSystem("predictor", DelayPredictor(
-            params.plant, params.friction, T, size, adaptive=bool(probe)))
-        if probe:
+    if comp.predictor is not None:
+        builder.AddNamedSystem("predictor", comp.predictor)
+        if comp.identifier is not None:
             builder.Connect(comp.identifier.GetOutputPort("delay_steps"),
                             comp.predictor.steps_port)
         builder.Connect(state_port, comp.predictor.estimate_port)
@@ -111,11 +96,41 @@ def _add_delay_compensation(builder, params, state_port, imu_port, q0) -> DelayC
     return comp
 
 
+def delay_compensation(params, state_port, with_imu: bool, q0) -> DelayCompensation:
+    """The parts of :func:`_add_delay_compensation`, not yet in a diagram
+    (``with_imu``: the IMU samples are there to identify the delay from)."""
+    T, pp = params.controller.period, params.path
+    assumed = params.controller.delay_compensation
+    if pp.mode == "plan" and not assumed:
+        assumed = params.plan.delay_compensation
+    steps = delay_steps(assumed, T)
+    probe = planned_probe(pp, params.plan, params.controller) if with_imu else ()
+    comp = DelayCompensation(state_port, steps, probe)
+    size = steps   # the predictor's ticks (with identification: the most it may need)
+    if probe:
+        size = max(delay_steps(params.plan.delay_max, T), 1)
+        comp.identifier = DelayIdentifier(
+            q0, params.plant, params.friction, params.motor, T,
+            params.controller.compute_latency, size, min(steps, size),
+            params.plan.delay_window, params.plan.delay_min_ratio)
+    if size:
+        comp.predictor = DelayPredictor(params.plant, params.friction, T, size,
+                                        adaptive=bool(probe))
+    return comp
+
+
 def _add_plan_tracker(builder, params, comp: DelayCompensation, path_geometry,
                       plan_gains) -> dict[str, Any]:
     """The plan tracker (Drake's finite-horizon LQR along the planned swing)
     with its terminal law: the apex shot, the aim landing, the reach or none."""
+    tracker = builder.AddNamedSystem("plan_tracker", plan_tracker(params, comp, path_geometry,
+                                                                  plan_gains))
+    builder.Connect(comp.state_port, tracker.GetInputPort("state"))
+    return {"controller": tracker}
 
+
+def plan_tracker(params, comp: DelayCompensation, path_geometry, plan_gains) -> PlanTracker:
+    """The plan tracker of :func:`_add_plan_tracker`, not yet in a diagram."""
     if plan_gains is None:
         raise ValueError("path.mode = 'plan' needs the tracking gains of a planned swing: "
                          "plan_gains=tracking_plan(params)[1] (bplir_drake.diagrams.plan)")
@@ -134,12 +149,10 @@ def _add_plan_tracker(builder, params, comp: DelayCompensation, path_geometry,
     elif pp.reach_speed > 0:
         reach = Reach.from_params(params.plant, path_geometry.alpha, pp)
     T = params.controller.period
-    tracker = builder.AddNamedSystem("plan_tracker", PlanTracker(
-        plan_gains, params.controller.torque_limit, T, indexing=params.plan.indexing,
-        reach=reach, lead=comp.steps * T, probe=comp.probe,
-        adaptive_lead=comp.identifier is not None, motor=params.motor))
-    builder.Connect(comp.state_port, tracker.GetInputPort("state"))
-    return {"controller": tracker}
+    return PlanTracker(plan_gains, params.controller.torque_limit, T,
+                       indexing=params.plan.indexing, reach=reach, lead=comp.steps * T,
+                       probe=comp.probe, adaptive_lead=comp.identifier is not None,
+                       motor=params.motor)
 
 
 def _add_cpfl(builder, params, comp: DelayCompensation, robot, path_geometry) -> dict[str, Any]:

@@ -129,25 +129,37 @@ class DelayIdentifier(PySystem):
         self.DeclareVectorOutputPort("fit", 2, self._calc_fit, xd)
 
     def _calc_fit(self, context, out):
-        x = context.get_discrete_state(self._xd).get_value()
+        out.SetFromVector(self.fit(context.get_discrete_state(self._xd).get_value()))
+
+    def fit(self, x):
+        """The ``fit`` output of the state ``x``."""
         n = self.window
         done = x[3 * n] > n
-        out.SetFromVector([x[3 * n + 1] if done else 0.0, x[3 * n + 2] if done else 0.0])
+        return [x[3 * n + 1] if done else 0.0, x[3 * n + 2] if done else 0.0]
 
     def _store(self, context, discrete_state):
         """At ``t_{k+1}``: store tick k's command and gyro sample; once
         ticks 0 .. window are in, identify."""
-        n = self.window
         x = context.get_discrete_state(self._xd).get_value()
+        if x[3 * self.window] > self.window + 0.5:
+            return EventStatus.DidNothing()
+        discrete_state.get_mutable_vector(self._xd).SetFromVector(self.stored(
+            x, lambda: self.command_port.Eval(context)[0],
+            lambda: self.imu_port.Eval(context)[:2]))
+
+    def stored(self, x, command, gyro):
+        """The state after storing a tick (``x`` itself once identified):
+        ``command()`` and ``gyro()`` give the tick's command and its two gyro
+        readings (read only when stored)."""
+        n = self.window
         k = int(round(x[3 * n]))
         if k > n:
-            return EventStatus.DidNothing()
-        x = x.copy()
+            return x
+        x = np.array(x, dtype=float)
         if k < n:
-            x[k] = self.command_port.Eval(context)[0]
+            x[k] = command()
         if k >= 1:
-            gyro = self.imu_port.Eval(context)[:2]
-            x[n + k - 1], x[2 * n + k - 1] = gyro
+            x[n + k - 1], x[2 * n + k - 1] = gyro()
         x[3 * n] = k + 1
         if k == n:
             sse = delay_fit(self.q0, x[:n], np.column_stack([x[n:2 * n], x[2 * n:3 * n]]),
@@ -157,4 +169,4 @@ class DelayIdentifier(PySystem):
             ratio = runner_up / max(sse[best], 1e-300)
             x[3 * n + 1] = best if ratio >= self.min_ratio else self.nominal_steps
             x[3 * n + 2] = ratio
-        discrete_state.get_mutable_vector(self._xd).SetFromVector(x)
+        return x

@@ -285,22 +285,29 @@ class KinematicEkf(PySystem):
                 state.get_vector(self._first).GetAtIndex(0) > 0.5)
 
     def _posterior(self, context):
-        """(filter state, accelerometer input) after this tick's sample: the
-        compiled step (:func:`~bplir_drake.systems.ekf_kernel.step`, the
-        same arithmetic as :func:`ekf_step`)."""
+        """(filter state, accelerometer input) after this tick's sample."""
         state = context.get_discrete_state()
-        n = self.n
-        calibration, consts, walk, cal, held = context.get_abstract_parameter(
-            self._calibration).get_value()
-        x, P, u = ekf_kernel.step(
+        return self.posterior(
             state.get_vector(self._x).get_value(),
-            state.get_vector(self._P).get_value().reshape(n, n),
-            state.get_vector(self._u).get_value(), self.imu_port.Eval(context),
-            state.get_vector(self._first).GetAtIndex(0) > 0.5,
-            context.get_time() < self.params.calibrate_after, held, consts, walk, cal)
+            state.get_vector(self._P).get_value(), state.get_vector(self._u).get_value(),
+            state.get_vector(self._first).GetAtIndex(0) > 0.5, self.imu_port.Eval(context),
+            context.get_time(), context.get_abstract_parameter(self._calibration).get_value(),
+            self.line_port.Eval(context) if self._line is not None else None)
+
+    def posterior(self, x, P, u, first: bool, imu, t: float, compiled, line_gap=None):
+        """(filter state, accelerometer input) after the sample ``imu`` from
+        the stored ``x``, ``P`` (flat), ``u`` and first-sample flag at time
+        ``t``, with the calibration parameter ``compiled`` (:meth:`_compiled`)
+        and the line sensor's ``line_gap`` (reading, valid): the compiled step
+        (:func:`~bplir_drake.systems.ekf_kernel.step`, the same arithmetic as
+        :func:`ekf_step`)."""
+        n = self.n
+        calibration, consts, walk, cal, held = compiled
+        x, P, u = ekf_kernel.step(x, P.reshape(n, n), u, imu, first,
+                                  t < self.params.calibrate_after, held, consts, walk, cal)
         s = EkfState(x, P)
-        if self._line is not None:
-            reading, valid = self.line_port.Eval(context)
+        if line_gap is not None:
+            reading, valid = line_gap
             if valid > 0.5:
                 s = ekf_gap_update(s, reading - calibration.line_offset, self._line)
         return s, u
@@ -321,18 +328,25 @@ class KinematicEkf(PySystem):
         own.get_mutable_abstract_parameter(self._calibration).set_value(
             self._compiled(calibration))
         x = own.get_mutable_discrete_state(self._x)
+        P = own.get_mutable_discrete_state(self._P)
+        new_x, new_P = self.calibrated_start(x.CopyToVector(), P.CopyToVector(), calibration)
+        x.SetFromVector(new_x)
+        P.SetFromVector(new_P)
+
+    def calibrated_start(self, x, P, calibration: ImuCalibration):
+        """The stored ``x`` and flat ``P`` started from ``calibration``: its
+        gyro biases as the bias estimate, and misalignment states it holds
+        taken as exact (their rows and columns of P zeroed: the filter of
+        the angles is then the one without misalignment states)."""
+        x, P = np.array(x, dtype=float), np.array(P, dtype=float)
         if self._bias is not None:
-            x.SetAtIndex(self._bias.start, calibration.bias[0])
-            x.SetAtIndex(self._bias.start + 1, calibration.bias[1])
+            x[self._bias.start:self._bias.start + 2] = calibration.bias[:2]
         sl = state_layout(self.params)[0].get("misalign")
         if sl is not None and misalign_held(self.params, calibration.noise):
-            # held at the calibration's values, taken as exact: the filter of
-            # the angles is then the one without misalignment states
-            P = own.get_mutable_discrete_state(self._P)
-            cov = P.CopyToVector().reshape(self.n, self.n)
+            cov = P.reshape(self.n, self.n)
             cov[sl, :] = 0.0
             cov[:, sl] = 0.0
-            P.SetFromVector(cov.ravel())
+        return x, P
 
     def _out_abs(self, context, out):
         out.SetFromVector(self._post.Eval(context)[0].x[:4])

@@ -202,13 +202,18 @@ class PlanTracker(PySystem):
         return float(cand[int(np.argmin(d))])
 
     def _tick_law(self, context):
-        """(torque, planned q2, phase tau, tick count) of this tick; with
-        ``"time"`` indexing the phase is the tick's time ``k T``."""
-        x = self.state_port.Eval(context)
-        tau_prev, k, reached = context.get_discrete_state(self._xd).get_value()
-        lead = self.lead
-        if self.steps_port is not None:
-            lead = round(self.steps_port.Eval(context)[0]) * self.period
+        return self.tick(self.state_port.Eval(context),
+                         context.get_discrete_state(self._xd).get_value(),
+                         self.steps_port.Eval(context)[0] if self.steps_port is not None
+                         else None)
+
+    def tick(self, x, xd, steps=None):
+        """(torque, planned q2, phase tau, tick count, reach) of the tick
+        from the state input ``x``, the stored ``xd`` (phase, tick count,
+        reach) and, with an adaptive lead, ``steps`` (the identified delay);
+        with ``"time"`` indexing the phase is the tick's time ``k T``."""
+        tau_prev, k, reached = xd
+        lead = self.lead if steps is None else round(steps) * self.period
         tau = k * self.period + lead if self.indexing == "time" else self.phase(tau_prev, x)
         reach = self.reaching(tau, x, reached)
         u, reference = self.law(tau, x, reach)

@@ -104,12 +104,19 @@ class DelayPredictor(PySystem):
             {self._prediction.ticket()})
 
     def _predict(self, context):
-        commands = context.get_discrete_state(self._xd).get_value()
-        if self.steps_port is not None:
-            n = min(max(int(round(self.steps_port.Eval(context)[0])), 0), self.steps)
+        return self.prediction(context.get_discrete_state(self._xd).get_value(),
+                               self.estimate_port.Eval(context),
+                               self.steps_port.Eval(context)[0]
+                               if self.steps_port is not None else None)
+
+    def prediction(self, commands, estimate, steps=None):
+        """The predicted state from the stored ``commands`` and the
+        ``estimate``; ``steps`` (adaptive: the identified delay in ticks)
+        takes the last that many commands."""
+        if steps is not None:
+            n = min(max(int(round(steps)), 0), self.steps)
             commands = commands[len(commands) - n:]
-        return predict_state(self.estimate_port.Eval(context), commands, self.period,
-                             self.plant_params, self.friction,
+        return predict_state(estimate, commands, self.period, self.plant_params, self.friction,
                              constants=self._constants)
 
     def _store(self, context, discrete_state):

@@ -122,11 +122,15 @@ class SwingRunner:
     the simulated links' inertial parameters, friction, IMU errors, wind and
     gusts, seeds) runs through the same diagram, with the sample written into
     a fresh context (:func:`~bplir_drake.diagrams.set_swing_sample`).  The
-    results are identical to a fresh build per swing (tested)."""
+    results are identical to a fresh build per swing (tested).  With
+    ``onboard=False`` the robot's computer is built as its parts wired one
+    by one (:func:`~bplir_drake.diagrams.build_swing`): the same numbers,
+    each part's ports in the diagram."""
 
-    def __init__(self):
+    def __init__(self, onboard: bool = True):
         self.built = None
         self.builds = 0
+        self.onboard = onboard
 
     def release(self) -> None:
         """Let the diagram built last go (:meth:`~bplir_drake.diagrams.parts.
@@ -140,7 +144,8 @@ class SwingRunner:
         matches (``fresh`` False: the sample must be set in the context)."""
         if self.built is None or self.built.structure != swing_structure(params, use_estimator):
             self.release()
-            self.built = swing_diagram(params, seed=seed, use_estimator=use_estimator)
+            self.built = swing_diagram(params, seed=seed, use_estimator=use_estimator,
+                                       onboard=self.onboard)
             self.builds += 1
             return self.built, True
         return self.built, False

@@ -253,7 +253,8 @@ def breakdown():
                 return f(*a, **k)
             finally:
                 spent[label] += time.perf_counter() - t0
-        setattr(cls, name, timed)
+        setattr(cls, name, staticmethod(timed) if isinstance(cls.__dict__[name], staticmethod)
+                else timed)
 
     p = preset()
     run_swing(p, seed=0)

@@ -44,7 +44,7 @@ from ..systems.ekf import KinematicEkf
 from ..systems.friction import FRICTION_PARAMETERS, set_friction
 from ..systems.motor import MotorDriver
 from ..systems.plant import INERTIAL_FIELDS, set_inertial_parameters
-from ..systems.schedule import TickLogger
+from ..systems.schedule import TickColumns, TickLogger
 from .parts import Built, Robot, add_plant_with_friction, sampled  # noqa: F401 (re-exported)
 from .swing_controller import (  # noqa: F401 (re-exported)
     add_swing_controller)
@@ -208,10 +208,16 @@ def add_swing_loggers(builder, params: BplirParams, robot: Robot, sampler, estim
                                             log_period),
         "tripped": LogVectorOutput(motor.GetOutputPort("tripped"), builder, log_period),
         "friction": LogVectorOutput(robot.friction.get_output_port(0), builder, log_period),
+    }
+    if isinstance(ctrl, OnboardComputer):   # its tick's signals in one logger
+        record = TickLogger(builder, ctrl.GetOutputPort("record"), T)
+        loggers.update({name: TickColumns(record, columns)
+                        for name, columns in ctrl.record_columns().items()})
+        return loggers
+    loggers.update({
         "estimate": TickLogger(builder, estimate_port, T),
         "command": TickLogger(builder, ctrl.GetOutputPort("torque"), T),
-        "imu": TickLogger(builder, sampler.GetOutputPort("imu"), params.imu.period),
-    }
+        "imu": TickLogger(builder, sampler.GetOutputPort("imu"), params.imu.period)})
     if reference is not None:
         loggers["reference"] = TickLogger(builder, reference, T)
     if "delay_id" in control:

@@ -36,7 +36,8 @@ class OnboardComputer(PySystem):
     ``line_gap``.  Outputs, as the parts': ``imu``, ``estimate``,
     ``estimate_relative``, ``covariance_diagonal``, ``gyro_bias``,
     ``predicted`` (with a predictor), ``torque``, ``reference`` and, with
-    an identifier, ``delay_steps`` and ``fit``.
+    an identifier, ``delay_steps`` and ``fit``; and ``record``, the tick's
+    signals in one vector (:data:`RECORD`).
 
     ``sampler``, ``ekf``, ``tracker`` and the optional ``identifier`` and
     ``predictor`` are the parts, built as for a diagram of their own and
@@ -100,12 +101,34 @@ class OnboardComputer(PySystem):
         out("torque", 1, lambda c, o: o.SetAtIndex(0, self._tick.Eval(c)["tracker"][0]), dep)
         out("reference", 1, lambda c, o: o.SetAtIndex(0, self._tick.Eval(c)["tracker"][1]),
             dep)
+        out("record", 14, self._record, {self.xd_ticket(), self._tick.ticket()})
         if self.identifier is not None:
             n = 3 * self.identifier.window + 1
             out("delay_steps", 1, lambda c, o: o.SetAtIndex(0, c.get_discrete_state(
                 self._xd).get_value()[s["identifier"]][n]), xd)
             out("fit", 2, lambda c, o: o.SetFromVector(self.identifier.fit(
                 c.get_discrete_state(self._xd).get_value()[s["identifier"]])), xd)
+
+    #: the signals of the ``record`` output (one logger records the tick's
+    #: signals), by the swing's log names: the estimate (relative), the
+    #: command, the IMU sample, the planned q2 and the delay fit (zeros
+    #: without an identifier)
+    RECORD = {"estimate": slice(0, 4), "command": slice(4, 5), "imu": slice(5, 11),
+              "reference": slice(11, 12), "delay_fit": slice(12, 14)}
+
+    def record_columns(self) -> dict[str, slice]:
+        """:data:`RECORD` for this computer (no ``delay_fit`` without an
+        identifier)."""
+        return {k: v for k, v in self.RECORD.items()
+                if k != "delay_fit" or self.identifier is not None}
+
+    def _record(self, context, out):
+        r, xd = self._tick.Eval(context), context.get_discrete_state(self._xd).get_value()
+        s = self.slices
+        fit = (self.identifier.fit(xd[s["identifier"]]) if self.identifier is not None
+               else (0.0, 0.0))
+        out.SetFromVector(np.concatenate((r["relative"], r["tracker"][:1], xd[s["imu"]][:6],
+                                          r["tracker"][1:2], fit)))
 
     # ------------------------------------------------------------ the tick
     def _result(self, context) -> dict:

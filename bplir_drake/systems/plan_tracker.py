@@ -141,6 +141,7 @@ class PlanTracker(PySystem):
             raise ValueError(f"indexing = {indexing!r}; allowed: " + ", ".join(PLAN_INDEXING))
         self.K, self.x0, self.u0, self.k0 = gains.K, gains.x0, gains.u0, gains.k0
         self.t_end = self.x0.end_time()
+        self._plan_values = {}   # plan_at's
         # the terminal law may take over in the plan's last forward swing of link 1
         # (a climbing plan swings link 1 back first), and in its second half
         ts = np.linspace(0.0, self.t_end, 401)
@@ -176,16 +177,27 @@ class PlanTracker(PySystem):
     def law(self, t: float, x, reach: bool = False) -> tuple[float, float]:
         """(torque, planned q2) at time ``t`` (held at the plan's end after it)."""
         t = min(max(t, 0.0), self.t_end)
-        x0 = self.x0.value(t).ravel()
+        x0, u0, K, k0 = self.plan_at(t)
         lo, hi = self.window(x)
         if reach and isinstance(self.reach, ApexShot):
             u = self.reach.torque(np.asarray(x, dtype=float), window=(lo, hi))
         elif reach:
             u = self.reach.torque(np.asarray(x, dtype=float))
         else:
-            u = self.u0.value(t)[0, 0] - (self.K.value(t) @ (np.asarray(x) - x0))[0] \
-                - self.k0.value(t)[0, 0]
+            u = u0 - (K @ (np.asarray(x) - x0))[0] - k0
         return float(min(max(u, lo), hi)), float(x0[1])   # the planned q2 (RobotState)
+
+    def plan_at(self, t: float):
+        """(x0, u0, K, k0): the plan and its gains at ``t``, kept for the
+        times the tracker has asked for (with ``"time"`` indexing the same
+        few hundred ticks every swing of the plan)."""
+        got = self._plan_values.get(t)
+        if got is None:
+            got = (self.x0.value(t).ravel(), self.u0.value(t)[0, 0], self.K.value(t),
+                   self.k0.value(t)[0, 0])
+            if len(self._plan_values) < 4096:
+                self._plan_values[t] = got
+        return got
 
     def window(self, x) -> tuple[float, float]:
         """(lowest, highest) torque the tracker commands at the state ``x``."""

@@ -96,3 +96,16 @@ class TickLogger:
         data = np.array(log.data()).T
         keep = t > 0.5 * self.period
         return t[keep] - self.period, data[keep]
+
+
+class TickColumns:
+    """Columns ``columns`` (a slice) of a :class:`TickLogger`'s log, read as
+    a log of their own (one logger records several signals of a system)."""
+
+    def __init__(self, logger: TickLogger, columns: slice):
+        self.logger, self.columns, self.period = logger, columns, logger.period
+
+    def arrays(self, context):
+        """(t, data) with data of shape (N, the columns' count)."""
+        t, data = self.logger.arrays(context)
+        return t, data[:, self.columns].copy()

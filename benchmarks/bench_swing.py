@@ -33,13 +33,13 @@ def free_swing_rate(duration: float = 20.0) -> float:
     return duration / (time.perf_counter() - t0)
 
 
-def python_tick_floor(systems: int = 3, duration: float = 20.0, period: float = 0.01):
+def python_tick_floor(systems: int = 2, duration: float = 20.0, period: float = 0.01):
     """(rate without, rate with) ``systems`` Python LeafSystems that do no
     work but tick at the controller's rate (each reads the plant state at
     its periodic discrete update and stores one number) on the free swing
     of :func:`free_swing_rate`, in one run: the cost of the closed loop's
-    100 Hz Python chain (the onboard computer, the interlock, the driver
-    logic) before any of them computes anything."""
+    100 Hz Python chain (the onboard computer and the interlock) before
+    either computes anything."""
     from pydrake.systems.analysis import Simulator
     from pydrake.systems.framework import DiagramBuilder, LeafSystem
     from pydrake.systems.primitives import ConstantVectorSource, LogVectorOutput
@@ -86,7 +86,7 @@ def python_systems() -> int:
     """How many of the default swing diagram's systems are Python
     ``LeafSystem`` s (the 100 Hz chain: the onboard computer -- IMU
     sampler, EKF, delay identifier, predictor and plan tracker as one
-    system -- the interlock and the driver logic)."""
+    system -- and the interlock)."""
     from bplir_drake.analysis.swing.run import swing_diagram
     from bplir_drake.params import preset
 
@@ -235,11 +235,11 @@ def breakdown():
     """Wall time of the Python callbacks of one swing, inclusive: the
     onboard computer's tick (the EKF, the predictor and the plan tracker
     with its landing law, each also timed within it), its store-and-sample
-    event (the IMU sampler within it), the interlock and the driver."""
+    event (the IMU sampler within it) and the interlock (the motor and
+    driver are C++)."""
     from bplir_drake.analysis.swing.run import run_swing
     from bplir_drake.params import preset
-    from bplir_drake.systems import (ekf, gripper, imu, motor, onboard, plan_tracker,
-                                     predictor)
+    from bplir_drake.systems import ekf, gripper, imu, onboard, plan_tracker, predictor
 
     spent = collections.defaultdict(float)
 
@@ -265,8 +265,6 @@ def breakdown():
     wrap(plan_tracker.PlanTracker, "tick", "  plan tracker (its landing law too)")
     wrap(imu.ImuSampler, "next_state", "  IMU sample")
     wrap(gripper.GripperInterlock, "_update", "interlock")
-    wrap(motor.DriverLogic, "_update", "driver i2t")
-    wrap(motor.DriverLogic, "_calc_target", "driver target current")
     t0 = time.perf_counter()
     run_swing(p, seed=0)
     total = time.perf_counter() - t0

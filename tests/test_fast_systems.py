@@ -18,7 +18,7 @@ from bplir_drake.systems import ekf as E
 from bplir_drake.systems.friction import (JointFriction, friction_system, friction_torques,
                                           set_friction)
 from bplir_drake.systems.gripper import LineGeometry, first_arrival, line_metrics
-from bplir_drake.systems.motor import DriverLogic, MotorDriver, current_command
+from bplir_drake.systems.motor import MotorDriver, current_command
 from bplir_drake.systems.path import (PathGeometry, PathShape, ReducedDynamics, path_derivatives,
                                       path_q2, predict_rate_squared)
 
@@ -50,16 +50,26 @@ def test_symbolic_friction_equals_the_templated_law(in_context):
 
 
 def test_driver_target_current_is_the_current_command_law():
+    """The motor's current loop (C++ symbolic) settles on the current of
+    current_command, exactly: its rate is zero there, for every command and
+    trip state."""
     p = MotorParams()
-    logic = DriverLogic(p)
-    ctx = logic.CreateDefaultContext()
-    logic.GetInputPort("current").FixValue(ctx, [0.0])
-    for tripped in (0.0, 1.0):
-        ctx.get_mutable_discrete_state_vector().SetFromVector([0.0, tripped])
+    m = MotorDriver(p)
+    ctx = m.CreateDefaultContext()
+    m.GetInputPort("state").FixValue(ctx, np.zeros(4))
+    elec = m.GetSubsystemByName("electrics")
+    ectx = elec.GetMyMutableContextFromRoot(ctx)
+    for tripped in (False, True):
+        m.set_interlock_state(ctx, 1.0, tripped)
+        assert m.interlock_state(ctx) == (1.0, tripped)
         for tau in np.linspace(-30.0, 30.0, 241):
-            logic.GetInputPort("torque_command").FixValue(ctx, [tau])
-            assert logic.GetOutputPort("target_current").Eval(ctx)[0] == \
-                current_command(tau, p, tripped > 0.5)
+            m.GetInputPort("torque_command").FixValue(ctx, [tau])
+            i = current_command(tau, p, tripped)
+            ectx.SetContinuousState([i / p.i_peak, 0.0, 0.0, 0.0, 0.0])
+            assert elec.EvalTimeDerivatives(ectx).CopyToVector()[0] == 0.0
+            assert m.GetOutputPort("current").Eval(ctx)[0] == pytest.approx(i, rel=1e-15)
+        assert m.GetOutputPort("available").Eval(ctx)[0] == min(
+            p.torque_limit, p.torque_per_amp * (p.i_cont if tripped else p.i_peak))
 
 
 def test_current_loop_is_first_order_with_the_time_constant():

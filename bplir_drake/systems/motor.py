@@ -33,7 +33,6 @@ from __future__ import annotations
 import numpy as np
 from pydrake.systems.framework import Diagram
 
-from .base import PySystem
 from ..params import MotorParams
 
 
@@ -121,7 +120,7 @@ def interlock_budget(p: MotorParams) -> float:
 def i2t_trace(h0: float, currents, p: MotorParams, tripped: bool = False):
     """The driver's ``(h, tripped)`` after each ``driver_period`` of the
     current sequence ``currents`` (A), from ``(h0, tripped)``: the update of
-    :class:`DriverLogic` run offline (a plan's currents, a rest)."""
+    the motor's driver run offline (a plan's currents, a rest)."""
     budget = interlock_budget(p)
     h, out_h, out_t = float(h0), [], []
     for i in np.asarray(currents, dtype=float):
@@ -161,93 +160,57 @@ def rest_for(h: float, tripped: bool, currents, p: MotorParams, margin: float) -
     return hi
 
 
-class DriverLogic(PySystem):
-    """The driver's discrete logic (one Python evaluation a tick at most):
-    the current it regulates to for the torque command
-    (:func:`current_command`: saturation, dead-band, current limit) and the
-    i^2 t interlock, updated every ``driver_period`` from the measured current.
+def _target_current(tau_cmd, tripped, p: MotorParams):
+    """:func:`current_command` of a symbolic command and trip state."""
+    from pydrake.symbolic import abs as sabs, if_then_else, max as smax, min as smin
 
-    Inputs ``torque_command`` (N m) and ``current`` (A, measured); discrete
-    state ``(h, tripped)``; outputs ``target_current`` (depends on the command
-    and the state only), ``tripped`` and ``available`` (the torque the driver
-    can deliver now, for anti-windup)."""
-
-    def __init__(self, params: MotorParams):
-        super().__init__()
-        self.params = params
-        self._budget = interlock_budget(params)
-        self.command_port = cmd = self.DeclareVectorInputPort("torque_command", 1)
-        self.current_port = self.DeclareVectorInputPort("current", 1)
-        self._h = self.DeclareDiscreteState(2)
-        self.DeclarePeriodicDiscreteUpdateEvent(params.driver_period, 0.0, self._update)
-        xd = {self.xd_ticket()}
-        self.DeclareVectorOutputPort("target_current", 1, self._calc_target,
-                                     {self.xd_ticket(), cmd.ticket()})
-        self.DeclareVectorOutputPort("tripped", 1, self._calc_tripped, xd)
-        self.DeclareVectorOutputPort("available", 1, self._calc_available, xd)
-
-    def _tripped(self, context) -> bool:
-        return context.get_discrete_state(self._h).GetAtIndex(1) > 0.5
-
-    def interlock_state(self, context) -> tuple[float, bool]:
-        """``(h, tripped)``: the i^2 t integral (A^2 s) and the trip flag."""
-        h, tripped = context.get_discrete_state(self._h).get_value()
-        return float(h), bool(tripped > 0.5)
-
-    def set_interlock_state(self, context, h: float, tripped: bool) -> None:
-        """Start from ``(h, tripped)`` (a driver carried over from earlier work)."""
-        context.SetDiscreteState(self._h, [float(h), 1.0 if tripped else 0.0])
-
-    def _update(self, context, discrete_state):
-        i = self.current_port.Eval(context)[0]
-        h, tripped = context.get_discrete_state(self._h).get_value()
-        p = self.params
-        h = max(0.0, h + p.driver_period * (i * i - p.i_cont ** 2))
-        if h >= self._budget:
-            tripped = 1.0
-        elif h <= 0.0:
-            tripped = 0.0
-        discrete_state.get_mutable_vector(self._h).SetFromVector([h, tripped])
-
-    def _calc_target(self, context, out):
-        tau = self.command_port.Eval(context)[0]
-        out.SetAtIndex(0, current_command(tau, self.params, self._tripped(context)))
-
-    def _calc_tripped(self, context, out):
-        out.SetAtIndex(0, 1.0 if self._tripped(context) else 0.0)
-
-    def _calc_available(self, context, out):
-        p = self.params
-        i_lim = p.i_cont if self._tripped(context) else p.i_peak
-        out.SetAtIndex(0, min(p.torque_limit, p.torque_per_amp * i_lim))
+    tau = smin(smax(tau_cmd, -p.torque_limit), p.torque_limit)
+    i_lim = if_then_else(tripped > 0.5, p.i_cont, p.i_peak)
+    return if_then_else(sabs(tau) < p.deadband, 0.0,
+                        smin(smax(tau / p.torque_per_amp, -i_lim), i_lim))
 
 
 def _electrics(p: MotorParams):
-    """The current loop and the meters (C++ symbolic).
+    """The current loop, the meters and the i^2 t interlock's next state
+    (C++ symbolic).
 
-    Input ``(i_target, q1, q2, q1d, q2d)``; state ``(i_loop / i_peak,
-    mechanical work, electrical energy, copper loss, regenerated energy)``;
-    output ``(torque, current, voltage, back-EMF, mechanical power,
-    electrical power)``.  The current is the loop's state clipped to the
-    voltage window at the present ``q2d`` (:func:`current_window`)."""
-    from pydrake.symbolic import MakeVectorVariable, Variable, max as smax, min as smin
+    Input ``(torque command, h, tripped, q1, q2, q1d, q2d)`` (``h``,
+    ``tripped``: the interlock's state, held between its updates); state
+    ``(i_loop / i_peak, mechanical work, electrical energy, copper loss,
+    regenerated energy)``; output :data:`ELECTRIC_OUTPUTS`, then the
+    interlock's next ``(h, tripped)`` and the torque the driver can deliver
+    now (for anti-windup).  The loop follows the target current of the
+    command (:func:`current_command`: saturation, dead-band, current limit);
+    the current is the loop's state clipped to the voltage window at the
+    present ``q2d`` (:func:`current_window`).  The interlock: ``h <- max(0, h
+    + driver_period (i^2 - i_cont^2))``, tripped once ``h`` reaches
+    :func:`interlock_budget` until it is back at zero (:func:`i2t_trace`
+    runs the same update offline)."""
+    from pydrake.symbolic import (MakeVectorVariable, Variable, if_then_else, max as smax,
+                                  min as smin)
     from pydrake.systems.primitives import SymbolicVectorSystem
 
-    u = MakeVectorVariable(5, "u")
+    u = MakeVectorVariable(7, "u")
     x = [Variable(n) for n in ("i_loop", "work", "electrical", "copper", "regenerated")]
     ip, kt = p.i_peak, p.torque_per_amp
-    emf = back_emf(u[4], p)
+    h, tripped, q2d = u[1], u[2], u[6]
+    emf = back_emf(q2d, p)
     i = ip * x[0]
     if p.envelope:   # the same window the controllers and the planner use, symbolic
-        lo, hi = current_window(u[4], p)
+        lo, hi = current_window(q2d, p)
         i = smin(smax(i, lo), hi)
     volt = p.resistance * i + emf
-    mech = kt * i * u[4]
+    mech = kt * i * q2d
     elec = volt * i
-    dyn = [(u[0] / ip - x[0]) / p.tau_current, mech, elec, p.resistance * i * i,
-           smax(-elec, 0.0)]
+    dyn = [(_target_current(u[0], tripped, p) / ip - x[0]) / p.tau_current, mech, elec,
+           p.resistance * i * i, smax(-elec, 0.0)]
+    h_next = smax(0.0, h + p.driver_period * (i * i - p.i_cont ** 2))
+    trip_next = if_then_else(h_next >= interlock_budget(p), 1.0,
+                             if_then_else(h_next <= 0.0, 0.0, tripped))
+    available = smin(p.torque_limit, kt * if_then_else(tripped > 0.5, p.i_cont, ip))
     return SymbolicVectorSystem(state=x, input=u, dynamics=dyn,
-                                output=[kt * i, i, volt, emf, mech, elec])
+                                output=[kt * i, i, volt, emf, mech, elec, h_next, trip_next,
+                                        available])
 
 
 #: output rows of the motor's ``electrics`` (its ``MotorDriver`` ports)
@@ -255,47 +218,66 @@ ELECTRIC_OUTPUTS = ("torque", "current", "voltage", "back_emf", "power", "electr
 
 
 class MotorDriver(Diagram):
-    """Motor and driver as a diagram in which no Python runs while the
-    integrator steps:
+    """Motor and driver as a diagram of C++ systems (no Python runs):
 
-    * ``driver`` (:class:`DriverLogic`, discrete): the target current of the
-      command and the i^2 t interlock;
-    * ``electrics`` (C++ symbolic): the current loop (the current follows
-      the target with the time constant ``tau_current``, clipped to the
-      voltage envelope at the elbow's present rate), the winding voltage,
-      the back-EMF, the powers and their integrals (mechanical work,
-      electrical energy, copper loss, regenerated energy).
+    * ``electrics`` (symbolic): the current loop, which follows the target
+      current of the command (:func:`current_command`) with the time
+      constant ``tau_current``, clipped to the voltage envelope at the
+      elbow's present rate, the winding voltage, the back-EMF, the powers
+      and their integrals (mechanical work, electrical energy, copper loss,
+      regenerated energy), and the i^2 t interlock's next state
+      (:func:`_electrics`);
+    * ``driver`` (a zero-order hold at ``driver_period``): the interlock's
+      state ``(h, tripped)``, updated from the measured current every
+      ``driver_period``.
 
     Inputs ``torque_command`` (1) and ``state`` (4, the plant state);
     outputs ``torque`` (delivered elbow torque), ``current`` (A),
     ``voltage`` and ``back_emf`` (V), ``power`` (tau q2d, W),
     ``electrical_power`` (V i, W), ``tripped`` (1 while the driver limits
     to i_cont) and ``available`` (the current limit's torque).  The
-    delivered torque depends on the loop's state and the plant state only:
-    no direct feedthrough from the command."""
+    delivered torque follows the command through the current loop's state:
+    a command changes its rate, not its value."""
 
     def __init__(self, params: MotorParams):
         from pydrake.systems.framework import DiagramBuilder
-        from pydrake.systems.primitives import Demultiplexer, Multiplexer
+        from pydrake.systems.primitives import Demultiplexer, Multiplexer, ZeroOrderHold
 
         super().__init__()
         self.params = params
         b = DiagramBuilder()
-        logic = b.AddNamedSystem("driver", DriverLogic(params))
         elec = b.AddNamedSystem("electrics", _electrics(params))
-        split = b.AddSystem(Demultiplexer(len(ELECTRIC_OUTPUTS)))
-        mux = b.AddSystem(Multiplexer([1, 4]))
-        b.ExportInput(logic.GetInputPort("torque_command"), "torque_command")
-        b.ExportInput(mux.get_input_port(1), "state")
-        b.Connect(logic.GetOutputPort("target_current"), mux.get_input_port(0))
+        driver = b.AddNamedSystem("driver", ZeroOrderHold(params.driver_period, 2))
+        n = len(ELECTRIC_OUTPUTS)
+        split = b.AddSystem(Demultiplexer([1] * n + [2, 1]))
+        held = b.AddSystem(Demultiplexer(2))
+        mux = b.AddSystem(Multiplexer([1, 2, 4]))
+        b.ExportInput(mux.get_input_port(0), "torque_command")
+        b.ExportInput(mux.get_input_port(2), "state")
+        b.Connect(driver.get_output_port(0), mux.get_input_port(1))
         b.Connect(mux.get_output_port(0), elec.get_input_port(0))
         b.Connect(elec.get_output_port(0), split.get_input_port(0))
-        b.Connect(split.get_output_port(1), logic.GetInputPort("current"))
+        b.Connect(split.get_output_port(n), driver.get_input_port(0))
+        b.Connect(driver.get_output_port(0), held.get_input_port(0))
         for k, name in enumerate(ELECTRIC_OUTPUTS):
             b.ExportOutput(split.get_output_port(k), name)
-        b.ExportOutput(logic.GetOutputPort("tripped"), "tripped")
-        b.ExportOutput(logic.GetOutputPort("available"), "available")
+        b.ExportOutput(held.get_output_port(1), "tripped")
+        b.ExportOutput(split.get_output_port(n + 1), "available")
         b.BuildInto(self)
+
+    def interlock_state(self, context) -> tuple[float, bool]:
+        """``(h, tripped)`` in ``context`` (root): the i^2 t integral (A^2 s)
+        and the trip flag."""
+        own = self.GetSubsystemByName("driver").GetMyContextFromRoot(context)
+        h, tripped = own.get_discrete_state_vector().CopyToVector()
+        return float(h), bool(tripped > 0.5)
+
+    def set_interlock_state(self, context, h: float, tripped: bool) -> None:
+        """Start from ``(h, tripped)`` in ``context`` (root): a driver carried
+        over from earlier work."""
+        own = self.GetSubsystemByName("driver").GetMyMutableContextFromRoot(context)
+        own.get_mutable_discrete_state_vector().SetFromVector(
+            [float(h), 1.0 if tripped else 0.0])
 
     def energies(self, context) -> dict:
         """The integrals since the start of ``context`` (J): the motor's
@@ -315,5 +297,5 @@ def max_torque(p: MotorParams) -> float:
 __all__ = ["MotorDriver", "duty_cycle_to_current", "current_to_duty_cycle",
            "back_emf", "current_window", "torque_window", "no_load_speed",
            "stall_torque", "envelope_curve", "ELECTRIC_OUTPUTS",
-           "DriverLogic", "apply_deadband", "current_command", "interlock_budget", "max_torque",
+           "apply_deadband", "current_command", "interlock_budget", "max_torque",
            "i2t_trace", "i2t_after_rest", "rest_for"]

@@ -165,20 +165,20 @@ class SwingRunner:
         p = draw_true_friction(params, seed)
         built, fresh = self.diagram_for(p, seed, use_est)
         # a fresh build's default context already holds this sample
-        driver = built.systems["motor"].GetSubsystemByName("driver")
+        motor = built.systems["motor"]
 
         def set_context(ctx):
             if not fresh:
                 set_swing_sample(built, ctx, p, seed)
             if driver_state is not None:
-                driver.set_interlock_state(driver.GetMyMutableContextFromRoot(ctx), *driver_state)
+                motor.set_interlock_state(ctx, *driver_state)
 
         if start_state is None and sc.start == "plan":   # the plan's first state, moving
             start_state = plan_start_state(p)
         x0 = np.r_[built.q0, 0.0, 0.0] if start_state is None else np.asarray(start_state, float)
         sim = make_simulator(built, x0[:2], x0[2:], accuracy=accuracy, integrator=integrator,
                              set_context=set_context)
-        h0 = driver.interlock_state(driver.GetMyContextFromRoot(sim.get_context()))
+        h0 = motor.interlock_state(sim.get_context())
         if live is not None:
             live.attach(sim, built)
         run_until_outcome(sim, built, sc.max_time, sc.wall_limit, f"the swing of seed {seed}")
@@ -188,7 +188,7 @@ class SwingRunner:
         built.diagram.ForcedPublish(sim.get_context())
         status = built.systems["interlock"].status(sim.get_context())
         lg = logs(built, sim)
-        h, tripped = driver.interlock_state(driver.GetMyContextFromRoot(sim.get_context()))
+        h, tripped = motor.interlock_state(sim.get_context())
         summary = SwingSummary(**swing_summary(p, lg, status, seed, use_est),
                                i2t_start_A2s=h0[0], i2t_end_A2s=h, driver_tripped_end=tripped,
                                driver_tripped=bool(h0[1] or np.any(lg["tripped"].data > 0.5)))

@@ -152,7 +152,7 @@ class DelayIdentifier(PySystem):
         ``command()`` and ``gyro()`` give the tick's command and its two gyro
         readings (read only when stored)."""
         n = self.window
-        k = int(round(x[3 * n]))
+        k = int(x[3 * n] + 0.5)   # a count held as a float
         if k > n:
             return x
         x = np.array(x, dtype=float)

@@ -207,7 +207,7 @@ class ImuSampler(PySystem):
         held state ``s``, the ideal readings (gyro1, gyro2, accel1, accel2,
         3 each) and the sensor parameter ``(params, seed, packed)``."""
         _, seed, consts = sensor
-        k = int(round(s[8]))
+        k = int(s[8] + 0.5)   # a count held as a float
         return sample_kernel(g1[2], g2[2], a1[0], a1[1], a2[0], a2[1], s[6], s[7], k,
                              consts, noise_block(seed, k // NOISE_BLOCK)[k % NOISE_BLOCK])
 

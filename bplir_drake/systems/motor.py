@@ -92,6 +92,28 @@ def torque_window(q2d: float, p: MotorParams, i_limit: float | None = None,
     return lo_t, max(lo_t, hi_t)
 
 
+def torque_window_of(p: MotorParams, i_limit: float | None = None,
+                     torque_limit: float | None = None):
+    """:func:`torque_window` of ``p`` as a function of the elbow rate alone,
+    its constants worked out once (a controller asks every tick); the same
+    arithmetic, so the same numbers."""
+    i_lim = p.i_peak if i_limit is None else i_limit
+    t_lim = p.torque_limit if torque_limit is None else torque_limit
+    kt, emf_per_rate = p.torque_per_amp, p.back_emf_constant * p.gear_ratio
+    v, r, envelope = p.max_voltage, p.resistance, p.envelope
+
+    def window(q2d: float) -> tuple[float, float]:
+        if envelope:
+            e = emf_per_rate * q2d
+            lo, hi = (-v - e) / r, (v - e) / r
+        else:
+            lo, hi = -np.inf, np.inf
+        lo_t = max(-t_lim, kt * max(lo, -i_lim))
+        return lo_t, max(lo_t, min(t_lim, kt * min(hi, i_lim)))
+
+    return window
+
+
 def no_load_speed(p: MotorParams, voltage: float | None = None) -> float:
     """The elbow rate (rad/s) at which the back-EMF equals ``voltage``
     (default the driver's largest output voltage)."""
@@ -295,7 +317,7 @@ def max_torque(p: MotorParams) -> float:
 
 
 __all__ = ["MotorDriver", "duty_cycle_to_current", "current_to_duty_cycle",
-           "back_emf", "current_window", "torque_window", "no_load_speed",
+           "back_emf", "current_window", "torque_window", "torque_window_of", "no_load_speed",
            "stall_torque", "envelope_curve", "ELECTRIC_OUTPUTS",
            "apply_deadband", "current_command", "interlock_budget", "max_torque",
            "i2t_trace", "i2t_after_rest", "rest_for"]

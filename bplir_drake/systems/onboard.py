@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 from pydrake.common.value import AbstractValue
+from pydrake.systems.framework import EventStatus
 
 from .base import PySystem
 from .imu import pack
@@ -51,19 +52,23 @@ class OnboardComputer(PySystem):
         self.sampler, self.ekf, self.tracker = sampler, ekf, tracker
         self.identifier, self.predictor = identifier, predictor
         self.period = tracker.period
+        # the state, in the order the store writes it (the EKF's x first)
         parts = [("ekf_x", ekf, ekf._x), ("ekf_P", ekf, ekf._P), ("ekf_u", ekf, ekf._u),
-                 ("ekf_first", ekf, ekf._first), ("imu", sampler, sampler._state),
-                 ("tracker", tracker, tracker._xd)]
-        if identifier is not None:
-            parts.append(("identifier", identifier, identifier._xd))
+                 ("ekf_first", ekf, ekf._first), ("tracker", tracker, tracker._xd)]
         if predictor is not None:
             parts.append(("predictor", predictor, predictor._xd))
+        if identifier is not None:
+            parts.append(("identifier", identifier, identifier._xd))
+        parts.append(("imu", sampler, sampler._state))
         values, self.slices, at = [], {}, 0
         for name, unit, group in parts:
             [v] = _default_state(unit, group)
             self.slices[name] = slice(at, at + len(v))
             values.append(v)
             at += len(v)
+        self._imu = self.slices["imu"]
+        self._steps_at = (self.slices["identifier"].start + 3 * identifier.window + 1
+                          if identifier is not None else None)
         self.readings_port = self.DeclareVectorInputPort("imu_readings", 12)
         self.line_port = (self.DeclareVectorInputPort("line_gap", 2)
                           if ekf.line_port is not None else None)
@@ -88,19 +93,17 @@ class OnboardComputer(PySystem):
         out = self.DeclareVectorOutputPort
         out("imu", 6, lambda c, o: o.SetFromVector(c.get_discrete_state(self._xd).get_value()[
             s["imu"]][:6]), xd)
-        out("estimate", 4, lambda c, o: o.SetFromVector(self._tick.Eval(c)["x"][:4]), dep)
-        out("estimate_relative", 4, lambda c, o: o.SetFromVector(
-            self._tick.Eval(c)["relative"]), dep)
+        out("estimate", 4, lambda c, o: o.SetFromVector(self._tick.Eval(c)[0][:4]), dep)
+        out("estimate_relative", 4, lambda c, o: o.SetFromVector(self._tick.Eval(c)[3]), dep)
         out("covariance_diagonal", self.ekf.n, lambda c, o: o.SetFromVector(
-            np.diag(self._tick.Eval(c)["P"])), dep)
+            np.diag(self._tick.Eval(c)[1])), dep)
         bias = self.ekf._bias
         out("gyro_bias", 2, lambda c, o: o.SetFromVector(
-            self._tick.Eval(c)["x"][bias] if bias is not None else [0.0, 0.0]), dep)
+            self._tick.Eval(c)[0][bias] if bias is not None else [0.0, 0.0]), dep)
         if self.predictor is not None:
-            out("predicted", 4, lambda c, o: o.SetFromVector(self._tick.Eval(c)["state"]), dep)
-        out("torque", 1, lambda c, o: o.SetAtIndex(0, self._tick.Eval(c)["tracker"][0]), dep)
-        out("reference", 1, lambda c, o: o.SetAtIndex(0, self._tick.Eval(c)["tracker"][1]),
-            dep)
+            out("predicted", 4, lambda c, o: o.SetFromVector(self._tick.Eval(c)[4]), dep)
+        out("torque", 1, lambda c, o: o.SetAtIndex(0, self._tick.Eval(c)[5][0]), dep)
+        out("reference", 1, lambda c, o: o.SetAtIndex(0, self._tick.Eval(c)[5][1]), dep)
         out("record", 14, self._record, {self.xd_ticket(), self._tick.ticket()})
         if self.identifier is not None:
             n = 3 * self.identifier.window + 1
@@ -111,10 +114,10 @@ class OnboardComputer(PySystem):
 
     #: the signals of the ``record`` output (one logger records the tick's
     #: signals), by the swing's log names: the estimate (relative), the
-    #: command, the IMU sample, the planned q2 and the delay fit (zeros
+    #: command, the planned q2, the IMU sample and the delay fit (zeros
     #: without an identifier)
-    RECORD = {"estimate": slice(0, 4), "command": slice(4, 5), "imu": slice(5, 11),
-              "reference": slice(11, 12), "delay_fit": slice(12, 14)}
+    RECORD = {"estimate": slice(0, 4), "command": slice(4, 5), "reference": slice(5, 6),
+              "imu": slice(6, 12), "delay_fit": slice(12, 14)}
 
     def record_columns(self) -> dict[str, slice]:
         """:data:`RECORD` for this computer (no ``delay_fit`` without an
@@ -123,27 +126,27 @@ class OnboardComputer(PySystem):
                 if k != "delay_fit" or self.identifier is not None}
 
     def _record(self, context, out):
-        r, xd = self._tick.Eval(context), context.get_discrete_state(self._xd).get_value()
-        s = self.slices
-        fit = (self.identifier.fit(xd[s["identifier"]]) if self.identifier is not None
-               else (0.0, 0.0))
-        out.SetFromVector(np.concatenate((r["relative"], r["tracker"][:1], xd[s["imu"]][:6],
-                                          r["tracker"][1:2], fit)))
+        r = self._tick.Eval(context)
+        xd = context.get_discrete_state(self._xd).get_value()
+        fit = (self.identifier.fit(xd[self.slices["identifier"]])
+               if self.identifier is not None else (0.0, 0.0))
+        out.SetFromVector(np.concatenate((r[3], r[5][:2], xd[self._imu][:6], fit)))
 
     # ------------------------------------------------------------ the tick
-    def _result(self, context) -> dict:
-        """The tick's results from the stored state: the EKF's posterior of
-        the held sample, the predicted state and the tracker's command."""
+    def _result(self, context):
+        """The tick's results from the stored state: (the EKF's posterior x,
+        P and accelerometer input of the held sample, the relative estimate,
+        the predicted state, the tracker's (torque, planned q2, phase, tick
+        count, reach))."""
         xd, s = context.get_discrete_state(self._xd).get_value(), self.slices
         post, u = self.ekf.posterior(
             xd[s["ekf_x"]], xd[s["ekf_P"]], xd[s["ekf_u"]], xd[s["ekf_first"]][0] > 0.5,
-            xd[s["imu"]][:6], context.get_time(),
+            xd[self._imu][:6], context.get_time(),
             context.get_abstract_parameter(self._calibration).get_value(),
             self.line_port.Eval(context) if self.line_port is not None else None)
         x = post.x
         relative = np.array([x[0], x[1] - x[0], x[2], x[3] - x[2]])
-        steps = (xd[s["identifier"]][3 * self.identifier.window + 1]
-                 if self.identifier is not None else None)
+        steps = xd[self._steps_at] if self._steps_at is not None else None
         state = relative
         if self.predictor is not None:
             state = self.predictor.prediction(xd[s["predictor"]], relative,
@@ -151,43 +154,38 @@ class OnboardComputer(PySystem):
                                               else None)
         tracked = self.tracker.tick(state, xd[s["tracker"]],
                                     steps if self.tracker.steps_port is not None else None)
-        return {"x": x, "P": post.P, "u": u, "relative": relative, "state": state,
-                "tracker": tracked}
+        return x, post.P, u, relative, state, tracked
 
-    def _sampled(self, context, xd) -> None:
-        """Take the IMU sample of this instant into ``xd`` (in place)."""
-        s, r = self.slices["imu"], self.readings_port.Eval(context)
-        xd[s] = self.sampler.next_state(xd[s], r[0:3], r[3:6], r[6:9], r[9:12],
-                                        context.get_abstract_parameter(self._sensor).get_value())
+    def _sample(self, context, imu):
+        """The IMU part of the state after the sample of this instant."""
+        r = self.readings_port.Eval(context)
+        return self.sampler.next_state(imu, r[0:3], r[3:6], r[6:9], r[9:12],
+                                       context.get_abstract_parameter(self._sensor).get_value())
 
     def _first_sample(self, context, discrete_state):
         xd = context.get_discrete_state(self._xd).CopyToVector()
-        self._sampled(context, xd)
+        xd[self._imu] = self._sample(context, xd[self._imu])
         discrete_state.get_mutable_vector(self._xd).SetFromVector(xd)
 
     def _store(self, context, discrete_state):
         """At ``t_k``, ``k >= 1``: store every part's tick ``k - 1`` result
         and take sample ``k`` (a no-op at ``t_0``, sampled by the
         initialization event)."""
-        from pydrake.systems.framework import EventStatus
-
         if context.get_time() < 0.5 * self.period:
             return EventStatus.DidNothing()
-        r, s = self._tick.Eval(context), self.slices
-        xd = context.get_discrete_state(self._xd).CopyToVector()
-        command = r["tracker"][0]
-        if self.identifier is not None:
-            held = xd[s["imu"]][:2].copy()
-            xd[s["identifier"]] = self.identifier.stored(xd[s["identifier"]], lambda: command,
-                                                         lambda: held)
+        x, P, u, _, _, tracked = self._tick.Eval(context)
+        xd, s = context.get_discrete_state(self._xd).get_value(), self.slices
+        command = tracked[0]
+        new = [x, P.ravel(), u, (0.0,), tracked[2:]]
         if self.predictor is not None:
-            buf = xd[s["predictor"]]
-            xd[s["predictor"]] = np.concatenate([buf[1:], [command]])
-        xd[s["tracker"]] = r["tracker"][2:]
-        xd[s["ekf_x"]], xd[s["ekf_P"]], xd[s["ekf_u"]] = r["x"], r["P"].ravel(), r["u"]
-        xd[s["ekf_first"]] = 0.0
-        self._sampled(context, xd)
-        discrete_state.get_mutable_vector(self._xd).SetFromVector(xd)
+            new.append(xd[s["predictor"]][1:])
+            new.append((command,))
+        if self.identifier is not None:
+            held = xd[self._imu][:2].copy()
+            new.append(self.identifier.stored(xd[s["identifier"]], lambda: command,
+                                              lambda: held))
+        new.append(self._sample(context, xd[self._imu]))
+        discrete_state.get_mutable_vector(self._xd).SetFromVector(np.concatenate(new))
 
     # ------------------------------------------------- a Monte Carlo sample
     def set_sensor(self, context, params, seed: int) -> None:

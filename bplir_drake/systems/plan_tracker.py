@@ -34,7 +34,7 @@ import numpy as np
 
 from .base import PySystem
 from ..params import PLAN_INDEXING
-from .motor import torque_window
+from .motor import torque_window, torque_window_of  # noqa: F401 (torque_window re-exported)
 from .plant import bias_term, gravity_vector, mass_matrix
 from .schedule import declare_store, declare_tick_result
 from .landing import (  # noqa: F401 (re-exported)
@@ -135,6 +135,8 @@ class PlanTracker(PySystem):
                  motor=None):
         super().__init__()
         self.motor = motor
+        self._window = (torque_window_of(motor, torque_limit=float(torque_limit))
+                        if motor is not None else None)
         self.reach, self.lead = reach, float(lead)
         self.probe = tuple(float(u) for u in probe)
         if indexing not in PLAN_INDEXING:
@@ -203,8 +205,7 @@ class PlanTracker(PySystem):
         """(lowest, highest) torque the tracker commands at the state ``x``."""
         if self.motor is None:
             return -self.torque_limit, self.torque_limit
-        return torque_window(float(x[3]), self.motor,   # q2d (RobotState)
-                             torque_limit=self.torque_limit)
+        return self._window(float(x[3]))   # q2d (RobotState)
 
     def phase(self, tau: float, x) -> float:
         """The plan time nearest to ``x`` in ``[tau, tau + search]``."""
@@ -225,11 +226,11 @@ class PlanTracker(PySystem):
         reach) and, with an adaptive lead, ``steps`` (the identified delay);
         with ``"time"`` indexing the phase is the tick's time ``k T``."""
         tau_prev, k, reached = xd
-        lead = self.lead if steps is None else round(steps) * self.period
+        lead = self.lead if steps is None else math.floor(steps + 0.5) * self.period
         tau = k * self.period + lead if self.indexing == "time" else self.phase(tau_prev, x)
         reach = self.reaching(tau, x, reached)
         u, reference = self.law(tau, x, reach)
-        i = int(round(k))
+        i = int(k + 0.5)   # counts held as floats
         if i < len(self.probe):
             lo, hi = self.window(x)
             u = float(min(max(u + self.probe[i], lo), hi))

@@ -114,7 +114,7 @@ class DelayPredictor(PySystem):
         ``estimate``; ``steps`` (adaptive: the identified delay in ticks)
         takes the last that many commands."""
         if steps is not None:
-            n = min(max(int(round(steps)), 0), self.steps)
+            n = min(max(int(steps + 0.5), 0), self.steps)   # a count held as a float
             commands = commands[len(commands) - n:]
         return predict_state(estimate, commands, self.period, self.plant_params, self.friction,
                              constants=self._constants)

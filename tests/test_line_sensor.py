@@ -43,7 +43,7 @@ def _readings(sensor_params, state, ticks=1, alpha=0.0):
     out = []
     for k in range(ticks):
         sim.AdvanceTo(0.01 * k)
-        out.append(sensor.get_output_port().Eval(ctx).copy())
+        out.append(sensor.GetOutputPort("line_gap").Eval(ctx).copy())
     return np.array(out)
 
 

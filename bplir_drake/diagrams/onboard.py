@@ -45,7 +45,7 @@ def add_onboard(builder, params: BplirParams, robot, setup, seed: int,
     for k, port in enumerate((gyro1, gyro2, accel1, accel2)):
         builder.Connect(port, readings.get_input_port(k))
     builder.Connect(readings.get_output_port(0), computer.GetInputPort("imu_readings"))
-    add_line_sensor(builder, params, robot, seed, computer)
+    add_line_sensor(builder, params, robot, seed, computer, now=True)
     roles = {"controller": computer}
     if comp.identifier is not None:
         roles["delay_id"] = computer

@@ -55,9 +55,12 @@ def kinematic_ekf(params: BplirParams, setup: SwingSetup, seed: int) -> Kinemati
         calibration=setup.calibration(params, seed), line=line)
 
 
-def add_line_sensor(builder, params: BplirParams, robot: Robot, seed: int, ekf) -> None:
+def add_line_sensor(builder, params: BplirParams, robot: Robot, seed: int, ekf,
+                    now: bool = False) -> None:
     """The jaw's line sensor on the simulated robot, read by ``ekf`` (a
-    system with a ``line_gap`` input), when the robot has one."""
+    system with a ``line_gap`` input), when the robot has one: its held
+    sample, or with ``now`` the sample it takes at this instant (for a
+    system that samples at the tick's event)."""
     ls = params.line_sensor
     if ls.range <= 0:
         return
@@ -66,4 +69,5 @@ def add_line_sensor(builder, params: BplirParams, robot: Robot, seed: int, ekf) 
         ls, true.l1, true.l2, math.radians(params.scenario.incline_deg), params.imu.period,
         seed))
     builder.Connect(robot.plant.get_state_output_port(), sensor.state_port)
-    builder.Connect(sensor.GetOutputPort("line_gap"), ekf.GetInputPort("line_gap"))
+    builder.Connect(sensor.GetOutputPort("line_gap_now" if now else "line_gap"),
+                    ekf.GetInputPort("line_gap"))

@@ -58,6 +58,9 @@ class LineSensor(PySystem):
     output ``line_gap`` (2): the held reading (m) and 1 where it is valid
     (0 out of range).  Sample ``k`` at ``t_k = k T``
     (:func:`~bplir_drake.systems.schedule.declare_sample`), like the IMUs.
+    Output ``line_gap_now``: the sample the sensor takes at this instant
+    (at ``t_k`` before its update, sample ``k``: what a system reads
+    that takes its own samples at the tick's event).
     ``l1``, ``l2`` are the simulated robot's true link lengths and
     ``alpha`` the line's incline (rad)."""
 
@@ -74,6 +77,10 @@ class LineSensor(PySystem):
         self._held = self.DeclareDiscreteState(3)
         declare_sample(self, period, self._sample)
         self.DeclareVectorOutputPort("line_gap", 2, self._output, {self.xd_ticket()})
+        self.DeclareVectorOutputPort("line_gap_now", 2,
+                                     lambda c, o: o.SetFromVector(self._taken(c)[:2]),
+                                     {self.xd_ticket(), self.state_port.ticket(),
+                                      self.all_parameters_ticket()})
 
     def set_sensor(self, context, params: LineSensorParams, seed: int) -> None:
         """The noise, offset and noise seed of the sensor in ``context`` (the
@@ -85,16 +92,19 @@ class LineSensor(PySystem):
         own.get_mutable_abstract_parameter(self._sensor).set_value((params, int(seed)))
 
     def _sample(self, context, discrete_state):
+        discrete_state.get_mutable_vector(self._held).SetFromVector(self._taken(context))
+
+    def _taken(self, context):
+        """(reading, valid, index + 1): the sample taken now."""
         p, seed = context.get_abstract_parameter(self._sensor).get_value()
-        k = int(round(context.get_discrete_state(self._held).get_value()[2]))
+        k = int(context.get_discrete_state(self._held).get_value()[2] + 0.5)   # a count
         q = RobotState(self.state_port.Eval(context))
         l1, l2, alpha = self.geometry
         gap = line_gap(q.q1, q.q1 + q.q2, l1, l2, alpha)[0]
         valid = abs(gap) <= p.range
         noise = p.sigma * np.random.default_rng((seed, k, 1)).standard_normal() if valid else 0.0
         reading = gap + p.offset + noise if valid else 0.0
-        discrete_state.get_mutable_vector(self._held).SetFromVector(
-            [reading, 1.0 if valid else 0.0, k + 1])
+        return [reading, 1.0 if valid else 0.0, k + 1]
 
     def _output(self, context, out):
         out.SetFromVector(context.get_discrete_state(self._held).get_value()[:2])

@@ -7,11 +7,15 @@ Each part stays its own system and tested unit
 :class:`~bplir_drake.systems.delay_id.DelayIdentifier`,
 :class:`~bplir_drake.systems.predictor.DelayPredictor`,
 :class:`~bplir_drake.systems.plan_tracker.PlanTracker`); this system runs
-their tick functions on one state vector, with one event and one cached
-result a tick, so a swing crosses from C++ into Python once a tick for the
-whole chain rather than once a part.  It keeps the parts' tick schedule
-(:mod:`bplir_drake.systems.schedule`) and so computes the same numbers,
-bit for bit, as the parts wired one by one.
+their tick functions on one state vector in one event a tick, so a swing
+crosses from C++ into Python once a tick for the whole chain rather than
+once a part.  At ``t_k`` it takes IMU sample ``k`` and runs the tick on it
+at once, holding the results it gives out until ``t_{k+1}`` in its state
+(the command, the estimate and the logged signals are C++ state output
+ports): what the parts wired one by one give out during ``[t_k, t_{k+1})``
+(:mod:`bplir_drake.systems.schedule`).  So it computes the same numbers,
+bit for bit, as the parts wired one by one; a line sensor is read as the
+sample it takes at ``t_k`` (its ``line_gap_now``).
 """
 from __future__ import annotations
 
@@ -21,7 +25,6 @@ from pydrake.systems.framework import EventStatus
 
 from .base import PySystem
 from .imu import pack
-from .schedule import declare_tick_result
 
 
 def _default_state(unit, *groups) -> list[np.ndarray]:
@@ -34,7 +37,7 @@ class OnboardComputer(PySystem):
     """Inputs ``imu_readings`` (12: the ideal IMU readings gyro1, gyro2,
     accel1, accel2, 3 each, the sampler's four inputs in one; a C++
     ``Multiplexer`` gathers them) and, when the EKF fuses a line sensor,
-    ``line_gap``.  Outputs, as the parts': ``imu``, ``estimate``,
+    ``line_gap`` (the sensor's ``line_gap_now``).  Outputs, as the parts': ``imu``, ``estimate``,
     ``estimate_relative``, ``covariance_diagonal``, ``gyro_bias``,
     ``predicted`` (with a predictor), ``torque``, ``reference`` and, with
     an identifier, ``delay_steps`` and ``fit``; and ``record``, the tick's
@@ -79,74 +82,86 @@ class OnboardComputer(PySystem):
         self._calibration = self.DeclareAbstractParameter(AbstractValue.Make(
             ctx.get_abstract_parameter(ekf._calibration).get_value()))
         self._xd = self.DeclareDiscreteState(np.concatenate(values))
-        prerequisites = {self.xd_ticket()}
-        if self.line_port is not None:
-            prerequisites.add(self.line_port.ticket())
-        self._tick = declare_tick_result(self, self._result, prerequisites)
-        self.DeclareInitializationDiscreteUpdateEvent(self._first_sample)
-        self.DeclarePeriodicDiscreteUpdateEvent(self.period, 0.0, self._store)
+        # the tick's results, held until the next tick: C++ output ports
+        self._estimate = self.DeclareDiscreteState(4)
+        self._command = self.DeclareDiscreteState(1)
+        self._record = self.DeclareDiscreteState(19)
+        self.DeclareInitializationDiscreteUpdateEvent(self._tick)
+        self.DeclarePeriodicDiscreteUpdateEvent(self.period, 0.0, self._periodic)
         self._declare_outputs()
 
-    def _declare_outputs(self) -> None:
-        xd, dep = {self.xd_ticket()}, {self._tick.ticket()}
-        s = self.slices
-        out = self.DeclareVectorOutputPort
-        out("imu", 6, lambda c, o: o.SetFromVector(c.get_discrete_state(self._xd).get_value()[
-            s["imu"]][:6]), xd)
-        out("estimate", 4, lambda c, o: o.SetFromVector(self._tick.Eval(c)[0][:4]), dep)
-        out("estimate_relative", 4, lambda c, o: o.SetFromVector(self._tick.Eval(c)[3]), dep)
-        out("covariance_diagonal", self.ekf.n, lambda c, o: o.SetFromVector(
-            np.diag(self._tick.Eval(c)[1])), dep)
-        bias = self.ekf._bias
-        out("gyro_bias", 2, lambda c, o: o.SetFromVector(
-            self._tick.Eval(c)[0][bias] if bias is not None else [0.0, 0.0]), dep)
-        if self.predictor is not None:
-            out("predicted", 4, lambda c, o: o.SetFromVector(self._tick.Eval(c)[4]), dep)
-        out("torque", 1, lambda c, o: o.SetAtIndex(0, self._tick.Eval(c)[5][0]), dep)
-        out("reference", 1, lambda c, o: o.SetAtIndex(0, self._tick.Eval(c)[5][1]), dep)
-        out("record", 14, self._record, {self.xd_ticket(), self._tick.ticket()})
-        if self.identifier is not None:
-            n = 3 * self.identifier.window + 1
-            out("delay_steps", 1, lambda c, o: o.SetAtIndex(0, c.get_discrete_state(
-                self._xd).get_value()[s["identifier"]][n]), xd)
-            out("fit", 2, lambda c, o: o.SetFromVector(self.identifier.fit(
-                c.get_discrete_state(self._xd).get_value()[s["identifier"]])), xd)
-
-    #: the signals of the ``record`` output (one logger records the tick's
-    #: signals), by the swing's log names: the estimate (relative), the
-    #: command, the planned q2, the IMU sample and the delay fit (zeros
-    #: without an identifier)
+    #: the tick's signals in the ``record`` output, by name (one logger
+    #: records them): the estimate (relative), the command, the planned q2,
+    #: the IMU sample, the delay fit (zeros without an identifier), the
+    #: predicted state (the estimate without a predictor) and the delay in
+    #: ticks the tick compensated
     RECORD = {"estimate": slice(0, 4), "command": slice(4, 5), "reference": slice(5, 6),
-              "imu": slice(6, 12), "delay_fit": slice(12, 14)}
+              "imu": slice(6, 12), "delay_fit": slice(12, 14), "predicted": slice(14, 18),
+              "delay_steps": slice(18, 19)}
 
     def record_columns(self) -> dict[str, slice]:
-        """:data:`RECORD` for this computer (no ``delay_fit`` without an
-        identifier)."""
+        """The logged signals of :data:`RECORD` (the swing's log names): no
+        ``delay_fit`` without an identifier; the predicted state and the
+        delay are outputs of their own, not logged."""
         return {k: v for k, v in self.RECORD.items()
-                if k != "delay_fit" or self.identifier is not None}
+                if k not in ("predicted", "delay_steps")
+                and (k != "delay_fit" or self.identifier is not None)}
 
-    def _record(self, context, out):
-        r = self._tick.Eval(context)
-        xd = context.get_discrete_state(self._xd).get_value()
-        fit = (self.identifier.fit(xd[self.slices["identifier"]])
-               if self.identifier is not None else (0.0, 0.0))
-        out.SetFromVector(np.concatenate((r[3], r[5][:2], xd[self._imu][:6], fit)))
+    def _declare_outputs(self) -> None:
+        s, rec = self.slices, self.RECORD
+        self.DeclareStateOutputPort("estimate_relative", self._estimate)
+        self.DeclareStateOutputPort("torque", self._command)
+        self.DeclareStateOutputPort("record", self._record)
+        xd = {self.xd_ticket()}
+        out = self.DeclareVectorOutputPort
+
+        def parts(c):
+            return c.get_discrete_state(self._xd).get_value()
+
+        def recorded(c, name):
+            return c.get_discrete_state(self._record).get_value()[rec[name]]
+
+        out("imu", 6, lambda c, o: o.SetFromVector(parts(c)[self._imu][:6]), xd)
+        out("estimate", 4, lambda c, o: o.SetFromVector(parts(c)[s["ekf_x"]][:4]), xd)
+        n = self.ekf.n
+        out("covariance_diagonal", n, lambda c, o: o.SetFromVector(
+            np.diag(parts(c)[s["ekf_P"]].reshape(n, n))), xd)
+        bias = self.ekf._bias
+        out("gyro_bias", 2, lambda c, o: o.SetFromVector(
+            parts(c)[s["ekf_x"]][bias] if bias is not None else [0.0, 0.0]), xd)
+        if self.predictor is not None:
+            out("predicted", 4, lambda c, o: o.SetFromVector(recorded(c, "predicted")), xd)
+        out("reference", 1, lambda c, o: o.SetFromVector(recorded(c, "reference")), xd)
+        if self.identifier is not None:
+            out("delay_steps", 1, lambda c, o: o.SetFromVector(recorded(c, "delay_steps")), xd)
+            out("fit", 2, lambda c, o: o.SetFromVector(recorded(c, "delay_fit")), xd)
 
     # ------------------------------------------------------------ the tick
-    def _result(self, context):
-        """The tick's results from the stored state: (the EKF's posterior x,
-        P and accelerometer input of the held sample, the relative estimate,
-        the predicted state, the tracker's (torque, planned q2, phase, tick
-        count, reach))."""
+    def _periodic(self, context, discrete_state):
+        """The tick at ``t_k``, ``k >= 1`` (``t_0``'s is the initialization
+        event's)."""
+        if context.get_time() < 0.5 * self.period:
+            return EventStatus.DidNothing()
+        return self._tick(context, discrete_state)
+
+    def _tick(self, context, discrete_state):
+        """At ``t_k``: take IMU sample ``k``, run every part's tick on it
+        (from the parts' state after tick ``k - 1``) and hold their state
+        after tick ``k`` and the tick's results until ``t_{k+1}`` -- what the
+        parts wired one by one give out during ``[t_k, t_{k+1})`` and store
+        at ``t_{k+1}``."""
         xd, s = context.get_discrete_state(self._xd).get_value(), self.slices
+        r = self.readings_port.Eval(context)
+        imu = self.sampler.next_state(xd[self._imu], r[0:3], r[3:6], r[6:9], r[9:12],
+                                      context.get_abstract_parameter(self._sensor).get_value())
         post, u = self.ekf.posterior(
             xd[s["ekf_x"]], xd[s["ekf_P"]], xd[s["ekf_u"]], xd[s["ekf_first"]][0] > 0.5,
-            xd[self._imu][:6], context.get_time(),
+            imu[:6], context.get_time(),
             context.get_abstract_parameter(self._calibration).get_value(),
             self.line_port.Eval(context) if self.line_port is not None else None)
         x = post.x
         relative = np.array([x[0], x[1] - x[0], x[2], x[3] - x[2]])
-        steps = xd[self._steps_at] if self._steps_at is not None else None
+        steps = xd[self._steps_at] if self._steps_at is not None else 0.0
         state = relative
         if self.predictor is not None:
             state = self.predictor.prediction(xd[s["predictor"]], relative,
@@ -154,38 +169,22 @@ class OnboardComputer(PySystem):
                                               else None)
         tracked = self.tracker.tick(state, xd[s["tracker"]],
                                     steps if self.tracker.steps_port is not None else None)
-        return x, post.P, u, relative, state, tracked
-
-    def _sample(self, context, imu):
-        """The IMU part of the state after the sample of this instant."""
-        r = self.readings_port.Eval(context)
-        return self.sampler.next_state(imu, r[0:3], r[3:6], r[6:9], r[9:12],
-                                       context.get_abstract_parameter(self._sensor).get_value())
-
-    def _first_sample(self, context, discrete_state):
-        xd = context.get_discrete_state(self._xd).CopyToVector()
-        xd[self._imu] = self._sample(context, xd[self._imu])
-        discrete_state.get_mutable_vector(self._xd).SetFromVector(xd)
-
-    def _store(self, context, discrete_state):
-        """At ``t_k``, ``k >= 1``: store every part's tick ``k - 1`` result
-        and take sample ``k`` (a no-op at ``t_0``, sampled by the
-        initialization event)."""
-        if context.get_time() < 0.5 * self.period:
-            return EventStatus.DidNothing()
-        x, P, u, _, _, tracked = self._tick.Eval(context)
-        xd, s = context.get_discrete_state(self._xd).get_value(), self.slices
         command = tracked[0]
-        new = [x, P.ravel(), u, (0.0,), tracked[2:]]
+        new = [x, post.P.ravel(), u, (0.0,), tracked[2:]]
         if self.predictor is not None:
-            new.append(xd[s["predictor"]][1:])
-            new.append((command,))
+            new += [xd[s["predictor"]][1:], (command,)]
+        fit = (0.0, 0.0)
         if self.identifier is not None:
-            held = xd[self._imu][:2].copy()
+            fit = self.identifier.fit(xd[s["identifier"]])
             new.append(self.identifier.stored(xd[s["identifier"]], lambda: command,
-                                              lambda: held))
-        new.append(self._sample(context, xd[self._imu]))
+                                              lambda: imu[:2]))
+        new.append(imu)
         discrete_state.get_mutable_vector(self._xd).SetFromVector(np.concatenate(new))
+        discrete_state.get_mutable_vector(self._estimate).SetFromVector(relative)
+        discrete_state.get_mutable_vector(self._command).SetAtIndex(0, command)
+        discrete_state.get_mutable_vector(self._record).SetFromVector(np.concatenate(
+            (relative, tracked[:2], imu[:6], fit, state, (steps,))))
+        return EventStatus.Succeeded()
 
     # ------------------------------------------------- a Monte Carlo sample
     def set_sensor(self, context, params, seed: int) -> None:

@@ -195,20 +195,22 @@ class ImuSampler(PySystem):
             (params, int(seed), pack(params)))
 
     def _sample(self, context, discrete_state):
-        xd = discrete_state.get_mutable_vector(self._state)
-        xd.SetFromVector(self.next_state(
+        g1, g2 = (port.Eval(context) for port in self.gyro_ports)
+        a1, a2 = (port.Eval(context) for port in self.accel_ports)
+        discrete_state.set_value(self._state, self.next_state(
             context.get_discrete_state(self._state).get_value(),
-            *(port.Eval(context) for port in (*self.gyro_ports, *self.accel_ports)),
+            g1[2], g2[2], a1[0], a1[1], a2[0], a2[1],
             context.get_abstract_parameter(self._sensor).get_value()))
 
     @staticmethod
-    def next_state(s, g1, g2, a1, a2, sensor):
+    def next_state(s, g1, g2, a1x, a1y, a2x, a2y, sensor):
         """The held state after the next sample (:data:`State`) from the
-        held state ``s``, the ideal readings (gyro1, gyro2, accel1, accel2,
-        3 each) and the sensor parameter ``(params, seed, packed)``."""
+        held state ``s``, the ideal readings the planar model uses (each
+        gyro's z rate, each accelerometer's x and y) and the sensor
+        parameter ``(params, seed, packed)``."""
         _, seed, consts = sensor
         k = int(s[8] + 0.5)   # a count held as a float
-        return sample_kernel(g1[2], g2[2], a1[0], a1[1], a2[0], a2[1], s[6], s[7], k,
+        return sample_kernel(g1, g2, a1x, a1y, a2x, a2y, s[6], s[7], k,
                              consts, noise_block(seed, k // NOISE_BLOCK)[k % NOISE_BLOCK])
 
     def _output(self, context, out):

@@ -109,10 +109,26 @@ class Landing(_LineServo):
 
     def deceleration(self, x) -> float:
         """Link 1's deceleration ``b1 / M11`` on the nominal model with the
-        elbow held (rad/s^2; negative while gravity speeds it up)."""
-        q, v = np.asarray(x[:2], dtype=float), np.asarray(x[2:4], dtype=float)
-        b = bias_term(q, v, self.plant) + gravity_vector(q, self.plant)
-        return float(b[0] / mass_matrix(q, self.plant)[0, 0])
+        elbow held (rad/s^2; negative while gravity speeds it up): the first
+        rows of :func:`~bplir_drake.systems.plant.bias_term`,
+        :func:`~bplir_drake.systems.plant.gravity_vector` and
+        :func:`~bplir_drake.systems.plant.mass_matrix`, in the same
+        arithmetic, their constants worked out once (it runs every tick)."""
+        c = self.__dict__.get("_decel")
+        if c is None:
+            p = self.plant
+            r1, r2 = p.rc1, p.rc2
+            a = p.I2 + p.m2 * r2 ** 2
+            c = (p.dc1, p.dc2, p.m1 * r1 ** 2 + p.I1 + p.m2 * p.l1 ** 2 + a,
+                 2.0 * p.m2 * p.l1 * r2, p.m2 * p.l1 * p.rc2, p.m1 * p.g * p.rc1, p.m2 * p.g,
+                 p.l1, p.rc2)
+            object.__setattr__(self, "_decel", c)
+        dc1, dc2, m11_0, m11_c, h_0, g1, g2, l1, rc2 = c
+        q0, q1, v0, v1 = float(x[0]), float(x[1]), float(x[2]), float(x[3])
+        h = h_0 * math.sin(q1 + dc2)
+        b0 = -h * (2.0 * v0 * v1 + v1 ** 2) + (
+            g1 * math.sin(q0 + dc1) + g2 * (l1 * math.sin(q0) + rc2 * math.sin(q0 + q1 + dc2)))
+        return b0 / (m11_0 + m11_c * math.cos(q1 + dc2))
 
     def takes_over(self, x) -> bool:
         """Whether the landing takes over (asked in the plan's last forward
@@ -307,13 +323,14 @@ def height_rates(p, alpha: float, x) -> tuple[float, float, float]:
     """(h, h', along): the gripper's distance to a line inclined by
     ``alpha`` (negative below it), its rate and the gripper's speed along
     the line at the relative state ``x`` of the plant ``p``."""
-    q, v = x[:2], x[2:4]
-    s = q[0] - alpha
-    th = s + q[1]
-    h = -p.l1 * np.cos(s) - p.l2 * np.cos(th)
-    hd = (p.l1 * np.sin(s) + p.l2 * np.sin(th)) * v[0] + p.l2 * np.sin(th) * v[1]
-    along = (p.l1 * np.cos(s) + p.l2 * np.cos(th)) * v[0] + p.l2 * np.cos(th) * v[1]
-    return float(h), float(hd), float(along)
+    s = float(x[0]) - alpha
+    th = s + float(x[1])
+    v0, v1, l1, l2 = float(x[2]), float(x[3]), p.l1, p.l2
+    cs, ct, st = math.cos(s), math.cos(th), math.sin(th)   # a controller asks every tick
+    h = -l1 * cs - l2 * ct
+    hd = (l1 * math.sin(s) + l2 * st) * v0 + l2 * st * v1
+    along = (l1 * cs + l2 * ct) * v0 + l2 * ct * v1
+    return h, hd, along
 
 
 def height_torque(p, alpha: float, x, hdd: float) -> float:

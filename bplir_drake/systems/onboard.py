@@ -152,7 +152,7 @@ class OnboardComputer(PySystem):
         at ``t_{k+1}``."""
         xd, s = context.get_discrete_state(self._xd).get_value(), self.slices
         r = self.readings_port.Eval(context)
-        imu = self.sampler.next_state(xd[self._imu], r[0:3], r[3:6], r[6:9], r[9:12],
+        imu = self.sampler.next_state(xd[self._imu], r[2], r[5], r[6], r[7], r[9], r[10],
                                       context.get_abstract_parameter(self._sensor).get_value())
         post, u = self.ekf.posterior(
             xd[s["ekf_x"]], xd[s["ekf_P"]], xd[s["ekf_u"]], xd[s["ekf_first"]][0] > 0.5,
@@ -179,10 +179,10 @@ class OnboardComputer(PySystem):
             new.append(self.identifier.stored(xd[s["identifier"]], lambda: command,
                                               lambda: imu[:2]))
         new.append(imu)
-        discrete_state.get_mutable_vector(self._xd).SetFromVector(np.concatenate(new))
-        discrete_state.get_mutable_vector(self._estimate).SetFromVector(relative)
-        discrete_state.get_mutable_vector(self._command).SetAtIndex(0, command)
-        discrete_state.get_mutable_vector(self._record).SetFromVector(np.concatenate(
+        discrete_state.set_value(self._xd, np.concatenate(new))
+        discrete_state.set_value(self._estimate, relative)
+        discrete_state.set_value(self._command, tracked[:1])
+        discrete_state.set_value(self._record, np.concatenate(
             (relative, tracked[:2], imu[:6], fit, state, (steps,))))
         return EventStatus.Succeeded()
 

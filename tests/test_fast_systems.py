@@ -254,3 +254,24 @@ def test_the_onboard_computer_is_its_parts_wired_one_by_one():
             assert np.array_equal(a.logs[name].t, b.logs[name].t), name
             assert np.array_equal(a.logs[name].data, b.logs[name].data, equal_nan=True), name
     assert (fused.builds, parts.builds) == (3, 3)   # the second seed reused the first's
+
+
+def test_a_released_swing_diagram_is_freed_with_the_onboard_computers_parts():
+    """Built.release lets a swing's diagram go: the diagram, its onboard
+    computer and the parts it runs (systems outside the diagram) are all
+    collected once the last reference is dropped (pydrake's reference
+    cycles through C++ would keep them, about 1 MB a build)."""
+    import gc
+    import weakref
+
+    from bplir_drake.analysis.swing.run import swing_diagram
+
+    built = swing_diagram(preset(), seed=0)
+    computer = built.systems["controller"]
+    held = [weakref.ref(s) for s in (built.diagram, computer, computer.ekf, computer.tracker,
+                                     computer.sampler, computer.predictor, computer.identifier)]
+    del computer
+    built.release()
+    del built
+    gc.collect()
+    assert [ref() is None for ref in held] == [True] * len(held)

@@ -32,10 +32,15 @@ def weak_callback(system, fn):
 
 def release_system(system) -> None:
     """Drop every reference a system of this package holds (ports,
-    callbacks, parameters): it will not run again.  Other systems are left
-    alone."""
-    if type(system).__module__.startswith("bplir_drake."):
-        system.__dict__.clear()
+    callbacks, parameters): it will not run again.  The package's systems
+    it holds as parts, outside any diagram (the onboard computer's), are
+    released with it.  Other systems are left alone."""
+    if not type(system).__module__.startswith("bplir_drake."):
+        return
+    for part in list(system.__dict__.values()):
+        if isinstance(part, LeafSystem) and part is not system:
+            release_system(part)
+    system.__dict__.clear()
 
 
 class PySystem(LeafSystem):

@@ -937,7 +937,8 @@ def test_a_second_study_into_the_same_directory_is_refused_with_the_holders_pid(
     from bplir_drake.analysis import montecarlo as mc
 
     out = tmp_path / "mc"
-    args = [sys.executable, "-m", "bplir_drake.cli", "montecarlo", "-n", "8", "--workers",
+    n = 60   # long enough (about 3 s) to be running when the second has started
+    args = [sys.executable, "-m", "bplir_drake.cli", "montecarlo", "-n", str(n), "--workers",
             "1", "--no-plots", "--out", str(out)]
     first = subprocess.Popen(args, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     deadline = time.monotonic() + 120
@@ -951,7 +952,7 @@ def test_a_second_study_into_the_same_directory_is_refused_with_the_holders_pid(
                                      f"process {first.pid}; wait for it to finish or choose "
                                      "another --out")
     rows = mc.read_results(out / "results.csv")
-    assert sorted(r["index"] for r in rows) == list(range(8))
+    assert sorted(r["index"] for r in rows) == list(range(n))
     assert (out / ".lock").read_text() == ""   # released and emptied, kept as a file
 
 

@@ -200,8 +200,7 @@ def _electrics(p: MotorParams):
     ``tripped``: the interlock's state, held between its updates); state
     ``(i_loop / i_peak, mechanical work, electrical energy, copper loss,
     regenerated energy)``; output :data:`ELECTRIC_OUTPUTS`, then the
-    interlock's next ``(h, tripped)`` and the torque the driver can deliver
-    now (for anti-windup).  The loop follows the target current of the
+    interlock's next ``(h, tripped)``.  The loop follows the target current of the
     command (:func:`current_command`: saturation, dead-band, current limit);
     the current is the loop's state clipped to the voltage window at the
     present ``q2d`` (:func:`current_window`).  The interlock: ``h <- max(0, h
@@ -229,10 +228,8 @@ def _electrics(p: MotorParams):
     h_next = smax(0.0, h + p.driver_period * (i * i - p.i_cont ** 2))
     trip_next = if_then_else(h_next >= interlock_budget(p), 1.0,
                              if_then_else(h_next <= 0.0, 0.0, tripped))
-    available = smin(p.torque_limit, kt * if_then_else(tripped > 0.5, p.i_cont, ip))
     return SymbolicVectorSystem(state=x, input=u, dynamics=dyn,
-                                output=[kt * i, i, volt, emf, mech, elec, h_next, trip_next,
-                                        available])
+                                output=[kt * i, i, volt, emf, mech, elec, h_next, trip_next])
 
 
 #: output rows of the motor's ``electrics`` (its ``MotorDriver`` ports)
@@ -263,7 +260,8 @@ class MotorDriver(Diagram):
 
     def __init__(self, params: MotorParams):
         from pydrake.systems.framework import DiagramBuilder
-        from pydrake.systems.primitives import Demultiplexer, Multiplexer, ZeroOrderHold
+        from pydrake.systems.primitives import (AffineSystem, Demultiplexer, Gain,
+                                                Multiplexer, Saturation, ZeroOrderHold)
 
         super().__init__()
         self.params = params
@@ -271,7 +269,7 @@ class MotorDriver(Diagram):
         elec = b.AddNamedSystem("electrics", _electrics(params))
         driver = b.AddNamedSystem("driver", ZeroOrderHold(params.driver_period, 2))
         n = len(ELECTRIC_OUTPUTS)
-        split = b.AddSystem(Demultiplexer([1] * n + [2, 1]))
+        split = b.AddSystem(Demultiplexer([1] * n + [2]))
         held = b.AddSystem(Demultiplexer(2))
         mux = b.AddSystem(Multiplexer([1, 2, 4]))
         b.ExportInput(mux.get_input_port(0), "torque_command")
@@ -284,7 +282,17 @@ class MotorDriver(Diagram):
         for k, name in enumerate(ELECTRIC_OUTPUTS):
             b.ExportOutput(split.get_output_port(k), name)
         b.ExportOutput(held.get_output_port(1), "tripped")
-        b.ExportOutput(split.get_output_port(n + 1), "available")
+        # the current limit's torque of the held trip state, no feedthrough
+        # (a controller's anti-windup reads it): min(torque_limit, kt i_lim),
+        # i_lim = i_peak + tripped (i_cont - i_peak)
+        limit = b.AddSystem(AffineSystem(D=[[params.i_cont - params.i_peak]],
+                                         y0=[params.i_peak]))
+        torque = b.AddSystem(Gain(params.torque_per_amp, 1))
+        cap = b.AddSystem(Saturation([-np.inf], [params.torque_limit]))
+        b.Connect(held.get_output_port(1), limit.get_input_port(0))
+        b.Connect(limit.get_output_port(0), torque.get_input_port(0))
+        b.Connect(torque.get_output_port(0), cap.get_input_port(0))
+        b.ExportOutput(cap.get_output_port(0), "available")
         b.BuildInto(self)
 
     def interlock_state(self, context) -> tuple[float, bool]:

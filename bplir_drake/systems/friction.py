@@ -114,8 +114,9 @@ def friction_system(params: FrictionParams, *, in_context: bool = False):
     the context, so a context can carry other friction (:func:`set_friction`)
     without rebuilding; ``b`` and the drag stay constants
     (:func:`friction_structure`).  That form costs about 7 % of a swing's
-    time (README, "Speed").  For ``Linearize`` use :class:`JointFriction`
-    (templated, no extra state)."""
+    time (the coefficients are read from the context at every derivative).
+    For ``Linearize`` use :class:`JointFriction` (templated, no extra
+    state)."""
     from pydrake.symbolic import MakeVectorVariable, Variable
     from pydrake.systems.framework import DiagramBuilder
     from pydrake.systems.primitives import ConstantVectorSource, Multiplexer, SymbolicVectorSystem

@@ -27,10 +27,6 @@ from .base import PySystem
 from .imu import pack
 
 
-def _default_state(unit, *groups) -> list[np.ndarray]:
-    """The default values of discrete state ``groups`` of a unit system."""
-    ctx = unit.CreateDefaultContext()
-    return [ctx.get_discrete_state(g).CopyToVector() for g in groups]
 
 
 class OnboardComputer(PySystem):
@@ -64,8 +60,9 @@ class OnboardComputer(PySystem):
             parts.append(("identifier", identifier, identifier._xd))
         parts.append(("imu", sampler, sampler._state))
         values, self.slices, at = [], {}, 0
+        defaults = {id(unit): unit.CreateDefaultContext() for _, unit, _ in parts}
         for name, unit, group in parts:
-            [v] = _default_state(unit, group)
+            v = defaults[id(unit)].get_discrete_state(group).CopyToVector()
             self.slices[name] = slice(at, at + len(v))
             values.append(v)
             at += len(v)
@@ -75,12 +72,10 @@ class OnboardComputer(PySystem):
         self.readings_port = self.DeclareVectorInputPort("imu_readings", 12)
         self.line_port = (self.DeclareVectorInputPort("line_gap", 2)
                           if ekf.line_port is not None else None)
-        ctx = sampler.CreateDefaultContext()
         self._sensor = self.DeclareAbstractParameter(AbstractValue.Make(
-            ctx.get_abstract_parameter(sampler._sensor).get_value()))
-        ctx = ekf.CreateDefaultContext()
+            defaults[id(sampler)].get_abstract_parameter(sampler._sensor).get_value()))
         self._calibration = self.DeclareAbstractParameter(AbstractValue.Make(
-            ctx.get_abstract_parameter(ekf._calibration).get_value()))
+            defaults[id(ekf)].get_abstract_parameter(ekf._calibration).get_value()))
         self._xd = self.DeclareDiscreteState(np.concatenate(values))
         # the tick's results, held until the next tick: C++ output ports
         self._estimate = self.DeclareDiscreteState(4)

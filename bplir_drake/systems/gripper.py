@@ -179,6 +179,7 @@ class GripperInterlock(PySystem):
         self.gripper = gripper or GripperParams()   # its capture criterion
         self._geo = np.array([geometry.l1, geometry.l2, geometry.alpha, geometry.grip_spacing])
         self._travel_min = scenario.min_travel_fraction * scenario.grip_spacing
+        self._band = float(self.gripper.capture_distance)
         self.state_port = self.DeclareVectorInputPort("state", 4)
         self.tripped_port = self.DeclareVectorInputPort("tripped", 1)
         self.estimate_port = self.DeclareVectorInputPort("estimate", 4)
@@ -209,8 +210,8 @@ class GripperInterlock(PySystem):
         sc = self.scenario
         x = self.state_port.Eval(context)
         found, s, xa, passed, normal, closest = arrival(
-            d[9:13], x, self.period, self._geo, self.gripper.capture_distance, self._travel_min,
-            d[7] > 0.5, d[8], 8, 30)
+            d[9:13], x, self.period, self._geo, self._band, self._travel_min,
+            bool(d[7] > 0.5), float(d[8]), 8, 30)
         d[6] = min(d[6], closest)   # closest
         d[7] = 1.0 if passed else 0.0
         if found:
@@ -227,7 +228,7 @@ class GripperInterlock(PySystem):
             d[0], d[2] = OUTCOMES.index("timeout"), t
         d[8] = normal   # last normal
         d[9:13] = x
-        discrete_state.get_mutable_vector(self._xd).SetFromVector(d)
+        discrete_state.set_value(self._xd, d)
         if d[0] != 0:
             return EventStatus.ReachedTermination(self, "swing ended")
         return EventStatus.Succeeded()

@@ -33,11 +33,12 @@ class OnboardComputer(PySystem):
     """Inputs ``imu_readings`` (12: the ideal IMU readings gyro1, gyro2,
     accel1, accel2, 3 each, the sampler's four inputs in one; a C++
     ``Multiplexer`` gathers them) and, when the EKF fuses a line sensor,
-    ``line_gap`` (the sensor's ``line_gap_now``).  Outputs, as the parts': ``imu``, ``estimate``,
-    ``estimate_relative``, ``covariance_diagonal``, ``gyro_bias``,
-    ``predicted`` (with a predictor), ``torque``, ``reference`` and, with
-    an identifier, ``delay_steps`` and ``fit``; and ``record``, the tick's
-    signals in one vector (:data:`RECORD`).
+    ``line_gap`` (the sensor's ``line_gap_now``).  Outputs, as the parts':
+    ``imu``, ``estimate``, ``estimate_relative``, ``covariance_diagonal``,
+    ``gyro_bias``, ``predicted`` (with a predictor), ``torque``,
+    ``reference`` and, with an identifier, ``delay_steps`` and ``fit``; and
+    ``record``, the tick's signals in one vector (:data:`RECORD`).  The
+    command, the estimate and the record are its state (C++ output ports).
 
     ``sampler``, ``ekf``, ``tracker`` and the optional ``identifier`` and
     ``predictor`` are the parts, built as for a diagram of their own and

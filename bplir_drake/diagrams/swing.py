@@ -106,15 +106,18 @@ def _changed(built: Built, params: BplirParams, use_estimator: bool) -> list[str
     return out
 
 
-def set_swing_sample(built: Built, context, params: BplirParams, seed: int) -> None:
+def set_swing_sample(built: Built, context, params: BplirParams, seed: int,
+                     structure: str | None = None) -> None:
     """Write the sample ``(params, seed)`` into ``context``, a root context
     of ``built.diagram`` (a :func:`build_swing` diagram): the simulated
     links' inertial parameters, its friction, the IMUs' error model and noise
     seed, and the disturbance schedule.  Raises ``ValueError`` when
-    ``params`` differ from the built ones outside :data:`SAMPLE_FIELDS`."""
-    use_est = json.loads(built.structure)["use_estimator"]
-    if swing_structure(params, use_est) != built.structure:
-        changed = _changed(built, params, use_est)
+    ``params`` differ from the built ones outside :data:`SAMPLE_FIELDS`
+    (``structure``: their :func:`swing_structure`, when the caller has it)."""
+    if structure is None:
+        structure = swing_structure(params, json.loads(built.structure)["use_estimator"])
+    if structure != built.structure:
+        changed = _changed(built, params, json.loads(built.structure)["use_estimator"])
         raise ValueError(f"this sample changes {', '.join(changed[:4]) or 'the structure'}, "
                          "more than the context carries (its fields of "
                          f"{', '.join(SAMPLE_FIELDS)}); build its own swing diagram")

@@ -139,10 +139,14 @@ class SwingRunner:
             self.built.release()
             self.built = None
 
-    def diagram_for(self, params: BplirParams, seed: int, use_estimator: bool):
+    def diagram_for(self, params: BplirParams, seed: int, use_estimator: bool,
+                    structure: str | None = None):
         """``(built swing, fresh)`` for ``params``: reused when the structure
-        matches (``fresh`` False: the sample must be set in the context)."""
-        if self.built is None or self.built.structure != swing_structure(params, use_estimator):
+        matches (``fresh`` False: the sample must be set in the context;
+        ``structure``: their :func:`swing_structure`, when worked out)."""
+        if structure is None:
+            structure = swing_structure(params, use_estimator)
+        if self.built is None or self.built.structure != structure:
             self.release()
             self.built = swing_diagram(params, seed=seed, use_estimator=use_estimator,
                                        onboard=self.onboard)
@@ -163,13 +167,14 @@ class SwingRunner:
         seed = sc.seed if seed is None else checked_seed(seed)
         use_est = sc.use_estimator if use_estimator is None else use_estimator
         p = draw_true_friction(params, seed)
-        built, fresh = self.diagram_for(p, seed, use_est)
+        structure = swing_structure(p, use_est)
+        built, fresh = self.diagram_for(p, seed, use_est, structure)
         # a fresh build's default context already holds this sample
         motor = built.systems["motor"]
 
         def set_context(ctx):
             if not fresh:
-                set_swing_sample(built, ctx, p, seed)
+                set_swing_sample(built, ctx, p, seed, structure)
             if driver_state is not None:
                 motor.set_interlock_state(ctx, *driver_state)
 

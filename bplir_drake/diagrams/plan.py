@@ -45,7 +45,7 @@ from .plan_file import read_plan_file
 from .open_loop import build_plant_with_friction
 from ..systems.plant import start_configuration
 from .plan_cache import cached
-from ..systems.friction import friction_torques
+from ..systems.friction import friction_torques_along
 from ..systems.motor import i2t_trace, interlock_budget
 from ..progress import progress_bar
 from ..systems.plan_tracker import RICCATI_ACCURACY, TrackerWeights, plan_gains
@@ -230,7 +230,7 @@ def _solve_plan(params, q0, qT, tau_max, power, tmax, knots, time_weight, guess_
     times = np.linspace(xs.start_time(), xs.end_time(), 20 * knots)
     states = np.array([xs.value(t).ravel() for t in times])
     torque = np.array([us.value(t).ravel()[0] for t in times])
-    fr = np.array([friction_torques(s[2:4], friction) for s in states])
+    fr = friction_torques_along(states, friction)
     electric = {} if env is None else dict(
         voltage_limit=env["voltage"], voltage_share=share,
         resistance=env["resistance"], emf_per_rate=env["emf_per_rate"],

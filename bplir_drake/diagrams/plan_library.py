@@ -33,7 +33,7 @@ from pathlib import Path
 import numpy as np
 
 from ..params import BplirParams
-from ..systems.friction import friction_torques
+from ..systems.friction import friction_torques_along
 from ..systems.plan_tracker import RICCATI_ACCURACY, TrackerWeights, TrackingGains, plan_gains
 from ..systems.plant import start_configuration
 from ..io import atomic_path
@@ -299,7 +299,7 @@ def library_plan(params: BplirParams):
         voltage_limit=env["voltage"], voltage_share=env["share"], resistance=env["resistance"],
         emf_per_rate=env["emf_per_rate"], torque_per_amp=env["torque_per_amp"])
     friction = plan_friction(params.friction)
-    fr = np.array([friction_torques(x[2:4], friction) for x in states])
+    fr = friction_torques_along(states, friction)
     plan = SwingPlan(times, states, b["torque"], fr, True, True, "library", sc.incline_deg,
                      plan_torque_limit(made), params.motor.power_rating, 1e-4, **electric,
                      status="interpolated")

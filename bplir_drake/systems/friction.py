@@ -50,6 +50,20 @@ def friction_torques(qd, p: FrictionParams):
                      joint_friction(qd[1], p.fv2, p.fc2, p.b, k2)])
 
 
+def friction_torques_along(states, p: FrictionParams) -> np.ndarray:
+    """:func:`friction_torques` at each row's joint rates (columns 2 and 3
+    of ``states``, shape (N, 4)): an (N, 2) array, row by row the same
+    numbers (the scalar law, not numpy's vectorised arctan, which differs
+    in the last bit)."""
+    if not p.enabled:
+        return 0.0 * np.asarray(states, dtype=float)[:, 2:4]
+    k1, k2 = p.drag_coefficients()
+    return np.array([(joint_friction(v1, p.fv1, p.fc1, p.b, k1),
+                      joint_friction(v2, p.fv2, p.fc2, p.b, k2))
+                     for v1, v2 in np.asarray(states, dtype=float)[:, 2:4].tolist()],
+                    dtype=float).reshape(-1, 2)
+
+
 @TemplateSystem.define("JointFriction_", scope=sys.modules[__name__])
 def JointFriction_(T):
     """Joint friction as a scalar-templated system (double, AutoDiffXd, Expression), for

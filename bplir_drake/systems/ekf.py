@@ -252,8 +252,10 @@ class KinematicEkf(PySystem):
         self._first = self.DeclareDiscreteState([1.0])
         # the standstill calibration: samples are corrected before the update,
         # and the filter's R widened to the noise it measured
+        #: the built calibration parameter (:meth:`_compiled`; a context's default)
+        self.compiled_calibration = self._compiled(calibration)
         self._calibration = self.DeclareAbstractParameter(AbstractValue.Make(
-            self._compiled(calibration)))
+            self.compiled_calibration))
         self._post = declare_tick_result(self, self._posterior,
                                          {self.xd_ticket(), self.all_input_ports_ticket()})
         declare_store(self, params.period, self._store)

@@ -178,8 +178,9 @@ class ImuSampler(PySystem):
         self.seed = int(seed)
         self.gyro_ports = [self.DeclareVectorInputPort(f"gyro{i}", 3) for i in (1, 2)]
         self.accel_ports = [self.DeclareVectorInputPort(f"accel{i}", 3) for i in (1, 2)]
-        self._sensor = self.DeclareAbstractParameter(AbstractValue.Make(
-            (params, self.seed, pack(params))))
+        #: the built sensor parameter ``(params, seed, packed)`` (a context's default)
+        self.sensor = (params, self.seed, pack(params))
+        self._sensor = self.DeclareAbstractParameter(AbstractValue.Make(self.sensor))
         self._state = self.DeclareDiscreteState(len(self.State._fields))
         declare_sample(self, params.period, self._sample)
         self.imu_port = self.DeclareVectorOutputPort("imu", 6, self._output, {self.xd_ticket()})

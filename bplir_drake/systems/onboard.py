@@ -61,9 +61,9 @@ class OnboardComputer(PySystem):
             parts.append(("identifier", identifier, identifier._xd))
         parts.append(("imu", sampler, sampler._state))
         values, self.slices, at = [], {}, 0
-        defaults = {id(unit): unit.CreateDefaultContext() for _, unit, _ in parts}
+        defaults = {id(unit): unit.AllocateDiscreteVariables() for _, unit, _ in parts}
         for name, unit, group in parts:
-            v = defaults[id(unit)].get_discrete_state(group).CopyToVector()
+            v = defaults[id(unit)].get_vector(group).CopyToVector()
             self.slices[name] = slice(at, at + len(v))
             values.append(v)
             at += len(v)
@@ -73,10 +73,9 @@ class OnboardComputer(PySystem):
         self.readings_port = self.DeclareVectorInputPort("imu_readings", 12)
         self.line_port = (self.DeclareVectorInputPort("line_gap", 2)
                           if ekf.line_port is not None else None)
-        self._sensor = self.DeclareAbstractParameter(AbstractValue.Make(
-            defaults[id(sampler)].get_abstract_parameter(sampler._sensor).get_value()))
+        self._sensor = self.DeclareAbstractParameter(AbstractValue.Make(sampler.sensor))
         self._calibration = self.DeclareAbstractParameter(AbstractValue.Make(
-            defaults[id(ekf)].get_abstract_parameter(ekf._calibration).get_value()))
+            ekf.compiled_calibration))
         self._xd = self.DeclareDiscreteState(np.concatenate(values))
         # the tick's results, held until the next tick: C++ output ports
         self._estimate = self.DeclareDiscreteState(4)

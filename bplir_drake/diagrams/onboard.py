@@ -33,8 +33,6 @@ def add_onboard(builder, params: BplirParams, robot, setup, seed: int,
     :func:`~bplir_drake.diagrams.swing_controller.add_swing_controller` would
     build its parts.  Returns it and the controller's roles (``controller``,
     and ``delay_id`` when it identifies the delay), each the one system."""
-    if plan_gains is None:
-        raise ValueError("path.mode = 'plan' needs the tracking gains of a planned swing")
     ekf = kinematic_ekf(params, setup, seed)
     comp = delay_compensation(params, None, True, setup.believed[:2])
     tracker = plan_tracker(params, comp, setup.path, plan_gains)

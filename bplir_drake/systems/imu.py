@@ -188,12 +188,18 @@ class ImuSampler(PySystem):
     def set_sensor(self, context, params: ImuParams, seed: int) -> None:
         """The error model and noise seed of the sensors in ``context`` (the
         root context); ``params.period`` must be the built one."""
+        own = self.GetMyMutableContextFromRoot(context)
+        own.get_mutable_abstract_parameter(self._sensor).set_value(
+            self.sensor_of(params, seed))
+
+    def sensor_of(self, params: ImuParams, seed: int) -> tuple:
+        """The sensor parameter ``(params, seed, packed)`` of sensors with the
+        error model ``params`` and noise seed ``seed``; ``params.period``
+        must be the built one."""
         if params.period != self.params.period:
             raise ValueError(f"imu.rate_hz = {params.rate_hz:g} differs from the built "
                              f"sampler's {self.params.rate_hz:g} Hz")
-        own = self.GetMyMutableContextFromRoot(context)
-        own.get_mutable_abstract_parameter(self._sensor).set_value(
-            (params, int(seed), pack(params)))
+        return (params, int(seed), pack(params))
 
     def _sample(self, context, discrete_state):
         g1, g2 = (port.Eval(context) for port in self.gyro_ports)

@@ -83,20 +83,14 @@ def torque_window(q2d: float, p: MotorParams, i_limit: float | None = None,
     """(lowest, highest) elbow torque (N m) the motor can deliver at the
     elbow rate ``q2d``: the voltage envelope, the current limit ``i_limit``
     (default ``i_peak``) and the torque saturation (default ``torque_limit``)."""
-    i_lim = p.i_peak if i_limit is None else i_limit
-    t_lim = p.torque_limit if torque_limit is None else torque_limit
-    lo, hi = current_window(q2d, p)
-    kt = p.torque_per_amp
-    lo_t = max(-t_lim, kt * max(lo, -i_lim))
-    hi_t = min(t_lim, kt * min(hi, i_lim))
-    return lo_t, max(lo_t, hi_t)
+    return torque_window_of(p, i_limit, torque_limit)(q2d)
 
 
 def torque_window_of(p: MotorParams, i_limit: float | None = None,
                      torque_limit: float | None = None):
     """:func:`torque_window` of ``p`` as a function of the elbow rate alone,
-    its constants worked out once (a controller asks every tick); the same
-    arithmetic, so the same numbers."""
+    its constants worked out once (a controller asks every tick): the
+    current window of :func:`current_window` in the same arithmetic."""
     i_lim = p.i_peak if i_limit is None else i_limit
     t_lim = p.torque_limit if torque_limit is None else torque_limit
     kt, emf_per_rate = p.torque_per_amp, p.back_emf_constant * p.gear_ratio

@@ -24,7 +24,7 @@ from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import EventStatus
 
 from .base import PySystem
-from .imu import pack
+from .schedule import declare_sample
 
 
 
@@ -81,8 +81,7 @@ class OnboardComputer(PySystem):
         self._estimate = self.DeclareDiscreteState(4)
         self._command = self.DeclareDiscreteState(1)
         self._record = self.DeclareDiscreteState(19)
-        self.DeclareInitializationDiscreteUpdateEvent(self._tick)
-        self.DeclarePeriodicDiscreteUpdateEvent(self.period, 0.0, self._periodic)
+        declare_sample(self, self.period, self._tick)   # t_0 by initialization, then each t_k
         self._declare_outputs()
 
     #: the tick's signals in the ``record`` output, by name (one logger
@@ -132,13 +131,6 @@ class OnboardComputer(PySystem):
             out("fit", 2, lambda c, o: o.SetFromVector(recorded(c, "delay_fit")), xd)
 
     # ------------------------------------------------------------ the tick
-    def _periodic(self, context, discrete_state):
-        """The tick at ``t_k``, ``k >= 1`` (``t_0``'s is the initialization
-        event's)."""
-        if context.get_time() < 0.5 * self.period:
-            return EventStatus.DidNothing()
-        return self._tick(context, discrete_state)
-
     def _tick(self, context, discrete_state):
         """At ``t_k``: take IMU sample ``k``, run every part's tick on it
         (from the parts' state after tick ``k - 1``) and hold their state
@@ -184,12 +176,9 @@ class OnboardComputer(PySystem):
     # ------------------------------------------------- a Monte Carlo sample
     def set_sensor(self, context, params, seed: int) -> None:
         """As :meth:`ImuSampler.set_sensor`."""
-        if params.period != self.sampler.params.period:
-            raise ValueError(f"imu.rate_hz = {params.rate_hz:g} differs from the built "
-                             f"sampler's {self.sampler.params.rate_hz:g} Hz")
         own = self.GetMyMutableContextFromRoot(context)
         own.get_mutable_abstract_parameter(self._sensor).set_value(
-            (params, int(seed), pack(params)))
+            self.sampler.sensor_of(params, seed))
 
     def set_calibration(self, context, calibration) -> None:
         """As :meth:`KinematicEkf.set_calibration`."""

@@ -4,6 +4,7 @@ failure into one line and an exit status (2 bad input, 1 a fault inside,
 from __future__ import annotations
 
 import contextlib
+import functools
 import os
 import sys
 import warnings
@@ -20,6 +21,14 @@ from .parser import build_parser
 def _note(message, category, filename, lineno, file=None, line=None) -> None:
     """A warning as one line on standard error (a renamed preset, ...)."""
     sys.stderr.write(f"bplir: note: {message}\n")
+
+
+@functools.lru_cache(maxsize=1)
+def _parser_of(builder):
+    """The parser ``builder()`` gives, built once a process (parsing does
+    not change it; a process that runs many command lines, as the tests'
+    do, would otherwise rebuild its fourteen sub-parsers for each)."""
+    return builder()
 
 
 def _run(args) -> int:
@@ -85,8 +94,7 @@ def main(argv=None) -> int:
     """Run the command line; returns the exit status (2 with a one-line ``bplir: error:`` on bad
     input).  ``argv`` None: the console's command (``sys.argv``), whose process
     answers a signal with one line until it has exited."""
-    parser = build_parser()
-    args = parser.parse_args(argv)
+    args = _parser_of(build_parser).parse_args(argv)
     import signal
 
     shown = warnings.showwarning

@@ -220,47 +220,57 @@ def chain_cost(seeds: int, ceiling: float, period: float = 0.01) -> float:
     return (wall - simulated / ceiling) / (simulated / period) * 1e6
 
 
-def breakdown(seeds: int):
+def breakdown(seeds: int, parts: bool = False):
     """The timed breakdown of the 100 Hz chain: the wall time of its
     Python callbacks over the default swings of seeds 0..seeds-1 run as
     :func:`closed_loop` runs them, inclusive, per tick: the onboard
-    computer's tick (the IMU sample, with the C++ sensors it reads, the EKF,
-    the predictor and the plan tracker with its landing law, each also
-    timed within it) and the interlock (the motor and driver are C++).
-    Returns (ticks, wall s of the swings, {label: wall s})."""
+    computer's tick (with the C++ sensors it reads) and the interlock (the
+    motor and driver are C++).  ``parts``: the onboard tick's parts timed
+    within it too (the compiled front: the IMU sample, the EKF step and the
+    prediction; the plan tracker with its landing law), whose timers then
+    add to the tick's own time.  Returns (ticks, wall s of the swings,
+    {label: wall s})."""
     from bplir_drake.analysis.swing.run import SwingRunner
     from bplir_drake.params import preset
-    from bplir_drake.systems import ekf, gripper, imu, onboard, plan_tracker, predictor
+    from bplir_drake.systems import gripper, onboard, onboard_kernel, plan_tracker
 
-    spent = collections.defaultdict(float)
+    spent, restore = collections.defaultdict(float), []
 
-    def wrap(cls, name, label):
-        f = getattr(cls, name)
+    def wrap(owner, name, label):
+        f = owner.__dict__[name]
+        call = f.__func__ if isinstance(f, staticmethod) else f
 
-        @functools.wraps(f)
+        @functools.wraps(call)
         def timed(*a, **k):
             t0 = time.perf_counter()
             try:
-                return f(*a, **k)
+                return call(*a, **k)
             finally:
                 spent[label] += time.perf_counter() - t0
-        setattr(cls, name, staticmethod(timed) if isinstance(cls.__dict__[name], staticmethod)
-                else timed)
+        setattr(owner, name, staticmethod(timed) if isinstance(f, staticmethod) else timed)
+        restore.append((owner, name, f))
 
-    wrap(onboard.OnboardComputer, "_tick", "onboard tick (sample, EKF, predictor, tracker)")
-    wrap(imu.ImuSampler, "next_state", "  IMU sample")
-    wrap(ekf.KinematicEkf, "posterior", "  EKF update")
-    wrap(predictor.DelayPredictor, "prediction", "  delay predictor")
-    wrap(plan_tracker.PlanTracker, "tick", "  plan tracker (its landing law too)")
+    wrap(onboard.OnboardComputer, "_tick", TICK)
     wrap(gripper.GripperInterlock, "_update", "interlock")
-    p = preset()
-    runner = SwingRunner()   # built after the wrapping: its events hold the wrapped methods
-    runner.run(p, seed=0)
-    spent.clear()
-    ticks, t0 = 0, time.perf_counter()
-    for seed in range(seeds):
-        ticks += len(runner.run(p, seed=seed).logs["command"].t)
-    return ticks, time.perf_counter() - t0, dict(spent)
+    if parts:
+        wrap(onboard_kernel, "front", "  IMU sample, EKF step, prediction (compiled)")
+        wrap(plan_tracker.PlanTracker, "tick", "  plan tracker (its landing law too)")
+    try:
+        p = preset()
+        runner = SwingRunner()   # built after the wrapping: its events hold the wrapped methods
+        runner.run(p, seed=0)
+        spent.clear()
+        ticks, t0 = 0, time.perf_counter()
+        for seed in range(seeds):
+            ticks += len(runner.run(p, seed=seed).logs["command"].t)
+        return ticks, time.perf_counter() - t0, dict(spent)
+    finally:
+        for owner, name, f in reversed(restore):
+            setattr(owner, name, f)
+
+
+#: the onboard computer's tick in :func:`breakdown`
+TICK = "onboard tick (sample, EKF, predictor, tracker)"
 
 
 def main():
@@ -314,12 +324,18 @@ def main():
               f"nothing: {1.0 / (1.0 / rate + tick_cost):.1f} simulated s per wall s "
               "(its C++ part plus those events)")
     ticks, total, spent = breakdown(seeds)
-    chain = spent["onboard tick (sample, EKF, predictor, tracker)"] + spent["interlock"]
+    chain = spent[TICK] + spent["interlock"]
     print(f"the 100 Hz chain's timed breakdown, seeds 0-{seeds - 1} ({ticks} ticks, "
           f"{total / seeds * 1e3:.0f} ms a swing): its Python callbacks "
           f"{chain / ticks * 1e6:.0f} us a tick (goal <= 100), inclusive:")
     for k, v in spent.items():
         print(f"  {k:48s} {v / ticks * 1e6:6.1f} us a tick ({v / total:4.0%} of the time)")
+    ticks, total, spent = breakdown(seeds, parts=True)
+    print("  the onboard tick's parts, timed within it in a run of their own (their timers "
+          f"add to the tick: {spent[TICK] / ticks * 1e6:.1f} us a tick in that run):")
+    for k, v in spent.items():
+        if k.startswith("  "):
+            print(f"  {k:48s} {v / ticks * 1e6:6.1f} us a tick")
     per_tick = chain_cost(seeds, ceiling[SWING_ACCURACY])
     print(f"  the closed loop's integration less its C++ part measured apart (an estimate "
           f"of the same, with the machine's drift between the two): {per_tick:.0f} us a tick")

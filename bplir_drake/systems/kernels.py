@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..params import preset
-from . import ekf_kernel, gripper, imu, nominal_kernel
+from . import ekf_kernel, gripper, imu, nominal_kernel, onboard_kernel
 
 
 def _readonly(a) -> np.ndarray:
@@ -42,3 +42,13 @@ def warm_up() -> None:
                       _readonly(np.zeros(8)))
     gripper.arrival(np.zeros(4), np.zeros(4), 0.01, np.array([0.9, 0.9, 0.0, 1.2]), 0.02,
                     0.6, False, 0.0, 8, 30)
+    # the onboard computer's state: the EKF's x, P, u and flag, a predictor's
+    # two commands, the sampler's nine; the readings at rest
+    xd = np.zeros(n + n * n + 4 + 1 + 2 + 9)
+    xd[n:n + n * n] = np.eye(n).ravel()
+    at = np.array([len(xd) - 9, 0, n, n + n * n, n + n * n + 4, n, n + n * n + 5, 2])
+    readings = np.zeros(12)
+    readings[[7, 10]] = 9.8
+    onboard_kernel.front(_readonly(xd), readings, _readonly(np.zeros(8)), 0, imu.pack(p.imu),
+                         False, False, consts, walk, np.zeros(4), c, at, 0.01, 2,
+                         np.empty(len(xd)))

@@ -9,10 +9,12 @@ Each part stays its own system and tested unit
 :class:`~bplir_drake.systems.plan_tracker.PlanTracker`); this system runs
 their tick functions on one state vector in one event a tick, so a swing
 crosses from C++ into Python once a tick for the whole chain rather than
-once a part.  At ``t_k`` it takes IMU sample ``k`` and runs the tick on it
-at once, holding the results it gives out until ``t_{k+1}`` in its state
-(the command, the estimate and the logged signals are C++ state output
-ports): what the parts wired one by one give out during ``[t_k, t_{k+1})``
+once a part; without a line sensor the sample, the filter step and the
+prediction are one call into compiled code
+(:func:`~bplir_drake.systems.onboard_kernel.front`).  At ``t_k`` it takes
+IMU sample ``k`` and runs the tick on it at once, holding the results it
+gives out until ``t_{k+1}`` in its state (the command, the estimate and
+the logged signals are C++ state output ports): what the parts wired one by one give out during ``[t_k, t_{k+1})``
 (:mod:`bplir_drake.systems.schedule`).  So it computes the same numbers,
 bit for bit, as the parts wired one by one; a line sensor is read as the
 sample it takes at ``t_k`` (its ``line_gap_now``).
@@ -23,7 +25,9 @@ import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import EventStatus
 
+from . import onboard_kernel
 from .base import PySystem
+from .imu import NOISE_BLOCK, noise_block
 from .schedule import declare_sample
 
 
@@ -68,6 +72,12 @@ class OnboardComputer(PySystem):
             values.append(v)
             at += len(v)
         self._imu = self.slices["imu"]
+        self._at = np.array([self.slices[name].start if name in self.slices else -1
+                             for name in onboard_kernel.AT[:5]]
+                            + [ekf.n, *((self.slices["predictor"].start, predictor.steps)
+                                        if predictor is not None else (-1, 0))],
+                            dtype=np.int64)
+        self._pred_c = predictor._constants if predictor is not None else np.zeros(1)
         self._steps_at = (self.slices["identifier"].start + 3 * identifier.window + 1
                           if identifier is not None else None)
         self.readings_port = self.DeclareVectorInputPort("imu_readings", 12)
@@ -81,6 +91,7 @@ class OnboardComputer(PySystem):
         self._estimate = self.DeclareDiscreteState(4)
         self._command = self.DeclareDiscreteState(1)
         self._record = self.DeclareDiscreteState(19)
+        self._front = self._front_parts if self.line_port is not None else self._front_compiled
         declare_sample(self, self.period, self._tick)   # t_0 by initialization, then each t_k
         self._declare_outputs()
 
@@ -138,7 +149,56 @@ class OnboardComputer(PySystem):
         parts wired one by one give out during ``[t_k, t_{k+1})`` and store
         at ``t_{k+1}``."""
         xd, s = context.get_discrete_state(self._xd).get_value(), self.slices
-        r = self.readings_port.Eval(context)
+        steps = xd[self._steps_at] if self._steps_at is not None else 0.0
+        new, relative, state = self._front(context, xd, steps)
+        tracked = self.tracker.tick(state, xd[s["tracker"]],
+                                    steps if self.tracker.steps_port is not None else None)
+        command = tracked[0]
+        new[s["tracker"]] = tracked[2:]
+        if self.predictor is not None:
+            new[s["predictor"].stop - 1] = command
+        imu = new[self._imu]
+        fit = (0.0, 0.0)
+        if self.identifier is not None:
+            fit = self.identifier.fit(xd[s["identifier"]])
+            new[s["identifier"]] = self.identifier.stored(xd[s["identifier"]], lambda: command,
+                                                          lambda: imu[:2])
+        discrete_state.set_value(self._xd, new)
+        discrete_state.set_value(self._estimate, relative)
+        discrete_state.set_value(self._command, tracked[:1])
+        discrete_state.set_value(self._record, np.concatenate(
+            (relative, tracked[:2], imu[:6], fit, state, (steps,))))
+        return EventStatus.Succeeded()
+
+    def _commands(self, steps) -> int:
+        """How many of the predictor's stored commands its prediction takes."""
+        p = self.predictor
+        if p.steps_port is None:
+            return p.steps
+        return min(max(int(steps + 0.5), 0), p.steps)   # a count held as a float
+
+    def _front_compiled(self, context, xd, steps):
+        """(the state after the tick with the tracker's, the predictor's last
+        command's and the identifier's parts still the stored ones, the
+        estimate relative, the state the tracker reads):
+        :func:`~bplir_drake.systems.onboard_kernel.front`."""
+        _, seed, imu_c = context.get_abstract_parameter(self._sensor).get_value()
+        _, ekf_c, walk, cal, held = context.get_abstract_parameter(
+            self._calibration).get_value()
+        k = int(xd[self._imu.start + 8] + 0.5)   # a count held as a float
+        new = np.empty(len(xd))
+        relative, state = onboard_kernel.front(
+            xd, self.readings_port.Eval(context), noise_block(seed, k // NOISE_BLOCK)[
+                k % NOISE_BLOCK], k, imu_c, context.get_time() < self.ekf.params.calibrate_after,
+            held, ekf_c, walk, cal, self._pred_c, self._at, self.period,
+            self._commands(steps) if self.predictor is not None else 0, new)
+        return new, relative, state
+
+    def _front_parts(self, context, xd, steps):
+        """As :meth:`_front_compiled`, through the parts' own tick functions
+        (with a line sensor, whose update the compiled front does not make)."""
+        s, r = self.slices, self.readings_port.Eval(context)
+        new = np.array(xd)
         imu = self.sampler.next_state(xd[self._imu], r[2], r[5], r[6], r[7], r[9], r[10],
                                       context.get_abstract_parameter(self._sensor).get_value())
         post, u = self.ekf.posterior(
@@ -148,30 +208,17 @@ class OnboardComputer(PySystem):
             self.line_port.Eval(context) if self.line_port is not None else None)
         x = post.x
         relative = np.array([x[0], x[1] - x[0], x[2], x[3] - x[2]])
-        steps = xd[self._steps_at] if self._steps_at is not None else 0.0
         state = relative
         if self.predictor is not None:
             state = self.predictor.prediction(xd[s["predictor"]], relative,
                                               steps if self.predictor.steps_port is not None
                                               else None)
-        tracked = self.tracker.tick(state, xd[s["tracker"]],
-                                    steps if self.tracker.steps_port is not None else None)
-        command = tracked[0]
-        new = [x, post.P.ravel(), u, (0.0,), tracked[2:]]
-        if self.predictor is not None:
-            new += [xd[s["predictor"]][1:], (command,)]
-        fit = (0.0, 0.0)
-        if self.identifier is not None:
-            fit = self.identifier.fit(xd[s["identifier"]])
-            new.append(self.identifier.stored(xd[s["identifier"]], lambda: command,
-                                              lambda: imu[:2]))
-        new.append(imu)
-        discrete_state.set_value(self._xd, np.concatenate(new))
-        discrete_state.set_value(self._estimate, relative)
-        discrete_state.set_value(self._command, tracked[:1])
-        discrete_state.set_value(self._record, np.concatenate(
-            (relative, tracked[:2], imu[:6], fit, state, (steps,))))
-        return EventStatus.Succeeded()
+            p = s["predictor"]
+            new[p.start:p.stop - 1] = xd[p.start + 1:p.stop]
+        new[s["ekf_x"]], new[s["ekf_P"]], new[s["ekf_u"]] = x, post.P.ravel(), u
+        new[s["ekf_first"]] = 0.0
+        new[self._imu] = imu
+        return new, relative, state
 
     # ------------------------------------------------- a Monte Carlo sample
     def set_sensor(self, context, params, seed: int) -> None:

@@ -1,0 +1,58 @@
+"""The compiled front of the onboard computer's tick: the IMU sample, the
+EKF's step and the delay predictor's prediction of one tick in one call.
+
+It calls the parts' own kernels (:func:`~bplir_drake.systems.imu.sample_kernel`,
+:func:`~bplir_drake.systems.ekf_kernel.step`,
+:func:`~bplir_drake.systems.nominal_kernel.predict`) with the arguments
+their systems pass, so it computes the same numbers, bit for bit; what it
+saves is the crossings between Python and compiled code and the arrays
+made between them."""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from .ekf_kernel import step
+from .imu import sample_kernel
+from .nominal_kernel import predict
+
+#: the offsets in the onboard computer's state :func:`front` reads (an
+#: integer array in this order): the IMU sampler's state, the EKF's x, P,
+#: previous accelerometer input and first-sample flag, the number of
+#: filter states, the predictor's command buffer and its length (-1, 0
+#: without a predictor)
+AT = ("imu", "ekf_x", "ekf_P", "ekf_u", "ekf_first", "n", "predictor", "commands")
+
+
+@njit(cache=True)
+def front(xd, r, draws, k, imu_c, hold, held, ekf_c, walk, cal, pred_c, at, period, m, out):
+    """The tick's IMU sample, filter step and prediction from the stored
+    state ``xd`` and the ideal readings ``r`` (12: gyro1, gyro2, accel1,
+    accel2): ``out`` (``xd``'s length) is set to ``xd`` with the sampler's
+    and the EKF's parts stepped and the predictor's buffer shifted by one
+    (its last entry, this tick's command, is the caller's to write);
+    returns (the estimate relative, the state the tracker reads: the
+    prediction over the buffer's last ``m`` commands with a predictor, else
+    the estimate).  ``k``, ``draws``: the sample's index and its noise
+    draws; ``hold``: whether the filter still holds its calibration;
+    ``at``: the offsets of :data:`AT`."""
+    out[:] = xd
+    i = at[0]
+    imu = sample_kernel(r[2], r[5], r[6], r[7], r[9], r[10], xd[i + 6], xd[i + 7], k,
+                        imu_c, draws)
+    out[i:i + 9] = imu
+    xs, ps, us, n = at[1], at[2], at[3], at[5]
+    x, P, u = step(xd[xs:xs + n], xd[ps:ps + n * n].reshape((n, n)), xd[us:us + 4],
+                   imu[:6], xd[at[4]] > 0.5, hold, held, ekf_c, walk, cal)
+    out[xs:xs + n] = x
+    out[ps:ps + n * n] = P.ravel()
+    out[us:us + 4] = u
+    out[at[4]] = 0.0
+    rel = np.empty(4)
+    rel[0], rel[1], rel[2], rel[3] = x[0], x[1] - x[0], x[2], x[3] - x[2]
+    s0, length = at[6], at[7]
+    if s0 < 0:
+        return rel, rel
+    state = predict(pred_c, rel, xd[s0 + length - m:s0 + length], period, 2)
+    out[s0:s0 + length - 1] = xd[s0 + 1:s0 + length]
+    return rel, state

@@ -83,14 +83,16 @@ class OnboardComputer(PySystem):
         self.readings_port = self.DeclareVectorInputPort("imu_readings", 12)
         self.line_port = (self.DeclareVectorInputPort("line_gap", 2)
                           if ekf.line_port is not None else None)
-        self._sensor = self.DeclareAbstractParameter(AbstractValue.Make(sampler.sensor))
-        self._calibration = self.DeclareAbstractParameter(AbstractValue.Make(
-            ekf.compiled_calibration))
+        # the sensors' and the calibration's parameters (the sampler's and the
+        # EKF's), one abstract parameter read once a tick
+        self._own = self.DeclareAbstractParameter(AbstractValue.Make(
+            (sampler.sensor, ekf.compiled_calibration)))
         self._xd = self.DeclareDiscreteState(np.concatenate(values))
         # the tick's results, held until the next tick: C++ output ports
         self._estimate = self.DeclareDiscreteState(4)
         self._command = self.DeclareDiscreteState(1)
         self._record = self.DeclareDiscreteState(19)
+        self._rec = np.empty(19)
         self._front = self._front_parts if self.line_port is not None else self._front_compiled
         declare_sample(self, self.period, self._tick)   # t_0 by initialization, then each t_k
         self._declare_outputs()
@@ -166,8 +168,10 @@ class OnboardComputer(PySystem):
         discrete_state.set_value(self._xd, new)
         discrete_state.set_value(self._estimate, relative)
         discrete_state.set_value(self._command, tracked[:1])
-        discrete_state.set_value(self._record, np.concatenate(
-            (relative, tracked[:2], imu[:6], fit, state, (steps,))))
+        rec = self._rec   # RECORD's layout (set_value copies it)
+        rec[0:4], rec[4], rec[5], rec[6:12] = relative, tracked[0], tracked[1], imu[:6]
+        rec[12:14], rec[14:18], rec[18] = fit, state, steps
+        discrete_state.set_value(self._record, rec)
         return EventStatus.Succeeded()
 
     def _commands(self, steps) -> int:
@@ -182,9 +186,8 @@ class OnboardComputer(PySystem):
         command's and the identifier's parts still the stored ones, the
         estimate relative, the state the tracker reads):
         :func:`~bplir_drake.systems.onboard_kernel.front`."""
-        _, seed, imu_c = context.get_abstract_parameter(self._sensor).get_value()
-        _, ekf_c, walk, cal, held = context.get_abstract_parameter(
-            self._calibration).get_value()
+        (_, seed, imu_c), (_, ekf_c, walk, cal, held) = context.get_abstract_parameter(
+            self._own).get_value()
         k = int(xd[self._imu.start + 8] + 0.5)   # a count held as a float
         new = np.empty(len(xd))
         relative, state = onboard_kernel.front(
@@ -198,13 +201,12 @@ class OnboardComputer(PySystem):
         """As :meth:`_front_compiled`, through the parts' own tick functions
         (with a line sensor, whose update the compiled front does not make)."""
         s, r = self.slices, self.readings_port.Eval(context)
+        sensor, compiled = context.get_abstract_parameter(self._own).get_value()
         new = np.array(xd)
-        imu = self.sampler.next_state(xd[self._imu], r[2], r[5], r[6], r[7], r[9], r[10],
-                                      context.get_abstract_parameter(self._sensor).get_value())
+        imu = self.sampler.next_state(xd[self._imu], r[2], r[5], r[6], r[7], r[9], r[10], sensor)
         post, u = self.ekf.posterior(
             xd[s["ekf_x"]], xd[s["ekf_P"]], xd[s["ekf_u"]], xd[s["ekf_first"]][0] > 0.5,
-            imu[:6], context.get_time(),
-            context.get_abstract_parameter(self._calibration).get_value(),
+            imu[:6], context.get_time(), compiled,
             self.line_port.Eval(context) if self.line_port is not None else None)
         x = post.x
         relative = np.array([x[0], x[1] - x[0], x[2], x[3] - x[2]])
@@ -224,14 +226,14 @@ class OnboardComputer(PySystem):
     def set_sensor(self, context, params, seed: int) -> None:
         """As :meth:`ImuSampler.set_sensor`."""
         own = self.GetMyMutableContextFromRoot(context)
-        own.get_mutable_abstract_parameter(self._sensor).set_value(
-            self.sampler.sensor_of(params, seed))
+        value = own.get_mutable_abstract_parameter(self._own)
+        value.set_value((self.sampler.sensor_of(params, seed), value.get_value()[1]))
 
     def set_calibration(self, context, calibration) -> None:
         """As :meth:`KinematicEkf.set_calibration`."""
         own = self.GetMyMutableContextFromRoot(context)
-        own.get_mutable_abstract_parameter(self._calibration).set_value(
-            self.ekf._compiled(calibration))
+        value = own.get_mutable_abstract_parameter(self._own)
+        value.set_value((value.get_value()[0], self.ekf._compiled(calibration)))
         xd = own.get_mutable_discrete_state(self._xd)
         v, s = xd.CopyToVector(), self.slices
         v[s["ekf_x"]], v[s["ekf_P"]] = self.ekf.calibrated_start(v[s["ekf_x"]], v[s["ekf_P"]],

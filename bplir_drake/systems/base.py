@@ -12,6 +12,9 @@ a function that finds the callback through a weak reference to the system
 discarded (:meth:`~bplir_drake.diagrams.parts.Built.release`)."""
 from __future__ import annotations
 
+import contextlib
+import inspect
+import sys
 import weakref
 
 from pydrake.systems.framework import LeafSystem
@@ -51,3 +54,27 @@ class PySystem(LeafSystem):
         """``LeafSystem.DeclareVectorOutputPort`` with ``calc`` held weakly."""
         return super().DeclareVectorOutputPort(name, size, weak_callback(self, calc),
                                                *args, **kwargs)
+
+
+@contextlib.contextmanager
+def quick_template_scopes():
+    """While active, pydrake's ``TemplateSystem`` names the module of a new
+    system class's ``ToScalarType`` methods from the calling frame itself:
+    pydrake (1.51) finds that frame with ``inspect.stack()``, which reads the
+    source of every frame of the call stack (about 30 ms a call during an
+    import, two calls a class).  The same frame, the same module."""
+    from pydrake.common import cpp_template
+
+    slow = getattr(cpp_template, "_get_module_from_stack", None)
+    if slow is None:   # another pydrake: leave it alone
+        yield
+        return
+
+    def from_frame(frame=2):
+        return inspect.getmodule(sys._getframe(frame))
+
+    cpp_template._get_module_from_stack = from_frame
+    try:
+        yield
+    finally:
+        cpp_template._get_module_from_stack = slow

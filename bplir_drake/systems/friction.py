@@ -17,7 +17,7 @@ import pydrake.math as dmath
 from pydrake.systems.framework import LeafSystem_
 from pydrake.systems.scalar_conversion import TemplateSystem
 
-from .base import weak_callback
+from .base import quick_template_scopes, weak_callback
 from ..params import FrictionParams
 
 
@@ -89,7 +89,8 @@ def JointFriction_(T):
     return Impl
 
 
-JointFriction = JointFriction_[None]
+with quick_template_scopes():
+    JointFriction = JointFriction_[None]
 
 
 #: the coefficients a context carries in :func:`friction_system`, in this

@@ -16,7 +16,7 @@ from pydrake.systems.scalar_conversion import TemplateSystem
 from ..params import PathParams, PlantParams
 from .path import (PathGeometry, constraint_acceleration, path_derivatives, predict_rate_squared,
                    projected_rate, step_blend_end)
-from .base import weak_callback
+from .base import quick_template_scopes, weak_callback
 from .schedule import declare_store, declare_tick_result
 from .state import RobotState
 
@@ -182,4 +182,5 @@ def _value(v):
     return v.value() if hasattr(v, "value") else v
 
 
-PathGenerator = PathGenerator_[None]
+with quick_template_scopes():
+    PathGenerator = PathGenerator_[None]

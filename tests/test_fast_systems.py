@@ -275,3 +275,36 @@ def test_a_released_swing_diagram_is_freed_with_the_onboard_computers_parts():
     del built
     gc.collect()
     assert [ref() is None for ref in held] == [True] * len(held)
+
+
+def test_the_quick_template_lookup_names_the_module_pydrakes_own_does():
+    """systems.base.quick_template_scopes: a scalar-templated system class
+    instantiated under it gets the same module for its ToScalarType
+    methods as under pydrake's own lookup (inspect.stack), and pydrake's
+    lookup is back afterwards."""
+    from pydrake.common import cpp_template
+    from pydrake.systems.framework import LeafSystem_
+    from pydrake.systems.scalar_conversion import TemplateSystem
+
+    from bplir_drake.systems.base import quick_template_scopes
+
+    def template(name):
+        @TemplateSystem.define(name, T_list=(float,))
+        def Empty_(T):
+            class Impl(LeafSystem_[T]):
+                def _construct(self, converter=None):
+                    LeafSystem_[T].__init__(self, converter)
+
+                def _construct_copy(self, other, converter=None):
+                    Impl._construct(self, converter=converter)
+            return Impl
+        return Empty_
+
+    own = template("OwnLookup_")[None]
+    before = cpp_template._get_module_from_stack
+    with quick_template_scopes():
+        quick = template("QuickLookup_")[None]
+    assert cpp_template._get_module_from_stack is before
+    for method in ("ToScalarType", "ToScalarTypeMaybe"):
+        assert getattr(quick, method)._scope is getattr(own, method)._scope
+    assert own.ToScalarType._scope.__name__ == "pydrake.systems.scalar_conversion"

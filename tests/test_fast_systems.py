@@ -231,7 +231,8 @@ def test_fast_swing_matches_an_accurate_reference():
 def test_the_onboard_computer_is_its_parts_wired_one_by_one():
     """The robot's computer as one system (IMU sampler, EKF, delay
     identifier and predictor, plan tracker: systems.onboard) gives every
-    log bit for bit as the parts wired one by one do: the default robot,
+    log bit for bit as the parts wired one by one do: the default robot
+    (its sample, filter step and prediction in the compiled front),
     a second seed of it through the same diagram (its sensors, calibration
     and friction set in the context), the line sensor's robot (its reading
     fused) and a sample of the realistic study."""
@@ -247,6 +248,8 @@ def test_the_onboard_computer_is_its_parts_wired_one_by_one():
     for p, seed in runs:
         a, b = fused.run(p, seed=seed), parts.run(p, seed=seed)
         assert fused.built.diagram.HasSubsystemNamed("onboard")
+        computer = fused.built.systems["ekf"]
+        assert (computer._front == computer._front_compiled) == (computer.line_port is None)
         assert parts.built.diagram.HasSubsystemNamed("ekf")
         assert a.summary["outcome"] == "captured"
         assert a.logs.keys() == b.logs.keys()

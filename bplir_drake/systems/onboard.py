@@ -14,7 +14,8 @@ prediction are one call into compiled code
 (:func:`~bplir_drake.systems.onboard_kernel.front`).  At ``t_k`` it takes
 IMU sample ``k`` and runs the tick on it at once, holding the results it
 gives out until ``t_{k+1}`` in its state (the command, the estimate and
-the logged signals are C++ state output ports): what the parts wired one by one give out during ``[t_k, t_{k+1})``
+the logged signals are C++ state output ports): what the parts wired one
+by one give out during ``[t_k, t_{k+1})``
 (:mod:`bplir_drake.systems.schedule`).  So it computes the same numbers,
 bit for bit, as the parts wired one by one; a line sensor is read as the
 sample it takes at ``t_k`` (its ``line_gap_now``).

@@ -216,9 +216,15 @@ class ImuSampler(PySystem):
         gyro's z rate, each accelerometer's x and y) and the sensor
         parameter ``(params, seed, packed)``."""
         _, seed, consts = sensor
+        k, draws = ImuSampler.sample_draws(s, seed)
+        return sample_kernel(g1, g2, a1x, a1y, a2x, a2y, s[6], s[7], k, consts, draws)
+
+    @staticmethod
+    def sample_draws(s, seed: int):
+        """(the index of the next sample, its noise draws: a row of
+        :func:`noise_block`) from the held state ``s`` and the noise seed."""
         k = int(s[8] + 0.5)   # a count held as a float
-        return sample_kernel(g1, g2, a1x, a1y, a2x, a2y, s[6], s[7], k,
-                             consts, noise_block(seed, k // NOISE_BLOCK)[k % NOISE_BLOCK])
+        return k, noise_block(seed, k // NOISE_BLOCK)[k % NOISE_BLOCK]
 
     def _output(self, context, out):
         out.SetFromVector(context.get_discrete_state(self._state).get_value()[:6])

@@ -28,7 +28,6 @@ from pydrake.systems.framework import EventStatus
 
 from . import onboard_kernel
 from .base import PySystem
-from .imu import NOISE_BLOCK, noise_block
 from .schedule import declare_sample
 
 
@@ -73,8 +72,7 @@ class OnboardComputer(PySystem):
             values.append(v)
             at += len(v)
         self._imu = self.slices["imu"]
-        self._at = np.array([self.slices[name].start if name in self.slices else -1
-                             for name in onboard_kernel.AT[:5]]
+        self._at = np.array([self.slices[name].start for name in onboard_kernel.AT[:5]]
                             + [ekf.n, *((self.slices["predictor"].start, predictor.steps)
                                         if predictor is not None else (-1, 0))],
                             dtype=np.int64)
@@ -175,13 +173,6 @@ class OnboardComputer(PySystem):
         discrete_state.set_value(self._record, rec)
         return EventStatus.Succeeded()
 
-    def _commands(self, steps) -> int:
-        """How many of the predictor's stored commands its prediction takes."""
-        p = self.predictor
-        if p.steps_port is None:
-            return p.steps
-        return min(max(int(steps + 0.5), 0), p.steps)   # a count held as a float
-
     def _front_compiled(self, context, xd, steps):
         """(the state after the tick with the tracker's, the predictor's last
         command's and the identifier's parts still the stored ones, the
@@ -189,13 +180,14 @@ class OnboardComputer(PySystem):
         :func:`~bplir_drake.systems.onboard_kernel.front`."""
         (_, seed, imu_c), (_, ekf_c, walk, cal, held) = context.get_abstract_parameter(
             self._own).get_value()
-        k = int(xd[self._imu.start + 8] + 0.5)   # a count held as a float
+        k, draws = self.sampler.sample_draws(xd[self._imu], seed)
+        p = self.predictor
         new = np.empty(len(xd))
         relative, state = onboard_kernel.front(
-            xd, self.readings_port.Eval(context), noise_block(seed, k // NOISE_BLOCK)[
-                k % NOISE_BLOCK], k, imu_c, context.get_time() < self.ekf.params.calibrate_after,
-            held, ekf_c, walk, cal, self._pred_c, self._at, self.period,
-            self._commands(steps) if self.predictor is not None else 0, new)
+            xd, self.readings_port.Eval(context), draws, k, imu_c,
+            context.get_time() < self.ekf.params.calibrate_after, held, ekf_c, walk, cal,
+            self._pred_c, self._at, self.period,
+            p.taken(steps if p.steps_port is not None else None) if p is not None else 0, new)
         return new, relative, state
 
     def _front_parts(self, context, xd, steps):

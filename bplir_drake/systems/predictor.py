@@ -109,13 +109,20 @@ class DelayPredictor(PySystem):
                                self.steps_port.Eval(context)[0]
                                if self.steps_port is not None else None)
 
+    def taken(self, steps=None) -> int:
+        """How many of the stored commands (the last ones) a prediction
+        takes: all of them, or with ``steps`` (adaptive: the identified
+        delay in ticks) that many."""
+        if steps is None:
+            return self.steps
+        return min(max(int(steps + 0.5), 0), self.steps)   # a count held as a float
+
     def prediction(self, commands, estimate, steps=None):
         """The predicted state from the stored ``commands`` and the
         ``estimate``; ``steps`` (adaptive: the identified delay in ticks)
-        takes the last that many commands."""
+        takes the last that many commands (:meth:`taken`)."""
         if steps is not None:
-            n = min(max(int(steps + 0.5), 0), self.steps)   # a count held as a float
-            commands = commands[len(commands) - n:]
+            commands = commands[len(commands) - self.taken(steps):]
         return predict_state(estimate, commands, self.period, self.plant_params, self.friction,
                              constants=self._constants)
 

@@ -937,14 +937,14 @@ def test_a_second_study_into_the_same_directory_is_refused_with_the_holders_pid(
     from bplir_drake.analysis import montecarlo as mc
 
     out = tmp_path / "mc"
-    n = 60   # long enough (about 3 s) to be running when the second has started
+    n = 20   # about 1.5 s of swings after the lock is taken: the second starts and
+    #          reads the lock within a fraction of that (it imports no simulator)
     args = [sys.executable, "-m", "bplir_drake.cli", "montecarlo", "-n", str(n), "--workers",
             "1", "--no-plots", "--out", str(out)]
     first = subprocess.Popen(args, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     deadline = time.monotonic() + 120
     while time.monotonic() < deadline and not (out / ".lock").exists():
         time.sleep(0.02)
-    time.sleep(0.3)
     second = subprocess.run(args, capture_output=True, text=True, timeout=120)
     assert first.wait(timeout=240) == 0
     assert second.returncode == 2

@@ -932,8 +932,6 @@ def test_a_second_study_into_the_same_directory_is_refused_with_the_holders_pid(
     """Two ``bplir montecarlo`` runs into one directory: while the first
     runs the second is one line naming the first's PID (exit 2), and the
     first finishes with every row."""
-    import os
-
     from bplir_drake.analysis import montecarlo as mc
 
     out = tmp_path / "mc"

@@ -18,7 +18,6 @@ in ``EstimateResult.skipped``.
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from pathlib import Path
 

@@ -5,7 +5,6 @@ traceback.  The work itself (a simulation, a plan solve, a study) is
 stopped where it would start: what is fuzzed is everything before it.
 The readers' own fuzz is in test_hardening.py."""
 
-import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 

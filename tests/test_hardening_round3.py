@@ -4,7 +4,6 @@ test, each through the console entry point in a process of its own where
 the class is about a process; and every writer of an output interrupted
 half-way: the old file or none is left, never a partial one."""
 import json
-import os
 import signal
 import subprocess
 import sys

@@ -65,8 +65,11 @@ def predict_state(x, commands, period: float, plant: PlantParams, friction: Fric
     model's :func:`~bplir_drake.systems.nominal_kernel.pack`, made from
     ``plant`` and ``friction`` when not given)."""
     c = nominal_kernel.pack(plant, friction) if constants is None else constants
-    return nominal_kernel.predict(c, np.asarray(x, dtype=float),
-                                  np.asarray(commands, dtype=float).ravel(), period, substeps)
+    u = np.asarray(commands, dtype=float).ravel()
+    if u.flags.writeable:   # as the systems pass their state (the kernel compiled once)
+        u = u.view()
+        u.flags.writeable = False
+    return nominal_kernel.predict(c, np.asarray(x, dtype=float), u, period, substeps)
 
 
 class DelayPredictor(PySystem):

@@ -70,12 +70,15 @@ class MotionLog:
         self.keep = path is not False
         self._segments: list = []
         self.samples = 0
+        self.peak_i2t = 0.0   # the highest i^2 t of any manoeuvre, kept or not (A^2 s)
         if self.path is not None:
             self.path.parent.mkdir(parents=True, exist_ok=True)
             self.path.write_bytes(b"")
 
     def append(self, seg: Segment) -> None:
         """Add one manoeuvre's motion (to the file at once, when there is one)."""
+        if len(seg.i2t):
+            self.peak_i2t = max(self.peak_i2t, float(np.max(seg.i2t)))
         if not self.keep:
             return
         self.samples += len(seg.t)

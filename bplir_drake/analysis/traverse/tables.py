@@ -86,7 +86,8 @@ def traverse_totals(tr) -> TraverseTotals:
     rides = [r for r in tr.rows if r.kind in ("ride", "adjust")]
     energy = sum(tr.energy.values())
     dist = max(tr.rear - (tr.line.start - tr.params.traverse.grip_spacing), 0.0)
-    peak_i2t = max([r.i2t_end_A2s for r in tr.rows] + [0.0])
+    # the driver's i^2 t peaks within a manoeuvre, not only at its end
+    peak_i2t = max([r.i2t_end_A2s for r in tr.rows] + [tr.motion.peak_i2t])
     first = sum(1 for r in swings if r.attempt == 1)   # swings, not their tries
     failed = [first - 1] if swings and swings[-1].outcome != "captured" else []
     speeds = [r.capture_speed_mps for r in swings if r.outcome == "captured"]

@@ -19,7 +19,9 @@ points) and the 48 V swapped robot's on the span's +2.6 deg chord planned
 by guesses within 85 % of the torque limit and 35 % of the driver's i^2 t
 budget, ending at the line (as its free link's pose decides) and 13 mm
 below it (the plans its guesses gave before one heated the driver little
-enough); gains for the swings the tests track
+enough), and docs/commission.md's 0.7-scaled robot at 0 deg and 0.84 m
+(either gripper, from the line and from hanging, solved from similar
+robots' plans); gains for the swings the tests track
 that the plan libraries (``scripts/plan_library.py``) do not cover.
 """
 from __future__ import annotations
@@ -86,6 +88,15 @@ def scenarios():
             for g, (a, b) in ((1, (r.rear, r.landing1)), (2, (r.hold, r.landing2))):
                 sp = swing_params(base, g, base.traverse.grip_spacing, line.chord(a, b)[1])
                 plans.append(lambda sp=sp: P.scenario_plan(sp))
+    # docs/commission.md's robot (the 0.7-scaled BPLIR): its points at 0 deg and
+    # 0.84 m holding with either gripper, from the line and from hanging, each
+    # solved from similar robots' plans (the worked example's test reads them)
+    from bplir_drake.analysis.commission.grid import solve_point
+    from bplir_drake.params import swapped
+    scaled = load_toml(ROOT / "examples" / "scaled_bplir.toml")
+    robots = [scaled, swapped(scaled)] + [retry_params(swing_params(scaled, g, 0.84, 0.0))
+                                          for g in (1, 2)]
+    plans += [lambda r=r: solve_point(r, 0.0, 0.84).plan for r in robots]
     return plans, tracked
 
 

@@ -96,15 +96,15 @@ def test_the_sensor_removes_the_landing_error_that_link_length_errors_leave():
     landing, about twice over.  Estimating the misalignments in flight (the
     default) takes part of it out; the line sensor takes all of it out.
     Noise-free IMUs, seed 0, L = 3.27 / -3.27 / 0.51 mm: landing height
-    errors 6.80 / -4.16 / 0.58 mm without the in-flight estimate, 3.11 /
-    -0.40 / 0.64 mm with it, within 0.10 mm with the sensor."""
+    errors 6.84 / -4.14 / 0.60 mm without the in-flight estimate, 3.22 /
+    -0.37 / 0.70 mm with it, within 0.10 mm with the sensor."""
     import dataclasses as dc
 
     from bplir_drake.analysis.swing.run import run_swing
 
     p0 = preset()
-    cases = ((0.002, -0.002, 6.80e-3, 3.11e-3), (-0.002, 0.002, -4.16e-3, -0.40e-3),
-             (0.002, 0.002, 0.58e-3, 0.64e-3))
+    cases = ((0.002, -0.002, 6.84e-3, 3.22e-3), (-0.002, 0.002, -4.14e-3, -0.37e-3),
+             (0.002, 0.002, 0.60e-3, 0.70e-3))
     for d1, d2, fixed, flight in cases:
         true = dc.replace(p0.plant, l1=p0.plant.l1 + d1, l2=p0.plant.l2 + d2)
         q = initial_configuration(1.2, true)

@@ -8,6 +8,7 @@ import pytest
 from bplir_drake.params import EstimatorParams, ImuParams, preset
 from bplir_drake.systems import ekf_kernel, imu, nominal_kernel
 from bplir_drake.systems.ekf import ekf_step, initial_state
+from bplir_drake.systems.kernels import read_only   # as the systems pass their state
 from bplir_drake.systems.predictor import nominal_rates
 
 
@@ -21,15 +22,6 @@ def swing_samples():
 
     x0 = absolute_from_relative(np.r_[believed_start(preset())[:2], 0.0, 0.0])
     return run_swing(preset(), seed=0).logs["imu"].data, x0
-
-
-def _held(a) -> np.ndarray:
-    """``a`` read-only, as the systems pass their Drake state to the kernels
-    (a kernel is compiled once per argument writability: the suite asks for
-    the one the systems use, not a second)."""
-    a = np.array(a, dtype=float)
-    a.flags.writeable = False
-    return a
 
 
 LAYOUTS = {"bias": {}, "misalignment": {"estimate_misalignment": True},
@@ -52,14 +44,14 @@ def test_the_compiled_filter_step_is_the_readable_one(swing_samples, integration
     samples, x0 = swing_samples
     s = initial_state(p, x0, (p.start_angle_sigma, p.start_rate_sigma, p.start_bias_sigma))
     consts, walk = ekf_kernel.pack(p)
-    x, P, u = _held(s.x), _held(s.P), _held(np.zeros(4))
+    x, P, u = read_only(s.x), read_only(s.P), read_only(np.zeros(4))
     u_ref = np.zeros(4)
     worst = 0.0
     for k, sample in enumerate(samples):
         hold, hold_mis = k < 20, layout != "bias"
         s, u_ref = ekf_step(s, u_ref, sample, p, first=k == 0, hold=hold, hold_misalign=hold_mis)
-        x, P, u = map(_held, ekf_kernel.step(x, P, u, np.array(sample, float), k == 0, hold,
-                                             hold_mis, consts, walk, np.zeros(4)))
+        x, P, u = map(read_only, ekf_kernel.step(x, P, u, np.array(sample, float), k == 0,
+                                                 hold, hold_mis, consts, walk, np.zeros(4)))
         worst = max(worst, np.abs(x - s.x).max() / (1.0 + np.abs(s.x).max()),
                     np.abs(P - s.P).max() / np.abs(s.P).max(), np.abs(u - u_ref).max())
     assert worst < 1e-8
@@ -76,8 +68,9 @@ def test_the_compiled_calibration_correction_is_the_calibrations():
     s = initial_state(p, (0.05, -0.1, 0.0, 0.0))
     sample = np.array([0.1, -0.2, 0.4, 9.7, -0.3, 9.9])
     ref, u_ref = ekf_step(s, np.zeros(4), cal.correct(sample), p, first=True)
-    x, P, u = ekf_kernel.step(_held(s.x), _held(s.P), _held(np.zeros(4)), sample, True, False,
-                              False, *ekf_kernel.pack(p), np.array([*cal.misalign, *cal.scale]))
+    x, P, u = ekf_kernel.step(read_only(s.x), read_only(s.P), read_only(np.zeros(4)), sample,
+                              True, False, False, *ekf_kernel.pack(p),
+                              np.array([*cal.misalign, *cal.scale]))
     np.testing.assert_allclose(x, ref.x, rtol=1e-12, atol=1e-14)
     np.testing.assert_allclose(P, ref.P, rtol=1e-12, atol=1e-16)
     np.testing.assert_allclose(u, u_ref, rtol=1e-12)
@@ -99,7 +92,7 @@ def test_the_compiled_sensor_error_model_is_corrupt():
             return draws[2:2 + n]
 
     expected = imu.corrupt(ideal, p, np.array([p.gyro_bias1, p.gyro_bias2]) + walk, Drawn())
-    out = imu.sample_kernel(*ideal, 0.001, -0.002, 7, imu.pack(p), _held(draws))
+    out = imu.sample_kernel(*ideal, 0.001, -0.002, 7, imu.pack(p), read_only(draws))
     np.testing.assert_allclose(out[:6], expected, rtol=1e-14, atol=1e-15)
     np.testing.assert_allclose(out[6:8], walk, rtol=1e-14)
     assert out[8] == 8.0

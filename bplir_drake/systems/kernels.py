@@ -13,12 +13,15 @@ from ..params import preset
 from . import ekf_kernel, gripper, imu, nominal_kernel, onboard_kernel
 
 
-def _readonly(a) -> np.ndarray:
-    """``a`` as a read-only float array: the systems pass Drake's state
-    vectors, which numpy sees read-only (a kernel is compiled per
-    writability)."""
-    a = np.array(a, dtype=float)
-    a.flags.writeable = False
+def read_only(a) -> np.ndarray:
+    """``a`` as a read-only float array, without a copy where it already is
+    one: the systems pass Drake's state vectors, which numpy sees read-only,
+    and a kernel is compiled once per writability of its arguments, so
+    every caller passes the same."""
+    a = np.asarray(a, dtype=float)
+    if a.flags.writeable:
+        a = a.view()
+        a.flags.writeable = False
     return a
 
 
@@ -28,18 +31,18 @@ def warm_up() -> None:
     p = preset().resolved()
     consts, walk = ekf_kernel.pack(p.estimator)
     n = len(walk)
-    ekf_kernel.step(_readonly(np.zeros(n)), _readonly(np.eye(n)), _readonly(np.zeros(4)),
+    ekf_kernel.step(read_only(np.zeros(n)), read_only(np.eye(n)), read_only(np.zeros(4)),
                     np.array([0.0, 0.0, 0.0, 9.8, 0.0, 9.8]), True, False, False, consts, walk,
                     np.zeros(4))
     c = nominal_kernel.pack(p.plant, p.friction)
     x = np.array([0.1, 0.2, 0.5, 0.1])
-    nominal_kernel.predict(c, x, _readonly(np.zeros(1)), 0.01, 2)
+    nominal_kernel.predict(c, x, read_only(np.zeros(1)), 0.01, 2)
     nominal_kernel.solve_shot(c, x, 12, 0.0, -0.01, 0.1, 0.04, 0.03)
     nominal_kernel.elbow_torque(c, 0.1, 0.2, 0.3, 0.4, 1.0)
     nominal_kernel.probe_rates(c, 0.1, 0.2, np.zeros(2), 1, 0.01, 0.0,
                                np.array([20.0, 0.1, 0.001]), 2)
     imu.sample_kernel(0.0, 0.0, 0.0, 9.8, 0.0, 9.8, 0.0, 0.0, 0, imu.pack(p.imu),
-                      _readonly(np.zeros(8)))
+                      read_only(np.zeros(8)))
     gripper.arrival(np.zeros(4), np.zeros(4), 0.01, np.array([0.9, 0.9, 0.0, 1.2]), 0.02,
                     0.6, False, 0.0, 8, 30)
     # the onboard computer's state: the EKF's x, P, u and flag, a predictor's
@@ -49,6 +52,6 @@ def warm_up() -> None:
     at = np.array([len(xd) - 9, 0, n, n + n * n, n + n * n + 4, n, n + n * n + 5, 2])
     readings = np.zeros(12)
     readings[[7, 10]] = 9.8
-    onboard_kernel.front(_readonly(xd), readings, _readonly(np.zeros(8)), 0, imu.pack(p.imu),
+    onboard_kernel.front(read_only(xd), readings, read_only(np.zeros(8)), 0, imu.pack(p.imu),
                          False, False, consts, walk, np.zeros(4), c, at, 0.01, 2,
                          np.empty(len(xd)))

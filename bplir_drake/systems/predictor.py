@@ -19,6 +19,7 @@ import numpy as np
 from .base import PySystem
 from ..params import FrictionParams, PlantParams
 from . import nominal_kernel
+from .kernels import read_only
 from .schedule import declare_store, declare_tick_result
 
 
@@ -65,11 +66,9 @@ def predict_state(x, commands, period: float, plant: PlantParams, friction: Fric
     model's :func:`~bplir_drake.systems.nominal_kernel.pack`, made from
     ``plant`` and ``friction`` when not given)."""
     c = nominal_kernel.pack(plant, friction) if constants is None else constants
-    u = np.asarray(commands, dtype=float).ravel()
-    if u.flags.writeable:   # as the systems pass their state (the kernel compiled once)
-        u = u.view()
-        u.flags.writeable = False
-    return nominal_kernel.predict(c, np.asarray(x, dtype=float), u, period, substeps)
+    return nominal_kernel.predict(c, np.asarray(x, dtype=float),
+                                  read_only(np.asarray(commands, dtype=float).ravel()), period,
+                                  substeps)
 
 
 class DelayPredictor(PySystem):

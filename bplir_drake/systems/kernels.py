@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..params import preset
-from . import ekf_kernel, gripper, imu, nominal_kernel, onboard_kernel
+from . import ekf_kernel, gripper, imu, nominal_kernel, onboard_kernel, tracker_kernel
 
 
 def read_only(a) -> np.ndarray:
@@ -43,6 +43,8 @@ def warm_up() -> None:
                                np.array([20.0, 0.1, 0.001]), 2)
     imu.sample_kernel(0.0, 0.0, 0.0, 9.8, 0.0, 9.8, 0.0, 0.0, 0, imu.pack(p.imu),
                       read_only(np.zeros(8)))
+    tracker_kernel.tracking_torque(x, x, 0.0, x, 0.0,
+                                   tracker_kernel.window_constants(p.motor, 20.0))
     gripper.arrival(np.zeros(4), np.zeros(4), 0.01, np.array([0.9, 0.9, 0.0, 1.2]), 0.02,
                     0.6, False, 0.0, 8, 30)
     # the onboard computer's state: the EKF's x, P, u and flag, a predictor's

@@ -37,6 +37,7 @@ from ..params import PLAN_INDEXING
 from .motor import torque_window, torque_window_of  # noqa: F401 (torque_window re-exported)
 from .plant import bias_term, gravity_vector, mass_matrix
 from .schedule import declare_store, declare_tick_result
+from .tracker_kernel import tracking_torque, window_constants
 from .landing import (  # noqa: F401 (re-exported)
     _LineServo, Reach, Landing, ApexShot, link1_share, resolved_landing, landing_law, height_rates, height_torque)
 
@@ -137,6 +138,7 @@ class PlanTracker(PySystem):
         self.motor = motor
         self._window = (torque_window_of(motor, torque_limit=float(torque_limit))
                         if motor is not None else None)
+        self._wc = window_constants(motor, torque_limit)
         self.reach, self.lead = reach, float(lead)
         self.probe = tuple(float(u) for u in probe)
         if indexing not in PLAN_INDEXING:
@@ -180,14 +182,15 @@ class PlanTracker(PySystem):
         """(torque, planned q2) at time ``t`` (held at the plan's end after it)."""
         t = min(max(t, 0.0), self.t_end)
         x0, u0, K, k0 = self.plan_at(t)
+        if not reach:   # compiled: tracker_kernel.tracking_torque
+            return (tracking_torque(np.asarray(x, dtype=float), x0, u0, K[0], k0, self._wc),
+                    float(x0[1]))   # the planned q2 (RobotState)
         lo, hi = self.window(x)
-        if reach and isinstance(self.reach, ApexShot):
+        if isinstance(self.reach, ApexShot):
             u = self.reach.torque(np.asarray(x, dtype=float), window=(lo, hi))
-        elif reach:
-            u = self.reach.torque(np.asarray(x, dtype=float))
         else:
-            u = u0 - (K @ (np.asarray(x) - x0))[0] - k0
-        return float(min(max(u, lo), hi)), float(x0[1])   # the planned q2 (RobotState)
+            u = self.reach.torque(np.asarray(x, dtype=float))
+        return float(min(max(u, lo), hi)), float(x0[1])
 
     def plan_at(self, t: float):
         """(x0, u0, K, k0): the plan and its gains at ``t``, kept for the

@@ -77,8 +77,12 @@ class OnboardComputer(PySystem):
                                         if predictor is not None else (-1, 0))],
                             dtype=np.int64)
         self._pred_c = predictor._constants if predictor is not None else np.zeros(1)
-        self._steps_at = (self.slices["identifier"].start + 3 * identifier.window + 1
+        # the identifier's count of stored ticks (it is done past ``window``; the
+        # front copies its part unchanged) and its identified delay
+        self._ticks_at = (self.slices["identifier"].start + 3 * identifier.window
                           if identifier is not None else None)
+        self._steps_at = self._ticks_at + 1 if identifier is not None else None
+        self._calibrate_after = ekf.params.calibrate_after
         self.readings_port = self.DeclareVectorInputPort("imu_readings", 12)
         self.line_port = (self.DeclareVectorInputPort("line_gap", 2)
                           if ekf.line_port is not None else None)
@@ -161,9 +165,11 @@ class OnboardComputer(PySystem):
         imu = new[self._imu]
         fit = (0.0, 0.0)
         if self.identifier is not None:
-            fit = self.identifier.fit(xd[s["identifier"]])
-            new[s["identifier"]] = self.identifier.stored(xd[s["identifier"]], lambda: command,
-                                                          lambda: imu[:2])
+            held = xd[s["identifier"]]
+            fit = self.identifier.fit(held)
+            if xd[self._ticks_at] < self.identifier.window + 0.5:   # still storing
+                new[s["identifier"]] = self.identifier.stored(held, lambda: command,
+                                                              lambda: imu[:2])
         discrete_state.set_value(self._xd, new)
         discrete_state.set_value(self._estimate, relative)
         discrete_state.set_value(self._command, tracked[:1])
@@ -185,7 +191,7 @@ class OnboardComputer(PySystem):
         new = np.empty(len(xd))
         relative, state = onboard_kernel.front(
             xd, self.readings_port.Eval(context), draws, k, imu_c,
-            context.get_time() < self.ekf.params.calibrate_after, held, ekf_c, walk, cal,
+            context.get_time() < self._calibrate_after, held, ekf_c, walk, cal,
             self._pred_c, self._at, self.period,
             p.taken(steps if p.steps_port is not None else None) if p is not None else 0, new)
         return new, relative, state

@@ -126,6 +126,34 @@ def arrival(x0, x1, T, geo, band, travel_min, passed, last_normal, substeps, bis
     return False, 0.0, x, passed, last_normal, closest
 
 
+@njit(cache=True)
+def interlock_update(d, x, t, period, geo, band, travel_min, tripped, estimate, torque,
+                     max_time, fault, timeout):
+    """One update of the interlock's state ``d`` (its :data:`GripperInterlock.State`,
+    changed in place) to the true state ``x`` at ``t``, but for the figures of
+    an arrival: the closest distance, whether the vertical is passed, the last
+    normal distance and the state are stored; with no arrival in the tick, the
+    mode is set to ``fault`` (the driver ``tripped``, or the ``estimate`` or the
+    ``torque`` not finite) or ``timeout`` (``t`` at ``max_time``), at ``t``.
+    Returns ``(found, s, x)`` of :func:`arrival`."""
+    found, s, xa, passed, normal, closest = arrival(d[9:13], x, period, geo, band, travel_min,
+                                                    d[7] > 0.5, d[8], 8, 30)
+    if closest < d[6]:
+        d[6] = closest
+    d[7] = 1.0 if passed else 0.0
+    if not found:
+        finite = math.isfinite(torque)
+        for v in estimate:
+            finite = finite and math.isfinite(v)
+        if tripped > 0.5 or not finite:
+            d[0], d[2] = fault, t
+        elif t >= max_time - 1e-9:
+            d[0], d[2] = timeout, t
+    d[8] = normal
+    d[9:13] = x
+    return found, s, xa
+
+
 def first_arrival(x0, x1, T: float, g: LineGeometry, sc: ScenarioParams, passed: bool,
                   last_normal: float, substeps: int = 8, bisections: int = 30, *,
                   gripper: GripperParams | None = None):
@@ -180,6 +208,8 @@ class GripperInterlock(PySystem):
         self._geo = np.array([geometry.l1, geometry.l2, geometry.alpha, geometry.grip_spacing])
         self._travel_min = scenario.min_travel_fraction * scenario.grip_spacing
         self._band = float(self.gripper.capture_distance)
+        self._max_time = float(scenario.max_time)
+        self._fault, self._timeout = float(OUTCOMES.index("fault")), float(OUTCOMES.index("timeout"))
         self.state_port = self.DeclareVectorInputPort("state", 4)
         self.tripped_port = self.DeclareVectorInputPort("tripped", 1)
         self.estimate_port = self.DeclareVectorInputPort("estimate", 4)
@@ -207,27 +237,17 @@ class GripperInterlock(PySystem):
             return EventStatus.ReachedTermination(self, "swing ended")
         d = d.copy()
         t = context.get_time()
-        sc = self.scenario
-        x = self.state_port.Eval(context)
-        found, s, xa, passed, normal, closest = arrival(
-            d[9:13], x, self.period, self._geo, self._band, self._travel_min,
-            bool(d[7] > 0.5), float(d[8]), 8, 30)
-        d[6] = min(d[6], closest)   # closest
-        d[7] = 1.0 if passed else 0.0
+        found, s, xa = interlock_update(
+            d, self.state_port.Eval(context), t, self.period, self._geo, self._band,
+            self._travel_min, self.tripped_port.Eval(context)[0],
+            self.estimate_port.Eval(context), self.torque_port.Eval(context)[0],
+            self._max_time, self._fault, self._timeout)
         if found:
             _, _, travel, speed = line_metrics(xa, self.geometry)
             ok = speed <= self.gripper.capture_speed
             # mode, fixed open, event time, speed, distance, travel
             d[0:6] = (OUTCOMES.index("captured" if ok else "crash"), 1.0 if ok else 0.0,
-                      t - self.period + s * self.period, speed, abs(normal), travel)
-        elif self.tripped_port.Eval(context)[0] > 0.5 or not (
-                all(map(math.isfinite, self.estimate_port.Eval(context)))
-                and math.isfinite(self.torque_port.Eval(context)[0])):
-            d[0], d[2] = OUTCOMES.index("fault"), t
-        elif t >= sc.max_time - 1e-9:
-            d[0], d[2] = OUTCOMES.index("timeout"), t
-        d[8] = normal   # last normal
-        d[9:13] = x
+                      t - self.period + s * self.period, speed, abs(d[8]), travel)
         discrete_state.set_value(self._xd, d)
         if d[0] != 0:
             return EventStatus.ReachedTermination(self, "swing ended")

@@ -45,8 +45,9 @@ def warm_up() -> None:
                       read_only(np.zeros(8)))
     tracker_kernel.tracking_torque(x, x, 0.0, x, 0.0,
                                    tracker_kernel.window_constants(p.motor, 20.0))
-    gripper.arrival(np.zeros(4), np.zeros(4), 0.01, np.array([0.9, 0.9, 0.0, 1.2]), 0.02,
-                    0.6, False, 0.0, 8, 30)
+    gripper.interlock_update(np.zeros(13), np.zeros(4), 0.0, 0.01,
+                             np.array([0.9, 0.9, 0.0, 1.2]), 0.02, 0.6, 0.0, np.zeros(4), 0.0,
+                             5.0, 4.0, 3.0)
     # the onboard computer's state: the EKF's x, P, u and flag, a predictor's
     # two commands, the sampler's nine; the readings at rest
     xd = np.zeros(n + n * n + 4 + 1 + 2 + 9)

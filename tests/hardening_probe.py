@@ -16,26 +16,35 @@ from pathlib import Path
 
 import numpy as np
 from conftest import plugin_source
+from forked import bplir_forked, start_forked
 
 ROOT = Path(__file__).resolve().parents[1]
 ROBOT = ROOT / "bplir_drake" / "data" / "robots" / "bplir.urdf"
 
 
 # ------------------------------------------------------------------ helpers
-def bplir(*argv, timeout=180, env=None, **popen):
-    """``python -m bplir_drake.cli ARGV`` in its own process: (status, stdout, stderr)."""
+def bplir(*argv, timeout=180, env=None, fork=True, before=None):
+    """``bplir ARGV`` in a process of its own: (status, stdout, stderr).  The
+    process is forked from this one with the package imported
+    (:func:`forked.bplir_forked`; ``before()`` runs in it before the
+    command), or with ``fork=False`` a fresh ``python -m bplir_drake.cli``."""
+    if fork:
+        return bplir_forked(*argv, env=env, before=before, timeout=timeout)
     p = subprocess.run([sys.executable, "-m", "bplir_drake.cli", *map(str, argv)],
                        capture_output=True, text=True, timeout=timeout,
-                       env=None if env is None else dict(os.environ, **env), **popen)
+                       env=None if env is None else dict(os.environ, **env))
     return p.returncode, p.stdout, p.stderr
 
 
-def start(*argv, env=None):
-    """``bplir ARGV`` started in a session of its own (Ctrl-C reaches its group)."""
+def start(*argv, fork=True):
+    """``bplir ARGV`` started in a session of its own (Ctrl-C reaches its
+    group): forked from this process (:func:`forked.start_forked`), or with
+    ``fork=False`` a fresh ``python -m bplir_drake.cli``."""
+    if fork:
+        return start_forked(*argv, new_session=True)
     return subprocess.Popen([sys.executable, "-m", "bplir_drake.cli", *map(str, argv)],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                             start_new_session=True,
-                            env=None if env is None else dict(os.environ, **env),
                             preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
 
 
@@ -276,7 +285,7 @@ def class_9(d: Path):
 def class_10(d: Path):
     """``--dask``: Ctrl-C gives the one line, no worker's traceback or log."""
     proc = start("montecarlo", "-n", "200", "--dask", "--workers", "2", "--no-plots",
-                 "--out", d / "mc")
+                 "--out", d / "mc", fork=False)
     if not wait_for(lambda: (d / "mc" / "results.csv").exists() and len(
             (d / "mc" / "results.csv").read_text().splitlines()) > 1, limit=120):
         proc.kill()
@@ -293,7 +302,7 @@ def class_11(d: Path):
     spec = plugin(d, "chatty.py", "print('hello from calc'); sys.exit(0)",
                   factory="print('hello from the factory'); os.write(1, b'XXX Singular basis\\n')")
     rc, out, err = bplir("montecarlo", "-n", "2", "--dask", "--workers", "2", "--controller",
-                         spec, "--no-plots", "--json", "--out", d / "mc")
+                         spec, "--no-plots", "--json", "--out", d / "mc", fork=False)
     try:
         summary = json.loads(out)
     except ValueError:
@@ -306,22 +315,23 @@ def class_11(d: Path):
     return None
 
 
+def _quick_plans():
+    """Make the plan solver a 1 s plan at rest (not SNOPT's minute)."""
+    from bplir_drake.diagrams import plan as P
+
+    def quick(params, *a, **k):
+        t = np.linspace(0.0, 1.0, 5)
+        return P.SwingPlan(t, np.zeros((5, 4)), np.zeros(5), np.zeros((5, 2)), True, True,
+                           "stub", params.scenario.incline_deg, 20.0, 220.0, 1e-4)
+
+    P._solve_plan = quick
+
+
 def quick_solver(cache: Path, *argv):
-    """``bplir ARGV`` whose plan solver is a 1 s plan at rest (not SNOPT's
-    minute) and whose cache is ``cache``: (status, stdout, stderr)."""
-    code = ("import sys\n"
-            "import numpy as np\n"
-            "from bplir_drake.diagrams import plan as P\n"
-            "def quick(params, *a, **k):\n"
-            "    t = np.linspace(0.0, 1.0, 5)\n"
-            "    return P.SwingPlan(t, np.zeros((5, 4)), np.zeros(5), np.zeros((5, 2)), True,\n"
-            "                       True, 'stub', params.scenario.incline_deg, 20.0, 220.0, 1e-4)\n"
-            "P._solve_plan = quick\n"
-            "from bplir_drake.cli import main\n"
-            "sys.exit(main(sys.argv[1:]))\n")
-    p = subprocess.run([sys.executable, "-c", code, *map(str, argv)], capture_output=True,
-                       text=True, timeout=180, env=dict(os.environ, BPLIR_CACHE_DIR=str(cache)))
-    return p.returncode, p.stdout, p.stderr
+    """``bplir ARGV`` whose plan solver is a 1 s plan at rest
+    (:func:`_quick_plans`) and whose cache is ``cache``: (status, stdout,
+    stderr)."""
+    return bplir(*argv, env={"BPLIR_CACHE_DIR": cache}, before=_quick_plans)
 
 
 def class_12(d: Path):

@@ -4,8 +4,6 @@ from __future__ import annotations
 
 import json
 import re
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -15,6 +13,7 @@ from bplir_drake.analysis.commission import commission, default_spacings
 from bplir_drake.analysis.commission.similarity import Scales, shipped_references
 from bplir_drake.analysis.commission.verdict import no_plan_reason, verification_study
 from bplir_drake.params import from_dict, load_toml, preset
+from forked import bplir_forked
 
 ROOT = Path(__file__).resolve().parents[1]
 SCALED = ROOT / "examples" / "scaled_bplir.toml"
@@ -122,10 +121,9 @@ def test_the_command_line_refuses_bad_input_in_one_line(tmp_path):
     """A missing robot file or an incline out of range: exit 2, one line."""
     for argv, word in ((["nowhere.toml"], "does not exist"),
                        ([str(SCALED), "--incline", "50"], "--incline = 50")):
-        p = subprocess.run([sys.executable, "-m", "bplir_drake.cli", "commission", *argv,
-                            "--out", str(tmp_path / "o")], capture_output=True, text=True)
-        assert p.returncode == 2 and word in p.stderr
-        assert len(p.stderr.strip().splitlines()) == 1 and "Traceback" not in p.stderr
+        rc, _, err = bplir_forked("commission", *argv, "--out", tmp_path / "o")
+        assert rc == 2 and word in err
+        assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
 
 
 def test_acromonk_in_its_own_units_lands_as_docs_robots_says():

@@ -1,11 +1,11 @@
 """Bad input is one line and exit 2, finished work is never lost or
 half-written, JSON is strict, and a plan depends only on what the
-controller may know (issue 16).  CLI cases run the console entry point in
-a subprocess where the whole process matters (no traceback, exit status,
-files left behind); the rest call ``bplir_drake.cli.main`` in-process."""
+controller may know (issue 16).  CLI cases run the command line in a
+process of its own (forked, :mod:`forked`) where the whole process matters
+(signals, exit status, files left behind); the rest call
+``bplir_drake.cli.main`` in-process."""
 import math
 import signal
-import subprocess
 import sys
 import time
 from pathlib import Path
@@ -24,13 +24,13 @@ from bplir_drake.diagrams.plan import SwingPlan
 from bplir_drake.params import ParameterError, load_toml
 from conftest import parse_strict_json as strict_json
 from conftest import paced_48v, plugin_source
+from forked import bplir_forked, start_forked
 
 
 def bplir_process(*argv, timeout=120):
-    """Run the ``bplir`` command as its own process; (exit status, stdout, stderr)."""
-    p = subprocess.run([sys.executable, "-m", "bplir_drake.cli", *map(str, argv)],
-                       capture_output=True, text=True, timeout=timeout)
-    return p.returncode, p.stdout, p.stderr
+    """Run the ``bplir`` command as its own process (forked from this one,
+    :func:`forked.bplir_forked`); (exit status, stdout, stderr)."""
+    return bplir_forked(*argv, timeout=timeout)
 
 
 def bplir(*argv):
@@ -280,8 +280,7 @@ def test_killed_study_resumes_to_the_identical_table(tmp_path):
     full = tmp_path / "full"
     assert bplir(*args, "--out", full)[0] == 0
     cut = tmp_path / "cut"
-    proc = subprocess.Popen([sys.executable, "-m", "bplir_drake.cli", *args, "--out", str(cut)],
-                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    proc = start_forked(*args, "--out", cut, stdout=False, stderr=False)
     results = cut / "results.csv"
     deadline = time.monotonic() + 240
     while time.monotonic() < deadline and proc.poll() is None:
@@ -318,10 +317,7 @@ def test_ctrl_c_on_a_two_worker_study_keeps_finished_rows(tmp_path):
     # a suite started in the background by a shell inherits SIGINT ignored
     # (Python then installs no KeyboardInterrupt handler): Ctrl-C as a user
     # at a terminal sends it, with the default disposition
-    proc = subprocess.Popen([sys.executable, "-m", "bplir_drake.cli", *args],
-                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
-                            start_new_session=True,
-                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    proc = start_forked(*args, stdout=False, new_session=True)
     results = out / "results.csv"
     _wait_for_rows(proc, results, 5)
     os.killpg(proc.pid, signal.SIGINT)
@@ -811,9 +807,7 @@ def test_sigterm_and_sighup_end_a_swing_like_ctrl_c(sig, code, tmp_path):
     """SIGTERM and SIGHUP while ``bplir swing`` writes its outputs: one line
     naming the signal, exit 128 + signal, no temporary file left."""
     out = tmp_path / "swing"
-    proc = subprocess.Popen([sys.executable, "-m", "bplir_drake.cli", "swing", "--html",
-                             "--out", str(out)], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            text=True)
+    proc = start_forked("swing", "--html", "--out", out)
     deadline = time.time() + 60
     while time.time() < deadline and not (out.exists() and any(out.iterdir())):
         time.sleep(0.05)
@@ -893,9 +887,8 @@ def test_kill_9_of_a_study_leaves_no_worker_running(tmp_path):
     import os
 
     out = tmp_path / "mc"
-    proc = subprocess.Popen([sys.executable, "-m", "bplir_drake.cli", "montecarlo", "-n", "40",
-                             "--workers", "2", "--no-plots", "--out", str(out)],
-                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    proc = start_forked("montecarlo", "-n", "40", "--workers", "2", "--no-plots", "--out", out,
+                        stdout=False, stderr=False)
     _wait_for_rows(proc, out / "results.csv", 2)
 
     def children(pid):
@@ -937,16 +930,15 @@ def test_a_second_study_into_the_same_directory_is_refused_with_the_holders_pid(
     out = tmp_path / "mc"
     n = 20   # about 1.5 s of swings after the lock is taken: the second starts and
     #          reads the lock within a fraction of that (it imports no simulator)
-    args = [sys.executable, "-m", "bplir_drake.cli", "montecarlo", "-n", str(n), "--workers",
-            "1", "--no-plots", "--out", str(out)]
-    first = subprocess.Popen(args, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    args = ["montecarlo", "-n", n, "--workers", "1", "--no-plots", "--out", out]
+    first = start_forked(*args, stdout=False)
     deadline = time.monotonic() + 120
     while time.monotonic() < deadline and not (out / ".lock").exists():
         time.sleep(0.02)
-    second = subprocess.run(args, capture_output=True, text=True, timeout=120)
+    second = bplir_process(*args)
     assert first.wait(timeout=240) == 0
-    assert second.returncode == 2
-    assert second.stderr.strip() == (f"bplir: error: study directory {out} is in use by "
+    assert second[0] == 2
+    assert second[2].strip() == (f"bplir: error: study directory {out} is in use by "
                                      f"process {first.pid}; wait for it to finish or choose "
                                      "another --out")
     rows = mc.read_results(out / "results.csv")

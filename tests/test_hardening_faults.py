@@ -1,7 +1,9 @@
-"""Faults behind the front door, each through the console entry point in a
-process of its own: a full disk, a plug-in that answers NaN or hangs, a
-study directory that names code to run, the memory of a long log.  Every
-case ends in one line, the right exit status and no file half-written."""
+"""Faults behind the front door, each through the command line's entry
+point in a process of its own (forked from the test's, :mod:`forked`; a
+fresh one for Ctrl-C and for memory): a full disk, a plug-in that answers
+NaN or hangs, a study directory that names code to run, the memory of a
+long log.  Every case ends in one line, the right exit status and no file
+half-written."""
 import resource
 import signal
 import subprocess
@@ -11,22 +13,20 @@ from pathlib import Path
 import numpy as np
 import pytest
 from conftest import plugin_source
+from forked import bplir_forked
 
 ROOT = Path(__file__).resolve().parents[1]
 
 
 def run(*argv, limit_bytes=None, timeout=180):
-    """``python -m bplir_drake.cli ARGV``; with ``limit_bytes`` no file the
-    process writes may grow past it (a full disk: writes fail with an
-    OSError, as with ENOSPC)."""
+    """``bplir ARGV`` in a process of its own (:func:`forked.bplir_forked`);
+    with ``limit_bytes`` no file the process writes may grow past it (a
+    full disk: writes fail with an OSError, as with ENOSPC)."""
     def small_disk():
         signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
         resource.setrlimit(resource.RLIMIT_FSIZE, (limit_bytes, limit_bytes))
 
-    p = subprocess.run([sys.executable, "-m", "bplir_drake.cli", *map(str, argv)],
-                       capture_output=True, text=True, timeout=timeout,
-                       preexec_fn=small_disk if limit_bytes else None)
-    return p.returncode, p.stdout, p.stderr
+    return bplir_forked(*argv, preexec=small_disk if limit_bytes else None, timeout=timeout)
 
 
 def one_line(err) -> str:
@@ -299,24 +299,24 @@ def _bplir_with_solver(solver: str, cache, *argv):
     """``bplir ARGV`` in a process of its own whose plan solver (and LQR
     gains) is replaced: ``refuse`` (no solve may happen) or ``quick`` (a
     1 s plan at rest instead of SNOPT's minute); ``BPLIR_CACHE_DIR`` is
-    ``cache``."""
-    import os
+    ``cache``.  A ``CompletedProcess``."""
+    def replaced():
+        from bplir_drake.diagrams import plan as P
 
-    code = ("import sys\n"
-            "import numpy as np\n"
-            "from bplir_drake.diagrams import plan as P\n"
-            "def refuse(*a, **k):\n"
-            "    raise SystemExit('solved a shipped plan')\n"
-            "def quick(params, *a, **k):\n"
-            "    t = np.linspace(0.0, 1.0, 5)\n"
-            "    return P.SwingPlan(t, np.zeros((5, 4)), np.zeros(5), np.zeros((5, 2)), True,\n"
-            "                       True, 'stub', params.scenario.incline_deg, 20.0, 220.0, 1e-4)\n"
-            f"P._solve_plan = {solver}\n"
-            + ("P.plan_gains = refuse\n" if solver == "refuse" else "")
-            + "from bplir_drake.cli import main\n"
-            "sys.exit(main(sys.argv[1:]))\n")
-    return subprocess.run([sys.executable, "-c", code, *map(str, argv)], capture_output=True,
-                          text=True, timeout=180, env=dict(os.environ, BPLIR_CACHE_DIR=str(cache)))
+        def refuse(*a, **k):
+            raise SystemExit("solved a shipped plan")
+
+        def quick(params, *a, **k):
+            t = np.linspace(0.0, 1.0, 5)
+            return P.SwingPlan(t, np.zeros((5, 4)), np.zeros(5), np.zeros((5, 2)), True, True,
+                               "stub", params.scenario.incline_deg, 20.0, 220.0, 1e-4)
+
+        P._solve_plan = refuse if solver == "refuse" else quick
+        if solver == "refuse":
+            P.plan_gains = refuse
+
+    rc, out, err = bplir_forked(*argv, env={"BPLIR_CACHE_DIR": cache}, before=replaced)
+    return subprocess.CompletedProcess(argv, rc, out, err)
 
 
 @pytest.mark.parametrize("where", ["/proc/bplir-no-such/cache", "a file"])

@@ -8,6 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from bplir_drake import params as P
+from forked import bplir_forked
 
 
 def test_table_4_3_defaults(params):
@@ -167,8 +168,6 @@ def test_former_controller_preset_names_are_accepted_with_a_notice(tmp_path):
     """``qft`` and ``dissertation`` (the former names of ``plan`` and
     ``cpfl-qft``) still load, from Python with a FutureWarning and from the
     command line with one ``bplir: note:`` line."""
-    import subprocess
-    import sys
 
     with pytest.warns(FutureWarning, match="'qft' is now called 'plan'"):
         assert P.ControllerParams(preset="qft").preset == "plan"
@@ -176,11 +175,10 @@ def test_former_controller_preset_names_are_accepted_with_a_notice(tmp_path):
         assert P.BplirParams().with_controller("dissertation").controller.preset == "cpfl-qft"
     config = tmp_path / "old.toml"
     config.write_text("[controller]\npreset = 'qft'\n")
-    p = subprocess.run([sys.executable, "-m", "bplir_drake.cli", "params", "controller",
-                        "--config", str(config), "--json"], capture_output=True, text=True)
-    assert p.returncode == 0
-    assert p.stderr == "bplir: note: controller preset 'qft' is now called 'plan'\n"
-    assert '"plan"' in p.stdout
+    rc, out, err = bplir_forked("params", "controller", "--config", config, "--json")
+    assert rc == 0
+    assert err == "bplir: note: controller preset 'qft' is now called 'plan'\n"
+    assert '"plan"' in out
 
 
 def test_the_console_script_versions_lists_sets_and_passes_plugin_arguments(tmp_path):
@@ -241,8 +239,6 @@ def test_the_path_table_is_split_into_path_plan_and_landing(tmp_path):
     landing laws ``[landing]``.  A file written before the split (plan and
     landing fields in ``[path]``, ``plan_`` prefixed) still loads into the
     new blocks with one notice, and so does ``--set path.shoot_height``."""
-    import subprocess
-    import sys
 
     names = {b: {f.name for f in dc.fields(P.BLOCKS[b])} for b in ("path", "plan", "landing")}
     assert not names["path"] & (names["plan"] | names["landing"])
@@ -254,12 +250,11 @@ def test_the_path_table_is_split_into_path_plan_and_landing(tmp_path):
     with pytest.warns(FutureWarning, match=r"now in \[plan\]"):
         p = P.load_toml(old)
     assert (p.path.mode, p.plan.indexing, p.landing.shoot_height) == ("plan", "state", -0.01)
-    run = subprocess.run([sys.executable, "-m", "bplir_drake.cli", "params", "landing", "--json",
-                          "--set", "path.shoot_height=-0.012"], capture_output=True, text=True)
-    assert run.returncode == 0
-    assert run.stderr == ("bplir: note: --set path.shoot_height is now --set "
-                          "landing.shoot_height\n")
-    rows = {r["name"]: r for r in json.loads(run.stdout)["parameters"]}
+    rc, out, err = bplir_forked("params", "landing", "--json", "--set",
+                                "path.shoot_height=-0.012")
+    assert rc == 0
+    assert err == "bplir: note: --set path.shoot_height is now --set landing.shoot_height\n"
+    rows = {r["name"]: r for r in json.loads(out)["parameters"]}
     assert rows["shoot_height"]["value"] == -0.012
 
 

@@ -257,9 +257,16 @@ CONSTANT_TORQUE = (
 
 
 def _bplir(*argv, env=None):
+    """``bplir ARGV`` in a process of its own: forked from this one
+    (:func:`forked.bplir_forked`), or with ``env`` (a search path set at
+    the interpreter's start) a fresh ``python -m bplir_drake.cli``."""
     import subprocess
     import sys
 
+    from forked import bplir_forked
+
+    if env is None:
+        return bplir_forked(*argv)
     p = subprocess.run([sys.executable, "-m", "bplir_drake.cli", *map(str, argv)],
                        capture_output=True, text=True, env=env, timeout=180)
     return p.returncode, p.stdout, p.stderr

@@ -228,7 +228,7 @@ class PlanTracker(PySystem):
         from the state input ``x``, the stored ``xd`` (phase, tick count,
         reach) and, with an adaptive lead, ``steps`` (the identified delay);
         with ``"time"`` indexing the phase is the tick's time ``k T``."""
-        tau_prev, k, reached = xd
+        tau_prev, k, reached = xd.tolist() if isinstance(xd, np.ndarray) else xd
         lead = self.lead if steps is None else math.floor(steps + 0.5) * self.period
         tau = k * self.period + lead if self.indexing == "time" else self.phase(tau_prev, x)
         reach = self.reaching(tau, x, reached)

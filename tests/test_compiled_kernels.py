@@ -150,3 +150,35 @@ def test_the_compiled_torque_window_is_the_motors(envelope, limit):
     for q2d in np.random.default_rng(4).normal(size=2000) * 30.0:
         assert window(q2d, c) == plain(q2d)
     assert window(5.0, window_constants(None, limit)) == (-limit, limit)
+
+
+def _terminal_laws(p):
+    """The apex shot, the aim landing and the reach of the default robot at 0 deg."""
+    from bplir_drake.systems.landing import ApexShot, Landing, Reach
+    lp = p.landing
+    return {"shoot": ApexShot.from_params(p.plant, p.friction, 0.0, lp),
+            "aim": Landing.from_params(p.plant, 0.0, lp),
+            "reach": Reach.from_params(p.plant, 0.0, dc.replace(lp, landing_lead=0.0,
+                                                                reach_speed=0.3))}
+
+
+def test_the_compiled_takeover_is_the_terminal_laws():
+    """The compiled take-over test of each terminal law is its ``takes_over``
+    at 3000 states near the line's (both ways), and the height and link 1's
+    deceleration are the laws', bit for bit."""
+    from bplir_drake.systems import tracker_kernel as tk
+    from bplir_drake.systems.landing import height_rates, takeover_rule
+    p = preset()
+    rng = np.random.default_rng(8)
+    states = np.column_stack([rng.uniform(1.2, 2.6, 3000), rng.uniform(-1.5, 1.5, 3000),
+                              rng.uniform(-1.0, 3.0, 3000), rng.uniform(-6.0, 6.0, 3000)])
+    for name, law in _terminal_laws(p).items():
+        rule = takeover_rule(law)
+        said = [tk.takes_over(x, rule) for x in states]
+        assert said == [law.takes_over(x) for x in states], name
+        assert 300 < sum(said) < 2700, (name, sum(said))   # both answers are asked
+    landing = _terminal_laws(p)["aim"]
+    c = np.array(landing.decel_constants())
+    for x in states[:500]:
+        assert tk.height(x, 0.0, p.plant.l1, p.plant.l2) == height_rates(p.plant, 0.0, x)[0]
+        assert tk.deceleration(x, c) == landing.deceleration(x)

@@ -43,8 +43,11 @@ def warm_up() -> None:
                                np.array([20.0, 0.1, 0.001]), 2)
     imu.sample_kernel(0.0, 0.0, 0.0, 9.8, 0.0, 9.8, 0.0, 0.0, 0, imu.pack(p.imu),
                       read_only(np.zeros(8)))
-    tracker_kernel.tracking_torque(x, x, 0.0, x, 0.0,
-                                   tracker_kernel.window_constants(p.motor, 20.0))
+    wc = tracker_kernel.window_constants(p.motor, 20.0)
+    tracker_kernel.tracking_torque(x, x, 0.0, x, 0.0, wc)
+    rows = np.zeros((3, 4))
+    tracker_kernel.plan_tick(x, 0.0, 0.0, 0.0, 0.01, 1.0, 0.5, rows, np.zeros(3), rows,
+                             np.zeros(3), np.zeros(17), wc, np.zeros(2))
     gripper.interlock_update(np.zeros(13), np.zeros(4), 0.0, 0.01,
                              np.array([0.9, 0.9, 0.0, 1.2]), 0.02, 0.6, 0.0, np.zeros(4), 0.0,
                              5.0, 4.0, 3.0)

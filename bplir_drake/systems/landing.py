@@ -114,6 +114,17 @@ class Landing(_LineServo):
         :func:`~bplir_drake.systems.plant.gravity_vector` and
         :func:`~bplir_drake.systems.plant.mass_matrix`, in the same
         arithmetic, their constants worked out once (it runs every tick)."""
+        dc1, dc2, m11_0, m11_c, h_0, g1, g2, l1, rc2 = self.decel_constants()
+        q0, q1, v0, v1 = float(x[0]), float(x[1]), float(x[2]), float(x[3])
+        h = h_0 * math.sin(q1 + dc2)
+        b0 = -h * (2.0 * v0 * v1 + v1 ** 2) + (
+            g1 * math.sin(q0 + dc1) + g2 * (l1 * math.sin(q0) + rc2 * math.sin(q0 + q1 + dc2)))
+        return b0 / (m11_0 + m11_c * math.cos(q1 + dc2))
+
+    def decel_constants(self) -> tuple:
+        """The constants of :meth:`deceleration`, worked out once: (dc1, dc2,
+        M11's constant part and its cos(q2 + dc2) factor, the Coriolis
+        factor, the two gravity factors, l1, rc2)."""
         c = self.__dict__.get("_decel")
         if c is None:
             p = self.plant
@@ -123,12 +134,7 @@ class Landing(_LineServo):
                  2.0 * p.m2 * p.l1 * r2, p.m2 * p.l1 * p.rc2, p.m1 * p.g * p.rc1, p.m2 * p.g,
                  p.l1, p.rc2)
             object.__setattr__(self, "_decel", c)
-        dc1, dc2, m11_0, m11_c, h_0, g1, g2, l1, rc2 = c
-        q0, q1, v0, v1 = float(x[0]), float(x[1]), float(x[2]), float(x[3])
-        h = h_0 * math.sin(q1 + dc2)
-        b0 = -h * (2.0 * v0 * v1 + v1 ** 2) + (
-            g1 * math.sin(q0 + dc1) + g2 * (l1 * math.sin(q0) + rc2 * math.sin(q0 + q1 + dc2)))
-        return b0 / (m11_0 + m11_c * math.cos(q1 + dc2))
+        return c
 
     def takes_over(self, x) -> bool:
         """Whether the landing takes over (asked in the plan's last forward
@@ -348,3 +354,20 @@ def height_torque(p, alpha: float, x, hdd: float) -> float:
     q2dd = (hdd + J[0] * b[0] / M[0, 0] - jdv) / (J[1] - J[0] * M[0, 1] / M[0, 0])
     q1dd = -(M[0, 1] * q2dd + b[0]) / M[0, 0]
     return float(M[1, 0] * q1dd + M[1, 1] * q2dd + b[1])
+
+
+def takeover_rule(reach) -> np.ndarray:
+    """The terminal law's take-over test (its ``takes_over``) as numbers, for
+    :func:`~bplir_drake.systems.tracker_kernel.takes_over`: (kind: 0 none,
+    1 :class:`Reach`, 2 :class:`Landing`, 3 :class:`ApexShot`; the line's
+    incline, l1, l2 of the servo's plant; the law's depth; the landing's
+    depth, least deceleration and take-over rate; the constants of
+    :meth:`Landing.deceleration`)."""
+    if reach is None:
+        return np.zeros(17)
+    servo = reach.landing if isinstance(reach, ApexShot) else reach
+    kind = 3 if isinstance(reach, ApexShot) else 2 if isinstance(reach, Landing) else 1
+    own = [servo.depth, servo.min_decel, servo.take_rate, *servo.decel_constants()] \
+        if kind > 1 else [0.0] * 12
+    return np.array([kind, servo.alpha, servo.plant.l1, servo.plant.l2, reach.depth, *own],
+                    dtype=float)

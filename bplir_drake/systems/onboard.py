@@ -27,6 +27,7 @@ from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import EventStatus
 
 from . import onboard_kernel
+from .imu import NOISE_BLOCK, noise_block
 from .base import PySystem
 from .schedule import declare_sample
 
@@ -83,6 +84,14 @@ class OnboardComputer(PySystem):
                           if identifier is not None else None)
         self._steps_at = self._ticks_at + 1 if identifier is not None else None
         self._calibrate_after = ekf.params.calibrate_after
+        # what the tick reads every time, looked up once
+        self._tracker_at = self.slices["tracker"]
+        self._tracker_steps = tracker.steps_port is not None
+        self._last_command = (self.slices["predictor"].stop - 1 if predictor is not None
+                              else None)
+        self._taken = (predictor.steps if predictor is not None and predictor.steps_port is None
+                       else None)
+        self._count = self._imu.start + 8   # the sampler's count of samples taken
         self.readings_port = self.DeclareVectorInputPort("imu_readings", 12)
         self.line_port = (self.DeclareVectorInputPort("line_gap", 2)
                           if ekf.line_port is not None else None)
@@ -153,18 +162,19 @@ class OnboardComputer(PySystem):
         after tick ``k`` and the tick's results until ``t_{k+1}`` -- what the
         parts wired one by one give out during ``[t_k, t_{k+1})`` and store
         at ``t_{k+1}``."""
-        xd, s = context.get_discrete_state(self._xd).get_value(), self.slices
+        xd = context.get_discrete_state(self._xd).get_value()
         steps = xd[self._steps_at] if self._steps_at is not None else 0.0
         new, relative, state = self._front(context, xd, steps)
-        tracked = self.tracker.tick(state, xd[s["tracker"]],
-                                    steps if self.tracker.steps_port is not None else None)
+        tracked = self.tracker.tick(state, xd[self._tracker_at],
+                                    steps if self._tracker_steps else None)
         command = tracked[0]
-        new[s["tracker"]] = tracked[2:]
-        if self.predictor is not None:
-            new[s["predictor"].stop - 1] = command
+        new[self._tracker_at] = tracked[2:]
+        if self._last_command is not None:
+            new[self._last_command] = command
         imu = new[self._imu]
         fit = (0.0, 0.0)
         if self.identifier is not None:
+            s = self.slices
             held = xd[s["identifier"]]
             fit = self.identifier.fit(held)
             if xd[self._ticks_at] < self.identifier.window + 0.5:   # still storing
@@ -186,14 +196,15 @@ class OnboardComputer(PySystem):
         :func:`~bplir_drake.systems.onboard_kernel.front`."""
         (_, seed, imu_c), (_, ekf_c, walk, cal, held) = context.get_abstract_parameter(
             self._own).get_value()
-        k, draws = self.sampler.sample_draws(xd[self._imu], seed)
-        p = self.predictor
+        k = int(xd[self._count] + 0.5)   # as ImuSampler.sample_draws
+        p, m = self.predictor, self._taken
+        if m is None:
+            m = p.taken(steps) if p is not None else 0
         new = np.empty(len(xd))
         relative, state = onboard_kernel.front(
-            xd, self.readings_port.Eval(context), draws, k, imu_c,
-            context.get_time() < self._calibrate_after, held, ekf_c, walk, cal,
-            self._pred_c, self._at, self.period,
-            p.taken(steps if p.steps_port is not None else None) if p is not None else 0, new)
+            xd, self.readings_port.Eval(context), noise_block(seed, k // NOISE_BLOCK)[
+                k % NOISE_BLOCK], k, imu_c, context.get_time() < self._calibrate_after, held,
+            ekf_c, walk, cal, self._pred_c, self._at, self.period, m, new)
         return new, relative, state
 
     def _front_parts(self, context, xd, steps):

@@ -37,9 +37,10 @@ from ..params import PLAN_INDEXING
 from .motor import torque_window, torque_window_of  # noqa: F401 (torque_window re-exported)
 from .plant import bias_term, gravity_vector, mass_matrix
 from .schedule import declare_store, declare_tick_result
-from .tracker_kernel import tracking_torque, window_constants
+from .tracker_kernel import plan_tick, tracking_torque, window_constants
 from .landing import (  # noqa: F401 (re-exported)
-    _LineServo, Reach, Landing, ApexShot, link1_share, resolved_landing, landing_law, height_rates, height_torque)
+    _LineServo, Reach, Landing, ApexShot, link1_share, resolved_landing, landing_law, height_rates, height_torque,
+    takeover_rule)
 
 
 @dataclass(frozen=True)
@@ -139,8 +140,11 @@ class PlanTracker(PySystem):
         self._window = (torque_window_of(motor, torque_limit=float(torque_limit))
                         if motor is not None else None)
         self._wc = window_constants(motor, torque_limit)
+        self._rule = takeover_rule(reach)   # the compiled tick's (tracker_kernel.plan_tick)
+        self._rows = {}   # the plan's rows at the ticks, by lead
         self.reach, self.lead = reach, float(lead)
         self.probe = tuple(float(u) for u in probe)
+        self._probe = np.array(self.probe, dtype=float)
         if indexing not in PLAN_INDEXING:
             raise ValueError(f"indexing = {indexing!r}; allowed: " + ", ".join(PLAN_INDEXING))
         self.K, self.x0, self.u0, self.k0 = gains.K, gains.x0, gains.u0, gains.k0
@@ -204,6 +208,26 @@ class PlanTracker(PySystem):
                 self._plan_values[t] = got
         return got
 
+    def plan_rows(self, lead: float):
+        """(x0, u0, K, k0) of :meth:`plan_at` as arrays, row ``i`` at the
+        time ``i period + lead`` (within the plan), the last at its end:
+        what a time-indexed tick with that lead reads (kept for 16 leads)."""
+        rows = self._rows.get(lead)
+        if rows is None:
+            got, i = [], 0
+            while True:
+                tau = float(i) * self.period + lead
+                got.append(self.plan_at(min(max(tau, 0.0), self.t_end)))
+                if tau >= self.t_end:
+                    break
+                i += 1
+            x0, u0, K, k0 = zip(*got)
+            rows = (np.array(x0), np.array(u0, dtype=float), np.array([g[0] for g in K]),
+                    np.array(k0, dtype=float))
+            if len(self._rows) < 16:
+                self._rows[lead] = rows
+        return rows
+
     def window(self, x) -> tuple[float, float]:
         """(lowest, highest) torque the tracker commands at the state ``x``."""
         if self.motor is None:
@@ -230,6 +254,13 @@ class PlanTracker(PySystem):
         with ``"time"`` indexing the phase is the tick's time ``k T``."""
         tau_prev, k, reached = xd.tolist() if isinstance(xd, np.ndarray) else xd
         lead = self.lead if steps is None else math.floor(steps + 0.5) * self.period
+        if self.indexing == "time":   # compiled, but for the terminal law's ticks
+            reach, u, reference, tau = plan_tick(
+                np.asarray(x, dtype=float), float(k), float(reached), float(lead), self.period,
+                self.t_end, self.t_final, *self.plan_rows(lead), self._rule, self._wc,
+                self._probe)
+            if not reach:
+                return (u, reference, tau, k + 1, 0.0)
         tau = k * self.period + lead if self.indexing == "time" else self.phase(tau_prev, x)
         reach = self.reaching(tau, x, reached)
         u, reference = self.law(tau, x, reach)

@@ -8,6 +8,8 @@ torque window at the elbow rate (:func:`window`, the arithmetic of
 (:func:`gain_sum`), so it gives the same number on every machine."""
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from llvmlite import ir
 from numba import njit, types
@@ -89,3 +91,64 @@ def tracking_torque(x, x0, u0, K, k0, c):
     u = u0 - gain_sum(K, d) - k0
     lo, hi = window(x[3], c)
     return _min(_max(u, lo), hi)
+
+
+@njit(cache=True)
+def height(x, alpha, l1, l2):
+    """The gripper's distance to the line (m, negative below it): the
+    arithmetic of :func:`~bplir_drake.systems.landing.height_rates`."""
+    s = x[0] - alpha
+    th = s + x[1]
+    return -l1 * math.cos(s) - l2 * math.cos(th)
+
+
+@njit(cache=True)
+def deceleration(x, c):
+    """:meth:`~bplir_drake.systems.landing.Landing.deceleration` from its
+    constants ``c``, in its arithmetic."""
+    dc1, dc2, m11_0, m11_c, h_0, g1, g2, l1, rc2 = c[0], c[1], c[2], c[3], c[4], c[5], c[6], \
+        c[7], c[8]
+    q0, q1, v0, v1 = x[0], x[1], x[2], x[3]
+    h = h_0 * math.sin(q1 + dc2)
+    b0 = -h * (2.0 * v0 * v1 + v1 ** 2) + (
+        g1 * math.sin(q0 + dc1) + g2 * (l1 * math.sin(q0) + rc2 * math.sin(q0 + q1 + dc2)))
+    return b0 / (m11_0 + m11_c * math.cos(q1 + dc2))
+
+
+@njit(cache=True)
+def takes_over(x, rule):
+    """The terminal law's ``takes_over(x)`` from its
+    :func:`~bplir_drake.systems.landing.takeover_rule`."""
+    kind = rule[0]
+    if kind == 0.0:
+        return False
+    h = height(x, rule[1], rule[2], rule[3])
+    if h > -rule[4]:
+        return True
+    if kind == 1.0:
+        return False
+    if h > -rule[5]:
+        return True
+    return deceleration(x, rule[8:17]) >= rule[6] and 0.0 <= x[2] < rule[7]
+
+
+@njit(cache=True)
+def plan_tick(x, k, reached, lead, period, t_end, t_final, x0s, u0s, Ks, k0s, rule, c, probe):
+    """A time-indexed tick of the plan tracker at the state ``x``, tick
+    ``k`` (a count held as a float), the terminal law's latch ``reached``
+    and the ``lead`` (s): ``(reach, torque, planned q2, tau)``, the torque
+    and q2 from the plan's rows at the ticks (``x0s``, ``u0s``, ``Ks``,
+    ``k0s``: row ``i`` the plan at ``i period + lead``, its last at the
+    plan's end) with the delay probe's torques added, unless the terminal
+    law ``rule`` takes over (``reach`` True: the caller runs it)."""
+    tau = k * period + lead
+    if rule[0] != 0.0 and (reached > 0.5 or tau >= t_end
+                           or (tau > t_final and takes_over(x, rule))):
+        return True, 0.0, 0.0, tau
+    i = int(k + 0.5)
+    row = min(i, len(u0s) - 1)
+    u = tracking_torque(x, x0s[row], u0s[row], Ks[row], k0s[row], c)
+    if i < len(probe):
+        lo, hi = window(x[3], c)
+        u = _min(_max(u + probe[i], lo), hi)
+    return False, u, x0s[row, 1], tau

@@ -51,13 +51,15 @@ def warm_up() -> None:
     gripper.interlock_update(np.zeros(13), np.zeros(4), 0.0, 0.01,
                              np.array([0.9, 0.9, 0.0, 1.2]), 0.02, 0.6, 0.0, np.zeros(4), 0.0,
                              5.0, 4.0, 3.0)
-    # the onboard computer's state: the EKF's x, P, u and flag, a predictor's
-    # two commands, the sampler's nine; the readings at rest
-    xd = np.zeros(n + n * n + 4 + 1 + 2 + 9)
+    # the onboard computer's state: the EKF's x, P, u and flag, the tracker's
+    # three, a predictor's two commands, the sampler's nine; the readings at rest
+    xd = np.zeros(n + n * n + 4 + 1 + 3 + 2 + 9)
     xd[n:n + n * n] = np.eye(n).ravel()
-    at = np.array([len(xd) - 9, 0, n, n + n * n, n + n * n + 4, n, n + n * n + 5, 2])
+    tr = n + n * n + 5
+    at = np.array([len(xd) - 9, 0, n, n + n * n, n + n * n + 4, n, tr + 3, 2])
     readings = np.zeros(12)
     readings[[7, 10]] = 9.8
-    onboard_kernel.front(read_only(xd), readings, read_only(np.zeros(8)), 0, imu.pack(p.imu),
-                         False, False, consts, walk, np.zeros(4), c, at, 0.01, 2,
-                         np.empty(len(xd)))
+    onboard_kernel.tick(read_only(xd), readings, read_only(np.zeros(8)), 0, imu.pack(p.imu),
+                        False, False, consts, walk, np.zeros(4), c, at, 0.01, 2,
+                        np.empty(len(xd)), np.empty(19), 0.0, True, tr, 0.0, 1.0, 0.5, rows,
+                        np.zeros(3), rows, np.zeros(3), np.zeros(17), wc, np.zeros(2))

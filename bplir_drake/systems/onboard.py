@@ -9,9 +9,10 @@ Each part stays its own system and tested unit
 :class:`~bplir_drake.systems.plan_tracker.PlanTracker`); this system runs
 their tick functions on one state vector in one event a tick, so a swing
 crosses from C++ into Python once a tick for the whole chain rather than
-once a part; without a line sensor the sample, the filter step and the
-prediction are one call into compiled code
-(:func:`~bplir_drake.systems.onboard_kernel.front`).  At ``t_k`` it takes
+once a part; without a line sensor the sample, the filter step, the
+prediction and a time-indexed tracker's tick (but where its terminal law
+runs) are one call into compiled code
+(:func:`~bplir_drake.systems.onboard_kernel.tick`).  At ``t_k`` it takes
 IMU sample ``k`` and runs the tick on it at once, holding the results it
 gives out until ``t_{k+1}`` in its state (the command, the estimate and
 the logged signals are C++ state output ports): what the parts wired one
@@ -92,6 +93,8 @@ class OnboardComputer(PySystem):
         self._taken = (predictor.steps if predictor is not None and predictor.steps_port is None
                        else None)
         self._count = self._imu.start + 8   # the sampler's count of samples taken
+        self._compiled_tracker = tracker.indexing == "time"
+        self._no_rows = (np.zeros((1, 4)), np.zeros(1), np.zeros((1, 4)), np.zeros(1))
         self.readings_port = self.DeclareVectorInputPort("imu_readings", 12)
         self.line_port = (self.DeclareVectorInputPort("line_gap", 2)
                           if ekf.line_port is not None else None)
@@ -164,52 +167,64 @@ class OnboardComputer(PySystem):
         at ``t_{k+1}``."""
         xd = context.get_discrete_state(self._xd).get_value()
         steps = xd[self._steps_at] if self._steps_at is not None else 0.0
-        new, relative, state = self._front(context, xd, steps)
-        tracked = self.tracker.tick(state, xd[self._tracker_at],
-                                    steps if self._tracker_steps else None)
-        command = tracked[0]
-        new[self._tracker_at] = tracked[2:]
-        if self._last_command is not None:
-            new[self._last_command] = command
-        imu = new[self._imu]
-        fit = (0.0, 0.0)
+        rec = self._rec   # RECORD's layout (set_value copies it)
+        new, ticked, relative, state = self._front(context, xd, steps, rec)
+        if not ticked:   # the terminal law's tick (or the tracker's, not compiled)
+            tracked = self.tracker.tick(state, xd[self._tracker_at],
+                                        steps if self._tracker_steps else None)
+            new[self._tracker_at] = tracked[2:]
+            if self._last_command is not None:
+                new[self._last_command] = tracked[0]
+            rec[4], rec[5] = tracked[0], tracked[1]
         if self.identifier is not None:
-            s = self.slices
-            held = xd[s["identifier"]]
-            fit = self.identifier.fit(held)
-            if xd[self._ticks_at] < self.identifier.window + 0.5:   # still storing
-                new[s["identifier"]] = self.identifier.stored(held, lambda: command,
-                                                              lambda: imu[:2])
+            self._identify(xd, new, rec)
         discrete_state.set_value(self._xd, new)
         discrete_state.set_value(self._estimate, relative)
-        discrete_state.set_value(self._command, tracked[:1])
-        rec = self._rec   # RECORD's layout (set_value copies it)
-        rec[0:4], rec[4], rec[5], rec[6:12] = relative, tracked[0], tracked[1], imu[:6]
-        rec[12:14], rec[14:18], rec[18] = fit, state, steps
+        discrete_state.set_value(self._command, rec[4:5])
         discrete_state.set_value(self._record, rec)
         return EventStatus.Succeeded()
 
-    def _front_compiled(self, context, xd, steps):
-        """(the state after the tick with the tracker's, the predictor's last
-        command's and the identifier's parts still the stored ones, the
-        estimate relative, the state the tracker reads):
-        :func:`~bplir_drake.systems.onboard_kernel.front`."""
+    def _identify(self, xd, new, rec) -> None:
+        """The delay identifier's part of the tick: its fit into the record
+        and, until it has identified, the tick's command and gyro sample
+        stored."""
+        s = self.slices
+        held = xd[s["identifier"]]
+        rec[12:14] = self.identifier.fit(held)
+        if xd[self._ticks_at] < self.identifier.window + 0.5:   # still storing
+            imu = new[self._imu]
+            new[s["identifier"]] = self.identifier.stored(held, lambda: rec[4],
+                                                          lambda: imu[:2])
+
+    def _front_compiled(self, context, xd, steps, rec):
+        """(the state after the tick -- the identifier's part still the
+        stored one, and the tracker's and the predictor's last command's too
+        where the tracker has not ticked --, whether it has, the estimate
+        relative, the state the tracker reads), ``rec`` set as
+        :func:`~bplir_drake.systems.onboard_kernel.tick` sets it: the
+        sample, filter step, prediction and the tracker's time-indexed tick
+        in one call."""
         (_, seed, imu_c), (_, ekf_c, walk, cal, held) = context.get_abstract_parameter(
             self._own).get_value()
         k = int(xd[self._count] + 0.5)   # as ImuSampler.sample_draws
-        p, m = self.predictor, self._taken
+        p, m, tr = self.predictor, self._taken, self.tracker
         if m is None:
             m = p.taken(steps) if p is not None else 0
+        lead = tr.lead_at(steps if self._tracker_steps else None)
         new = np.empty(len(xd))
-        relative, state = onboard_kernel.front(
+        ticked, relative, state = onboard_kernel.tick(
             xd, self.readings_port.Eval(context), noise_block(seed, k // NOISE_BLOCK)[
                 k % NOISE_BLOCK], k, imu_c, context.get_time() < self._calibrate_after, held,
-            ekf_c, walk, cal, self._pred_c, self._at, self.period, m, new)
-        return new, relative, state
+            ekf_c, walk, cal, self._pred_c, self._at, self.period, m, new, rec, steps,
+            self._compiled_tracker, self._tracker_at.start, lead, tr.t_end, tr.t_final,
+            *(tr.plan_rows(lead) if self._compiled_tracker else self._no_rows), tr._rule, tr._wc,
+            tr._probe)
+        return new, ticked, relative, state
 
-    def _front_parts(self, context, xd, steps):
+    def _front_parts(self, context, xd, steps, rec):
         """As :meth:`_front_compiled`, through the parts' own tick functions
-        (with a line sensor, whose update the compiled front does not make)."""
+        (with a line sensor, whose update the compiled front does not make),
+        the tracker left to the caller."""
         s, r = self.slices, self.readings_port.Eval(context)
         sensor, compiled = context.get_abstract_parameter(self._own).get_value()
         new = np.array(xd)
@@ -230,7 +245,8 @@ class OnboardComputer(PySystem):
         new[s["ekf_x"]], new[s["ekf_P"]], new[s["ekf_u"]] = x, post.P.ravel(), u
         new[s["ekf_first"]] = 0.0
         new[self._imu] = imu
-        return new, relative, state
+        rec[0:4], rec[6:12], rec[12:14], rec[14:18], rec[18] = relative, imu[:6], 0.0, state, steps
+        return new, False, relative, state
 
     # ------------------------------------------------- a Monte Carlo sample
     def set_sensor(self, context, params, seed: int) -> None:

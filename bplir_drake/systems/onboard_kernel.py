@@ -1,9 +1,11 @@
-"""The compiled front of the onboard computer's tick: the IMU sample, the
-EKF's step and the delay predictor's prediction of one tick in one call.
+"""The compiled onboard computer's tick: the IMU sample, the EKF's step, the
+delay predictor's prediction (:func:`front`) and the plan tracker's
+time-indexed tick (:func:`tick`) in one call.
 
 It calls the parts' own kernels (:func:`~bplir_drake.systems.imu.sample_kernel`,
 :func:`~bplir_drake.systems.ekf_kernel.step`,
-:func:`~bplir_drake.systems.nominal_kernel.predict`) with the arguments
+:func:`~bplir_drake.systems.nominal_kernel.predict`,
+:func:`~bplir_drake.systems.tracker_kernel.plan_tick`) with the arguments
 their systems pass, so it computes the same numbers, bit for bit; what it
 saves is the crossings between Python and compiled code and the arrays
 made between them."""
@@ -15,6 +17,7 @@ from numba import njit
 from .ekf_kernel import step
 from .imu import sample_kernel
 from .nominal_kernel import predict
+from .tracker_kernel import plan_tick
 
 #: the offsets in the onboard computer's state :func:`front` reads (an
 #: integer array in this order): the IMU sampler's state, the EKF's x, P,
@@ -56,3 +59,41 @@ def front(xd, r, draws, k, imu_c, hold, held, ekf_c, walk, cal, pred_c, at, peri
     state = predict(pred_c, rel, xd[s0 + length - m:s0 + length], period, 2)
     out[s0:s0 + length - 1] = xd[s0 + 1:s0 + length]
     return rel, state
+
+
+@njit(cache=True)
+def tick(xd, r, draws, k, imu_c, hold, held, ekf_c, walk, cal, pred_c, at, period, m, out, rec,
+         steps, track, tr, lead, t_end, t_final, x0s, u0s, Ks, k0s, rule, c, probe):
+    """:func:`front`, then with ``track`` the plan tracker's time-indexed
+    tick on the state it gives (:func:`~bplir_drake.systems.tracker_kernel.plan_tick`:
+    the tracker's stored phase, count and latch at ``xd[tr:tr + 3]``, its
+    ``lead``, plan ends and rows): ``out`` as :func:`front` sets it and
+    ``rec`` (the onboard computer's record, 19) set but for the delay fit
+    (zeros); where the tracker ticked, ``out``'s tracker part, the
+    predictor's last command and the record's command and planned q2 too.
+    Returns (whether the tracker ticked -- not where its terminal law takes
+    over, or without ``track``: the caller ticks it --, the estimate
+    relative, the state the tracker reads)."""
+    relative, state = front(xd, r, draws, k, imu_c, hold, held, ekf_c, walk, cal, pred_c, at,
+                            period, m, out)
+    i = at[0]
+    rec[0:4] = relative
+    rec[6:12] = out[i:i + 6]
+    rec[12] = 0.0
+    rec[13] = 0.0
+    rec[14:18] = state
+    rec[18] = steps
+    if not track:
+        return False, relative, state
+    reach, u, reference, tau = plan_tick(state, xd[tr + 1], xd[tr + 2], lead, period, t_end,
+                                         t_final, x0s, u0s, Ks, k0s, rule, c, probe)
+    if reach:
+        return False, relative, state
+    out[tr] = tau
+    out[tr + 1] = xd[tr + 1] + 1.0
+    out[tr + 2] = 0.0
+    if at[6] >= 0:
+        out[at[6] + at[7] - 1] = u
+    rec[4] = u
+    rec[5] = reference
+    return True, relative, state

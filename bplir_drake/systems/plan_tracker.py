@@ -208,6 +208,11 @@ class PlanTracker(PySystem):
                 self._plan_values[t] = got
         return got
 
+    def lead_at(self, steps=None) -> float:
+        """The lead (s): ``lead``, or with an adaptive lead ``steps`` (the
+        identified delay in ticks) rounded to whole ticks."""
+        return self.lead if steps is None else math.floor(steps + 0.5) * self.period
+
     def plan_rows(self, lead: float):
         """(x0, u0, K, k0) of :meth:`plan_at` as arrays, row ``i`` at the
         time ``i period + lead`` (within the plan), the last at its end:
@@ -253,7 +258,7 @@ class PlanTracker(PySystem):
         reach) and, with an adaptive lead, ``steps`` (the identified delay);
         with ``"time"`` indexing the phase is the tick's time ``k T``."""
         tau_prev, k, reached = xd.tolist() if isinstance(xd, np.ndarray) else xd
-        lead = self.lead if steps is None else math.floor(steps + 0.5) * self.period
+        lead = self.lead_at(steps)
         if self.indexing == "time":   # compiled, but for the terminal law's ticks
             reach, u, reference, tau = plan_tick(
                 np.asarray(x, dtype=float), float(k), float(reached), float(lead), self.period,

@@ -150,7 +150,8 @@ def interlock_update(d, x, t, period, geo, band, travel_min, tripped, estimate, 
         elif t >= max_time - 1e-9:
             d[0], d[2] = timeout, t
     d[8] = normal
-    d[9:13] = x
+    for j in range(4):
+        d[9 + j] = x[j]
     return found, s, xa
 
 

@@ -28,6 +28,15 @@ AT = ("imu", "ekf_x", "ekf_P", "ekf_u", "ekf_first", "n", "predictor", "commands
 
 
 @njit(cache=True)
+def put(dst, at, src):
+    """``dst[at:at + len(src)] = src``, element by element (a slice
+    assignment compiles a shape check and its error message: seconds of a
+    fresh install's first compile)."""
+    for j in range(len(src)):
+        dst[at + j] = src[j]
+
+
+@njit(cache=True)
 def front(xd, r, draws, k, imu_c, hold, held, ekf_c, walk, cal, pred_c, at, period, m, out):
     """The tick's IMU sample, filter step and prediction from the stored
     state ``xd`` and the ideal readings ``r`` (12: gyro1, gyro2, accel1,
@@ -39,17 +48,17 @@ def front(xd, r, draws, k, imu_c, hold, held, ekf_c, walk, cal, pred_c, at, peri
     the estimate).  ``k``, ``draws``: the sample's index and its noise
     draws; ``hold``: whether the filter still holds its calibration;
     ``at``: the offsets of :data:`AT`."""
-    out[:] = xd
+    put(out, 0, xd)
     i = at[0]
     imu = sample_kernel(r[2], r[5], r[6], r[7], r[9], r[10], xd[i + 6], xd[i + 7], k,
                         imu_c, draws)
-    out[i:i + 9] = imu
+    put(out, i, imu)
     xs, ps, us, n = at[1], at[2], at[3], at[5]
     x, P, u = step(xd[xs:xs + n], xd[ps:ps + n * n].reshape((n, n)), xd[us:us + 4],
                    imu[:6], xd[at[4]] > 0.5, hold, held, ekf_c, walk, cal)
-    out[xs:xs + n] = x
-    out[ps:ps + n * n] = P.ravel()
-    out[us:us + 4] = u
+    put(out, xs, x)
+    put(out, ps, P.ravel())
+    put(out, us, u)
     out[at[4]] = 0.0
     rel = np.empty(4)
     rel[0], rel[1], rel[2], rel[3] = x[0], x[1] - x[0], x[2], x[3] - x[2]
@@ -57,7 +66,7 @@ def front(xd, r, draws, k, imu_c, hold, held, ekf_c, walk, cal, pred_c, at, peri
     if s0 < 0:
         return rel, rel
     state = predict(pred_c, rel, xd[s0 + length - m:s0 + length], period, 2)
-    out[s0:s0 + length - 1] = xd[s0 + 1:s0 + length]
+    put(out, s0, xd[s0 + 1:s0 + length])
     return rel, state
 
 
@@ -77,11 +86,11 @@ def tick(xd, r, draws, k, imu_c, hold, held, ekf_c, walk, cal, pred_c, at, perio
     relative, state = front(xd, r, draws, k, imu_c, hold, held, ekf_c, walk, cal, pred_c, at,
                             period, m, out)
     i = at[0]
-    rec[0:4] = relative
-    rec[6:12] = out[i:i + 6]
+    put(rec, 0, relative)
+    put(rec, 6, out[i:i + 6])
     rec[12] = 0.0
     rec[13] = 0.0
-    rec[14:18] = state
+    put(rec, 14, state)
     rec[18] = steps
     if not track:
         return False, relative, state

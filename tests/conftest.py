@@ -122,8 +122,16 @@ def pytest_configure(config):
     """Before the workers start (in the controlling process, or in a run
     without workers): load or compile the chain's compiled kernels, so that
     on a fresh checkout every worker and every command the tests start loads
-    them from the cache instead of each compiling its own."""
+    them from the cache instead of each compiling its own.  The EKF's group
+    is compiled here while a second process compiles the others."""
     if not hasattr(config, "workerinput"):
+        import subprocess
+        import sys
+
         from bplir_drake.systems.kernels import warm_up
 
-        warm_up()
+        others = subprocess.Popen([sys.executable, "-c", "from bplir_drake.systems.kernels "
+                                   "import warm_up; warm_up('others')"])
+        warm_up("filter")
+        others.wait()
+        warm_up()   # whatever the other process did not leave in the cache

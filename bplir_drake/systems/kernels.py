@@ -25,22 +25,23 @@ def read_only(a) -> np.ndarray:
     return a
 
 
-def warm_up() -> None:
+def warm_up(group: str = "all") -> None:
     """Call every kernel once with the argument types the systems pass
-    (the default swing's), loading or compiling each in this process."""
+    (the default swing's), loading or compiling each in this process.
+    ``group``: ``"filter"`` the EKF step, then the onboard computer's tick
+    that calls it; ``"others"`` the rest, those the tick calls first; two
+    processes can each compile one group at once on a fresh install."""
     p = preset().resolved()
-    consts, walk = ekf_kernel.pack(p.estimator)
-    n = len(walk)
-    ekf_kernel.step(read_only(np.zeros(n)), read_only(np.eye(n)), read_only(np.zeros(4)),
-                    np.array([0.0, 0.0, 0.0, 9.8, 0.0, 9.8]), True, False, False, consts, walk,
-                    np.zeros(4))
+    if group in ("others", "all"):
+        _others(p)
+    if group in ("filter", "all"):
+        _filter(p)
+
+
+def _others(p) -> None:
     c = nominal_kernel.pack(p.plant, p.friction)
     x = np.array([0.1, 0.2, 0.5, 0.1])
     nominal_kernel.predict(c, x, read_only(np.zeros(1)), 0.01, 2)
-    nominal_kernel.solve_shot(c, x, 12, 0.0, -0.01, 0.1, 0.04, 0.03)
-    nominal_kernel.elbow_torque(c, 0.1, 0.2, 0.3, 0.4, 1.0)
-    nominal_kernel.probe_rates(c, 0.1, 0.2, np.zeros(2), 1, 0.01, 0.0,
-                               np.array([20.0, 0.1, 0.001]), 2)
     imu.sample_kernel(0.0, 0.0, 0.0, 9.8, 0.0, 9.8, 0.0, 0.0, 0, imu.pack(p.imu),
                       read_only(np.zeros(8)))
     wc = tracker_kernel.window_constants(p.motor, 20.0)
@@ -48,9 +49,21 @@ def warm_up() -> None:
     rows = np.zeros((3, 4))
     tracker_kernel.plan_tick(x, 0.0, 0.0, 0.0, 0.01, 1.0, 0.5, rows, np.zeros(3), rows,
                              np.zeros(3), np.zeros(17), wc, np.zeros(2))
+    nominal_kernel.solve_shot(c, x, 12, 0.0, -0.01, 0.1, 0.04, 0.03)
+    nominal_kernel.elbow_torque(c, 0.1, 0.2, 0.3, 0.4, 1.0)
+    nominal_kernel.probe_rates(c, 0.1, 0.2, np.zeros(2), 1, 0.01, 0.0,
+                               np.array([20.0, 0.1, 0.001]), 2)
     gripper.interlock_update(np.zeros(13), np.zeros(4), 0.0, 0.01,
                              np.array([0.9, 0.9, 0.0, 1.2]), 0.02, 0.6, 0.0, np.zeros(4), 0.0,
                              5.0, 4.0, 3.0)
+
+
+def _filter(p) -> None:
+    consts, walk = ekf_kernel.pack(p.estimator)
+    n = len(walk)
+    ekf_kernel.step(read_only(np.zeros(n)), read_only(np.eye(n)), read_only(np.zeros(4)),
+                    np.array([0.0, 0.0, 0.0, 9.8, 0.0, 9.8]), True, False, False, consts, walk,
+                    np.zeros(4))
     # the onboard computer's state: the EKF's x, P, u and flag, the tracker's
     # three, a predictor's two commands, the sampler's nine; the readings at rest
     xd = np.zeros(n + n * n + 4 + 1 + 3 + 2 + 9)
@@ -59,7 +72,10 @@ def warm_up() -> None:
     at = np.array([len(xd) - 9, 0, n, n + n * n, n + n * n + 4, n, tr + 3, 2])
     readings = np.zeros(12)
     readings[[7, 10]] = 9.8
+    rows = np.zeros((3, 4))
     onboard_kernel.tick(read_only(xd), readings, read_only(np.zeros(8)), 0, imu.pack(p.imu),
-                        False, False, consts, walk, np.zeros(4), c, at, 0.01, 2,
+                        False, False, consts, walk, np.zeros(4),
+                        nominal_kernel.pack(p.plant, p.friction), at, 0.01, 2,
                         np.empty(len(xd)), np.empty(19), 0.0, True, tr, 0.0, 1.0, 0.5, rows,
-                        np.zeros(3), rows, np.zeros(3), np.zeros(17), wc, np.zeros(2))
+                        np.zeros(3), rows, np.zeros(3), np.zeros(17),
+                        tracker_kernel.window_constants(p.motor, 20.0), np.zeros(2))

@@ -40,16 +40,18 @@ def start_forked(*argv, env=None, preexec=None, before=None, new_session=False,
     """Start ``bplir ARGV`` in a forked child, as :func:`bplir_forked` does,
     and return at once; ``new_session``: the child leads a session and
     process group of its own (a terminal's Ctrl-C reaches its group);
-    ``stdout``, ``stderr`` False: to /dev/null instead of a pipe."""
+    ``stdout``, ``stderr``: True a pipe, False /dev/null, or a file
+    descriptor of this process's (a terminal's)."""
     main = _ready()
-    pipes = [os.pipe() if want else None for want in (stdout, stderr)]
+    pipes = [os.pipe() if want is True else None if want is False else (None, want)
+             for want in (stdout, stderr)]
     sys.stdout.flush()
     sys.stderr.flush()
     pid = os.fork()
     if pid == 0:   # the child: never returns
         _child([str(a) for a in argv], env, preexec, before, main, pipes, new_session)
     for pipe in pipes:
-        if pipe is not None:
+        if pipe is not None and pipe[0] is not None:
             os.close(pipe[1])
     return Forked(pid, [pipe[0] if pipe is not None else None for pipe in pipes])
 
@@ -127,7 +129,7 @@ def _child(argv, env, preexec, before, main, pipes, new_session):
         for fd, pipe in ((1, pipes[0]), (2, pipes[1])):
             os.dup2(pipe[1] if pipe is not None else os.open(os.devnull, os.O_WRONLY), fd)
         for pipe in pipes:
-            if pipe is not None:
+            if pipe is not None and pipe[0] is not None:
                 os.close(pipe[0])
                 os.close(pipe[1])
         sys.stdin = io.TextIOWrapper(io.FileIO(0, "r", closefd=False))

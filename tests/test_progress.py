@@ -7,8 +7,6 @@ import os
 import pty
 import re
 import struct
-import subprocess
-import sys
 import termios
 
 import numpy as np
@@ -19,6 +17,7 @@ from bplir_drake.analysis.identification.fit import calibrate
 from bplir_drake.diagrams.plan import plan_swing
 from bplir_drake.params import preset
 from bplir_drake.progress import progress_bar
+from forked import bplir_forked, start_forked
 
 
 def _last_count(err: str, desc: str) -> int:
@@ -63,8 +62,7 @@ def _run_on_terminal(args, size=(24, 100)) -> tuple[int, str]:
     (lines, columns)."""
     master, slave = pty.openpty()
     fcntl.ioctl(slave, termios.TIOCSWINSZ, struct.pack("HHHH", *size, 0, 0))
-    proc = subprocess.Popen([sys.executable, "-m", "bplir_drake.cli", *args],
-                            stdout=subprocess.DEVNULL, stderr=slave)
+    proc = start_forked(*args, stdout=False, stderr=slave)
     os.close(slave)
     chunks = []
     while True:
@@ -103,6 +101,5 @@ def test_cli_progress_only_on_a_terminal_without_json(tmp_path):
     assert code == 0 and _last_count(err, "samples") == 1   # a terminal of no size: 80 x 24
     code, err = _run_on_terminal(mc + ["--json", "--out", str(tmp_path / "b")])
     assert code == 0 and "samples:" not in err
-    run = subprocess.run([sys.executable, "-m", "bplir_drake.cli", *mc, "--out",
-                          str(tmp_path / "c")], capture_output=True, text=True, timeout=300)
-    assert run.returncode == 0 and run.stderr == ""  # a pipe is not a terminal
+    code, _, err = bplir_forked(*mc, "--out", tmp_path / "c")
+    assert code == 0 and err == ""  # a pipe is not a terminal

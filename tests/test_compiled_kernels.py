@@ -167,13 +167,13 @@ def test_the_compiled_takeover_is_the_terminal_laws():
     at 3000 states near the line's (both ways), and the height and link 1's
     deceleration are the laws', bit for bit."""
     from bplir_drake.systems import tracker_kernel as tk
-    from bplir_drake.systems.landing import height_rates, takeover_rule
+    from bplir_drake.systems.landing import height_rates, terminal_rule
     p = preset()
     rng = np.random.default_rng(8)
     states = np.column_stack([rng.uniform(1.2, 2.6, 3000), rng.uniform(-1.5, 1.5, 3000),
                               rng.uniform(-1.0, 3.0, 3000), rng.uniform(-6.0, 6.0, 3000)])
     for name, law in _terminal_laws(p).items():
-        rule = takeover_rule(law)
+        rule = terminal_rule(law)
         said = [tk.takes_over(x, rule) for x in states]
         assert said == [law.takes_over(x) for x in states], name
         assert 300 < sum(said) < 2700, (name, sum(said))   # both answers are asked
@@ -182,3 +182,29 @@ def test_the_compiled_takeover_is_the_terminal_laws():
     for x in states[:500]:
         assert tk.height(x, 0.0, p.plant.l1, p.plant.l2) == height_rates(p.plant, 0.0, x)[0]
         assert tk.deceleration(x, c) == landing.deceleration(x)
+
+
+@pytest.mark.parametrize("brake", [0.0, 0.8])
+def test_the_compiled_apex_shot_is_the_laws(brake):
+    """The compiled apex shot gives :meth:`ApexShot.torque` bit for bit at
+    1500 states about the line (the motor's window, with and without the
+    brake ratio): where it solves a shot, it gives up, it brakes or it
+    caps the elbow's rate; where no shot is solved it says so (the law
+    then runs the landing)."""
+    from bplir_drake.systems import tracker_kernel as tk
+    from bplir_drake.systems.landing import terminal_rule
+    p = preset()
+    shot = dc.replace(_terminal_laws(p)["shoot"], brake_ratio=brake, give_up_rate=0.1)
+    rule, c = terminal_rule(shot), tk.window_constants(p.motor, 20.0)
+    rng = np.random.default_rng(9)
+    states = np.column_stack([rng.uniform(1.3, 2.3, 1500), rng.uniform(-1.2, 1.2, 1500),
+                              rng.uniform(-0.6, 2.5, 1500), rng.uniform(-3.0, 3.0, 1500)])
+    solved = 0
+    for x in states:
+        lo, hi = tk.window(x[3], c)
+        found, u = tk.shot_torque(x, rule, shot.constants, lo, hi)
+        assert found == (shot.gives_up(x) or shot.solve(x) is not None)
+        if found:
+            assert u == shot.torque(x, window=(lo, hi))
+            solved += 1
+    assert 300 < solved < 1500

@@ -48,7 +48,7 @@ def _others(p) -> None:
     tracker_kernel.tracking_torque(x, x, 0.0, x, 0.0, wc)
     rows = np.zeros((3, 4))
     tracker_kernel.plan_tick(x, 0.0, 0.0, 0.0, 0.01, 1.0, 0.5, rows, np.zeros(3), rows,
-                             np.zeros(3), np.zeros(17), wc, np.zeros(2))
+                             np.zeros(3), np.zeros(26), c, wc, np.zeros(2))
     nominal_kernel.solve_shot(c, x, 12, 0.0, -0.01, 0.1, 0.04, 0.03)
     nominal_kernel.elbow_torque(c, 0.1, 0.2, 0.3, 0.4, 1.0)
     nominal_kernel.probe_rates(c, 0.1, 0.2, np.zeros(2), 1, 0.01, 0.0,
@@ -77,5 +77,6 @@ def _filter(p) -> None:
                         False, False, consts, walk, np.zeros(4),
                         nominal_kernel.pack(p.plant, p.friction), at, 0.01, 2,
                         np.empty(len(xd)), np.empty(19), 0.0, True, tr, 0.0, 1.0, 0.5, rows,
-                        np.zeros(3), rows, np.zeros(3), np.zeros(17),
+                        np.zeros(3), rows, np.zeros(3), np.zeros(26),
+                        nominal_kernel.pack(p.plant, p.friction),
                         tracker_kernel.window_constants(p.motor, 20.0), np.zeros(2))

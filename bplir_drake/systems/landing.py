@@ -356,18 +356,24 @@ def height_torque(p, alpha: float, x, hdd: float) -> float:
     return float(M[1, 0] * q1dd + M[1, 1] * q2dd + b[1])
 
 
-def takeover_rule(reach) -> np.ndarray:
-    """The terminal law's take-over test (its ``takes_over``) as numbers, for
-    :func:`~bplir_drake.systems.tracker_kernel.takes_over`: (kind: 0 none,
-    1 :class:`Reach`, 2 :class:`Landing`, 3 :class:`ApexShot`; the line's
-    incline, l1, l2 of the servo's plant; the law's depth; the landing's
-    depth, least deceleration and take-over rate; the constants of
-    :meth:`Landing.deceleration`)."""
+def terminal_rule(reach) -> np.ndarray:
+    """The terminal law as numbers, for
+    :func:`~bplir_drake.systems.tracker_kernel.plan_tick`: its take-over
+    test (its ``takes_over``: kind 0 none, 1 :class:`Reach`, 2
+    :class:`Landing`, 3 :class:`ApexShot`; the line's incline, l1, l2 of
+    the servo's plant; the law's depth; the landing's depth, least
+    deceleration and take-over rate; the constants of
+    :meth:`Landing.deceleration`) and the apex shot's numbers (its steps,
+    aimed height, least rate and time, hold depth, give-up rate, brake
+    ratio, rate cap; the landing's rate gain)."""
     if reach is None:
-        return np.zeros(17)
+        return np.zeros(26)
     servo = reach.landing if isinstance(reach, ApexShot) else reach
     kind = 3 if isinstance(reach, ApexShot) else 2 if isinstance(reach, Landing) else 1
     own = [servo.depth, servo.min_decel, servo.take_rate, *servo.decel_constants()] \
         if kind > 1 else [0.0] * 12
-    return np.array([kind, servo.alpha, servo.plant.l1, servo.plant.l2, reach.depth, *own],
-                    dtype=float)
+    shot = [reach.steps, reach.height, reach.min_rate, reach.min_time, reach.hold_depth,
+            reach.give_up_rate, reach.brake_ratio, reach.rate_cap, servo.rate_gain] \
+        if kind == 3 else [0.0] * 9
+    return np.array([kind, servo.alpha, servo.plant.l1, servo.plant.l2, reach.depth, *own,
+                     *shot], dtype=float)

@@ -217,8 +217,8 @@ class OnboardComputer(PySystem):
                 k % NOISE_BLOCK], k, imu_c, context.get_time() < self._calibrate_after, held,
             ekf_c, walk, cal, self._pred_c, self._at, self.period, m, new, rec, steps,
             self._compiled_tracker, self._tracker_at.start, lead, tr.t_end, tr.t_final,
-            *(tr.plan_rows(lead) if self._compiled_tracker else self._no_rows), tr._rule, tr._wc,
-            tr._probe)
+            *(tr.plan_rows(lead) if self._compiled_tracker else self._no_rows), tr._rule,
+            tr._shot_c, tr._wc, tr._probe)
         return new, ticked, relative, state
 
     def _front_parts(self, context, xd, steps, rec):

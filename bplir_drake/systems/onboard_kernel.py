@@ -72,7 +72,7 @@ def front(xd, r, draws, k, imu_c, hold, held, ekf_c, walk, cal, pred_c, at, peri
 
 @njit(cache=True)
 def tick(xd, r, draws, k, imu_c, hold, held, ekf_c, walk, cal, pred_c, at, period, m, out, rec,
-         steps, track, tr, lead, t_end, t_final, x0s, u0s, Ks, k0s, rule, c, probe):
+         steps, track, tr, lead, t_end, t_final, x0s, u0s, Ks, k0s, rule, sc, c, probe):
     """:func:`front`, then with ``track`` the plan tracker's time-indexed
     tick on the state it gives (:func:`~bplir_drake.systems.tracker_kernel.plan_tick`:
     the tracker's stored phase, count and latch at ``xd[tr:tr + 3]``, its
@@ -80,9 +80,10 @@ def tick(xd, r, draws, k, imu_c, hold, held, ekf_c, walk, cal, pred_c, at, perio
     ``rec`` (the onboard computer's record, 19) set but for the delay fit
     (zeros); where the tracker ticked, ``out``'s tracker part, the
     predictor's last command and the record's command and planned q2 too.
-    Returns (whether the tracker ticked -- not where its terminal law takes
-    over, or without ``track``: the caller ticks it --, the estimate
-    relative, the state the tracker reads)."""
+    Returns (whether the tracker ticked -- not where a terminal law other
+    than the apex shot takes over, or no shot is solved, or without
+    ``track``: the caller ticks it --, the estimate relative, the state the
+    tracker reads)."""
     relative, state = front(xd, r, draws, k, imu_c, hold, held, ekf_c, walk, cal, pred_c, at,
                             period, m, out)
     i = at[0]
@@ -94,13 +95,13 @@ def tick(xd, r, draws, k, imu_c, hold, held, ekf_c, walk, cal, pred_c, at, perio
     rec[18] = steps
     if not track:
         return False, relative, state
-    reach, u, reference, tau = plan_tick(state, xd[tr + 1], xd[tr + 2], lead, period, t_end,
-                                         t_final, x0s, u0s, Ks, k0s, rule, c, probe)
-    if reach:
+    status, u, reference, tau = plan_tick(state, xd[tr + 1], xd[tr + 2], lead, period, t_end,
+                                          t_final, x0s, u0s, Ks, k0s, rule, sc, c, probe)
+    if status == 2:
         return False, relative, state
     out[tr] = tau
     out[tr + 1] = xd[tr + 1] + 1.0
-    out[tr + 2] = 0.0
+    out[tr + 2] = float(status)
     if at[6] >= 0:
         out[at[6] + at[7] - 1] = u
     rec[4] = u

@@ -40,7 +40,7 @@ from .schedule import declare_store, declare_tick_result
 from .tracker_kernel import plan_tick, tracking_torque, window_constants
 from .landing import (  # noqa: F401 (re-exported)
     _LineServo, Reach, Landing, ApexShot, link1_share, resolved_landing, landing_law, height_rates, height_torque,
-    takeover_rule)
+    terminal_rule)
 
 
 @dataclass(frozen=True)
@@ -140,7 +140,9 @@ class PlanTracker(PySystem):
         self._window = (torque_window_of(motor, torque_limit=float(torque_limit))
                         if motor is not None else None)
         self._wc = window_constants(motor, torque_limit)
-        self._rule = takeover_rule(reach)   # the compiled tick's (tracker_kernel.plan_tick)
+        # the compiled tick's terminal law (tracker_kernel.plan_tick)
+        self._rule = terminal_rule(reach)
+        self._shot_c = reach.constants if isinstance(reach, ApexShot) else np.zeros(1)
         self._rows = {}   # the plan's rows at the ticks, by lead
         self.reach, self.lead = reach, float(lead)
         self.probe = tuple(float(u) for u in probe)
@@ -259,13 +261,13 @@ class PlanTracker(PySystem):
         with ``"time"`` indexing the phase is the tick's time ``k T``."""
         tau_prev, k, reached = xd.tolist() if isinstance(xd, np.ndarray) else xd
         lead = self.lead_at(steps)
-        if self.indexing == "time":   # compiled, but for the terminal law's ticks
-            reach, u, reference, tau = plan_tick(
+        if self.indexing == "time":   # compiled, but for a terminal law other than the shot
+            status, u, reference, tau = plan_tick(
                 np.asarray(x, dtype=float), float(k), float(reached), float(lead), self.period,
-                self.t_end, self.t_final, *self.plan_rows(lead), self._rule, self._wc,
-                self._probe)
-            if not reach:
-                return (u, reference, tau, k + 1, 0.0)
+                self.t_end, self.t_final, *self.plan_rows(lead), self._rule, self._shot_c,
+                self._wc, self._probe)
+            if status < 2:
+                return (u, reference, tau, k + 1, float(status))
         tau = k * self.period + lead if self.indexing == "time" else self.phase(tau_prev, x)
         reach = self.reaching(tau, x, reached)
         u, reference = self.law(tau, x, reach)

@@ -15,6 +15,8 @@ from llvmlite import ir
 from numba import njit, types
 from numba.extending import intrinsic
 
+from .nominal_kernel import elbow_torque, solve_shot
+
 
 @intrinsic
 def fma(typingctx, a, b, c):
@@ -118,7 +120,7 @@ def deceleration(x, c):
 @njit(cache=True)
 def takes_over(x, rule):
     """The terminal law's ``takes_over(x)`` from its
-    :func:`~bplir_drake.systems.landing.takeover_rule`."""
+    :func:`~bplir_drake.systems.landing.terminal_rule`."""
     kind = rule[0]
     if kind == 0.0:
         return False
@@ -133,22 +135,62 @@ def takes_over(x, rule):
 
 
 @njit(cache=True)
-def plan_tick(x, k, reached, lead, period, t_end, t_final, x0s, u0s, Ks, k0s, rule, c, probe):
+def shot_torque(x, rule, sc, lo, hi):
+    """:meth:`~bplir_drake.systems.landing.ApexShot.torque` at ``x`` with the
+    motor's window ``(lo, hi)``, from the shot's numbers in ``rule``
+    (:func:`~bplir_drake.systems.landing.terminal_rule`) and its nominal
+    model ``sc``, in its arithmetic: ``(found, torque)``, ``found`` False
+    where no shot is solved (the caller runs the landing law)."""
+    alpha, l1, l2 = rule[1], rule[2], rule[3]
+    aim, hold_depth, give_up, brake, cap, gain = rule[18], rule[21], rule[22], rule[23], \
+        rule[24], rule[25]
+    if give_up > 0.0 and x[2] < -give_up and height(x, alpha, l1, l2) < aim:
+        return True, elbow_torque(sc, x[0], x[1], x[2], x[3], -gain * (x[3] - 0.0))
+    found, acc, _ = solve_shot(sc, x, int(rule[17]), alpha, aim, rule[19], rule[20], hold_depth)
+    if not found:
+        return False, 0.0
+    u = elbow_torque(sc, x[0], x[1], x[2], x[3], acc)
+    if brake > 0.0 and not (brake * lo <= u <= brake * hi):
+        s = x[0] - alpha
+        st = math.sin(s + x[1])
+        if (l1 * math.sin(s) + l2 * st) * 0.0 + l2 * st * acc > 0:   # the elbow lifts it
+            return True, elbow_torque(sc, x[0], x[1], x[2], x[3], -gain * (x[3] - 0.0))
+    v2 = x[3]
+    if cap <= 0.0 or abs(v2) <= cap or height(x, alpha, l1, l2) <= aim - hold_depth:
+        return True, u
+    s = math.copysign(1.0, v2)
+    ub = elbow_torque(sc, x[0], x[1], x[2], x[3], -gain * (x[3] - s * cap))
+    return True, (ub if (u - ub) * s > 0.0 else u)
+
+
+@njit(cache=True)
+def plan_tick(x, k, reached, lead, period, t_end, t_final, x0s, u0s, Ks, k0s, rule, sc, c,
+              probe):
     """A time-indexed tick of the plan tracker at the state ``x``, tick
     ``k`` (a count held as a float), the terminal law's latch ``reached``
-    and the ``lead`` (s): ``(reach, torque, planned q2, tau)``, the torque
+    and the ``lead`` (s): ``(status, torque, planned q2, tau)``, the torque
     and q2 from the plan's rows at the ticks (``x0s``, ``u0s``, ``Ks``,
     ``k0s``: row ``i`` the plan at ``i period + lead``, its last at the
-    plan's end) with the delay probe's torques added, unless the terminal
-    law ``rule`` takes over (``reach`` True: the caller runs it)."""
+    plan's end) with the delay probe's torques added.  ``status`` 0: the
+    plan's law; 1: the terminal law ``rule`` (the apex shot, on its nominal
+    model ``sc``) took over; 2: it took over and is left to the caller (a
+    law other than the shot, or no shot solved)."""
     tau = k * period + lead
-    if rule[0] != 0.0 and (reached > 0.5 or tau >= t_end
-                           or (tau > t_final and takes_over(x, rule))):
-        return True, 0.0, 0.0, tau
     i = int(k + 0.5)
     row = min(i, len(u0s) - 1)
-    u = tracking_torque(x, x0s[row], u0s[row], Ks[row], k0s[row], c)
+    status = 0
+    if rule[0] != 0.0 and (reached > 0.5 or tau >= t_end
+                           or (tau > t_final and takes_over(x, rule))):
+        if rule[0] != 3.0:
+            return 2, 0.0, 0.0, tau
+        lo, hi = window(x[3], c)
+        found, u = shot_torque(x, rule, sc, lo, hi)
+        if not found:
+            return 2, 0.0, 0.0, tau
+        u, status = _min(_max(u, lo), hi), 1
+    else:
+        u = tracking_torque(x, x0s[row], u0s[row], Ks[row], k0s[row], c)
     if i < len(probe):
         lo, hi = window(x[3], c)
         u = _min(_max(u + probe[i], lo), hi)
-    return False, u, x0s[row, 1], tau
+    return status, u, x0s[row, 1], tau

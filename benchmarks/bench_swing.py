@@ -7,8 +7,8 @@ not a test).  Goals (issue 69): the closed loop (its diagram built, as a
 study runs it: :func:`closed_loop`) >= 1.25 times the rate of a same-run
 reference loop of the DFKI simulator's kind (``peer_loop.reference_loop_rate``,
 its set-up not timed either), and the 100 Hz chain's cost <= 100 us a tick
-in its timed breakdown (:func:`breakdown`: its Python callbacks,
-inclusive).  It also prints the ceiling of the rate: the closed loop's C++
+in its timed breakdown (:func:`breakdown`, the median of three: its
+Python callbacks, inclusive).  It also prints the ceiling of the rate: the closed loop's C++
 part alone, with every Python system of the 100 Hz chain taken out and the
 commands replayed (:func:`cpp_ceiling`).
 """

@@ -28,7 +28,6 @@ from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import EventStatus
 
 from . import onboard_kernel
-from .imu import NOISE_BLOCK, noise_block
 from .base import PySystem
 from .schedule import declare_sample
 
@@ -90,11 +89,7 @@ class OnboardComputer(PySystem):
         self._tracker_steps = tracker.steps_port is not None
         self._last_command = (self.slices["predictor"].stop - 1 if predictor is not None
                               else None)
-        self._taken = (predictor.steps if predictor is not None and predictor.steps_port is None
-                       else None)
-        self._count = self._imu.start + 8   # the sampler's count of samples taken
         self._compiled_tracker = tracker.indexing == "time"
-        self._no_rows = (np.zeros((1, 4)), np.zeros(1), np.zeros((1, 4)), np.zeros(1))
         self.readings_port = self.DeclareVectorInputPort("imu_readings", 12)
         self.line_port = (self.DeclareVectorInputPort("line_gap", 2)
                           if ekf.line_port is not None else None)
@@ -206,19 +201,16 @@ class OnboardComputer(PySystem):
         in one call."""
         (_, seed, imu_c), (_, ekf_c, walk, cal, held) = context.get_abstract_parameter(
             self._own).get_value()
-        k = int(xd[self._count] + 0.5)   # as ImuSampler.sample_draws
-        p, m, tr = self.predictor, self._taken, self.tracker
-        if m is None:
-            m = p.taken(steps) if p is not None else 0
-        lead = tr.lead_at(steps if self._tracker_steps else None)
+        k, draws = self.sampler.sample_draws(xd[self._imu], seed)
+        p = self.predictor
         new = np.empty(len(xd))
         ticked, relative, state = onboard_kernel.tick(
-            xd, self.readings_port.Eval(context), noise_block(seed, k // NOISE_BLOCK)[
-                k % NOISE_BLOCK], k, imu_c, context.get_time() < self._calibrate_after, held,
-            ekf_c, walk, cal, self._pred_c, self._at, self.period, m, new, rec, steps,
-            self._compiled_tracker, self._tracker_at.start, lead, tr.t_end, tr.t_final,
-            *(tr.plan_rows(lead) if self._compiled_tracker else self._no_rows), tr._rule,
-            tr._shot_c, tr._wc, tr._probe)
+            xd, self.readings_port.Eval(context), draws, k, imu_c,
+            context.get_time() < self._calibrate_after, held, ekf_c, walk, cal, self._pred_c,
+            self._at, self.period,
+            p.taken(steps if p.steps_port is not None else None) if p is not None else 0, new,
+            rec, steps, self._compiled_tracker, self._tracker_at.start,
+            *self.tracker.compiled_tick(steps if self._tracker_steps else None))
         return new, ticked, relative, state
 
     def _front_parts(self, context, xd, steps, rec):

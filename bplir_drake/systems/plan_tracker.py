@@ -235,6 +235,16 @@ class PlanTracker(PySystem):
                 self._rows[lead] = rows
         return rows
 
+    def compiled_tick(self, steps=None) -> tuple:
+        """What :func:`~bplir_drake.systems.tracker_kernel.plan_tick` reads
+        beside the state, the tick and the period: (the lead at ``steps``,
+        the plan's end, the time from which its terminal law may take over,
+        :meth:`plan_rows` at that lead, the terminal law as numbers, the apex
+        shot's nominal model, the motor's torque window, the delay probe)."""
+        lead = self.lead_at(steps)
+        return (float(lead), self.t_end, self.t_final, *self.plan_rows(lead), self._rule,
+                self._shot_c, self._wc, self._probe)
+
     def window(self, x) -> tuple[float, float]:
         """(lowest, highest) torque the tracker commands at the state ``x``."""
         if self.motor is None:
@@ -260,14 +270,14 @@ class PlanTracker(PySystem):
         reach) and, with an adaptive lead, ``steps`` (the identified delay);
         with ``"time"`` indexing the phase is the tick's time ``k T``."""
         tau_prev, k, reached = xd.tolist() if isinstance(xd, np.ndarray) else xd
-        lead = self.lead_at(steps)
         if self.indexing == "time":   # compiled, but for a terminal law other than the shot
+            lead, *constants = self.compiled_tick(steps)
             status, u, reference, tau = plan_tick(
-                np.asarray(x, dtype=float), float(k), float(reached), float(lead), self.period,
-                self.t_end, self.t_final, *self.plan_rows(lead), self._rule, self._shot_c,
-                self._wc, self._probe)
+                np.asarray(x, dtype=float), float(k), float(reached), lead, self.period,
+                *constants)
             if status < 2:
                 return (u, reference, tau, k + 1, float(status))
+        lead = self.lead_at(steps)
         tau = k * self.period + lead if self.indexing == "time" else self.phase(tau_prev, x)
         reach = self.reaching(tau, x, reached)
         u, reference = self.law(tau, x, reach)

@@ -118,6 +118,18 @@ def ends_cleanly(argv) -> int | None:
     return rc
 
 
+def quick_plan(params, *a, **k):
+    """A stand-in for the plan solver (``diagrams.plan._solve_plan``): a 1 s
+    plan at rest, not SNOPT's minute."""
+    import numpy as np
+
+    from bplir_drake.diagrams.plan import SwingPlan
+
+    t = np.linspace(0.0, 1.0, 5)
+    return SwingPlan(t, np.zeros((5, 4)), np.zeros(5), np.zeros((5, 2)), True, True, "stub",
+                     params.scenario.incline_deg, 20.0, 220.0, 1e-4)
+
+
 def pytest_configure(config):
     """Before the workers start (in the controlling process, or in a run
     without workers): load or compile the chain's compiled kernels, so that

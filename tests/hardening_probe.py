@@ -15,7 +15,7 @@ import time
 from pathlib import Path
 
 import numpy as np
-from conftest import plugin_source
+from conftest import plugin_source, quick_plan
 from forked import bplir_forked, start_forked
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -316,15 +316,10 @@ def class_11(d: Path):
 
 
 def _quick_plans():
-    """Make the plan solver a 1 s plan at rest (not SNOPT's minute)."""
+    """Make the plan solver a 1 s plan at rest (:func:`conftest.quick_plan`)."""
     from bplir_drake.diagrams import plan as P
 
-    def quick(params, *a, **k):
-        t = np.linspace(0.0, 1.0, 5)
-        return P.SwingPlan(t, np.zeros((5, 4)), np.zeros(5), np.zeros((5, 2)), True, True,
-                           "stub", params.scenario.incline_deg, 20.0, 220.0, 1e-4)
-
-    P._solve_plan = quick
+    P._solve_plan = quick_plan
 
 
 def quick_solver(cache: Path, *argv):

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import plugin_source
+from conftest import plugin_source, quick_plan
 from forked import bplir_forked
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -297,8 +297,8 @@ def test_a_resumed_study_keeps_each_row_once_and_replays_any_kept_row(tmp_path):
 
 def _bplir_with_solver(solver: str, cache, *argv):
     """``bplir ARGV`` in a process of its own whose plan solver (and LQR
-    gains) is replaced: ``refuse`` (no solve may happen) or ``quick`` (a
-    1 s plan at rest instead of SNOPT's minute); ``BPLIR_CACHE_DIR`` is
+    gains) is replaced: ``refuse`` (no solve may happen) or ``quick``
+    (:func:`conftest.quick_plan`); ``BPLIR_CACHE_DIR`` is
     ``cache``.  A ``CompletedProcess``."""
     def replaced():
         from bplir_drake.diagrams import plan as P
@@ -306,12 +306,7 @@ def _bplir_with_solver(solver: str, cache, *argv):
         def refuse(*a, **k):
             raise SystemExit("solved a shipped plan")
 
-        def quick(params, *a, **k):
-            t = np.linspace(0.0, 1.0, 5)
-            return P.SwingPlan(t, np.zeros((5, 4)), np.zeros(5), np.zeros((5, 2)), True, True,
-                               "stub", params.scenario.incline_deg, 20.0, 220.0, 1e-4)
-
-        P._solve_plan = refuse if solver == "refuse" else quick
+        P._solve_plan = refuse if solver == "refuse" else quick_plan
         if solver == "refuse":
             P.plan_gains = refuse
 

@@ -517,12 +517,13 @@ def test_shipped_plans_serve_a_fresh_install(monkeypatch, tmp_path):
     # by guesses within 85 % of the torque limit and 35 % of the i^2 t budget, ending
     # at the line (its first three guesses: the first heats the driver too much, the
     # second is infeasible) and 13 mm below it (test_traverse_recovery's: its four
-    # guesses, the first heats the driver too much, the next two are infeasible), and
+    # guesses, the first heats the driver too much, the next two are infeasible), the
+    # 48 V original robot's so planned on a level line (the apex shot's test), and
     # examples/acromonk.toml's swing (its guesses and warm start) and `bplir plan`, and
     # the original robot's try from hanging at +2.6 deg, 1.05 m (test_hanging_library's),
     # and the scaled robot's plans commissioned from the default robot's, holding with
     # either gripper, from the line and from hanging (docs/commission.md)
-    assert len(shipped) == 46
+    assert len(shipped) == 47
     monkeypatch.setenv("BPLIR_CACHE_DIR", str(tmp_path))
 
     def no_solve(*a, **k):
@@ -563,6 +564,7 @@ def test_shipped_plans_serve_a_fresh_install(monkeypatch, tmp_path):
     assert P.scenario_plan(retry_params(swing_params(volt48, 2, 1.2, math.radians(2.6)))).feasible
     deeper = retry_params(swing_params(volt48, 2, 1.2, math.radians(2.6)), end_at_line=False)
     assert P.scenario_plan(deeper).duration > 4.5   # the fourth guess's
+    assert P.scenario_plan(retry_params(swing_params(volt48, 1, 1.2, 0.0))).feasible
     acromonk = load_toml(Path(__file__).resolve().parents[1] / "examples" / "acromonk.toml")
     assert P.scenario_plan(acromonk).feasible
     assert P.plan_swing(acromonk, knots=41).status == "iteration limit"   # `bplir plan`'s
@@ -572,12 +574,11 @@ def test_shipped_plans_serve_a_fresh_install(monkeypatch, tmp_path):
 def test_shipped_gains_serve_the_tests_plans(monkeypatch, tmp_path):
     """The LQR gains of the plans the tests and the quick start track ship
     too (the +-20 deg swings of examples/uphill_plan.toml, the 1.6 kg link 2,
-    the 48 V swapped robot's try from hanging on the span's +2.6 deg chord
-    planned by guesses; the default robot's other swings, its tries from
-    hanging included at 30 V and 48 V, blend theirs from the plan
-    libraries): with an empty cache
-    they are read, never solved, and every shipped gains file belongs to a
-    plan the tests track."""
+    the 48 V robots' tries from hanging planned by guesses, on a level line
+    and on the span's +2.6 deg chord; the default robot's other swings, its
+    tries from hanging included at 30 V and 48 V, blend theirs from the plan
+    libraries): with an empty cache they are read, never solved, and every
+    shipped gains file belongs to a plan the tests track."""
     import dataclasses as dc
 
     from bplir_drake.diagrams import plan as P
@@ -607,6 +608,7 @@ def test_shipped_gains_serve_the_tests_plans(monkeypatch, tmp_path):
     b48 = paced_48v(base)   # tries planned by guesses (test_traverse_recovery's)
     cases += [retry_params(swing_params(b48, 2, 1.2, math.radians(2.6)), end_at_line=at)
               for at in (True, False)]   # the span's chord, ending at the line and below
+    cases.append(retry_params(swing_params(b48, 1, 1.2, 0.0)))   # the apex shot's test
     cases.append(load_toml(Path(__file__).resolve().parents[1] / "examples" / "acromonk.toml"))
     keys, blended = set(), 0
     for p in cases:

@@ -140,6 +140,8 @@ def pytest_configure(config):
         import subprocess
         import sys
 
+        _own_plan_cache(config)
+
         from bplir_drake.systems.kernels import warm_up
 
         others = subprocess.Popen([sys.executable, "-c", "from bplir_drake.systems.kernels "
@@ -147,3 +149,17 @@ def pytest_configure(config):
         warm_up("filter")
         others.wait()
         warm_up()   # whatever the other process did not leave in the cache
+
+
+def _own_plan_cache(config):
+    """The run's plans and gains go to a cache of its own (``BPLIR_CACHE_DIR``,
+    inherited by the workers and every command the tests start, removed at
+    the end): a run reads the shipped plans and solves what they lack, as on
+    a machine that never ran the package, whatever the user's cache holds."""
+    import os
+    import shutil
+    import tempfile
+
+    path = tempfile.mkdtemp(prefix="bplir-test-cache-")
+    os.environ["BPLIR_CACHE_DIR"] = path
+    config.add_cleanup(lambda: shutil.rmtree(path, ignore_errors=True))

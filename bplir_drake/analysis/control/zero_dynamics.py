@@ -8,13 +8,14 @@ friction (4.11) they spiral into a stable focus at the origin (Fig. 6.3).
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 from scipy.integrate import solve_ivp
 
 from ...params import FrictionParams, PlantParams
-from ...systems.friction import friction_torques
+from ...systems.friction import joint_friction
 from ...systems.plant import gravity_vector, mass_matrix, potential_energy
 
 
@@ -50,11 +51,15 @@ def zero_dynamics_portrait(p: PlantParams, friction: FrictionParams | None, *, q
     if initial is None:
         initial = [(a, 0.0) for a in (0.3, 0.8, 1.3, 1.8, 2.4)] + [(0.0, w) for w in (2.0, 4.0)]
     M11 = mass_matrix([0.0, q2_star], p)[0, 0]
+    # with the elbow held, link 1's gravity torque is one sinusoid of q1 (every
+    # term of g1 is a sin(q1 + const)): a sin q1 + b cos q1, read off the model
+    a, b = (float(gravity_vector([q, q2_star], p)[0]) for q in (0.5 * math.pi, 0.0))
+    law = (friction.fv1, friction.fc1, friction.b, friction.drag_coefficients()[0]) \
+        if friction is not None and friction.enabled else None
 
     def rhs(t, x):
-        g1 = gravity_vector([x[0], q2_star], p)[0]
-        f1 = friction_torques([x[1], 0.0], friction)[0] if friction is not None else 0.0
-        return [x[1], (-g1 - f1) / M11]
+        f1 = joint_friction(x[1], *law) if law else 0.0
+        return [x[1], (-(a * math.sin(x[0]) + b * math.cos(x[0])) - f1) / M11]
 
     trajs = []
     # sampled every 10 ms for the portrait; the eighth-order steps in between

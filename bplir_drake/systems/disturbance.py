@@ -49,11 +49,12 @@ def disturbance_schedule(sc: ScenarioParams, seed: int, period: float,
         t = rng.exponential(1.0 / sc.gust_rate)
         while t < duration:
             amp = rng.uniform(-sc.gust_torque, sc.gust_torque, 2)
-            on = (times >= t - 1e-12) & (times < t + sc.gust_duration - 1e-12)
-            # a gust shorter than a period still acts for one period
-            if not on.any():
-                on[min(int(t / period), n - 1)] = True
-            torque[on] += amp
+            # the ticks from t to t + gust_duration (times ascend: two bisections)
+            first, end = np.searchsorted(times, (t - 1e-12, t + sc.gust_duration - 1e-12))
+            if first < end:
+                torque[first:end] += amp
+            else:   # a gust shorter than a period still acts for one period
+                torque[min(int(t / period), n - 1)] += amp
             t += rng.exponential(1.0 / sc.gust_rate)
     if sc.torque_noise:
         rng = np.random.default_rng([seed, 2, 1])

@@ -331,7 +331,8 @@ def test_an_unusable_cache_directory_still_swings_on_the_shipped_plans(where, tm
 
 
 def _plan_process(cache, out):
-    return _bplir_with_solver("quick", cache, "plan", "--incline", "9", "--out", out)
+    return _bplir_with_solver("quick", cache, "plan", "--incline", "9", "--no-plots", "--out",
+                              out)
 
 
 def test_a_damaged_cached_plan_or_a_planted_link_does_not_stop_bplir_plan(tmp_path):

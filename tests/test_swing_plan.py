@@ -80,6 +80,23 @@ def test_plan_figure_and_cli_errors(uphill, tmp_path, capsys):
     assert math.isfinite(json.loads(json.dumps(plan.summary()))["peak_motor_power_W"])
 
 
+def test_the_plan_command_writes_no_figure_with_no_plots(monkeypatch, tmp_path, capsys):
+    """``bplir plan --no-plots``: the plan's CSV and JSON, no plan.png, and
+    the summary's figure is null (the solver a stand-in:
+    :func:`conftest.quick_plan`)."""
+    from bplir_drake.diagrams import plan as P
+    from conftest import quick_plan
+
+    monkeypatch.setenv("BPLIR_CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.setattr(P, "_solve_plan", quick_plan)
+    out = tmp_path / "p"
+    assert main(["plan", "--incline", "9", "--no-plots", "--json", "--out", str(out)]) == 0
+    assert json.loads(capsys.readouterr().out)["figure"] is None
+    assert sorted(f.name for f in out.iterdir()) == ["plan.csv", "plan.json"]
+    assert main(["plan", "--incline", "9", "--out", str(out)]) == 0
+    assert "wrote" in capsys.readouterr().out and (out / "plan.png").stat().st_size > 20_000
+
+
 def test_tracking_gains_accept_links_shorter_than_the_default_imu_radii(monkeypatch):
     """A robot with 0.34 m links (DFKI's AcroMonk): the gains' plant model is
     built from its plant and friction alone -- the default IMUs at 0.5 m,

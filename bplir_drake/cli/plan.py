@@ -27,9 +27,10 @@ def cmd_plan(args) -> int:
                             strict=False, **given)
     else:
         plan = plan_swing(params, power_limit=args.power, progress=_progress(args), **given)
-    figure = _save(args, plot_plan(plan, params), out / "plan.png")
+    figure = None if args.no_plots else _save(args, plot_plan(plan, params), out / "plan.png")
     heat = planned_i2t(plan, params.motor) / interlock_budget(params.motor)
-    summary = plan.summary() | {"i2t_share": heat, "figure": str(figure)}
+    summary = plan.summary() | {"i2t_share": heat,
+                                "figure": None if figure is None else str(figure)}
     _write_json(out / "plan.json", summary)
     with atomic_path(out / "plan.csv") as tmp:
         np.savetxt(tmp, np.c_[plan.times, plan.states, plan.torque],
@@ -48,7 +49,7 @@ def cmd_plan(args) -> int:
         f"link 1 reverses {plan.link1_reversals}x",
         f"  the planned torque alone uses {100 * heat:.0f} % of the driver's i^2 t budget "
         "(from a reset driver)",
-        f"  wrote {out}/plan.png, plan.csv, plan.json"])
+        f"  wrote {out}/{'' if figure is None else 'plan.png, '}plan.csv, plan.json"])
     return 0 if plan.feasible else 1
 
 
@@ -60,3 +61,4 @@ def add_parser(sub) -> None:
     option(p, "--power", float, None, "motor power limit in W (default: rating)")
     option(p, "--knots", int, None, "collocation knots (default 41; 61 from hanging, "
            "scenario.start = hanging, where the guesses of a swing from hanging are tried)")
+    option(p, "--no-plots", bool, help="skip the figure (plan.png)")

@@ -141,6 +141,7 @@ def pytest_configure(config):
         import sys
 
         _own_plan_cache(config)
+        _one_copy_of_the_package()
 
         from bplir_drake.systems.kernels import warm_up
 
@@ -163,3 +164,18 @@ def _own_plan_cache(config):
     path = tempfile.mkdtemp(prefix="bplir-test-cache-")
     os.environ["BPLIR_CACHE_DIR"] = path
     config.add_cleanup(lambda: shutil.rmtree(path, ignore_errors=True))
+
+
+def _one_copy_of_the_package():
+    """Every process the tests start (a command, a study's workers, Dask's)
+    imports the package the tests import (``PYTHONPATH``), so the compiled
+    kernels loaded here serve them all: an installed copy elsewhere would
+    compile its own on first use, in each process that got there first."""
+    import os
+    from pathlib import Path
+
+    import bplir_drake
+
+    root = str(Path(bplir_drake.__file__).resolve().parents[1])
+    rest = [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p]
+    os.environ["PYTHONPATH"] = os.pathsep.join([root, *rest])

@@ -19,10 +19,11 @@ points) and the 48 V robots' planned by guesses within 85 % of the
 torque limit and 35 % of the driver's i^2 t budget (the original robot's
 on a level line; the swapped robot's on the span's +2.6 deg chord, ending
 at the line, as its free link's pose decides, and 13 mm below it, the
-plans its guesses gave before one heated the driver little enough), and docs/commission.md's 0.7-scaled robot at 0 deg and 0.84 m
-(either gripper, from the line and from hanging, solved from similar
-robots' plans); gains for the swings the tests track
-that the plan libraries (``scripts/plan_library.py``) do not cover.
+plans its guesses gave before one heated the driver little enough), and
+docs/commission.md's 0.7-scaled robot at 0 deg and 0.84 m (either gripper,
+from the line and from hanging, solved from similar robots' plans); gains
+for the swings the tests track that the plan libraries
+(``scripts/plan_library.py``) do not cover.
 """
 from __future__ import annotations
 

@@ -32,6 +32,7 @@ from ...io import Result
 from .errors import QftError   # defined apart so the command line need not import control
 from .plants import (  # noqa: F401 (re-exported)
     Plant, PlantFamily, _check_omegas, dissertation_family, _s, perturbed, STATE_BOX, SWING_BOX, linearized_cpfl_plant, diagram_family, v_max_over_box)
+from .loops import closed_loops, step_responses
 from .plots import plot_family_responses
 from ...progress import progress_bar
 
@@ -202,16 +203,6 @@ class Verification(Result):
                 "specifications": self.checks}
 
 
-def _closed_loops(plant_tf, K, F):
-    """Closed-loop maps built in state space (transfer-function arithmetic
-    of high order is numerically fragile)."""
-    G, Ks, Fs = control.ss(plant_tf), control.ss(K), control.ss(F)
-    L = G * Ks
-    S = control.feedback(control.ss([], [], [], [[1.0]]), L)
-    T = control.feedback(L, control.ss([], [], [], [[1.0]]))
-    return L, S, T, T * Fs, Ks * S * Fs, control.feedback(G, Ks)
-
-
 def _settling_time(t, y, final, band, step: float = 1.0) -> float:
     """First time after which ``y`` stays within ``band`` (relative to the
     larger of the final value and the step size) of ``final``."""
@@ -252,7 +243,7 @@ def verify(family: PlantFamily, K: control.TransferFunction, F: control.Transfer
         resp["TF_mag"].append(m)
         resp["labels"].append(pl.label)
         G = pl.rational(pade_order)
-        L, S, T, TF, U, PS = _closed_loops(G, K, F)
+        L, S, T, TF, U, PS = closed_loops(G, K, F)
         poles = np.linalg.eigvals(np.asarray(T.A)) if T.nstates else np.zeros(0)
         stable = bool(np.all(poles.real < 0))
         rec["stable"].append(stable)
@@ -263,10 +254,7 @@ def verify(family: PlantFamily, K: control.TransferFunction, F: control.Transfer
             for key in ("step", "u", "in_dist", "out_dist"):
                 resp[key].append(np.full_like(t, np.nan))
             continue
-        y = control.step_response(TF, t).outputs
-        u = control.step_response(U, t).outputs
-        yd = control.step_response(PS, t).outputs
-        yo = control.step_response(S, t).outputs
+        y, u, yd, yo = step_responses((TF, U, PS, S), t)
         final = float(np.real(control.dcgain(TF)))
         rec["steady_error"].append(abs(final - 1.0))
         rec["settling"].append(_settling_time(t, y, 1.0, specs.steady_band))

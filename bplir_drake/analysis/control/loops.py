@@ -20,11 +20,10 @@ def closed_loops(plant_tf, K, F):
 def balanced(sys):
     """``sys`` (state space) under the diagonal similarity, of powers of two
     (exact), that balances its ``A`` (``scipy.linalg.matrix_balance``): the
-    same transfer function.  The closed loops of a plant with its delay's
-    Pade approximant come out of the canonical realisation with ``cond(A)``
-    near 1e43, on which python-control's step responses stray by up to 3 %
-    of their peak (scipy's, on other loops, by more); balanced, ``cond(A)``
-    is near 1e5 and both agree with a tight ODE solution to 2e-5."""
+    same transfer function.  The canonical realisations of the closed loops
+    of a plant with its delay's Pade approximant are so badly conditioned
+    that step responses simulated on them stray from the solution;
+    balanced, they follow it."""
     import scipy.linalg
 
     if not sys.nstates:

@@ -118,7 +118,8 @@ def accuracy_rows(item: dict) -> list[list[str]]:
 def _limits_of(res: dict, st: dict) -> list[str]:
     """The limit lines of a commissioning that concern this study's gripper."""
     g = st.get("holding", 1)
-    return [x.split(": ", 1)[1] if x.startswith(f"gripper {g}: ") else x for x in res["limits"]
+    lines = res["limits"] + [f"{x} (not shown)" for x in res.get("unshown", [])]
+    return [x.split(": ", 1)[1] if x.startswith(f"gripper {g}: ") else x for x in lines
             if x.startswith(f"gripper {g}: ") or not x.startswith("gripper ")]
 
 

@@ -20,6 +20,7 @@ from ...diagrams.plan_library import (assemble_library, library_entry, robot_lib
 from ...params import BplirParams
 from ...systems.plan_tracker import TrackerWeights
 from ..montecarlo.executors import map_jobs
+from .margins import supply_energy
 from .refine import at, refined, solve_from
 from .similarity import commissioned_references, shipped_references, similar_guesses
 
@@ -36,6 +37,8 @@ class PointResult:
     plan: object
     entry: dict | None
     wall_s: float
+    #: each solve tried, in turn: its first guess and how the solver ended
+    tried: tuple = ()
 
     def row(self) -> dict:
         """The point as a table row."""
@@ -46,7 +49,9 @@ class PointResult:
                     peak_torque_Nm=p.peak_torque if ok else math.nan,
                     peak_voltage_V=p.peak_voltage if ok else math.nan,
                     energy_in_J=p.energy_in if ok else math.nan,
-                    status=p.status if p is not None else "no plan", wall_s=self.wall_s)
+                    supply_energy_J=supply_energy(p) if ok else math.nan,
+                    status=p.status if p is not None else "no plan", wall_s=self.wall_s,
+                    tried="; ".join(self.tried))
 
 
 def solve_point(params: BplirParams, incline: float, spacing: float,
@@ -60,9 +65,10 @@ def solve_point(params: BplirParams, incline: float, spacing: float,
         q, shipped_references() + commissioned_references())]
     if neighbour is not None:
         tries.insert(0, ("continuation", neighbour))
-    plan, how = None, "none"
+    plan, how, tried = None, "none", []
     for kind, guess in tries:
         p = solve_from(q, initial=guess)
+        tried.append(f"{kind}: {_ended(p)}")
         if p.feasible:
             plan, how = p, kind
             break
@@ -70,11 +76,17 @@ def solve_point(params: BplirParams, incline: float, spacing: float,
         hanging = q.scenario.start == "hanging"
         for duration in P.HANGING_GUESSES if hanging else P.PLAN_GUESSES:
             p = solve_from(q, guess_duration=duration)
+            tried.append(f"straight line over {duration:g} s: {_ended(p)}")
             if p.feasible:
                 plan, how = p, "straight line"
                 break
     return PointResult(float(incline), float(spacing), how, plan, _entry(q, plan),
-                       time.perf_counter() - t0)
+                       time.perf_counter() - t0, tuple(tried))
+
+
+def _ended(plan) -> str:
+    """How one solve ended, in words: feasible, or the solver's status."""
+    return "feasible" if plan.feasible else f"not feasible ({plan.status or 'unknown'})"
 
 
 def _entry(q: BplirParams, plan) -> dict | None:

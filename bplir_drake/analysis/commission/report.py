@@ -79,12 +79,16 @@ def report_markdown(result, fmt: str = "png") -> str:
     """The report as markdown (its figure a ``fmt`` file)."""
     s = result.summary()
     lines = [f"# Commissioning report: {result.name}", "",
-             f"**Verdict: {'ready' if s['ready'] else 'not ready'}.** "
+             f"**Verdict: {s['verdict']}.** "
              f"{s['plans']['solved']} of {s['plans']['points']} plans solved "
              f"({s['plans']['from_similarity']} from similar robots' plans), "
              f"{s['wall_s']:.0f} s.", ""]
     if s["limits"]:
         lines += ["## Limits", ""] + [f"- {x}" for x in s["limits"]] + [""]
+    if s["unshown"]:
+        lines += ["## Not shown", "", f"Ready means the lower end of each study's Wilson 95 % "
+                  f"interval at or above {100 * READY_RATE:.0f} %.", ""]
+        lines += [f"- {x}" for x in s["unshown"]] + [""]
     lines += ["## Verification studies", "",
               f"Root seed {result.seed}; uncertainty scaled to the robot.", "",
               "| holding | incline (deg) | captured | Wilson 95 % | capture speed p50 / p95 (m/s) "
@@ -97,6 +101,10 @@ def report_markdown(result, fmt: str = "png") -> str:
                      f"{100 * lo:.1f}-{100 * hi:.1f} % | {_num(st['capture_speed_p50_mps'])} / "
                      f"{_num(st['capture_speed_p95_mps'])} | {_num(st['peak_voltage_V'], '.1f')} | "
                      f"{_num(st['peak_torque_Nm'])} |")
+    lines += _landing_lines(result.studies)
+    if s["binding"]:
+        lines += ["", "## What binds the plans", ""]
+        lines += [f"- gripper {g}: {x}" for g, x in s["binding"].items() if x]
     m = s["margins"]
     if m:
         lines += ["", "## Electric margins of the plans", "",
@@ -106,7 +114,10 @@ def report_markdown(result, fmt: str = "png") -> str:
     if s["flat_line"]:
         f = s["flat_line"]
         lines += [f"- flat line, swinging alone: {f['energy_per_m_J']:.1f} J/m of elbow work, "
-                  f"{f['metres_per_min']:.1f} m/min"]
+                  f"{_num(f.get('supply_energy_per_m_J'), '.1f')} J/m from the supply (the "
+                  f"motor's losses included), {f['metres_per_min']:.1f} m/min"]
+    if s["assumed"]:
+        lines += ["", "## Assumed", ""] + [f"- {x}" for x in s["assumed"]]
     lines += ["", "## Plans", "", "| holding | from | incline (deg) | D (m) | solved from "
               "| duration (s) | peak torque (N m) | peak voltage (V) |",
               "| --- | --- | --- | --- | --- | --- | --- | --- |"]
@@ -118,6 +129,23 @@ def report_markdown(result, fmt: str = "png") -> str:
                      f"{_num(p['peak_voltage_V'], '.1f')} |")
     lines += ["", f"![commissioning]({FIGURE}.{fmt})", ""]
     return "\n".join(lines)
+
+
+def _landing_lines(studies) -> list[str]:
+    """The report's section on how hard the robot lands, a line per study."""
+    rows = [st for st in studies if st.get("impact")]
+    if not rows:
+        return []
+    out = ["", "## How hard it lands", "",
+           "At each study's capture speed p95, with the robot's effective mass at its gripper "
+           "along the planned arrival (both joints free):", ""]
+    for st in rows:
+        im = st["impact"]
+        out.append(f"- gripper {st['holding']}, {st['incline_deg']:+g} deg: "
+                   f"{_num(im['capture_speed_mps'])} m/s into {im['effective_mass_kg']:.2f} kg: "
+                   f"{_num(im['impact_energy_J'], '.3f')} J, {_num(im['impact_impulse_Ns'], '.3f')} "
+                   "N s")
+    return out
 
 
 def write_report(result, out: Path, fmt: str = "png", dpi: int = 150) -> None:

@@ -14,10 +14,12 @@ from ..montecarlo.runner import run_study
 from ..traverse.recovery import retry_params
 from ..traverse.swing_setup import swing_params
 from .grid import at, solve_library
+from .margins import (assumptions, binding_line, electric_margins, landing_impact,
+                      motor_figures)
 from .result import CommissionResult
 from .similarity import commissioned_references, shipped_references, similar_guesses
 from .report import write_report
-from .verdict import (READY_RATE, electric_margins, miss_reasons, no_plan_reason,
+from .verdict import (DEFAULT_SAMPLES, READY_RATE, miss_reasons, no_plan_reason,
                       study_verdict, verification_study)
 
 #: the default grid of grip spacings: the robot's own +/- this share of its
@@ -40,7 +42,8 @@ def held_by(params: BplirParams, gripper: int) -> tuple[BplirParams, BplirParams
     return robot, tries
 
 
-def commission(params: BplirParams, *, inclines=(0.0,), spacings=None, samples: int = 100,
+def commission(params: BplirParams, *, inclines=(0.0,), spacings=None,
+               samples: int = DEFAULT_SAMPLES,
                seed: int = 1, out=None, workers: int = 0, progress: bool = False,
                name: str = "robot", grippers=(1, 2), hanging: bool = True, dask: bool = False,
                scheduler: str | None = None, figure: tuple = ("png", 150)) -> CommissionResult:
@@ -68,11 +71,12 @@ def commission(params: BplirParams, *, inclines=(0.0,), spacings=None, samples: 
         out.mkdir(parents=True, exist_ok=True)
         save_toml(params, out / "robot.toml")
     pool = dict(workers=workers, dask=dask, scheduler=scheduler, progress=progress)
-    points, studies, limits, plans = [], [], [], []
+    points, studies, limits, unshown, plans, binding = [], [], [], [], [], {}
     for g in grippers:
         robot, tries = held_by(params, g)
         solved = solve_library(robot, inclines, spacings, **pool)
         plans += [r.plan for r in solved.values()]
+        binding[g] = binding_line(robot, [r.plan for r in solved.values()])
         points += [r.row() | {"holding": g, "start": "line"} for r in solved.values()]
         limits += [f"gripper {g}: {_no_plan(robot, r)}" for r in solved.values()
                    if r.plan is None]
@@ -88,11 +92,16 @@ def commission(params: BplirParams, *, inclines=(0.0,), spacings=None, samples: 
                 continue
             where = None if out is None else out / "studies" / f"gripper{g}_incline_{a:+05.1f}"
             v, why = _verify(robot, a, solved, samples, seed, spacings, where, pool)
-            studies.append(v | {"holding": g})
+            own = _own_spacing(robot, a, solved, spacings)
+            studies.append(v | {"holding": g, "impact": None if own is None else landing_impact(
+                robot, own, v["capture_speed_p95_mps"])})
             if why:
-                limits.append(f"gripper {g}: {why}")
+                (unshown if v["verdict"] == "not shown" else limits).append(f"gripper {g}: {why}")
     result = CommissionResult(name=name, params=params, points=points, studies=studies,
-                              limits=limits, margins=electric_margins(params, plans),
+                              limits=limits, unshown=unshown,
+                              margins=electric_margins(params, plans),
+                              motor=motor_figures(params), binding=binding,
+                              assumed=assumptions(params),
                               seed=seed, wall_s=time.perf_counter() - t0)
     if out is not None:
         _save(result, out, grippers, figure)
@@ -100,15 +109,26 @@ def commission(params: BplirParams, *, inclines=(0.0,), spacings=None, samples: 
 
 
 def _verify(robot, incline, solved, samples, seed, spacings, where, pool):
-    """(verdict of the verification study at ``incline``, its limit line or
-    "" when it passes)."""
+    """(verdict of the verification study at ``incline``, its line: ""
+    when it shows the robot ready, the swings that would show it when its
+    rate is above the bar but its interval is not, else why it misses)."""
     study = verification_study(robot, incline, samples, seed, spacings)
     summary, rows = _run(study, where, pool)
     v = study_verdict(incline, summary) | {"seed": study.seed}
-    if v["rate"] >= READY_RATE:
+    if v["verdict"] == "ready":
         return v, ""
+    if v["verdict"] == "not shown":
+        return v, _not_shown(v)
     why = miss_reasons(robot, rows, [r.plan for r in solved.values()])
     return v, "; ".join([_short(v)] + why)
+
+
+def _own_spacing(robot, incline, solved, spacings):
+    """The plan at ``incline`` at the grid's spacing nearest the robot's
+    own (None: none there)."""
+    d = min(spacings, key=lambda x: abs(x - robot.scenario.grip_spacing))
+    plan = solved[incline, d].plan
+    return plan if plan is not None and plan.feasible else None
 
 
 def _run(study, where, pool: dict) -> tuple[dict, list]:
@@ -122,7 +142,18 @@ def _no_plan(params, res) -> str:
     """The limit line of a grid point without a plan."""
     q = at(params, res.incline, res.spacing)
     guesses = similar_guesses(q, shipped_references() + commissioned_references(), count=1)
-    return no_plan_reason(params, res.incline, res.spacing, guesses[0] if guesses else None)
+    return no_plan_reason(params, res.incline, res.spacing, guesses[0] if guesses else None,
+                          res.tried)
+
+
+def _not_shown(v: dict) -> str:
+    """The line of a verification study whose rate is above
+    :data:`READY_RATE` but whose Wilson interval reaches below it."""
+    lo, hi = v["wilson95"]
+    n = v["samples_to_show"]
+    return (f"{v['incline_deg']:+g} deg: captured {v['captured']}/{v['samples']}, Wilson 95 % "
+            f"{100 * lo:.1f}-{100 * hi:.1f} %: {v['samples']} swings cannot show "
+            f"{100 * READY_RATE:.0f} %; {n} capturing as these did would (--samples {n})")
 
 
 def _short(v: dict) -> str:

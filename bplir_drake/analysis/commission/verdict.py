@@ -18,11 +18,10 @@ import math
 
 import numpy as np
 
-from ...diagrams.plan import planned_i2t
-from ...systems.motor import interlock_budget
 from ..montecarlo.study import Distribution, Study
-from ..montecarlo.statistics import wilson_interval
+from ..montecarlo.statistics import samples_to_show, wilson_interval
 from ..traverse.recovery import free_link_tilt, UPRIGHT_FREE_LINK
+from .margins import motor_figures
 from .similarity import Scales
 
 #: the verification study's uncertainty: (name, kind, size); kind "rel" is
@@ -43,8 +42,15 @@ STUDY_RULES = (
 WIND_SHARES, GUST_SHARE = (0.002, 0.001), 0.02
 #: the capture must land within this share of D of the planned grip (2 D)
 LANDING_SHARE = 0.1
-#: a verification study at or above this capture rate passes
+#: a verification study passes when the lower end of its capture rate's
+#: Wilson 95 % interval is at or above this
 READY_RATE = 0.97
+#: the share a robot is taken to capture when choosing how many swings a
+#: verification study runs by default: at it the study can show READY_RATE
+SIZING_RATE = 0.99
+#: the verification study's default size (swings): the fewest at which a
+#: robot capturing SIZING_RATE shows READY_RATE (280)
+DEFAULT_SAMPLES = samples_to_show(SIZING_RATE, READY_RATE)
 
 
 def verification_study(params, incline: float, samples: int, seed: int,
@@ -82,13 +88,19 @@ def verification_study(params, incline: float, samples: int, seed: int,
 
 
 def study_verdict(incline: float, summary: dict) -> dict:
-    """One incline's line of the verdict from its study's summary."""
+    """One incline's line of the verdict from its study's summary:
+    ``verdict`` is "ready" (the Wilson 95 % interval's lower end at or above
+    :data:`READY_RATE`), "not shown" (the rate above it, the interval not:
+    ``samples_to_show`` swings at this rate would show it) or "below"."""
     n, k = summary["samples"], summary["successes"]
     lo, hi = wilson_interval(k, n)
+    rate = k / n if n else math.nan
+    verdict = "ready" if lo >= READY_RATE else "not shown" if rate > READY_RATE else "below"
     pct = summary["percentiles"]
     speed = pct.get("capture_speed_mps", {})
     return dict(incline_deg=float(incline), captured=k, samples=n,
-                rate=k / n if n else math.nan, wilson95=[lo, hi],
+                rate=rate, wilson95=[lo, hi], verdict=verdict,
+                samples_to_show=samples_to_show(rate, READY_RATE) if n else None,
                 capture_speed_p50_mps=speed.get("p50", math.nan),
                 capture_speed_p95_mps=speed.get("p95", math.nan),
                 peak_voltage_V=pct.get("peak_voltage_V", {}).get("max", math.nan),
@@ -96,46 +108,35 @@ def study_verdict(incline: float, summary: dict) -> dict:
                 outcomes=summary["outcomes"])
 
 
-def electric_margins(params, plans) -> dict:
-    """The plans' peak voltage, current and i^2 t against the motor's limits."""
-    m = params.motor
-    ok = [p for p in plans if p is not None and p.feasible]
-    if not ok:
-        return {}
-    return dict(peak_voltage_V=max(p.peak_voltage for p in ok), max_voltage_V=m.max_voltage,
-                peak_current_A=max(p.peak_torque for p in ok) / m.torque_per_amp,
-                peak_current_limit_A=m.i_peak,
-                i2t_A2s=max(planned_i2t(p, m) for p in ok), i2t_budget_A2s=interlock_budget(m))
-
-
-def no_plan_reason(params, incline: float, spacing: float, guess) -> str:
-    """Why the robot has no plan at this grid point, with the numbers: the
-    grip beyond its reach, or the scaled swing of a similar robot
-    (``guess``) needing more torque or elbow rate than its motor gives."""
+def no_plan_reason(params, incline: float, spacing: float, guess, tried=()) -> str:
+    """Why the robot has no plan at this grid point: a bound with its
+    numbers where one shows none can exist (the grip beyond the reach, the
+    elbow's effective peak torque within its dead-band), else "no plan
+    found" with the solves ``tried`` and, as a hint and not a bound, what
+    the scaled swing of a similar robot (``guess``) asks of the motor."""
     p, m = params.plant, params.motor
     reach = p.l1 + p.l2
     where = f"{incline:+g} deg, {spacing:g} m"
     if spacing >= reach:
-        return (f"no plan at {where}: the grip spacing is beyond the reach l1 + l2 = "
+        return (f"no plan at {where}, a bound: the grip spacing is beyond the reach l1 + l2 = "
                 f"{reach:.3f} m; a spacing below it would")
-    if guess is None:
-        return f"no plan at {where}: no similar robot's plan to compare with"
-    tau = float(np.max(np.abs(guess.torque)))
-    rate = float(np.max(np.abs(guess.states[:, 3])))
-    limit = params.controller.torque_limit
-    parts = [f"a similar robot's swing scaled to this one needs {tau:.2f} N m "
-             f"(motor: {limit:g} N m)"]
-    fix = []
-    if tau > limit:
-        fix.append(f"{tau / limit:.2f}x the elbow torque")
-    if m.envelope:
-        free = m.max_voltage / (m.back_emf_constant * m.gear_ratio)
-        parts.append(f"and {rate:.1f} rad/s at the elbow (no-load rate at "
+    peak = motor_figures(params)["peak_torque_Nm"]
+    if peak <= m.deadband:
+        return (f"no plan at {where}, a bound: the elbow's effective peak torque {peak:.3g} N m "
+                f"is within the motor's {m.deadband:.3g} N m dead-band, so the elbow never turns")
+    line = f"no plan found at {where} (not a bound: a plan may exist)"
+    if tried:
+        line += f"; tried {len(tried)} solves: " + ", ".join(tried)
+    if guess is not None:
+        tau = float(np.max(np.abs(guess.torque)))
+        rate = float(np.max(np.abs(guess.states[:, 3])))
+        line += (f"; the nearest similar robot's single swing scaled to this one asks "
+                 f"{tau:.2f} N m (effective peak torque: {peak:.3g} N m)")
+        if m.envelope:
+            free = m.max_voltage / (m.back_emf_constant * m.gear_ratio)
+            line += (f" and {rate:.1f} rad/s at the elbow (no-load rate at "
                      f"{m.supply_voltage:g} V: {free:.1f} rad/s)")
-        if rate > free:
-            fix.append(f"a supply of {m.supply_voltage * rate / free:.0f} V")
-    return (f"no plan at {where}: " + " ".join(parts) + "; "
-            + (" and ".join(fix) + " would" if fix else "the solver found none from it either"))
+    return line + "; pumping manoeuvres from the line were not tried"
 
 
 def _short_of_the_grip(params, rows, misses) -> list[str]:

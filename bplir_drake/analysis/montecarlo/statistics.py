@@ -27,6 +27,27 @@ def wilson_interval(successes: int, n: int, confidence: float = 0.95) -> tuple[f
     return (lo, hi)
 
 
+def samples_to_show(rate: float, bar: float, confidence: float = 0.95) -> int | None:
+    """The fewest samples at which a study succeeding at ``rate`` has the
+    lower end of its Wilson interval at or above ``bar`` (None: a rate at
+    or below the bar is never shown above it, however many samples)."""
+    if not rate > bar:
+        return None
+    z2 = NormalDist().inv_cdf(0.5 + confidence / 2) ** 2
+
+    def lower(n: float) -> float:   # the interval's lower end at rate ``rate``, n samples
+        centre = (rate + z2 / (2 * n)) / (1 + z2 / n)
+        return centre - math.sqrt(z2 * rate * (1 - rate) / n + z2 * z2 / (4 * n * n)) / (1 + z2 / n)
+
+    lo, hi = 1, 2
+    while lower(hi) < bar:   # it rises with n towards ``rate``
+        lo, hi = hi, 2 * hi
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        lo, hi = (mid, hi) if lower(mid) < bar else (lo, mid)
+    return hi
+
+
 PERCENTILE_FIELDS = ("capture_speed_mps", "swing_time_s", "peak_torque_Nm", "peak_motor_power_W",
                      "peak_voltage_V", "on_envelope_s", "energy_in_J",
                      "max_estimation_error_rad")

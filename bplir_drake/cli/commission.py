@@ -33,7 +33,7 @@ def cmd_commission(args) -> int:
                         seed=args.seed, out=out, workers=args.workers or 0,
                         progress=_progress(args), name=Path(args.robot).stem,
                         grippers=tuple(sorted(set(args.gripper or [1, 2]))),
-                        hanging=not args.no_hanging,
+                        hanging=not args.no_hanging, pumps=not args.no_pump,
                         dask=args.dask, scheduler=args.scheduler,
                         figure=(args.format, _dpi(args)))
     s = result.summary()
@@ -41,7 +41,9 @@ def cmd_commission(args) -> int:
              f"({s['plans']['solved']}/{s['plans']['points']} plans, "
              f"{s['plans']['from_similarity']} from similar robots; {s['wall_s']:.0f} s)"]
     for st in s["studies"]:
-        lines.append(f"  gripper {st['holding']}, {st['incline_deg']:+g} deg: captured "
+        by = "" if st["manoeuvre"] == "swing" else f" by {st['manoeuvre']}"
+        by += "" if st["chosen"] else " (not chosen)"
+        lines.append(f"  gripper {st['holding']}{by}, {st['incline_deg']:+g} deg: captured "
                      f"{st['captured']}/{st['samples']}, "
                      f"capture speed p95 {st['capture_speed_p95_mps']:.2f} m/s")
     lines += [f"  limit: {x}" for x in s["limits"]]
@@ -66,6 +68,8 @@ def add_parser(sub) -> None:
            "both: 2 is the robot seen from its other gripper)", action="append", choices=(1, 2))
     option(p, "--no-hanging", bool, help="no library of swings tried again from hanging "
            "(a traversal's recovery)")
+    option(p, "--no-pump", bool, help="no pumping manoeuvre from the line where a single "
+           "swing leaves a limit")
     option(p, "--samples", int, None, "swings of each verification study (default 280: the "
            "fewest at which a robot capturing 99 %% shows 97 %% by its Wilson interval)")
     option(p, "--seed", int, 1, "root seed of the verification studies (default 1)")

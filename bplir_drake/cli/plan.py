@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 from ..io import atomic_path
-from .common import _emit, _load_params, _out_dir, _progress, _save, _write_json
+from .common import InputError, _emit, _load_params, _out_dir, _progress, _save, _write_json
 from .options import command, option, shared
 
 
@@ -13,23 +13,34 @@ def cmd_plan(args) -> int:
 
     import numpy as np
 
-    from ..diagrams.plan import hanging_plan, plan_swing, planned_i2t, plot_plan
+    from ..diagrams.plan import (energy_balance, hanging_plan, plan_swing, planned_i2t,
+                                 plot_plan, pump_plan)
+    from ..params import pumping
     from ..systems.motor import interlock_budget
 
     params = _load_params(args)
     if args.incline is not None:
         params = params.with_(scenario=dc.replace(params.scenario, incline_deg=args.incline))
+    if args.pump:
+        if args.knots is not None or args.power is not None:
+            raise InputError("--pump plans on its own knots within the motor's power rating; "
+                             "allowed without --knots and --power")
+        params = pumping(params)
     out = _out_dir(args.out)
     # plan_swing validates the scenario, the power limit and the knots
     given = {} if args.knots is None else {"knots": args.knots}   # else each planner's own
-    if params.scenario.start == "hanging":   # the pump a swing from hanging tracks
+    if params.scenario.manoeuvre == "pump":
+        plan = pump_plan(params, progress=_progress(args), strict=False)
+    elif params.scenario.start == "hanging":   # the pump a swing from hanging tracks
         plan = hanging_plan(params, power_limit=args.power, progress=_progress(args),
                             strict=False, **given)
     else:
         plan = plan_swing(params, power_limit=args.power, progress=_progress(args), **given)
     figure = None if args.no_plots else _save(args, plot_plan(plan, params), out / "plan.png")
     heat = planned_i2t(plan, params.motor) / interlock_budget(params.motor)
-    summary = plan.summary() | {"i2t_share": heat,
+    balance = energy_balance(plan, params.plant)
+    summary = plan.summary() | {"i2t_share": heat, "manoeuvre": params.scenario.manoeuvre,
+                                "energy_residual_share": balance["residual_share"],
                                 "figure": None if figure is None else str(figure)}
     _write_json(out / "plan.json", summary)
     with atomic_path(out / "plan.csv") as tmp:
@@ -39,6 +50,8 @@ def cmd_plan(args) -> int:
                 + f" (solver {plan.solver}" + (f": {plan.status})" if plan.status else ")"))
                if plan.feasible else "NOT feasible: the limits cannot be met"
                if plan.status == "infeasible" else
+               "NOT feasible: its plan does not keep the robot's energy"
+               if plan.status == "energy not kept" else
                f"NOT feasible: the solver stopped without converging ({plan.status}); a plan "
                "may still exist")
     _emit(summary, args.json, [
@@ -46,7 +59,8 @@ def cmd_plan(args) -> int:
         f"  duration {plan.duration:.3f} s, peak torque {plan.peak_torque:.1f} N m, "
         f"peak power {plan.peak_power:.0f} W (limit {plan.power_limit:g} W)",
         f"  motor work {plan.energy_in:.1f} J, friction loss {plan.dissipated:.1f} J, "
-        f"link 1 reverses {plan.link1_reversals}x",
+        f"the robot's energy {balance['change_J']:+.1f} J ({100 * balance['residual_share']:.1f} "
+        f"% unaccounted), link 1 reverses {plan.link1_reversals}x",
         f"  the planned torque alone uses {100 * heat:.0f} % of the driver's i^2 t budget "
         "(from a reset driver)",
         f"  wrote {out}/{'' if figure is None else 'plan.png, '}plan.csv, plan.json"])
@@ -62,3 +76,5 @@ def add_parser(sub) -> None:
     option(p, "--knots", int, None, "collocation knots (default 41; 61 from hanging, "
            "scenario.start = hanging, where the guesses of a swing from hanging are tried)")
     option(p, "--no-plots", bool, help="skip the figure (plan.png)")
+    option(p, "--pump", bool, help="a pumping manoeuvre from the line (scenario.manoeuvre = "
+           "pump: link 1 swings back and forth as often as its plan needs)")

@@ -1,26 +1,17 @@
 """Open-loop swing planning by trajectory optimisation (Drake
-``DirectCollocation``): is a swing feasible within the torque and motor power
-ratings, how long does it take, and what does it look like?
-
-The plan is the full-state trajectory from the start pose at rest to the
-mirror target at rest (7.1) on the nominal model *with* joint friction
-(Coulomb smoothing widened to at least 0.2 rad/s so the problem is smooth),
-with ``|tau| <= torque_limit``, ``|tau q2'| <= power_limit`` and the winding
-voltage ``R tau/kt + Km N q2'`` within ``plan.voltage_share`` of the
-driver's largest output voltage at every knot (the motor's voltage
-envelope: ``motor.envelope``), minimising ``int tau^2 dt + time_weight * T``.
-A plan is feasible when its constraints hold within the tolerance at the
-knots and the voltage stays within the driver's largest output everywhere
-along the reconstructed trajectory, between the knots too.
-
-A planned uphill swing reverses link 1 at least once (a back-swing to pump
-energy): it is not a single path ``q2 = phi(q1)``, which is why the path
-generator cannot climb.
-
-A plan is tracked with ``path.mode = "plan"`` (indexed by the clock, or by
-the phase nearest the estimated state with ``plan.indexing =
-"state"``): :func:`tracking_plan` plans to rest ``plan.end_depth``
-below the line and computes Drake's finite-horizon LQR gains for
+``DirectCollocation``): the full-state trajectory from the start pose at
+rest to the mirror target at rest (7.1) on the nominal model *with* joint
+friction (Coulomb smoothing widened to at least 0.2 rad/s), with ``|tau| <=
+torque_limit``, ``|tau q2'| <= power_limit`` and the winding voltage ``R
+tau/kt + Km N q2'`` within ``plan.voltage_share`` of the driver's largest
+output at every knot (``motor.envelope``), minimising ``int tau^2 dt +
+time_weight * T``.  A plan is feasible when its constraints hold within the
+tolerance at the knots and the voltage within the driver's largest output
+between them too.  An uphill swing reverses link 1 at least once (a
+back-swing): not a single path ``q2 = phi(q1)``, which is why the path
+generator cannot climb; a pumping manoeuvre (``scenario.manoeuvre``)
+reverses it as often as its plan needs.  :func:`tracking_plan` plans to rest
+``plan.end_depth`` below the line with Drake's finite-horizon LQR gains for
 :class:`bplir_drake.systems.plan_tracker.PlanTracker`.
 """
 from __future__ import annotations
@@ -38,8 +29,9 @@ from .plan_plot import (  # noqa: F401 (re-exported)
     plot_plan)
 from .swing_plan import (  # noqa: F401 (re-exported)
     HANGING_GUESSES, HANGING_KNOTS, HANGING_MINOR_ITERATIONS, PLAN_FRICTION_SMOOTHING,
-    SwingPlan, hanging_planned, plan_envelope, plan_friction, plan_time_weight,
-    plan_torque_limit, planned_target, shifted_angles)
+    PUMP_KNOTS, UNBALANCED_SHARE, SwingPlan, energy_balance, hanging_planned, plan_envelope,
+    plan_friction, plan_time_weight, plan_torque_limit, planned_target, pump_guesses,
+    shifted_angles)
 from .plan_library import library_plan
 from .plan_file import read_plan_file
 from .open_loop import build_plant_with_friction
@@ -291,6 +283,8 @@ def scenario_plan(params: BplirParams) -> SwingPlan:
     hanging = params.scenario.start == "hanging"
     if hanging:
         return hanging_plan(params)
+    if params.scenario.manoeuvre == "pump":
+        return pump_plan(params)
     for guess in PLAN_GUESSES:   # SNOPT sometimes stops just outside the tolerance
         plan = plan_swing(params, end_depth=depth, guess_duration=guess)
         if plan.feasible:
@@ -375,6 +369,31 @@ def hanging_solve(made: BplirParams, *, power_limit: float | None = None,
     or ``initial``, as :func:`plan_swing` takes them)."""
     return plan_swing(made, power_limit=power_limit, end_depth=made.plan.end_depth, knots=knots,
                       minor_iterations=HANGING_MINOR_ITERATIONS, progress=progress, **start)
+
+
+def pump_plan(params: BplirParams, *, progress: bool = False, strict: bool = True) -> SwingPlan:
+    """The plan of a pumping manoeuvre from the line: the first feasible
+    :func:`pump_solve` of the guesses :func:`pump_guesses`; else
+    ``ParameterError`` naming why (``strict=False``: the last guess's plan)."""
+    for guess in pump_guesses(params.plant):
+        plan = pump_solve(params, progress=progress, guess_duration=guess)
+        if plan.feasible:
+            return plan
+    if strict:
+        raise ParameterError(no_plan_message(plan))
+    return plan
+
+
+def pump_solve(params: BplirParams, *, progress: bool = False, **start) -> SwingPlan:
+    """One solve of a pump's plan from ``start`` (``guess_duration`` or
+    ``initial``) on :data:`PUMP_KNOTS` with the hanging plans' iteration
+    limit; not feasible where it does not keep the robot's energy
+    (:func:`energy_balance` over :data:`UNBALANCED_SHARE`)."""
+    plan = plan_swing(params, end_depth=params.plan.end_depth, knots=PUMP_KNOTS,
+                      minor_iterations=HANGING_MINOR_ITERATIONS, progress=progress, **start)
+    if plan.feasible and energy_balance(plan, params.plant)["residual_share"] > UNBALANCED_SHARE:
+        return replace(plan, feasible=False, status="energy not kept")
+    return plan
 
 
 def planned_i2t(plan: SwingPlan, motor) -> float:

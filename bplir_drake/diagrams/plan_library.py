@@ -39,9 +39,9 @@ from ..systems.plant import start_configuration
 from ..io import atomic_path
 from .plan_cache import PACKAGED, cache_dir, damage, plan_key
 from .swing_plan import (HANGING_GUESSES, HANGING_KNOTS, HANGING_MINOR_ITERATIONS,
-                         PLAN_FRICTION_SMOOTHING, SwingPlan, hanging_planned, plan_envelope,
-                         plan_friction, plan_time_weight, plan_torque_limit, planned_target,
-                         shifted_angles)
+                         PLAN_FRICTION_SMOOTHING, PUMP_KNOTS, UNBALANCED_SHARE, SwingPlan,
+                         hanging_planned, plan_envelope, plan_friction, plan_time_weight,
+                         plan_torque_limit, planned_target, pump_guesses, shifted_angles)
 
 #: the grid of the shipped libraries: line inclines (deg) and grip spacings (m)
 LIBRARY_INCLINES = tuple(float(a) for a in range(-20, 21, 5))
@@ -98,6 +98,9 @@ def model_inputs(params: BplirParams) -> dict:
         out.update(rate_limit=0.0, guesses=list(HANGING_GUESSES),
                    minor_iterations=HANGING_MINOR_ITERATIONS,
                    i2t_share=params.hanging.i2t_share)
+    elif params.scenario.manoeuvre == "pump":
+        out.update(manoeuvre="pump", knots=PUMP_KNOTS, guesses=list(pump_guesses(params.plant)),
+                   minor_iterations=HANGING_MINOR_ITERATIONS, balance=UNBALANCED_SHARE)
     return out
 
 

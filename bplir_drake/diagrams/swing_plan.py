@@ -13,7 +13,7 @@ import numpy as np
 from ..io import Result
 from ..params import BplirParams
 from ..params.files import robot_scales
-from ..systems.plant import initial_configuration
+from ..systems.plant import initial_configuration, kinetic_energy, potential_energy
 from .plan_plot import plot_plan
 
 
@@ -169,6 +169,32 @@ class SwingPlan(Result):
                 "constraint_tolerance": self.tolerance, "solver_status": self.status}
 
 
+#: a plan whose energy balance leaves more than this share of the energy it
+#: exchanges unaccounted does not obey the robot's dynamics between its
+#: knots (:func:`energy_balance`)
+UNBALANCED_SHARE = 0.1
+
+
+def energy_balance(plan: SwingPlan, plant) -> dict:
+    """How well ``plan`` keeps the nominal robot ``plant``'s energy: the
+    elbow's work ``int tau q2' dt`` (J), the friction's (J), the change of
+    the robot's energy from start to end (J) and ``residual_share``, what
+    the first less the second leaves unaccounted in the third as a share of
+    the energy exchanged (the work's size plus the friction's).  A plan
+    whose dynamics hold between its knots keeps it to the quadrature's
+    error; one that gains energy the collocation's coarse steps lend it
+    (a plan that pumps with too few knots) does not."""
+    x = np.asarray(plan.states)
+    energy = [kinetic_energy(s[:2], s[2:], plant) + potential_energy(s[:2], plant)
+              for s in (x[0], x[-1])]
+    work, loss = plan.energy_in, plan.dissipated
+    residual = (energy[1] - energy[0]) - (work - loss)
+    exchanged = abs(work) + abs(loss)
+    return dict(work_J=work, friction_J=loss, change_J=energy[1] - energy[0],
+                residual_J=residual, residual_share=abs(residual) / exchanged if exchanged
+                else 0.0)
+
+
 def plan_envelope(params: BplirParams) -> dict | None:
     """The motor's voltage envelope as the planner holds it (``None``
     without it): the driver's largest voltage, the share of it the knots
@@ -225,6 +251,20 @@ def planned_target(params: BplirParams, end_depth: float = 0.0) -> np.ndarray:
 HANGING_GUESSES = (3.0, 4.0, 5.0, 6.0)
 HANGING_KNOTS = 61
 HANGING_MINOR_ITERATIONS = 150_000
+
+
+#: a pumping manoeuvre from the line (``scenario.manoeuvre = "pump"``): its
+#: collocation knots (dense enough that a pump of several swings keeps the
+#: robot's energy between them, :data:`UNBALANCED_SHARE`), and its
+#: initial-guess durations in the robot's time unit sqrt(L/g), tried in turn
+PUMP_KNOTS = 151
+PUMP_GUESSES = (8.5, 10.5, 12.5)
+
+
+def pump_guesses(plant) -> tuple[float, ...]:
+    """:data:`PUMP_GUESSES` in seconds for the robot ``plant``."""
+    t0 = robot_scales(plant)[0]
+    return tuple(round(k * t0, 2) for k in PUMP_GUESSES)
 
 
 def hanging_planned(params: BplirParams) -> BplirParams:

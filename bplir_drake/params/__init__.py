@@ -77,6 +77,8 @@ from .model import (  # noqa: F401
     swapped_plant,
     swapped_imu,
     swapped,
+    pumping,
+    PUMP_TIME,
     parameter_reference,
     BLOCKS,
     _dissertation,
@@ -101,6 +103,6 @@ __all__ = [
     "from_dict", "load_toml", "to_toml",
     "save_toml", "to_dict", "sigma_from_density", "DriveParams", "GripperParams", "TraverseParams",
     "PlanParams", "HangingParams", "LandingParams",
-    "swapped", "swapped_plant", "swapped_imu", "parameter_reference", "BLOCKS", "plugin_name",
+    "swapped", "pumping", "PUMP_TIME", "swapped_plant", "swapped_imu", "parameter_reference", "BLOCKS", "plugin_name",
 ]
 

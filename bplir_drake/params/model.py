@@ -1,6 +1,8 @@
 """The whole parameter set (BplirParams), the swapped robot, the presets and the parameter reference the docs are generated from."""
 from __future__ import annotations
 
+import math
+
 from dataclasses import dataclass, field, fields, replace
 from typing import Any
 from .base import ParameterError, _is_plugin, _range_text
@@ -186,6 +188,21 @@ def swapped(params: BplirParams) -> BplirParams:
         true_plant=None if true is None else swapped_plant(true),
         imu=swapped_imu(params.imu, params.simulated_plant),
         estimator=replace(est, l1=nominal.l2, r1=nominal.l2 - est.r2, r2=est.l1 - est.r1))
+
+
+#: a pumping manoeuvre's timeout, the longest its plan may take, in the
+#: robot's time unit sqrt(L/g) (9.4 s on the default robot)
+PUMP_TIME = 20.0
+
+
+def pumping(params: BplirParams) -> BplirParams:
+    """The robot ``params`` reaching the next grip from the line by pumping
+    (``scenario.manoeuvre = "pump"``): its swing's timeout at least
+    :data:`PUMP_TIME` of its time unit ``sqrt(L/g)``."""
+    p, sc = params.plant, params.scenario
+    timeout = max(sc.max_time, round(PUMP_TIME * math.sqrt((p.l1 + p.l2) / p.g), 2))
+    return replace(params, scenario=replace(sc, manoeuvre="pump", start="line",
+                                            max_time=timeout))
 
 
 def parameter_reference(blocks=None) -> list[dict[str, Any]]:

@@ -10,6 +10,8 @@ from .plan import MAX_LANDING_BIAS
 # ---------------------------------------------------------------- scenario
 #: where a swing starts (``scenario.start``)
 SWING_STARTS = ("line", "hanging", "plan")
+#: how a swing from the line reaches the next grip (``scenario.manoeuvre``)
+MANOEUVRES = ("swing", "pump")
 
 
 @dataclass(frozen=True)
@@ -35,8 +37,15 @@ class ScenarioParams(_Block):
     wall_limit: float = _p(300.0, "s", 0, 86400, lo_open=True, doc="wall-clock time one swing may take before it is stopped as a fault (a hung plug-in); not physics")
     start: str = field(default="line", metadata=dict(doc="where the swing starts: line (both grippers on the line), hanging (at rest below the holding gripper; plan tracking only) or plan (the first state of plan.file, rates included)", allowed="line, hanging, plan"))
 
+    manoeuvre: str = field(default="swing", metadata=dict(doc="how a plan-tracked swing from the line reaches the next grip: swing (one swing of link 1 at most) or pump (link 1 swings back and forth as often as its plan needs, planned on more knots)", allowed="swing, pump"))
+
     def _check(self):
         self._one_of("start", SWING_STARTS)
+        self._one_of("manoeuvre", MANOEUVRES)
+        if self.manoeuvre == "pump" and self.start != "line":
+            raise ParameterError(f"scenario.manoeuvre = 'pump' starts on the line; "
+                                 f"scenario.start = '{self.start}' is not allowed with it "
+                                 "(a swing from hanging pumps by its own plan)")
         checked_seed(self.seed, "scenario.seed")
 
 

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ...diagrams import plan as P
+from ...diagrams.swing_plan import energy_balance
 from ...diagrams.plan_library import (assemble_library, library_entry, robot_library_key,
                                       robot_library_path, save_library)
 from ...params import BplirParams
@@ -22,7 +23,8 @@ from ...systems.plan_tracker import TrackerWeights
 from ..montecarlo.executors import map_jobs
 from .margins import supply_energy
 from .refine import at, refined, solve_from
-from .similarity import commissioned_references, shipped_references, similar_guesses
+from .similarity import (commissioned_references, plan_kind, shipped_references,
+                         similar_guesses)
 
 
 @dataclass(frozen=True)
@@ -39,6 +41,9 @@ class PointResult:
     wall_s: float
     #: each solve tried, in turn: its first guess and how the solver ended
     tried: tuple = ()
+    #: the share of the energy the plan exchanges that its energy balance
+    #: leaves unaccounted (:func:`~bplir_drake.diagrams.swing_plan.energy_balance`)
+    energy_residual: float = math.nan
 
     def row(self) -> dict:
         """The point as a table row."""
@@ -51,7 +56,7 @@ class PointResult:
                     energy_in_J=p.energy_in if ok else math.nan,
                     supply_energy_J=supply_energy(p) if ok else math.nan,
                     status=p.status if p is not None else "no plan", wall_s=self.wall_s,
-                    tried="; ".join(self.tried))
+                    tried="; ".join(self.tried), energy_residual_share=self.energy_residual)
 
 
 def solve_point(params: BplirParams, incline: float, spacing: float,
@@ -73,15 +78,26 @@ def solve_point(params: BplirParams, incline: float, spacing: float,
             plan, how = p, kind
             break
     if plan is None:
-        hanging = q.scenario.start == "hanging"
-        for duration in P.HANGING_GUESSES if hanging else P.PLAN_GUESSES:
+        for duration in straight_guesses(q):
             p = solve_from(q, guess_duration=duration)
             tried.append(f"straight line over {duration:g} s: {_ended(p)}")
             if p.feasible:
                 plan, how = p, "straight line"
                 break
     return PointResult(float(incline), float(spacing), how, plan, _entry(q, plan),
-                       time.perf_counter() - t0, tuple(tried))
+                       time.perf_counter() - t0, tuple(tried), _residual(q, plan))
+
+
+def _residual(q: BplirParams, plan) -> float:
+    """The plan's unaccounted share of its energy (nan: no plan)."""
+    return math.nan if plan is None else energy_balance(plan, q.plant)["residual_share"]
+
+
+def straight_guesses(q: BplirParams) -> tuple[float, ...]:
+    """The planner's straight-line guess durations for ``q``'s manoeuvre (s)."""
+    if q.scenario.start == "hanging":
+        return P.HANGING_GUESSES
+    return P.pump_guesses(q.plant) if q.scenario.manoeuvre == "pump" else P.PLAN_GUESSES
 
 
 def _ended(plan) -> str:
@@ -132,9 +148,11 @@ def solve_library(params: BplirParams, inclines, spacings, *, workers: int = 0,
             solved[res.incline, res.spacing] = res
     plans, changed = refined(params, {p: r.plan for p, r in solved.items()})
     for a, d in changed:
+        q = at(params, a, d)
         solved[a, d] = dc.replace(solved[a, d], how="refined", plan=plans[a, d],
-                                  entry=_entry(at(params, a, d), plans[a, d]))
-    robot = json.dumps({"plant": params.plant.as_dict(), "start": params.scenario.start})
+                                  entry=_entry(q, plans[a, d]),
+                                  energy_residual=_residual(q, plans[a, d]))
+    robot = json.dumps({"plant": params.plant.as_dict(), "start": plan_kind(params)})
     lib = assemble_library(key or robot_library_key(params), sorted({a for a, _ in points}),
                            sorted({d for _, d in points}),
                            {p: r.entry for p, r in solved.items()})

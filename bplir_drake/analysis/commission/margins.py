@@ -9,6 +9,7 @@ import math
 import numpy as np
 
 from ...diagrams.plan import planned_i2t
+from ...diagrams.swing_plan import UNBALANCED_SHARE
 from ...params import (FrictionParams, GripperParams, ImuParams)
 from ...systems.motor import interlock_budget
 from ...systems.plant import gripper_position, gripper_velocity, mass_matrix
@@ -209,4 +210,18 @@ def assumptions(params) -> list[str]:
         out.append("the default robot's joint friction")
     out.append("the driver feeds nothing back to the supply")
     out.append("an impact meets both joints free (the motor's rotor inertia not counted)")
+    return out
+
+
+def unbalanced(points) -> list[str]:
+    """A line per grid point (a commission's rows) whose plan leaves more
+    than :data:`UNBALANCED_SHARE` of the energy it exchanges unaccounted:
+    the collocation's coarse steps lend it energy its tracking must find."""
+    out = []
+    for p in points:
+        r = p.get("energy_residual_share", math.nan)
+        if r > UNBALANCED_SHARE:
+            out.append(f"gripper {p['holding']}, from {p.get('start', 'line')}, "
+                       f"{p['incline_deg']:+g} deg, {p['spacing_m']:g} m: its energy balance "
+                       f"leaves {100 * r:.0f} % of the energy it exchanges unaccounted")
     return out

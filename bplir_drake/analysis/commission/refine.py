@@ -39,9 +39,13 @@ def solve_from(q: BplirParams, initial=None, guess_duration: float | None = None
     """One solve of the plan of ``q``, started from ``initial`` (a plan) or
     the straight line over ``guess_duration``: as the planner makes it (a
     plan from hanging with its own knots, iteration limit and envelope, and
-    not feasible where it heats the driver beyond ``hanging.i2t_share``)."""
+    not feasible where it heats the driver beyond ``hanging.i2t_share``; a
+    pump on its own knots, not feasible where it does not keep the robot's
+    energy)."""
     start = {"initial": initial} if initial is not None else {
         "guess_duration": guess_duration or 1.5}
+    if q.scenario.manoeuvre == "pump":
+        return P.pump_solve(q, **start)
     if q.scenario.start != "hanging":
         return P.plan_swing(q, end_depth=q.plan.end_depth, **start)
     made = P.hanging_planned(q)

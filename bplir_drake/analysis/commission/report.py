@@ -26,12 +26,13 @@ def plot_commission(result, axes=None):
     own = Scales.of(result.params.plant)
     refs = [r for r in shipped_references() if r.start == "line"][:1]
     line = [p for p in result.points if p.get("start", "line") == "line"]
-    for g, a in sorted({(p["holding"], p["incline_deg"]) for p in line}):
-        rows = sorted((p for p in line if p["incline_deg"] == a and p["holding"] == g),
-                      key=lambda p: p["spacing_m"])
+    for g, a, kind in sorted({(p["holding"], p["incline_deg"], p.get("manoeuvre", "swing"))
+                              for p in line}):
+        rows = sorted((p for p in line if p["incline_deg"] == a and p["holding"] == g
+                       and p.get("manoeuvre", "swing") == kind), key=lambda p: p["spacing_m"])
         d = [p["spacing_m"] / own.length for p in rows]
-        style = "o-" if g == 1 else "s--"
-        label = f"gripper {g}, {a:+g} deg"
+        style = ("o" if g == 1 else "s") + ("-" if kind == "swing" else ":")
+        label = f"gripper {g}, {a:+g} deg" + ("" if kind == "swing" else f", {kind}")
         ax[0].plot(d, [p["duration_s"] / own.time for p in rows], style, label=label)
         ax[1].plot(d, [p["peak_torque_Nm"] / own.torque for p in rows], style, label=label)
     for a in sorted({p["incline_deg"] for p in result.points}):
@@ -59,8 +60,9 @@ def plot_commission(result, axes=None):
                        st["holding"] == 1 else "s", capsize=4, color=f"C{st['holding'] - 1}")
         ax[2].annotate(f"{st['captured']}/{st['samples']}", (k, y), textcoords="offset points",
                        xytext=(0, 6), ha="center", fontsize=8)
-    ax[2].set_xticks(range(len(studies)), [f"gripper {st['holding']}\n{st['incline_deg']:+g} deg"
-                                          for st in studies], fontsize=8)
+    ax[2].set_xticks(range(len(studies)), [f"gripper {st['holding']}{_by(st)}\n"
+                                          f"{st['incline_deg']:+g} deg" for st in studies],
+                     fontsize=7)
     ax[2].set_xlim(-0.6, max(len(studies), 1) - 0.4)
     ax[2].axhline(100 * READY_RATE, ls=":", color="0.4", lw=1)
     ax[2].set(ylabel="captured (%)", ylim=(0, 108), title="verification studies")
@@ -69,6 +71,15 @@ def plot_commission(result, axes=None):
                f"{own.time:.3f} s, m g L {own.torque:.2f} N m; studies' root seed "
                f"{result.seed}; Wilson 95 % intervals")
     return finish(fig, f"Commissioning: {result.name}", caption)
+
+
+def _by(row: dict) -> str:
+    """A row's manoeuvre from the line when it is a pump, and whether it was
+    the one chosen (a single swing says nothing)."""
+    if row.get("manoeuvre", "swing") == "swing" and row.get("chosen", True):
+        return ""
+    return f", {row.get('manoeuvre', 'swing')}" + ("" if row.get("chosen", True) else
+                                                   " (not chosen)")
 
 
 def _num(x, fmt=".2f") -> str:
@@ -96,12 +107,17 @@ def report_markdown(result, fmt: str = "png") -> str:
               "| --- | --- | --- | --- | --- | --- | --- |"]
     for st in result.studies:
         lo, hi = st["wilson95"]
-        lines.append(f"| gripper {st['holding']} | {st['incline_deg']:+g} | "
+        lines.append(f"| gripper {st['holding']}{_by(st)} | {st['incline_deg']:+g} | "
                      f"{st['captured']}/{st['samples']} | "
                      f"{100 * lo:.1f}-{100 * hi:.1f} % | {_num(st['capture_speed_p50_mps'])} / "
                      f"{_num(st['capture_speed_p95_mps'])} | {_num(st['peak_voltage_V'], '.1f')} | "
                      f"{_num(st['peak_torque_Nm'])} |")
     lines += _landing_lines(result.studies)
+    if s["unbalanced"]:
+        lines += ["", "## Plans that do not keep the robot's energy", "",
+                  "The elbow's work less the friction's should be the robot's change of energy; "
+                  "these plans gain energy between their collocation knots, which their tracking "
+                  "has to find:", ""] + [f"- {x}" for x in s["unbalanced"]]
     if s["binding"]:
         lines += ["", "## What binds the plans", ""]
         lines += [f"- gripper {g}: {x}" for g, x in s["binding"].items() if x]
@@ -122,7 +138,7 @@ def report_markdown(result, fmt: str = "png") -> str:
               "| duration (s) | peak torque (N m) | peak voltage (V) |",
               "| --- | --- | --- | --- | --- | --- | --- | --- |"]
     for p in result.points:
-        lines.append(f"| gripper {p['holding']} | {p.get('start', 'line')} | "
+        lines.append(f"| gripper {p['holding']}{_by(p)} | {p.get('start', 'line')} | "
                      f"{p['incline_deg']:+g} | {p['spacing_m']:.3f} | "
                      f"{p['how']} | "
                      f"{_num(p['duration_s'])} | {_num(p['peak_torque_Nm'])} | "

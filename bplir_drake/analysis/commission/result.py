@@ -8,6 +8,7 @@ import numpy as np
 
 from ...io import Result, package_version
 from ...params import BplirParams
+from .margins import unbalanced
 from .report import plot_commission
 
 
@@ -64,6 +65,7 @@ class CommissionResult(Result):
                           wilson95=s["wilson95"], verdict=s.get("verdict"),
                           samples_to_show=s.get("samples_to_show"),
                           seed=s["seed"], outcomes=s["outcomes"], impact=s.get("impact"),
+                          manoeuvre=s.get("manoeuvre", "swing"), chosen=s.get("chosen", True),
                           peak_voltage_V=s["peak_voltage_V"], peak_torque_Nm=s["peak_torque_Nm"])
                      for s in self.studies],
             limits=list(self.limits), unshown=list(self.unshown),
@@ -73,7 +75,7 @@ class CommissionResult(Result):
                        from_straight_line=how.count("straight line")),
             margins=self.margins, motor=self.motor,
             binding={str(g): x for g, x in self.binding.items()}, assumed=list(self.assumed),
-            flat_line=self.flat_line(), seed=self.seed,
+            unbalanced=unbalanced(self.points), flat_line=self.flat_line(), seed=self.seed,
             wall_s=self.wall_s, grid=self.points, package_version=package_version())
 
     def flat_line(self) -> dict:
@@ -84,7 +86,7 @@ class CommissionResult(Result):
         d = self.params.scenario.grip_spacing
         rows = [p for p in self.points if p["incline_deg"] == 0.0 and p["spacing_m"] == d
                 and p["how"] != "none" and p["holding"] == 1
-                and p.get("start", "line") == "line"]
+                and p.get("start", "line") == "line" and p.get("chosen", True)]
         if not rows:
             return {}
         r = rows[0]
@@ -103,8 +105,9 @@ class CommissionResult(Result):
 
     def rate(self, incline: float, holding: int = 1) -> float:
         """The verification study's capture rate at ``incline`` holding with
-        gripper ``holding`` (nan: none)."""
+        gripper ``holding`` by the manoeuvre chosen (nan: none)."""
         for s in self.studies:
-            if np.isclose(s["incline_deg"], incline) and s["holding"] == holding:
+            if np.isclose(s["incline_deg"], incline) and s["holding"] == holding \
+                    and s.get("chosen", True):
                 return s["rate"]
         return math.nan

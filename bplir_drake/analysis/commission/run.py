@@ -3,13 +3,14 @@ verdict (:func:`commission`)."""
 from __future__ import annotations
 
 import shutil
+from dataclasses import dataclass, field
 import tempfile
 import time
 from pathlib import Path
 
 from ...diagrams.plan_library import robot_library_path
 from ...io import atomic_path, write_json_atomic
-from ...params import BplirParams, save_toml, swapped
+from ...params import BplirParams, pumping, save_toml, swapped
 from ..montecarlo.runner import run_study
 from ..traverse.recovery import retry_params
 from ..traverse.swing_setup import swing_params
@@ -46,7 +47,8 @@ def commission(params: BplirParams, *, inclines=(0.0,), spacings=None,
                samples: int = DEFAULT_SAMPLES,
                seed: int = 1, out=None, workers: int = 0, progress: bool = False,
                name: str = "robot", grippers=(1, 2), hanging: bool = True, dask: bool = False,
-               scheduler: str | None = None, figure: tuple = ("png", 150)) -> CommissionResult:
+               scheduler: str | None = None, figure: tuple = ("png", 150),
+               pumps: bool = True) -> CommissionResult:
     """Commission the robot ``params`` (its plant, friction, motor, IMUs
     and gripper) holding with each of ``grippers`` (2: the robot seen from
     its other gripper, :func:`~bplir_drake.params.swapped`, commissioned by
@@ -58,7 +60,11 @@ def commission(params: BplirParams, *, inclines=(0.0,), spacings=None,
     gripper's swings tried again from hanging (a traversal's recovery,
     :func:`~bplir_drake.analysis.traverse.recovery.retry_params`) on the
     same grid where its swing from the line has a plan (no try of a swing
-    that has none): a point without a plan there is a limit too.  With ``out`` the robot's parameters, its
+    that has none): a point without a plan there is a limit too.  With
+    ``pumps``, where the single swing leaves a limit, the same grid and
+    studies of the pumping manoeuvre (:func:`~bplir_drake.params.pumping`),
+    and the manoeuvre whose studies do better is the robot's (the other's
+    rows and studies are kept, ``chosen`` false).  With ``out`` the robot's parameters, its
     libraries, the studies (resumable), ``commission.json``, ``report.md``
     and the figure are written there.  ``workers`` processes on this
     machine, or Dask (``dask``: a local cluster; ``scheduler``: an existing
@@ -71,41 +77,94 @@ def commission(params: BplirParams, *, inclines=(0.0,), spacings=None,
         out.mkdir(parents=True, exist_ok=True)
         save_toml(params, out / "robot.toml")
     pool = dict(workers=workers, dask=dask, scheduler=scheduler, progress=progress)
-    points, studies, limits, unshown, plans, binding = [], [], [], [], [], {}
+    grid = dict(inclines=inclines, spacings=spacings, samples=samples, seed=seed, out=out,
+                pool=pool)
+    found = Found()
     for g in grippers:
         robot, tries = held_by(params, g)
-        solved = solve_library(robot, inclines, spacings, **pool)
-        plans += [r.plan for r in solved.values()]
-        binding[g] = binding_line(robot, [r.plan for r in solved.values()])
-        points += [r.row() | {"holding": g, "start": "line"} for r in solved.values()]
-        limits += [f"gripper {g}: {_no_plan(robot, r)}" for r in solved.values()
-                   if r.plan is None]
-        if hanging and any(r.plan is not None for r in solved.values()):
+        chosen = _manoeuvre(robot, g, **grid)
+        if pumps and chosen.limits:
+            pump = _manoeuvre(pumping(robot), g, **grid)
+            if pump.score() > chosen.score():
+                chosen, pump = pump, chosen
+            found.add(pump, chosen=False)
+        found.add(chosen, chosen=True)
+        if hanging and any(p is not None for p in chosen.plans):
             from_hanging = solve_library(tries, inclines, spacings, **pool)
-            plans += [r.plan for r in from_hanging.values()]
-            points += [r.row() | {"holding": g, "start": "hanging"}
-                       for r in from_hanging.values()]
-            limits += [f"gripper {g}, from hanging: {_no_plan(tries, r)}"
-                       for r in from_hanging.values() if r.plan is None]
-        for a in inclines:
-            if all(solved[a, d].plan is None for d in spacings):
-                continue
-            where = None if out is None else out / "studies" / f"gripper{g}_incline_{a:+05.1f}"
-            v, why = _verify(robot, a, solved, samples, seed, spacings, where, pool)
-            own = _own_spacing(robot, a, solved, spacings)
-            studies.append(v | {"holding": g, "impact": None if own is None else landing_impact(
-                robot, own, v["capture_speed_p95_mps"])})
-            if why:
-                (unshown if v["verdict"] == "not shown" else limits).append(f"gripper {g}: {why}")
-    result = CommissionResult(name=name, params=params, points=points, studies=studies,
-                              limits=limits, unshown=unshown,
-                              margins=electric_margins(params, plans),
-                              motor=motor_figures(params), binding=binding,
+            found.plans += [r.plan for r in from_hanging.values()]
+            found.points += [r.row() | {"holding": g, "start": "hanging", "manoeuvre": "swing",
+                                        "chosen": True} for r in from_hanging.values()]
+            found.limits += [f"gripper {g}, from hanging: {_no_plan(tries, r)}"
+                             for r in from_hanging.values() if r.plan is None]
+    result = CommissionResult(name=name, params=params, points=found.points,
+                              studies=found.studies, limits=found.limits, unshown=found.unshown,
+                              margins=electric_margins(params, found.plans),
+                              motor=motor_figures(params), binding=found.binding,
                               assumed=assumptions(params),
                               seed=seed, wall_s=time.perf_counter() - t0)
     if out is not None:
         _save(result, out, grippers, figure)
     return result
+
+
+@dataclass
+class Found:
+    """What commissioning found for one holding gripper's manoeuvre from the
+    line (or, merged, for the robot): grid rows, studies, limit lines, the
+    lines of studies too small to show the bar, plans, the binding lines."""
+
+    points: list = field(default_factory=list)
+    studies: list = field(default_factory=list)
+    limits: list = field(default_factory=list)
+    unshown: list = field(default_factory=list)
+    plans: list = field(default_factory=list)
+    binding: dict = field(default_factory=dict)
+
+    def score(self) -> tuple:
+        """(studies shown or above the bar, their mean capture rate): the
+        better manoeuvre scores higher."""
+        ok = sum(st["verdict"] != "below" for st in self.studies)
+        rates = [st["rate"] for st in self.studies]
+        return ok - len(self.limits) + len(self.unshown), sum(rates) / max(len(rates), 1)
+
+    def add(self, other: "Found", chosen: bool) -> None:
+        """``other``'s rows and studies marked ``chosen``; its limits, plans
+        and binding lines only when it is the manoeuvre chosen."""
+        self.points += [p | {"chosen": chosen} for p in other.points]
+        self.studies += [st | {"chosen": chosen} for st in other.studies]
+        if chosen:
+            self.limits += other.limits
+            self.unshown += other.unshown
+            self.plans += other.plans
+            self.binding |= other.binding
+
+
+def _manoeuvre(robot, g: int, *, inclines, spacings, samples, seed, out, pool) -> Found:
+    """The robot ``robot`` held by gripper ``g`` reaching the line by its
+    manoeuvre (``scenario.manoeuvre``): its library on the grid, the limit
+    line of every point without a plan, and a verification study at each
+    incline with a plan."""
+    kind = robot.scenario.manoeuvre
+    solved = solve_library(robot, inclines, spacings, **pool)
+    f = Found(plans=[r.plan for r in solved.values()])
+    f.binding[g] = binding_line(robot, f.plans)
+    f.points = [r.row() | {"holding": g, "start": "line", "manoeuvre": kind}
+                for r in solved.values()]
+    head = f"gripper {g}: " + ("" if kind == "swing" else "pumping: ")
+    f.limits = [head + _no_plan(robot, r) for r in solved.values() if r.plan is None]
+    for a in inclines:
+        if all(solved[a, d].plan is None for d in spacings):
+            continue
+        name = f"gripper{g}_incline_{a:+05.1f}" if kind == "swing" else \
+            f"gripper{g}_{kind}_incline_{a:+05.1f}"
+        where = None if out is None else out / "studies" / name
+        v, why = _verify(robot, a, solved, samples, seed, spacings, where, pool)
+        own = _own_spacing(robot, a, solved, spacings)
+        f.studies.append(v | {"holding": g, "manoeuvre": kind, "impact": None if own is None
+                              else landing_impact(robot, own, v["capture_speed_p95_mps"])})
+        if why:
+            (f.unshown if v["verdict"] == "not shown" else f.limits).append(head + why)
+    return f
 
 
 def _verify(robot, incline, solved, samples, seed, spacings, where, pool):

@@ -120,6 +120,13 @@ def nearest_point(ref: Reference, plant, incline: float, spacing: float) -> tupl
     return out
 
 
+def plan_kind(params: BplirParams) -> str:
+    """What kind of plan a reference must be to start ``params``'s from:
+    "hanging", "pump" (a pumping manoeuvre from the line) or "line"."""
+    sc = params.scenario
+    return "pump" if sc.manoeuvre == "pump" else sc.start
+
+
 def similar_guesses(params: BplirParams, references: list[Reference], count: int = 2):
     """Up to ``count`` scaled plans for the scenario of ``params`` (its
     robot, start, incline and grip spacing), from the references of the same
@@ -128,7 +135,7 @@ def similar_guesses(params: BplirParams, references: list[Reference], count: int
     shifted onto the scenario's start and target by the planner)."""
     plant, sc = params.plant, params.scenario
     own = shape(plant)
-    same = [r for r in references if r.start == sc.start]
+    same = [r for r in references if r.start == plan_kind(params)]
     same.sort(key=lambda r: float(np.linalg.norm(shape(r.plant) - own)))
     out = []
     for ref in same[:count]:

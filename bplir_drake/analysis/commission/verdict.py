@@ -136,7 +136,7 @@ def no_plan_reason(params, incline: float, spacing: float, guess, tried=()) -> s
             free = m.max_voltage / (m.back_emf_constant * m.gear_ratio)
             line += (f" and {rate:.1f} rad/s at the elbow (no-load rate at "
                      f"{m.supply_voltage:g} V: {free:.1f} rad/s)")
-    return line + "; pumping manoeuvres from the line were not tried"
+    return line
 
 
 def _short_of_the_grip(params, rows, misses) -> list[str]:
@@ -151,8 +151,13 @@ def _short_of_the_grip(params, rows, misses) -> list[str]:
     if len(short) * 2 <= len(misses):
         return []
     gap = 1e3 * float(np.median([r["closest_distance_m"] for r in short]))
-    d_short = float(np.mean([r["scenario.grip_spacing"] for r in short]))
-    d_all = float(np.mean([r["scenario.grip_spacing"] for r in rows]))
+    own = params.scenario.grip_spacing   # a study on one spacing draws none
+
+    def spacing(r):
+        return r.get("scenario.grip_spacing", own)
+
+    d_short = float(np.mean([spacing(r) for r in short]))
+    d_all = float(np.mean([spacing(r) for r in rows]))
     line = (f"{len(short)} of {len(misses)} misses stop short: the gripper's closest approach "
             f"{gap:.1f} mm (median) against the {1e3 * band:g} mm capture distance, at grip "
             f"spacings {d_short:.3f} m on average (the study's {d_all:.3f} m)")

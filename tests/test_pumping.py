@@ -2,6 +2,7 @@
 are kept honest, and how commissioning chooses between a swing and a pump."""
 from __future__ import annotations
 
+import dataclasses
 import math
 import sys
 from pathlib import Path
@@ -81,3 +82,116 @@ def test_commissioning_keeps_the_manoeuvre_whose_studies_do_better(monkeypatch):
     assert math.isnan(r.rate(0.0, 1)) and r.rate(0.0, 2) == 0.967
     without = run.commission(preset(), grippers=(2,), hanging=False, pumps=False)
     assert without.limits == ["gripper 2: below"] and len(without.studies) == 1
+
+
+def test_bplir_plan_pumps_from_either_gripper(monkeypatch, tmp_path, capsys):
+    """``bplir plan --pump --gripper 2``: the swapped robot's pump on 151
+    knots, its energy balance said; --pump with --knots is refused in one line."""
+    import json
+
+    from bplir_drake import cli
+    from conftest import quick_plan
+
+    seen = []
+
+    def solver(params, q0, qT, tau_max, power, tmax, knots, *a, **k):
+        seen.append((params.plant.l1, knots, tmax))
+        return quick_plan(params)
+
+    monkeypatch.setattr(P, "_solve_plan", solver)
+    monkeypatch.setenv("BPLIR_CACHE_DIR", str(tmp_path / "cache"))
+    rc = cli.main(["plan", "--pump", "--gripper", "2", "--no-plots", "--out", str(tmp_path / "o"),
+                   "--json"])
+    summary = json.loads(capsys.readouterr().out)
+    p = preset()
+    assert rc == 0 and summary["manoeuvre"] == "pump" and summary["energy_residual_share"] == 0.0
+    assert seen == [(p.plant.l2, 151, 9.37)]   # the robot held by gripper 2, one guess
+    rc = cli.main(["plan", "--pump", "--knots", "41", "--out", str(tmp_path / "o")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and err == ["bplir: error: --pump plans on its own knots within the motor's "
+                               "power rating; allowed without --knots and --power"]
+
+
+def _fake(reversals, cost=1.0):
+    from types import SimpleNamespace
+
+    return SimpleNamespace(link1_reversals=reversals, feasible=True,
+                           objective=lambda w, c=cost: c)
+
+
+def test_a_row_end_takes_the_manoeuvre_most_of_the_grid_shares(monkeypatch):
+    """A row of three pumps reversing link 1 6, 8, 8 times: the end with 6
+    is re-solved from its neighbour (8); 8, 6, 8: the middle from its two
+    neighbours, the ends kept; 6, 8: no manoeuvre most plans share, kept."""
+    from bplir_drake.analysis.commission import refine
+
+    calls = []
+
+    def solve_from(q, initial=None, guess_duration=None):
+        calls.append(q.scenario.grip_spacing)
+        return _fake(initial.link1_reversals)
+
+    monkeypatch.setattr(refine, "solve_from", solve_from)
+    p = preset()
+    grid = {(0.0, 1.092): _fake(6), (0.0, 1.2): _fake(8), (0.0, 1.308): _fake(8)}
+    out, changed = refine.harmonise(p, grid)
+    assert changed == {(0.0, 1.092)} and out[0.0, 1.092].link1_reversals == 8
+    calls.clear()
+    out, changed = refine.harmonise(p, {(0.0, 1.092): _fake(8), (0.0, 1.2): _fake(6),
+                                        (0.0, 1.308): _fake(8)})
+    assert changed == {(0.0, 1.2)} and calls == [1.2]
+    out, changed = refine.harmonise(p, {(0.0, 1.1): _fake(6), (0.0, 1.2): _fake(8)})
+    assert changed == set()
+
+
+def test_a_new_robots_grid_is_solved_outward_from_its_own_spacing(monkeypatch):
+    """No similar robot: the robot's own spacing on a level line is solved
+    from straight lines first, its neighbours then from it (continuation)."""
+    from bplir_drake.analysis.commission import grid as G
+
+    calls = []
+
+    def solve_from(q, initial=None, guess_duration=None):
+        d = q.scenario.grip_spacing
+        calls.append((d, "continuation" if initial is not None else "straight"))
+        return _fake(8)
+
+    for name, value in (("solve_from", solve_from), ("similar_guesses", lambda q, refs: []),
+                        ("_entry", lambda q, plan: None), ("_residual", lambda q, plan: 0.0),
+                        ("refined", lambda params, plans: (plans, set())),
+                        ("assemble_library", lambda *a: SimpleLib()),
+                        ("save_library", lambda lib, path: None)):
+        monkeypatch.setattr(G, name, value)
+    p = preset()
+    solved = G.solve_library(p, [0.0], [1.092, 1.2, 1.308], workers=1, path="unused.npz")
+    assert calls == [(1.2, "straight"), (1.092, "continuation"), (1.308, "continuation")]
+    assert [solved[0.0, d].how for d in (1.092, 1.2, 1.308)] == ["continuation", "straight line",
+                                                                 "continuation"]
+
+
+@dataclasses.dataclass
+class SimpleLib:
+    """A stand-in for an assembled library (only replaced and saved)."""
+
+    robot: str = ""
+
+
+def test_pumps_of_other_phases_are_not_blended_but_the_nearest_is_taken(monkeypatch):
+    """A row of two pumps reversing link 1 6 and 8 times: between them a
+    pump takes the nearer one's plan (its duration), a single swing none."""
+    import numpy as np
+
+    from bplir_drake.diagrams import plan_library as L
+
+    n = L.LIBRARY_SAMPLES
+    states = np.zeros((1, 2, n, 4))
+    lib = L.PlanLibrary(key="k", inclines=np.array([0.0]), spacings=np.array([1.1, 1.3]),
+                        durations=np.array([[4.0, 5.0]]), states=states,
+                        torque=np.zeros((1, 2, n)), gain=np.zeros((1, 2, n, 4)),
+                        offset=np.zeros((1, 2, n)), reversals=np.array([[6, 8]]))
+    monkeypatch.setattr(L, "find_library", lambda params: lib)
+    p = preset()
+    for d, duration in ((1.15, 4.0), (1.21, 5.0)):
+        plan, _ = L.library_plan(pumping(p.with_(scenario=p.scenario.__class__(grip_spacing=d))))
+        assert plan.duration == pytest.approx(duration)
+    assert L.library_plan(p.with_(scenario=p.scenario.__class__(grip_spacing=1.15))) is None

@@ -15,12 +15,14 @@ def cmd_plan(args) -> int:
 
     from ..diagrams.plan import (energy_balance, hanging_plan, plan_swing, planned_i2t,
                                  plot_plan, pump_plan)
-    from ..params import pumping
+    from ..params import pumping, swapped
     from ..systems.motor import interlock_budget
 
     params = _load_params(args)
     if args.incline is not None:
         params = params.with_(scenario=dc.replace(params.scenario, incline_deg=args.incline))
+    if args.gripper == 2:
+        params = swapped(params)
     if args.pump:
         if args.knots is not None or args.power is not None:
             raise InputError("--pump plans on its own knots within the motor's power rating; "
@@ -76,5 +78,7 @@ def add_parser(sub) -> None:
     option(p, "--knots", int, None, "collocation knots (default 41; 61 from hanging, "
            "scenario.start = hanging, where the guesses of a swing from hanging are tried)")
     option(p, "--no-plots", bool, help="skip the figure (plan.png)")
+    option(p, "--gripper", int, 1, "the gripper the robot holds with (2: the robot seen from "
+           "its other gripper)", choices=(1, 2))
     option(p, "--pump", bool, help="a pumping manoeuvre from the line (scenario.manoeuvre = "
            "pump: link 1 swings back and forth as often as its plan needs)")

@@ -276,22 +276,42 @@ def _blend(lib: PlanLibrary, incline: float, spacing: float) -> dict:
     return out
 
 
+def _nearest(lib: PlanLibrary, incline: float, spacing: float) -> dict | None:
+    """The plan of the grid point nearest the scenario among the corners
+    around it that have one (None: none has), as :func:`_blend` gives it."""
+    held = [(abs(lib.inclines[i] - incline) + abs(lib.spacings[j] - spacing), i, j)
+            for i, _ in _corners(lib.inclines, incline) for j, _ in _corners(lib.spacings, spacing)
+            if lib.reversals[i, j] >= 0]
+    if not held:
+        return None
+    _, i, j = min(held)
+    return {name: getattr(lib, name)[i, j] for name in
+            ("durations", "states", "torque", "gain", "offset")}
+
+
 def library_plan(params: BplirParams):
     """(plan, tracking gains) of the scenario of ``params`` interpolated
     from the shipped library for its model, or None when ``plan.library``
     is off, no library matches the model, the grid does not cover the
     scenario or the plans around it are not the same manoeuvre
-    (:func:`same_manoeuvre`)."""
+    (:func:`same_manoeuvre`; for a pumping manoeuvre, the nearest of them
+    shifted onto the scenario's start and target)."""
     from pydrake.trajectories import PiecewisePolynomial
 
     sc = params.scenario
     if not params.plan.library:
         return None
     lib = find_library(params)
-    if lib is None or not lib.covers(sc.incline_deg, sc.grip_spacing) \
-            or not same_manoeuvre(lib, sc.incline_deg, sc.grip_spacing):
+    if lib is None or not lib.covers(sc.incline_deg, sc.grip_spacing):
         return None
-    b = _blend(lib, sc.incline_deg, sc.grip_spacing)
+    if same_manoeuvre(lib, sc.incline_deg, sc.grip_spacing):
+        b = _blend(lib, sc.incline_deg, sc.grip_spacing)
+    elif sc.manoeuvre == "pump":   # pumps of other phases do not blend: the nearest's
+        b = _nearest(lib, sc.incline_deg, sc.grip_spacing)
+        if b is None:
+            return None
+    else:
+        return None
     s = np.linspace(0.0, 1.0, LIBRARY_SAMPLES)
     times = s * b["durations"]
     q0 = start_configuration(sc.start, sc.grip_spacing, params.plant, math.radians(sc.incline_deg))

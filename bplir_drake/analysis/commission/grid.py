@@ -60,10 +60,10 @@ class PointResult:
 
 
 def solve_point(params: BplirParams, incline: float, spacing: float,
-                neighbour=None) -> PointResult:
-    """The plan at one grid point with its library entry: from similar
-    robots' plans scaled to this one, else from ``neighbour`` (a solved
-    SwingPlan next to it), else from the straight-line guesses."""
+                neighbour=None, straight: bool = True) -> PointResult:
+    """The plan at one grid point with its library entry: from ``neighbour``
+    (a solved SwingPlan next to it), else from similar robots' plans scaled
+    to this one, else (with ``straight``) from the straight-line guesses."""
     t0 = time.perf_counter()
     q = at(params, incline, spacing)
     tries = [("similarity", g) for g in similar_guesses(
@@ -77,7 +77,7 @@ def solve_point(params: BplirParams, incline: float, spacing: float,
         if p.feasible:
             plan, how = p, kind
             break
-    if plan is None:
+    if plan is None and straight:
         for duration in straight_guesses(q):
             p = solve_from(q, guess_duration=duration)
             tried.append(f"straight line over {duration:g} s: {_ended(p)}")
@@ -130,19 +130,22 @@ def solve_library(params: BplirParams, inclines, spacings, *, workers: int = 0,
                   path=None, key: str | None = None) -> dict:
     """``{(incline, spacing): PointResult}`` over the grid, the library
     saved for ``params``'s model: every point from similar robots first (in
-    parallel: ``workers`` processes, or Dask), then the points without a
-    plan from their solved neighbours, then the grid made fit to blend
+    parallel: ``workers`` processes, or Dask), the point nearest a level
+    line at the robot's own spacing from straight lines too, then the points
+    without a plan from their solved neighbours (or straight lines, where
+    none has one), then the grid made fit to blend
     (:func:`~.refine.refined`; a replaced point's ``how`` says so).  Saved at
     ``path`` under ``key`` (default: the plan cache's commissioned library,
     :func:`~bplir_drake.diagrams.plan_library.robot_library_path`)."""
     pool = dict(workers=workers, dask=dask, scheduler=scheduler, progress=progress)
     points = [(float(a), float(d)) for a in inclines for d in spacings]
+    first = min(points, key=lambda p: (abs(p[0]), abs(p[1] - params.scenario.grip_spacing)))
     solved = {}
-    for res in map_jobs(solve_point, [(params, a, d) for a, d in points], desc="plans",
-                        unit="plans", **pool):
+    for res in map_jobs(solve_point, [(params, a, d, None, (a, d) == first) for a, d in points],
+                        desc="plans", unit="plans", **pool):
         solved[res.incline, res.spacing] = res
     missing = [p for p in points if solved[p].plan is None]
-    if missing and len(missing) < len(points):
+    if missing:
         args = [(params, a, d, _neighbour((a, d), solved)) for a, d in missing]
         for res in map_jobs(solve_point, args, desc="plans (continued)", unit="plans", **pool):
             solved[res.incline, res.spacing] = res

@@ -221,7 +221,9 @@ def unbalanced(points) -> list[str]:
     for p in points:
         r = p.get("energy_residual_share", math.nan)
         if r > UNBALANCED_SHARE:
-            out.append(f"gripper {p['holding']}, from {p.get('start', 'line')}, "
+            kind = "" if p.get("manoeuvre", "swing") == "swing" else f" ({p['manoeuvre']})"
+            kind += "" if p.get("chosen", True) else " (not chosen)"
+            out.append(f"gripper {p['holding']}, from {p.get('start', 'line')}{kind}, "
                        f"{p['incline_deg']:+g} deg, {p['spacing_m']:g} m: its energy balance "
                        f"leaves {100 * r:.0f} % of the energy it exchanges unaccounted")
     return out

@@ -97,9 +97,20 @@ def repair(params: BplirParams, plans: dict) -> tuple[dict, set]:
     return out, changed
 
 
+def _common(plans: list):
+    """The manoeuvre (link-1 reversals) that at least two of ``plans`` share
+    and more than share any other (None: no such)."""
+    count = Counter(p.link1_reversals for p in plans).most_common()
+    if not count or count[0][1] < 2 or (len(count) > 1 and count[1][1] == count[0][1]):
+        return None
+    return count[0][0]
+
+
 def harmonise(params: BplirParams, plans: dict) -> tuple[dict, set]:
     """``plans`` with every plan whose manoeuvre differs from the one most
-    of its grid neighbours share (at least two, more than any other), or
+    of its grid neighbours share (at least two, more than any other; at the
+    end of a row of one incline or spacing, with one neighbour, the one most
+    of the grid's plans share, when that neighbour's is it), or
     that is that manoeuvre at more than :data:`REPAIR_RATIO` times the cost
     of the cheapest of them, re-solved from that cheapest neighbour; kept
     when the new plan is feasible, their manoeuvre and costs at most
@@ -110,11 +121,11 @@ def harmonise(params: BplirParams, plans: dict) -> tuple[dict, set]:
     for a, d in plans:
         plan = out[a, d]
         near = _neighbours(out, a, d)
-        count = Counter(p.link1_reversals for p in near).most_common()
-        if plan is None or not count or count[0][1] < 2 or (
-                len(count) > 1 and count[1][1] == count[0][1]):
+        kind = _common(near) if len(near) > 1 else _common(
+            [p for p in out.values() if p is not None])
+        if plan is None or kind is None or (len(near) == 1 and
+                                            near[0].link1_reversals != kind):
             continue
-        kind = count[0][0]
         ref = min((p for p in near if p.link1_reversals == kind), key=lambda p: p.objective(w))
         outlier = plan.objective(w) > REPAIR_RATIO * ref.objective(w)
         if plan.link1_reversals == kind and not outlier:

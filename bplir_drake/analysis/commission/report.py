@@ -157,7 +157,7 @@ def _landing_lines(studies) -> list[str]:
            "along the planned arrival (both joints free):", ""]
     for st in rows:
         im = st["impact"]
-        out.append(f"- gripper {st['holding']}, {st['incline_deg']:+g} deg: "
+        out.append(f"- gripper {st['holding']}{_by(st)}, {st['incline_deg']:+g} deg: "
                    f"{_num(im['capture_speed_mps'])} m/s into {im['effective_mass_kg']:.2f} kg: "
                    f"{_num(im['impact_energy_J'], '.3f')} J, {_num(im['impact_impulse_Ns'], '.3f')} "
                    "N s")

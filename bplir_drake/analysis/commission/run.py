@@ -226,7 +226,9 @@ def _short(v: dict) -> str:
 
 def _save(result: CommissionResult, out: Path, grippers, figure) -> None:
     """The result's files in ``out``."""
-    for lib in (robot_library_path(r) for g in grippers for r in held_by(result.params, g)):
+    robots = [r for g in grippers for r in held_by(result.params, g)]
+    robots += [pumping(robots[k]) for k in range(0, len(robots), 2)]   # each swing's pump
+    for lib in (robot_library_path(r) for r in robots):
         if lib.exists():
             (out / "plans").mkdir(exist_ok=True)
             with atomic_path(out / "plans" / lib.name) as tmp:

@@ -130,14 +130,18 @@ def commission_rows(item: dict) -> list[list[str]]:
     plans = res["plans"]
     for st in res["studies"]:
         lo, hi = st["wilson95"]
-        out.append([f"{item['label']}, gripper {st.get('holding', 1)}",
+        kind, chosen = st.get("manoeuvre", "swing"), st.get("chosen", True)
+        by = "" if kind == "swing" and chosen else f", {kind}"
+        verdict = ("ready" if not _limits_of(res, st) else "; ".join(_limits_of(res, st))) \
+            if chosen else "not chosen: the other manoeuvre's study does better"
+        out.append([f"{item['label']}, gripper {st.get('holding', 1)}{by}",
                     f"{st['incline_deg']:+g}°" if st["incline_deg"] else "0°",
                     str(st["seed"]), f"{plans['solved']} / {plans['points']} "
                     f"({plans['from_similarity']} by similarity)", f"{res['wall_s']:.0f}",
                     f"{st['captured']} / {st['samples']}",
                     f"{100 * lo:.1f} % - {100 * hi:.1f} %",
                     f"{num(st['capture_speed_p50_mps'])} / {num(st['capture_speed_p95_mps'])}",
-                    "ready" if not _limits_of(res, st) else "; ".join(_limits_of(res, st))])
+                    verdict])
     studied = {st.get("holding", 1) for st in res["studies"]}
     for g in sorted({p.get("holding", 1) for p in res["grid"]} - studied):   # no plan at all
         out.append([f"{item['label']}, gripper {g}", "0°", "--",

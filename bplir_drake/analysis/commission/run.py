@@ -121,11 +121,11 @@ class Found:
     binding: dict = field(default_factory=dict)
 
     def score(self) -> tuple:
-        """(studies shown or above the bar, their mean capture rate): the
-        better manoeuvre scores higher."""
+        """(studies captured above the bar less the limit lines, the
+        studies' mean capture rate): the better manoeuvre scores higher."""
         ok = sum(st["verdict"] != "below" for st in self.studies)
         rates = [st["rate"] for st in self.studies]
-        return ok - len(self.limits) + len(self.unshown), sum(rates) / max(len(rates), 1)
+        return ok - len(self.limits), sum(rates) / max(len(rates), 1)
 
     def add(self, other: "Found", chosen: bool) -> None:
         """``other``'s rows and studies marked ``chosen``; its limits, plans

@@ -10,7 +10,7 @@ import numpy as np
 
 from ...diagrams.plan import planned_i2t
 from ...diagrams.swing_plan import UNBALANCED_SHARE
-from ...params import (FrictionParams, GripperParams, ImuParams)
+from ...params import GripperParams, ImuParams
 from ...systems.motor import interlock_budget
 from ...systems.plant import gripper_position, gripper_velocity, mass_matrix
 
@@ -195,7 +195,7 @@ def assumptions(params) -> list[str]:
     noise, the default clamp's capture criterion; and how energy and
     impacts are counted."""
     out = []
-    f, d = params.friction, FrictionParams()
+    f = params.friction
     if f.fv1 == f.fv2 == f.fc1 == f.fc2 == 0.0:
         out.append("no joint friction (the description gives none; fit it with bplir calibrate)")
     imu, di = params.imu, ImuParams()
@@ -206,8 +206,6 @@ def assumptions(params) -> list[str]:
     if (g.capture_distance, g.capture_speed) == (dg.capture_distance, dg.capture_speed):
         out.append(f"the default clamp's capture criterion ({dg.capture_distance:g} m, "
                    f"{dg.capture_speed:g} m/s)")
-    if f == d:
-        out.append("the default robot's joint friction")
     out.append("the driver feeds nothing back to the supply")
     out.append("an impact meets both joints free (the motor's rotor inertia not counted)")
     return out

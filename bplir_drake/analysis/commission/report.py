@@ -45,14 +45,17 @@ def plot_commission(result, axes=None):
             ax[1].plot(x, np.max(np.abs(lib.torque[i]), axis=1) / sc.torque, ":",
                        color="0.6", lw=1, label=f"default robot, {lib.inclines[i]:+g} deg")
     ax[1].axhline(result.params.controller.torque_limit / own.torque, ls="-.", color="0.3",
-                  lw=1, label="torque limit")
+                  lw=1)
     ax[0].set(xlabel="grip spacing / reach  D / L", ylabel="plan duration / sqrt(L/g)",
               title="plans, in the robot's units")
     ax[1].set(xlabel="grip spacing / reach  D / L", ylabel="peak elbow torque / (m g L)",
               title="torque of the plans")
     ax[1].set_ylim(bottom=0)
-    ax[0].legend(fontsize=6)
-    ax[1].legend(fontsize=6)
+    ax[0].legend(fontsize=6, loc="center right")
+    limit = result.params.controller.torque_limit / own.torque   # the lines: panel 1's legend
+    ax[1].annotate("torque limit", (1.0, limit), xycoords=("axes fraction", "data"),
+                   xytext=(-4, -9), textcoords="offset points", ha="right", fontsize=6,
+                   color="0.3")
     studies = sorted(result.studies, key=lambda s: (s["incline_deg"], s["holding"]))
     for k, st in enumerate(studies):
         y, (lo, hi) = 100 * st["rate"], st["wilson95"]
@@ -60,9 +63,10 @@ def plot_commission(result, axes=None):
                        st["holding"] == 1 else "s", capsize=4, color=f"C{st['holding'] - 1}")
         ax[2].annotate(f"{st['captured']}/{st['samples']}", (k, y), textcoords="offset points",
                        xytext=(0, 6), ha="center", fontsize=8)
-    ax[2].set_xticks(range(len(studies)), [f"gripper {st['holding']}{_by(st)}\n"
-                                          f"{st['incline_deg']:+g} deg" for st in studies],
-                     fontsize=7)
+    ax[2].set_xticks(range(len(studies)), [
+        f"gripper {st['holding']}\n{st.get('manoeuvre', 'swing')}"
+        + ("" if st.get("chosen", True) else "\n(not chosen)") + f"\n{st['incline_deg']:+g} deg"
+        for st in studies], fontsize=7)
     ax[2].set_xlim(-0.6, max(len(studies), 1) - 0.4)
     ax[2].axhline(100 * READY_RATE, ls=":", color="0.4", lw=1)
     ax[2].set(ylabel="captured (%)", ylim=(0, 108), title="verification studies")

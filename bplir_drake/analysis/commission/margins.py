@@ -46,7 +46,7 @@ def motor_figures(params) -> dict:
 def electric_margins(params, plans) -> dict:
     """The plans' peak voltage, current and i^2 t against the motor's limits."""
     m = params.motor
-    ok = [p for p in plans if p is not None and p.feasible]
+    ok = _feasible(plans)
     if not ok:
         return {}
     return dict(peak_voltage_V=max(p.peak_voltage for p in ok), max_voltage_V=m.max_voltage,
@@ -59,7 +59,7 @@ def limit_uses(params, plans) -> dict:
     """Each limit's use by the feasible ``plans`` (largest over them): the
     peak torque, voltage, power and the driver's i^2 t, each with its limit
     and the share of it the planner allows; empty without a feasible plan."""
-    ok = [p for p in plans if p is not None and p.feasible]
+    ok = _feasible(plans)
     if not ok:
         return {}
     m, share = params.motor, params.plan
@@ -74,11 +74,20 @@ def limit_uses(params, plans) -> dict:
             for k, (u, lim, a, unit) in uses.items()}
 
 
+def _feasible(plans) -> list:
+    """The feasible ones of ``plans`` (None: a grid point without a plan)."""
+    return [p for p in plans if p is not None and p.feasible]
+
+
 def binding_limit(params, plans) -> dict | None:
     """The limit that holds the feasible ``plans``: the one they use most
     of, as a share of what the planner allows of it, when that is at least
     :data:`BINDING_SHARE` (None: no limit binds, or no plan)."""
-    uses = limit_uses(params, plans)
+    return _binding(limit_uses(params, plans))
+
+
+def _binding(uses: dict) -> dict | None:
+    """:func:`binding_limit` from the limits' uses (:func:`limit_uses`)."""
     if not uses:
         return None
     name = max(uses, key=lambda k: uses[k]["share"] / uses[k]["allowed_share"])
@@ -96,7 +105,7 @@ def gear_for_voltage(params, plans) -> dict | None:
     current and k times the back-EMF); with that voltage and current (None
     without the envelope or a plan)."""
     m = params.motor
-    ok = [p for p in plans if p is not None and p.feasible]
+    ok = _feasible(plans)
     if not ok or not m.envelope:
         return None
     tau = np.concatenate([p.torque for p in ok])
@@ -119,7 +128,7 @@ def binding_line(params, plans) -> str:
     if not uses:
         return ""
     figures = motor_figures(params)
-    bound = binding_limit(params, plans)
+    bound = _binding(uses)
     said = ", ".join(f"{k} {u['used']:.3g} of {u['limit']:.3g} {u['unit']}"
                      for k, u in uses.items())
     head = (f"the plans use {said} (the elbow's effective peak torque "

@@ -35,16 +35,16 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def robots(hardware=()):
-    from bplir_drake.analysis.traverse.recovery import retry_params
-    from bplir_drake.analysis.traverse.swing_setup import swing_params
-    from bplir_drake.params import preset
+    from bplir_drake.diagrams.retry_plan import retry
+    from bplir_drake.params import Manoeuvre, derive, preset, with_hardware
 
-    base = preset().with_hardware(*hardware)
-    line = {g: swing_params(base, g, 1.2, 0.0) for g in (1, 2)}
-    return {"single swing": base, "traversal, gripper 1 holding": line[1],
-            "traversal, gripper 2 holding": line[2],
-            "try from hanging, gripper 1 holding": retry_params(line[1], holding=1),
-            "try from hanging, gripper 2 holding": retry_params(line[2], holding=2)}
+    base = with_hardware(preset(), *hardware)
+    step = {g: Manoeuvre(gripper=g, spacing=1.2, incline_deg=0.0, context="traverse")
+            for g in (1, 2)}
+    return {"single swing": base, "traversal, gripper 1 holding": derive(base, step[1]),
+            "traversal, gripper 2 holding": derive(base, step[2]),
+            "try from hanging, gripper 1 holding": retry(base, step[1]),
+            "try from hanging, gripper 2 holding": retry(base, step[2])}
 
 
 def waits(params, n: int, rng) -> list[tuple[float, bool]]:

@@ -44,7 +44,7 @@ def scenarios():
     from bplir_drake.diagrams import plan as P
     from bplir_drake.analysis.traverse.line import load_line
     from bplir_drake.analysis.traverse.route import plan_route
-    from bplir_drake.analysis.traverse.run import swing_params
+    from bplir_drake.params import with_hardware
     from bplir_drake.params import from_dict, load_toml, preset
 
     base = preset()
@@ -58,7 +58,7 @@ def scenarios():
                base.with_(path=dc.replace(base.path, mode="plan"))]
     quick = ([at(base, incline_deg=a) for a in (-10.0, 10.0)]
              + [at(base, grip_spacing=d) for d in (1.1, 1.15, 1.3)])
-    tracked += quick + [swing_params(base, g, base.traverse.grip_spacing, 0.0) for g in (1, 2)]
+    tracked += quick + [traverse_swing(base, g, base.traverse.grip_spacing, 0.0) for g in (1, 2)]
     tracked.append(from_dict({"plant": {"m2": 1.6}}, base=base))   # as --set plant.m2=1.6
     acromonk = load_toml(ROOT / "examples" / "acromonk.toml")   # another robot: its swing
     tracked.append(acromonk)                                     # and its `bplir plan`
@@ -67,21 +67,20 @@ def scenarios():
     # and the 48 V swapped robot's try on the span's +2.6 deg chord planned by
     # guesses within 85 % of the torque limit and 35 % of the driver's i^2 t
     # budget (test_traverse_recovery's: the first guess heats the driver too much)
-    from bplir_drake.analysis.traverse.recovery import retry_params
-    tracked += [retry_params(swing_params(base, g, base.traverse.grip_spacing, 0.0))
+    tracked += [tried(base, g, base.traverse.grip_spacing, 0.0)
                 for g in (1, 2)]
-    b48 = base.with_hardware("48v")
+    b48 = with_hardware(base, "48v")
     b48 = b48.with_(hanging=dc.replace(b48.hanging, torque_share=0.85, i2t_share=0.35))
-    chord = retry_params(swing_params(b48, 2, b48.traverse.grip_spacing, math.radians(2.6)))
-    tracked += [chord, retry_params(swing_params(b48, 2, b48.traverse.grip_spacing,
-                                                 math.radians(2.6)), end_at_line=False)]
+    chord = tried(b48, 2, b48.traverse.grip_spacing, math.radians(2.6))
+    tracked += [chord, tried(b48, 2, b48.traverse.grip_spacing,
+                                                 math.radians(2.6), end_at_line=False)]
     # the 48 V original robot's try on a level line so paced (the apex shot's test)
-    tracked.append(retry_params(swing_params(b48, 1, b48.traverse.grip_spacing, 0.0)))
+    tracked.append(tried(b48, 1, b48.traverse.grip_spacing, 0.0))
     solved = base.with_(plan=dc.replace(base.plan, library=False))   # the libraries' own
-    plans += [lambda g=g: P.scenario_plan(retry_params(                 # plans at 0 deg, 1.2 m
-        swing_params(solved, g, solved.traverse.grip_spacing, 0.0))) for g in (1, 2)]
-    plans.append(lambda: P.scenario_plan(retry_params(   # and between grid points (+2.6 deg,
-        swing_params(solved, 1, 1.05, math.radians(2.6)))))   # 1.05 m)
+    plans += [lambda g=g: P.scenario_plan(tried(                 # plans at 0 deg, 1.2 m
+        solved, g, solved.traverse.grip_spacing, 0.0)) for g in (1, 2)]
+    plans.append(lambda: P.scenario_plan(tried(   # and between grid points (+2.6 deg,
+        solved, 1, 1.05, math.radians(2.6))))   # 1.05 m)
     q127 = at(base, grip_spacing=1.27)   # the warm start's test: its cold solve too
     plans += [lambda: P.scenario_plan(q127),
               lambda: P.plan_swing(q127, end_depth=q127.plan.end_depth, guess_duration=1.0)]
@@ -89,7 +88,7 @@ def scenarios():
         line = load_line(ROOT / "examples" / name)
         for r in plan_route(line, base):
             for g, (a, b) in ((1, (r.rear, r.landing1)), (2, (r.hold, r.landing2))):
-                sp = swing_params(base, g, base.traverse.grip_spacing, line.chord(a, b)[1])
+                sp = traverse_swing(base, g, base.traverse.grip_spacing, line.chord(a, b)[1])
                 plans.append(lambda sp=sp: P.scenario_plan(sp))
     # docs/commission.md's robot (the 0.7-scaled BPLIR): its points at 0 deg and
     # 0.84 m holding with either gripper, from the line and from hanging, each
@@ -97,10 +96,31 @@ def scenarios():
     from bplir_drake.analysis.commission.grid import solve_point
     from bplir_drake.params import swapped
     scaled = load_toml(ROOT / "examples" / "scaled_bplir.toml")
-    robots = [scaled, swapped(scaled)] + [retry_params(swing_params(scaled, g, 0.84, 0.0))
+    robots = [scaled, swapped(scaled)] + [tried(scaled, g, 0.84, 0.0)
                                           for g in (1, 2)]
     plans += [lambda r=r: solve_point(r, 0.0, 0.84).plan for r in robots]
     return plans, tracked
+
+
+def _step(gripper, spacing, incline, **kw):
+    from bplir_drake.params import Manoeuvre
+
+    return Manoeuvre(gripper=gripper, spacing=spacing, incline_deg=math.degrees(incline),
+                     context="traverse", **kw)
+
+
+def traverse_swing(robot, gripper, spacing, incline):
+    """A traversal's swing of ``robot`` (``incline`` in rad)."""
+    from bplir_drake.params import derive
+
+    return derive(robot, _step(gripper, spacing, incline))
+
+
+def tried(robot, gripper, spacing, incline, **kw):
+    """That swing tried again from hanging."""
+    from bplir_drake.diagrams.retry_plan import retry
+
+    return retry(robot, _step(gripper, spacing, incline, **kw))
 
 
 def main(argv=None) -> int:

@@ -8,6 +8,7 @@ import json
 import pytest
 
 from bplir_drake.params import preset
+from bplir_drake.params import with_hardware
 
 
 @pytest.fixture(scope="session")
@@ -21,7 +22,7 @@ def paced_48v(p):
     of the driver's i^2 t budget where a guess gives one
     (hanging.torque_share, hanging.i2t_share; the shipped plans of
     the tests of those mechanisms are made so)."""
-    p = p.with_hardware("48v")
+    p = with_hardware(p, "48v")
     return p.with_(hanging=dc.replace(p.hanging, torque_share=0.85, i2t_share=0.35))
 
 

@@ -8,6 +8,7 @@ import pytest
 from bplir_drake.analysis.identification import calibration as C
 from bplir_drake.analysis.identification import fit as F
 from bplir_drake.cli import main
+from bplir_drake.params import around
 
 
 @pytest.fixture(scope="module")
@@ -105,7 +106,7 @@ def test_a_small_robots_inertia_is_fitted_within_bounds_of_its_own_size():
 
     plant = PlantParams(m1=0.63, m2=0.63, l1=0.34, l2=0.34, lc1=0.18, lc2=0.16,
                         I1=0.0017, I2=0.0017)
-    nominal = BplirParams.of_plant(plant)
+    nominal = around(plant)
     nominal = nominal.with_(friction=dc.replace(nominal.friction, fv1=0.002, fv2=0.002,
                                                 fc1=0.0, fc2=0.0))
     truth = nominal.with_(true_plant=dc.replace(plant, I2=0.0017 * 1.2),

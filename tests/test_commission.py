@@ -181,9 +181,9 @@ def test_the_verdict_names_what_the_misses_show():
     assert not miss_reasons(robot, rows, strong)[0].endswith("would help")
     # held by gripper 2 its free link (link 1) ends 24 deg from upright at 1.3 m (46 deg held
     # by gripper 1, above: no such clause), and the shot's lift is sin 24 deg of its speed
-    from bplir_drake.analysis.traverse.swing_setup import swing_params
+    from moves import traverse_swing
 
-    held_by_2 = miss_reasons(swing_params(robot, 2, 1.2, 0.0), rows, strong)[1]
+    held_by_2 = miss_reasons(traverse_swing(robot, 2, 1.2, 0.0), rows, strong)[1]
     assert held_by_2 == second + ("; there the free link ends 24 deg from upright, where turning "
                                   "it lifts the gripper at 0.41 of the speed it moves it: the "
                                   "landing cannot make up a swing that falls short, a shorter "

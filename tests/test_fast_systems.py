@@ -19,6 +19,7 @@ from bplir_drake.systems.friction import (JointFriction, friction_system, fricti
                                           set_friction)
 from bplir_drake.systems.gripper import LineGeometry, first_arrival, line_metrics
 from bplir_drake.systems.motor import MotorDriver, current_command
+from bplir_drake.params import with_hardware
 from bplir_drake.systems.path import (PathGeometry, PathShape, ReducedDynamics, path_derivatives,
                                       path_q2, predict_rate_squared)
 
@@ -242,7 +243,7 @@ def test_the_onboard_computer_is_its_parts_wired_one_by_one():
     from bplir_drake.analysis.swing.run import SwingRunner
 
     study = load_study(Path(__file__).resolve().parents[1] / "examples" / "study_realistic.toml")
-    runs = [(preset(), 3), (preset(), 4), (preset().with_hardware("line-sensor"), 1),
+    runs = [(preset(), 3), (preset(), 4), (with_hardware(preset(), "line-sensor"), 1),
             sample_params(study.with_(seed=5), 0)[:2]]
     fused, parts = SwingRunner(), SwingRunner(onboard=False)
     for p, seed in runs:

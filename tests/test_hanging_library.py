@@ -7,13 +7,13 @@ import dataclasses as dc
 import numpy as np
 import pytest
 
-from bplir_drake.analysis.traverse.recovery import retry_params
-from bplir_drake.analysis.traverse.swing_setup import swing_params
+from moves import traverse_swing
 from bplir_drake.diagrams import plan as P
 from bplir_drake.diagrams.plan_library import (LIBRARY_INCLINES, LIBRARY_SPACINGS,
                                                library_path, library_plan, load_library,
                                                same_manoeuvre)
 from bplir_drake.params import preset
+from moves import tried
 
 
 def _solved(p):
@@ -24,7 +24,7 @@ def _solved(p):
 @pytest.fixture(scope="module")
 def tries():
     """{holding gripper: a try from hanging of the default robot}."""
-    return {g: retry_params(swing_params(preset(), g, 1.2, 0.0)) for g in (1, 2)}
+    return {g: tried(preset(), g, 1.2, 0.0) for g in (1, 2)}
 
 
 #: cells (of 48) where a try from hanging is blended, holding with gripper 1 / 2
@@ -112,7 +112,7 @@ def test_between_grid_points_the_blend_is_the_solved_manoeuvre_and_lands(tries):
 
     from bplir_drake.analysis.swing.run import run_swing
 
-    p = retry_params(swing_params(preset(), 1, 1.05, math.radians(2.6)))
+    p = tried(preset(), 1, 1.05, math.radians(2.6))
     plan, _ = P.tracking_plan(p)
     solved = _solved(p)
     assert plan.status == "interpolated" and solved.status != "interpolated"
@@ -120,7 +120,7 @@ def test_between_grid_points_the_blend_is_the_solved_manoeuvre_and_lands(tries):
     assert plan.duration == pytest.approx(solved.duration, abs=0.03)   # 3.091 / 3.109 s
     assert plan.objective() == pytest.approx(solved.objective(), rel=0.02)   # 33.2 / 33.5
     assert plan.peak_voltage <= plan.voltage_limit
-    assert np.abs(plan.torque).max() <= P.plan_torque_limit(P.hanging_planned(p))
+    assert np.abs(plan.torque).max() <= P.plan_torque_limit(P.planned_from_hanging(p))
     out = [run_swing(p, seed=s).summary for s in range(3)]
     assert [r["outcome"] for r in out] == ["captured"] * 3
     assert max(r["capture_speed_mps"] for r in out) < 0.4
@@ -134,7 +134,7 @@ def test_the_swapped_robots_try_on_the_span_chord_is_blended_and_lands(tries):
 
     from bplir_drake.analysis.swing.run import run_swing
 
-    p = retry_params(swing_params(preset(), 2, 1.2, math.radians(2.6)))
+    p = tried(preset(), 2, 1.2, math.radians(2.6))
     assert P.tracking_plan(p)[0].status == "interpolated"
     out = [run_swing(p, seed=s).summary for s in range(3)]
     assert [r["outcome"] for r in out] == ["captured"] * 3
@@ -176,5 +176,5 @@ def test_the_library_builder_re_solves_a_hot_pump_from_its_coolest_neighbour(tri
     assert all(out[k] is plans[k] for k in plans if k != (0.0, 0.9))
     monkeypatch.setattr(lib, "solve_from", lambda q, ref: fake(0.5))
     assert lib.cool(tries[2], plans)[0][0.0, 0.9] is plans[0.0, 0.9]
-    line = swing_params(preset(), 2, 1.2, 0.0)       # a swing from the line: untouched
+    line = traverse_swing(preset(), 2, 1.2, 0.0)       # a swing from the line: untouched
     assert lib.cool(line, plans) == (plans, set())

@@ -25,6 +25,8 @@ from bplir_drake.params import ParameterError, load_toml
 from conftest import parse_strict_json as strict_json
 from conftest import paced_48v, plugin_source
 from forked import bplir_forked, start_forked
+from bplir_drake.params import with_hardware
+from moves import tried
 
 
 def bplir_process(*argv, timeout=120):
@@ -543,7 +545,7 @@ def test_shipped_plans_serve_a_fresh_install(monkeypatch, tmp_path):
     # every swing of the example lines (both robots, their inclines)
     from bplir_drake.analysis.traverse.line import load_line
     from bplir_drake.analysis.traverse.route import plan_route
-    from bplir_drake.analysis.traverse.run import swing_params
+    from moves import traverse_swing
     from bplir_drake.params import preset
 
     q = preset().with_(scenario=dc.replace(preset().scenario, grip_spacing=1.27),
@@ -554,17 +556,16 @@ def test_shipped_plans_serve_a_fresh_install(monkeypatch, tmp_path):
         line = load_line(Path(__file__).resolve().parents[1] / "examples" / name)
         for r in plan_route(line, base):
             for g, (a, b) in ((1, (r.rear, r.landing1)), (2, (r.hold, r.landing2))):
-                sp = swing_params(base, g, base.traverse.grip_spacing, line.chord(a, b)[1])
+                sp = traverse_swing(base, g, base.traverse.grip_spacing, line.chord(a, b)[1])
                 plan = P.scenario_plan(sp)    # as the traversal finds it
                 assert plan.feasible and plan.peak_voltage <= base.motor.max_voltage
                 seen.add((g, plan.incline_deg))
     assert len(seen) == 8
-    from bplir_drake.analysis.traverse.recovery import retry_params
     volt48 = paced_48v(base)   # tries planned by guesses (test_traverse_recovery's)
-    assert P.scenario_plan(retry_params(swing_params(volt48, 2, 1.2, math.radians(2.6)))).feasible
-    deeper = retry_params(swing_params(volt48, 2, 1.2, math.radians(2.6)), end_at_line=False)
+    assert P.scenario_plan(tried(volt48, 2, 1.2, math.radians(2.6))).feasible
+    deeper = tried(volt48, 2, 1.2, math.radians(2.6), end_at_line=False)
     assert P.scenario_plan(deeper).duration > 4.5   # the fourth guess's
-    assert P.scenario_plan(retry_params(swing_params(volt48, 1, 1.2, 0.0))).feasible
+    assert P.scenario_plan(tried(volt48, 1, 1.2, 0.0)).feasible
     acromonk = load_toml(Path(__file__).resolve().parents[1] / "examples" / "acromonk.toml")
     assert P.scenario_plan(acromonk).feasible
     assert P.plan_swing(acromonk, knots=41).status == "iteration limit"   # `bplir plan`'s
@@ -583,7 +584,7 @@ def test_shipped_gains_serve_the_tests_plans(monkeypatch, tmp_path):
 
     from bplir_drake.diagrams import plan as P
     from bplir_drake.diagrams import plan_cache
-    from bplir_drake.analysis.traverse.run import swing_params
+    from moves import traverse_swing
     from bplir_drake.params import from_dict, load_toml, preset
 
     monkeypatch.setenv("BPLIR_CACHE_DIR", str(tmp_path))
@@ -599,16 +600,15 @@ def test_shipped_gains_serve_the_tests_plans(monkeypatch, tmp_path):
     down = up.with_(scenario=dc.replace(up.scenario, incline_deg=-20.0))
     flat = base.with_(path=dc.replace(base.path, mode="plan"))
     heavy = from_dict({"plant": {"m2": 1.6}}, base=base)   # --set plant.m2=1.6
-    cases = [up, down, flat, heavy] + [swing_params(base, g, base.traverse.grip_spacing, 0.0)
+    cases = [up, down, flat, heavy] + [traverse_swing(base, g, base.traverse.grip_spacing, 0.0)
                                        for g in (1, 2)] + _quick_benchmark_swings()
-    from bplir_drake.analysis.traverse.recovery import retry_params
-    cases += [retry_params(c) for c in cases[4:6]]   # tried again
-    cases += [retry_params(swing_params(base.with_hardware("48v"), g, 1.2, 0.0))
+    cases += [tried(base, g, base.traverse.grip_spacing, 0.0) for g in (1, 2)]   # tried again
+    cases += [tried(with_hardware(base, "48v"), g, 1.2, 0.0)
               for g in (1, 2)]   # at 48 V the 30 V robot's tries (its libraries)
     b48 = paced_48v(base)   # tries planned by guesses (test_traverse_recovery's)
-    cases += [retry_params(swing_params(b48, 2, 1.2, math.radians(2.6)), end_at_line=at)
+    cases += [tried(b48, 2, 1.2, math.radians(2.6), end_at_line=at)
               for at in (True, False)]   # the span's chord, ending at the line and below
-    cases.append(retry_params(swing_params(b48, 1, 1.2, 0.0)))   # the apex shot's test
+    cases.append(tried(b48, 1, 1.2, 0.0))   # the apex shot's test
     cases.append(load_toml(Path(__file__).resolve().parents[1] / "examples" / "acromonk.toml"))
     keys, blended = set(), 0
     for p in cases:
@@ -624,7 +624,7 @@ def test_shipped_gains_serve_the_tests_plans(monkeypatch, tmp_path):
     from bplir_drake.analysis.commission.grid import solve_point   # docs/commission.md's robot
     from bplir_drake.params import swapped
     scaled = load_toml(Path(__file__).resolve().parents[1] / "examples" / "scaled_bplir.toml")
-    tries = [retry_params(swing_params(scaled, g, 0.84, 0.0)) for g in (1, 2)]
+    tries = [tried(scaled, g, 0.84, 0.0) for g in (1, 2)]
     for robot in (scaled, swapped(scaled), *tries):   # either gripper, from the line, hanging
         point = solve_point(robot, 0.0, 0.84)
         keys.add(plan_cache.plan_key(P.gains_inputs(robot.plant, robot.friction, point.plan,

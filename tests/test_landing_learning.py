@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from bplir_drake.params import ParameterError, preset
+from bplir_drake.params import with_hardware
 
 
 def test_the_arrival_height_error_is_the_estimates_error_at_the_arrival():
@@ -24,7 +25,7 @@ def test_the_arrival_height_error_is_the_estimates_error_at_the_arrival():
     from bplir_drake.systems.plan_tracker import height_rates
 
     p = preset()
-    s = p.with_hardware("line-sensor")
+    s = with_hardware(p, "line-sensor")
     for params, seed, error, held in ((s, 0, 0.40e-3, -0.19e-3), (s, 1, -0.20e-3, -1.95e-3),
                                       (p, 0, 2.45e-3, 0.90e-3), (p, 1, 0.38e-3, -3.16e-3)):
         r = run_swing(params, seed=seed)
@@ -63,16 +64,18 @@ def test_a_landing_bias_raises_both_terminal_laws_aims_never_above_the_line():
 
 
 def test_learnt_landing_is_the_share_of_the_mean_earlier_error():
-    from bplir_drake.analysis.traverse.run import learnt_landing
+    from bplir_drake.params import Manoeuvre, derive
+
+    def learnt(p, errors):
+        return derive(p, Manoeuvre(context="traverse", learnt=tuple(errors))).landing.landing_bias
 
     p = preset()
     on = p.with_(traverse=dc.replace(p.traverse, landing_learning=0.5))
-    assert learnt_landing(on, []).landing.landing_bias == 0.0
-    assert learnt_landing(on, [-0.004, -0.006, math.nan]).landing.landing_bias == pytest.approx(
-        -0.0025)
-    assert learnt_landing(on, [0.1]).landing.landing_bias == 0.02   # clipped to its range
+    assert learnt(on, []) == 0.0
+    assert learnt(on, [-0.004, -0.006, math.nan]) == pytest.approx(-0.0025)
+    assert learnt(on, [0.1]) == 0.02   # clipped to its range
     off = p.with_(traverse=dc.replace(p.traverse, landing_learning=0.0))
-    assert learnt_landing(off, [-0.004]).landing.landing_bias == 0.0
+    assert learnt(off, [-0.004]) == 0.0
 
 
 def test_a_traversal_learns_its_landing_and_passes():

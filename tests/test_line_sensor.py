@@ -12,6 +12,7 @@ from bplir_drake.systems.ekf import EkfState, ekf_gap_update
 from bplir_drake.systems.line_sensor import LineSensor, line_gap
 from bplir_drake.systems.plan_tracker import height_rates
 from bplir_drake.systems.plant import initial_configuration
+from bplir_drake.params import with_hardware, imu_only
 
 
 def test_the_gap_is_zero_where_both_grippers_hold_the_line_and_its_gradient_exact():
@@ -112,7 +113,7 @@ def test_the_sensor_removes_the_landing_error_that_link_length_errors_leave():
         base = p0.with_(true_plant=true, imu=dc.replace(p0.imu, noise=False))
         still = base.with_(estimator=dc.replace(base.estimator, estimate_misalignment=False))
         runs = [run_swing(q, seed=0).summary for q in (
-            still, base, base.with_hardware("line-sensor").with_(
+            still, base, with_hardware(base, "line-sensor").with_(
                 line_sensor=LineSensorParams(range=0.2, sigma=0.0)))]
         assert [r["outcome"] for r in runs] == ["captured"] * 3
         errors = [r["landing_height_error_m"] for r in runs]
@@ -133,7 +134,7 @@ def test_the_standstill_calibration_measures_the_sensors_offset_on_the_line():
     from bplir_drake.diagrams.swing import standstill_calibration, swing_geometry
     from bplir_drake.systems.line_sensor import standstill_readings
 
-    p = preset().with_hardware("line-sensor")
+    p = with_hardware(preset(), "line-sensor")
     p = p.with_(line_sensor=dc.replace(p.line_sensor, offset=0.0008, sigma=0.002))
     q0 = swing_geometry(p)[0]
     cal = standstill_calibration(p, q0, seed=4)
@@ -156,7 +157,7 @@ def test_a_calibrated_offset_does_not_move_the_landing():
 
     from bplir_drake.analysis.swing.run import run_swing
 
-    p = preset().with_hardware("line-sensor")
+    p = with_hardware(preset(), "line-sensor")
     p = p.with_(imu=dc.replace(p.imu, noise=False),
                 line_sensor=dc.replace(p.line_sensor, sigma=0.0, offset=0.005))
     zero = p.with_(line_sensor=dc.replace(p.line_sensor, offset=0.0))
@@ -175,23 +176,23 @@ def test_the_presets_and_the_swapped_robot_choose_their_sensing():
     lands as the robot does (it was left with its IMUs alone: 93 of 100
     traversals of the flat line at 30 V passed on root seed 223, 99 with
     the sensor)."""
-    from bplir_drake.analysis.traverse.run import swing_params
+    from moves import traverse_swing
     from bplir_drake.params import IMU_ONLY_TUNING, LINE_SENSOR_OPTION
 
     p = preset()
     assert p.line_sensor.range == 0.0 and p.motor.supply_voltage == 30.0
     assert {k: getattr(p.landing, k) for k in IMU_ONLY_TUNING} == IMU_ONLY_TUNING
     assert preset("lab").line_sensor.range == 0.0
-    s = p.with_hardware("line-sensor")
+    s = with_hardware(p, "line-sensor")
     assert (s.line_sensor.range, s.landing.shoot_height, s.landing.shoot_min_time,
             s.landing.shoot_lift_min_time) == tuple(LINE_SENSOR_OPTION.values())
     assert s.with_controller("cpfl-qft").line_sensor.range == 0.0
     assert s.with_controller("plan").line_sensor.range == 0.2
-    assert s.imu_only() == p
-    assert p.with_hardware("48v").motor.supply_voltage == 48.0
+    assert imu_only(s) == p
+    assert with_hardware(p, "48v").motor.supply_voltage == 48.0
     with pytest.raises(ParameterError, match="unknown hardware option 'solar'"):
-        p.with_hardware("solar")
-    assert swing_params(s, 1, 1.2, 0.0).line_sensor.range == 0.2
-    swapped = swing_params(s, 2, 1.2, 0.0)
+        with_hardware(p, "solar")
+    assert traverse_swing(s, 1, 1.2, 0.0).line_sensor.range == 0.2
+    swapped = traverse_swing(s, 2, 1.2, 0.0)
     assert swapped.line_sensor == s.line_sensor
-    assert swapped.landing == swing_params(s, 1, 1.2, 0.0).landing
+    assert swapped.landing == traverse_swing(s, 1, 1.2, 0.0).landing

@@ -381,7 +381,7 @@ def test_the_landings_aims_keep_their_share_of_the_capture_band():
     gives is kept; an aim below the band is refused, naming the band.  So
     do a planned swing's end depths."""
     from bplir_drake.params import from_dict
-    from bplir_drake.params.files import BAND_FIELDS
+    from bplir_drake.params.follow import BAND_FIELDS
 
     d, hook = P.BplirParams(), from_dict({"gripper": {"capture_distance": 0.03}})
     for block, names in BAND_FIELDS.items():

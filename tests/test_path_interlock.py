@@ -13,6 +13,7 @@ from bplir_drake.systems.path import (PathGeometry, path_q2, predict_rate_square
                                       q2_line_seeking)
 from bplir_drake.systems.path_generator import PathGenerator
 from bplir_drake.systems.plant import gripper_position, initial_configuration
+from bplir_drake.params import imu_only
 
 
 @pytest.mark.parametrize("alpha_deg", [0.0, 20.0, -20.0])
@@ -153,7 +154,7 @@ def test_latch_lift_rescues_a_swing_that_stops_just_short_of_the_line():
     from bplir_drake.params import TRAPEZOID_TUNING
 
     p, seed, _ = mc.sample_params(mc.Study(samples=5, seed=0), 3)
-    p = p.imu_only()   # the robot it was built for: no line sensor
+    p = imu_only(p)   # the robot it was built for: no line sensor
     p = p.with_(path=dc.replace(p.path, mode="adaptive"),   # the latch is the adaptive path's
                 estimator=dc.replace(p.estimator, **TRAPEZOID_TUNING))
     assert p.path.latch_lift == 0.01

@@ -6,12 +6,14 @@ import dataclasses as dc
 import numpy as np
 import pytest
 
-from bplir_drake.analysis.traverse.swing_setup import swing_chord, swing_params
+from bplir_drake.analysis.traverse.swing_setup import swing_chord
+from moves import traverse_swing
 from bplir_drake.diagrams import plan as P
 from bplir_drake.diagrams.plan_library import (LIBRARY_INCLINES, LIBRARY_SPACINGS,
                                                library_path, library_plan, load_library)
 from bplir_drake.params import preset
 from bplir_drake.systems.plant import initial_configuration
+from bplir_drake.params import with_hardware
 
 
 def _at(p, incline=0.0, spacing=1.2, **plan):
@@ -23,8 +25,8 @@ def _at(p, incline=0.0, spacing=1.2, **plan):
 def robots():
     base = preset()
     return {"swing": base.with_(path=dc.replace(base.path, mode="plan")),
-            "traverse-1": swing_params(base, 1, 1.2, 0.0),
-            "traverse-2": swing_params(base, 2, 1.2, 0.0)}
+            "traverse-1": traverse_swing(base, 1, 1.2, 0.0),
+            "traverse-2": traverse_swing(base, 2, 1.2, 0.0)}
 
 
 def test_every_default_robot_has_a_library_that_blends_where_it_can(robots):
@@ -153,9 +155,9 @@ def test_the_tower_span_at_48v_plans_every_swing_from_the_libraries():
         for r in plan_route(line, p):
             for holding, start, hold, reach in ((1, r.rear, r.hold, r.spacing1),
                                                 (2, r.hold, r.hold + r.spacing2, r.spacing2)):
-                yield swing_params(p, holding, *swing_chord(line, start, hold, reach))
+                yield traverse_swing(p, holding, *swing_chord(line, start, hold, reach))
 
-    at48 = list(swings(preset().with_hardware("48v")))
+    at48 = list(swings(with_hardware(preset(), "48v")))
     assert len(at48) == 20
     assert max(q.scenario.incline_deg for q in at48) > 9.5
     assert all(library_plan(q) is not None for q in at48)

@@ -15,6 +15,7 @@ from bplir_drake.diagrams.plan import planned_target, tracking_plan
 from bplir_drake.params import ParameterError, preset
 from bplir_drake.systems.plan_tracker import PlanTracker
 from bplir_drake.systems.plant import gripper_position
+from bplir_drake.params import with_hardware
 
 
 @pytest.fixture(scope="module")
@@ -240,7 +241,7 @@ def test_the_shot_is_solved_while_link_1_creeps():
     rad/s none was solved below that rate and the aim law took over."""
     from bplir_drake.systems.plan_tracker import ApexShot
 
-    p = preset().with_hardware("line-sensor")
+    p = with_hardware(preset(), "line-sensor")
     assert p.landing.shoot_min_rate == 0.02
     path = dc.replace(p.landing, shoot_min_time=p.landing.shoot_lift_min_time,
                       shoot_height=-0.018)   # as on -20 deg then
@@ -290,13 +291,13 @@ def test_a_shot_far_out_of_the_motors_reach_brakes_the_elbow():
     from bplir_drake.systems import plant as K
     from bplir_drake.systems.plan_tracker import ApexShot
 
-    from bplir_drake.analysis.traverse.run import swing_params
+    from moves import traverse_swing
 
     p = preset()
-    p48 = preset().with_hardware("48v")
+    p48 = with_hardware(preset(), "48v")
     assert p48.traverse.shoot_brake_ratio == 1.6 and p48.landing.shoot_brake_ratio == 0.0
-    assert swing_params(p48, 2, 1.2, 0.0).landing.shoot_brake_ratio == 1.6
-    assert swing_params(p, 2, 1.2, 0.0).landing.shoot_brake_ratio == 0.0
+    assert traverse_swing(p48, 2, 1.2, 0.0).landing.shoot_brake_ratio == 1.6
+    assert traverse_swing(p, 2, 1.2, 0.0).landing.shoot_brake_ratio == 0.0
     fr = FrictionParams(enabled=False)
     path = dc.replace(p.landing, landing_law="shoot", shoot_min_time=0.04, shoot_rate_cap=0.0,
                       shoot_height=-0.018, shoot_min_rate=0.1, shoot_hold_depth=1.0)
@@ -335,7 +336,7 @@ def test_auto_landing_law_follows_who_lifts_the_gripper(incline, share, hold, ai
     from bplir_drake.systems.plan_tracker import landing_law, link1_share, resolved_landing
 
     base = preset()
-    p = base.with_hardware("line-sensor")
+    p = with_hardware(base, "line-sensor")
     assert p.landing.landing_law == base.landing.landing_law == "auto"
     assert (p.landing.shoot_min_time, p.landing.shoot_lift_min_time) == (0.03, 0.05)
     q = p.with_(scenario=dc.replace(p.scenario, incline_deg=incline))

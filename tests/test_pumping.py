@@ -11,10 +11,15 @@ import pytest
 
 from bplir_drake.diagrams import plan as P
 from bplir_drake.diagrams.plan_library import model_inputs
-from bplir_drake.params import PUMP_TIME, ParameterError, from_dict, preset, pumping
+from bplir_drake.params import PUMP_TIME, Manoeuvre, ParameterError, derive, from_dict, preset
 
 sys.path.insert(0, str(Path(__file__).parent))
 from test_plan_energy import _simulated  # noqa: E402
+
+
+def pumping(p):
+    """The pumping manoeuvre of the robot ``p``."""
+    return derive(p, Manoeuvre(reach="pump"))
 
 
 def test_a_pump_runs_with_the_robots_own_timeout_and_knots():

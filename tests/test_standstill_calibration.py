@@ -11,6 +11,7 @@ import pytest
 from bplir_drake.params import ImuParams
 from bplir_drake.systems.calibration import ImuCalibration, calibrate_standstill
 from bplir_drake.systems.imu import corrupt, imu_kinematics, standstill_samples
+from bplir_drake.params import with_hardware, imu_only
 
 STUDY = Path(__file__).resolve().parents[1] / "examples" / "study_realistic.toml"
 
@@ -78,7 +79,7 @@ def _imu_group(standstill: int, seed: int, n: int, sensor_range: float = 0.0) ->
                                                       standstill_samples=standstill),
                                  line_sensor=dc.replace(p.line_sensor, range=sensor_range)))
     if not sensor_range:
-        st = st.with_(params=st.params.imu_only())
+        st = st.with_(params=imu_only(st.params))
     return [k for k in range(n) if not run_sample(st, k)["success"]]
 
 
@@ -132,7 +133,7 @@ def test_widening_to_the_measured_noise_lands_swings_with_noisy_imus():
     def noisy(k, sensor=True):
         p = base.with_(imu=dc.replace(base.imu, gyro_sigma=k * base.imu.gyro_sigma,
                                       accel_sigma=k * base.imu.accel_sigma))
-        return p.with_hardware("line-sensor") if sensor else p
+        return with_hardware(p, "line-sensor") if sensor else p
 
     def off(p):
         return p.with_(estimator=dc.replace(p.estimator, noise_tolerance=100.0,

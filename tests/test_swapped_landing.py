@@ -8,6 +8,7 @@ import pytest
 
 from bplir_drake.params import preset, swapped
 from bplir_drake.systems.landing import ApexShot
+from bplir_drake.params import with_hardware
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
@@ -48,13 +49,13 @@ def test_the_swapped_robots_short_swing_lands_with_its_elbow_capped():
     from bplir_drake.analysis.montecarlo.sampling import sample_params
     from bplir_drake.analysis.montecarlo.study import load_study
     from bplir_drake.analysis.swing.run import SwingRunner
-    from bplir_drake.analysis.traverse.run import swing_params
+    from moves import traverse_swing
 
     study = load_study(EXAMPLES / "study_traverse.toml").with_(seed=777)
-    study = dc.replace(study, params=study.params.with_hardware("48v"))
+    study = dc.replace(study, params=with_hardware(study.params, "48v"))
     p, seed, _ = sample_params(study, 9)
-    q = swing_params(p, 2, 0.9, 0.0)
-    assert q.landing.shoot_rate_cap == swing_params(p, 1, 0.9, 0.0).landing.shoot_rate_cap \
+    q = traverse_swing(p, 2, 0.9, 0.0)
+    assert q.landing.shoot_rate_cap == traverse_swing(p, 1, 0.9, 0.0).landing.shoot_rate_cap \
         == p.landing.shoot_rate_cap > 0.0
     runner = SwingRunner()
     free = runner.run(q.with_(landing=dc.replace(q.landing, shoot_rate_cap=0.0)), seed=seed)
@@ -92,11 +93,11 @@ def test_a_shot_out_of_reach_brakes_only_when_it_would_fling_the_gripper_in():
     the gripper into the line at over 0.9 m/s; the shot clipped to the
     motor's torque enters the capture band under 0.5 m/s.  A shot asking as
     much to lift the gripper (link 1 short) still brakes."""
-    from bplir_drake.analysis.traverse.swing_setup import swing_params
+    from moves import traverse_swing
     from bplir_drake.params import FrictionParams
 
     alpha = math.radians(2.6)
-    p = swing_params(preset("dissertation").with_hardware("48v"), 2, 1.2, alpha)
+    p = traverse_swing(with_hardware(preset("dissertation"), "48v"), 2, 1.2, alpha)
     assert p.landing.shoot_brake_ratio == 1.6
     fr = FrictionParams(enabled=False)
     law = ApexShot.from_params(p.plant, fr, alpha, p.landing)

@@ -15,6 +15,7 @@ from bplir_drake.cli import main  # noqa: E402
 from bplir_drake.diagrams import swing_geometry  # noqa: E402
 from bplir_drake.params import BplirParams  # noqa: E402
 from bplir_drake.systems.plant import potential_energy  # noqa: E402
+from bplir_drake.params import with_hardware, around
 
 
 @pytest.fixture(scope="module")
@@ -101,7 +102,8 @@ def test_tracking_gains_accept_links_shorter_than_the_default_imu_radii(monkeypa
     """A robot with 0.34 m links (DFKI's AcroMonk): the gains' plant model is
     built from its plant and friction alone -- the default IMUs at 0.5 m,
     which would not fit on its links, play no part -- and
-    ``BplirParams.of_plant`` puts the IMUs at mid-link."""
+    ``params.around`` keeps the IMUs' place along the links (their share of
+    the default robot's)."""
     import numpy as np
 
     from bplir_drake.diagrams import plan as P
@@ -111,8 +113,10 @@ def test_tracking_gains_accept_links_shorter_than_the_default_imu_radii(monkeypa
                         I1=0.0017, I2=0.0017)
     with pytest.raises(ParameterError, match="must lie on the links"):
         BplirParams(plant=plant)
-    p = BplirParams.of_plant(plant)
-    assert (p.imu.r1, p.imu.r2, p.estimator.l1) == (0.17, 0.17, 0.34)
+    p = around(plant)
+    d = BplirParams()
+    assert (p.imu.r1, p.imu.r2, p.estimator.l1) == pytest.approx(
+        (0.34 * d.imu.r1 / d.plant.l1, 0.34 * d.imu.r2 / d.plant.l2, 0.34), rel=1e-12)
     seen = []
     monkeypatch.setattr(P, "plan_gains", lambda model, *a: seen.append(model) or "gains")
     t = np.linspace(0.0, 1.0, 5)
@@ -168,7 +172,7 @@ def test_the_plan_command_plans_a_swing_from_hanging_as_the_swing_does(monkeypat
                            status="iteration limit")
 
     monkeypatch.setattr(P, "_solve_plan", stops)
-    p = BplirParams().with_hardware("48v")   # its tries from hanging are planned at 30 V
+    p = with_hardware(BplirParams(), "48v")   # its tries from hanging are planned at 30 V
     hanging = tuple(start_configuration("hanging", p.scenario.grip_spacing, p.plant, 0.0))
     assert main(["plan", "--hardware", "48v", "--set", "scenario.start=hanging", "--set",
                  "hanging.torque_share=0.85", "--out", str(tmp_path / "h"),
@@ -201,7 +205,7 @@ def test_a_plan_from_hanging_that_heats_the_driver_gives_way_to_a_cooler_guess(
     from bplir_drake.systems.motor import interlock_budget
 
     monkeypatch.setenv("BPLIR_CACHE_DIR", str(tmp_path / "cache"))
-    p48 = BplirParams().with_hardware("48v")
+    p48 = with_hardware(BplirParams(), "48v")
     assert p48.hanging.i2t_share == BplirParams().hanging.i2t_share == 0.0
     p48 = p48.with_(hanging=dc.replace(p48.hanging, i2t_share=0.35))
     m = p48.motor
@@ -272,7 +276,7 @@ def test_a_plan_from_hanging_no_guess_finds_starts_from_the_level_lines(monkeypa
                            inc, 20.0, 220.0, 1e-4, status="solved" if ok else "iteration limit")
 
     monkeypatch.setattr(P, "_solve_plan", solves)
-    p = BplirParams().with_hardware("48v")
+    p = with_hardware(BplirParams(), "48v")
     up = p.with_(scenario=dc.replace(p.scenario, start="hanging", incline_deg=13.0))
     plan = P.hanging_plan(up)
     assert plan.feasible and plan.incline_deg == 13.0

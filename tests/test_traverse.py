@@ -20,6 +20,7 @@ from bplir_drake.analysis.traverse.run import capture_impulse, run_traverse
 from bplir_drake.cli import main
 from bplir_drake.params import preset, swapped, swapped_plant
 from bplir_drake.systems.motor import i2t_after_rest, i2t_trace, interlock_budget, rest_for
+from bplir_drake.params import with_hardware
 from bplir_drake.systems.plant import (gripper_position, make_plant, mass_matrix,
                                        potential_energy, swapped_state)
 
@@ -429,17 +430,17 @@ def test_traversals_trip_rest_study_and_replay(tmp_path, capsys):
     _traversal_study_resumes_and_replays(tmp_path / "study", capsys)
 
 
-def test_swing_params_land_and_the_swapped_robot_aims_at_the_line():
-    from bplir_drake.analysis.traverse.run import swing_params
+def test_traversal_swings_land_and_the_swapped_robot_aims_at_the_line():
+    from moves import traverse_swing
 
     p = preset()
-    one, two = (swing_params(p, g, 1.2, 0.0).landing for g in (1, 2))
+    one, two = (traverse_swing(p, g, 1.2, 0.0).landing for g in (1, 2))
     assert one.landing_lead == two.landing_lead == p.landing.landing_lead > 0
-    assert swing_params(p, 1, 1.2, 0.0).plan.delay_compensation == p.plan.delay_compensation \
+    assert traverse_swing(p, 1, 1.2, 0.0).plan.delay_compensation == p.plan.delay_compensation \
         == 0.01
     assert one == two   # the swapped robot is another robot, landed by the same settings
     off = p.with_(traverse=dc.replace(p.traverse, landing=False))
-    assert swing_params(off, 2, 1.2, 0.0).landing.landing_lead == 0.0
+    assert traverse_swing(off, 2, 1.2, 0.0).landing.landing_lead == 0.0
 
 
 @pytest.mark.parametrize("k, before", [(7, "swing timeout")])
@@ -474,11 +475,11 @@ def test_the_shooting_landing_lands_the_swapped_robot(k, aim, speed):
     law)."""
     from bplir_drake.analysis.montecarlo import load_study, sample_params
     from bplir_drake.analysis.swing.run import SwingRunner
-    from bplir_drake.analysis.traverse.run import swing_params
+    from moves import traverse_swing
 
     root = Path(__file__).resolve().parents[1] / "examples"
     p, seed, _ = sample_params(load_study(root / "study_traverse.toml").with_(seed=1), k)
-    q = swing_params(p, 2, 1.2, 0.0)
+    q = traverse_swing(p, 2, 1.2, 0.0)
     runner = SwingRunner()
     aimed = q.with_(landing=dc.replace(q.landing, landing_law="aim"))
     assert runner.run(aimed, seed=seed).summary["outcome"] == aim
@@ -495,12 +496,13 @@ def test_the_rest_planner_budgets_the_landing_at_the_torque_limit():
     torques on the first eight ticks; without a landing the plan's and the
     probe's alone."""
     from bplir_drake.diagrams.plan import tracking_plan
-    from bplir_drake.analysis.traverse.run import budgeted_currents, swing_params
+    from bplir_drake.analysis.traverse.run import budgeted_currents
+    from moves import traverse_swing
     from bplir_drake.systems.delay_id import probe_torques
     from bplir_drake.systems.motor import max_torque
     from bplir_drake.systems.plant import gripper_position
 
-    p = swing_params(preset(), 2, 1.2, 0.0)
+    p = traverse_swing(preset(), 2, 1.2, 0.0)
     plan = tracking_plan(p)[0]
     k, T = p.motor.torque_per_amp, p.motor.driver_period
     cur = budgeted_currents(plan, p)
@@ -610,7 +612,7 @@ def test_the_tower_span_passes_at_48v():
     from bplir_drake.analysis.traverse.run import run_traverse
 
     line = load_line(ROOT / "examples" / "line_tower.toml")
-    res = run_traverse(line, preset().with_hardware("48v"), seed=0)
+    res = run_traverse(line, with_hardware(preset(), "48v"), seed=0)
     assert res.success, res.totals["outcome"]
     swings = [r for r in res.rows if r["kind"] == "swing"]
     assert len(swings) == 20 and res.totals["obstacles_passed"] == 10

@@ -10,11 +10,13 @@ import numpy as np
 import pytest
 
 from bplir_drake.analysis.traverse.line import load_line
-from bplir_drake.analysis.traverse.recovery import (damp, free_link_upright, retry_params,
-                                                   swing_energy)
+from bplir_drake.analysis.traverse.recovery import damp, swing_energy
+from bplir_drake.params.derive import free_link_upright, raises_aim
 from bplir_drake.analysis.traverse.run import run_traverse
-from bplir_drake.params import BplirParams, ParameterError, swapped
+from bplir_drake.params import BplirParams, Manoeuvre, ParameterError, derive, swapped
 from conftest import paced_48v
+from bplir_drake.params import with_hardware
+from moves import tried
 
 LINE = Path(__file__).resolve().parents[1] / "examples" / "line_flat.toml"
 
@@ -125,8 +127,8 @@ def test_an_elbow_that_swung_over_the_top_is_damped_a_turn_on():
 
 
 def test_a_swing_from_hanging_needs_plan_tracking():
-    p = retry_params(BplirParams())
-    assert p.scenario.start == "hanging" and p.scenario.max_time == p.traverse.retry_max_time
+    p = derive(BplirParams(), Manoeuvre(context="retry"))
+    assert p.scenario.start == "hanging" and p.scenario.max_time == 6.0
     from bplir_drake.diagrams.swing import build_swing
     with pytest.raises(ParameterError, match="needs plan tracking"):
         build_swing(p.with_(path=dc.replace(p.path, mode="adaptive")))
@@ -169,12 +171,12 @@ def test_the_48v_robot_tries_again_on_the_30v_robots_plan():
     first try in a -6 N m headwind times out; the try from hanging lands
     and the line is passed."""
     from bplir_drake.diagrams.plan import tracking_plan
-    from bplir_drake.analysis.traverse.run import swing_params
+    from moves import traverse_swing
 
-    p, b = BplirParams().with_hardware("48v"), BplirParams()
+    p, b = with_hardware(BplirParams(), "48v"), BplirParams()
     assert p.motor.supply_voltage == 48.0 and p.hanging.supply_voltage == 30.0
     assert p.hanging.torque_share == b.hanging.torque_share == 1.0
-    assert p.traverse.retry_max_time == b.traverse.retry_max_time == 6.0
+    assert tried(p, 1, 1.2, 0.0).scenario.max_time == tried(b, 1, 1.2, 0.0).scenario.max_time == 6.0
     res = run_traverse(load_line(LINE), p, seed=0, adjust=headwind(0, -6.0))
     swings = [r for r in res.rows if r["kind"] == "swing"]
     assert [(r["outcome"], r["attempt"]) for r in swings[:2]] == [("timeout", 1),
@@ -182,8 +184,8 @@ def test_the_48v_robot_tries_again_on_the_30v_robots_plan():
     assert swings[1]["capture_speed_mps"] < 0.5 and swings[1]["peak_voltage_V"] < 29.4
     assert res.totals["outcome"] == "passed" and res.totals["retries"] == 1
     for g, a in ((1, 2.6), (2, -7.0)):
-        plan, gains = tracking_plan(retry_params(swing_params(p, g, 1.15, np.radians(a))))
-        at30, gains30 = tracking_plan(retry_params(swing_params(b, g, 1.15, np.radians(a))))
+        plan, gains = tracking_plan(tried(p, g, 1.15, np.radians(a)))
+        at30, gains30 = tracking_plan(tried(b, g, 1.15, np.radians(a)))
         assert plan.status == "interpolated" and np.array_equal(plan.torque, at30.torque)
         assert np.allclose(gains.K.value(1.0), gains30.K.value(1.0))
         assert 3.0 < plan.duration <= 6.0
@@ -201,14 +203,13 @@ def test_a_try_from_hanging_with_an_i2t_share_keeps_the_driver_cool_on_the_span_
     import math
 
     from bplir_drake.analysis.swing.run import SwingRunner
-    from bplir_drake.analysis.traverse.run import swing_params
+    from moves import traverse_swing
     from bplir_drake.diagrams import plan as P
     from bplir_drake.systems.motor import interlock_budget
 
-    p = retry_params(swing_params(paced_48v(BplirParams()), 2, 1.2,
-                                  math.radians(2.6))).resolved()
+    p = tried(paced_48v(BplirParams()), 2, 1.2, math.radians(2.6)).resolved()
     budget = interlock_budget(p.motor)
-    hot = P.plan_swing(P.hanging_planned(p), end_depth=p.plan.end_depth, guess_duration=3.0,
+    hot = P.plan_swing(P.planned_from_hanging(p), end_depth=p.plan.end_depth, guess_duration=3.0,
                        knots=P.HANGING_KNOTS, minor_iterations=P.HANGING_MINOR_ITERATIONS)
     assert hot.feasible and hot.duration < 4.0 and P.planned_i2t(hot, p.motor) > 0.35 * budget
     plan = P.hanging_plan(p)
@@ -222,35 +223,35 @@ def test_a_try_that_missed_in_the_robots_own_estimate_aims_higher_next():
     """A try from hanging that timed out although the robot's estimate put
     the gripper within the capture band tells the robot its estimate ran
     above the truth: the next try aims ``traverse.retry_aim_raise`` higher
-    (landing bias, at most 2 cm).  A miss that the estimate saw too, or a capture,
-    changes nothing."""
-    line = BplirParams()
-    raise_ = line.traverse.retry_aim_raise
-    band = line.gripper.capture_distance
-    assert 0.0 < raise_ <= 0.01 and line.landing.landing_bias == 0.0
+    (landing bias, at most 2 cm; ``Manoeuvre.raised`` counts such tries).
+    A miss that the estimate saw too, or a capture, changes nothing."""
+    robot = BplirParams()
+    raise_ = robot.traverse.retry_aim_raise
+    band = robot.gripper.capture_distance
+    assert 0.0 < raise_ <= 0.01 and robot.landing.landing_bias == 0.0
     missed = {"outcome": "timeout", "estimated_peak_height_m": -0.75 * band}
     # a swing from the line that missed so: its try from hanging aims as before
     # (on the span at 48 V, held-out root seed 207, the raised tries after a
     # swing from the line crashed at 0.53 and 0.60 m/s)
-    p = retry_params(line, missed)
+    assert not raises_aim(robot, missed)
+    p = derive(robot, Manoeuvre(context="retry"))
     assert p.scenario.start == "hanging" and p.landing.landing_bias == 0.0
-    once = retry_params(p, missed)
+    assert raises_aim(p, missed)
+    once = derive(robot, Manoeuvre(context="retry", raised=1))
     assert once.landing.landing_bias == pytest.approx(raise_)
-    assert retry_params(once, missed).landing.landing_bias == pytest.approx(min(0.02, 2 * raise_))
-    assert retry_params(p, {"outcome": "timeout",
-                            "estimated_peak_height_m": -1.5 * band}).landing.landing_bias == 0.0
-    assert retry_params(p, {"outcome": "fault", "estimated_peak_height_m": 0.0}
-                        ).landing.landing_bias == 0.0
-    high = p.with_(landing=dc.replace(p.landing, landing_bias=0.018))
-    assert retry_params(high, missed).landing.landing_bias == 0.02
-    off = p.with_(traverse=dc.replace(p.traverse, retry_aim_raise=0.0))
-    assert retry_params(off, missed).landing.landing_bias == 0.0
+    twice = derive(robot, Manoeuvre(context="retry", raised=2))
+    assert twice.landing.landing_bias == pytest.approx(min(0.02, 2 * raise_))
+    assert not raises_aim(p, {"outcome": "timeout", "estimated_peak_height_m": -1.5 * band})
+    assert not raises_aim(p, {"outcome": "fault", "estimated_peak_height_m": 0.0})
+    assert derive(robot, Manoeuvre(context="retry", raised=5)).landing.landing_bias == 0.02
+    off = robot.with_(traverse=dc.replace(robot.traverse, retry_aim_raise=0.0))
+    assert not raises_aim(derive(off, Manoeuvre(context="retry")), missed)
 
 
 def test_a_near_miss_from_hanging_lands_when_the_try_after_it_aims_higher():
     """Draw 28 of the realistic traversal study (tuning root seed 777), 48 V
     (:func:`conftest.paced_48v`), the swapped robot's try from hanging on examples/line_span.toml's +2.6
-    deg chord planned to end 13 mm below the line (``retry_params(...,
+    deg chord planned to end 13 mm below the line (``Manoeuvre(...,
     end_at_line=False)``): it stops 21 mm below (the band is 20 mm) while its
     estimate put the gripper 16 mm below, and times out.  Tried again
     aiming ``traverse.retry_aim_raise`` (5 mm) higher it lands below the
@@ -260,18 +261,19 @@ def test_a_near_miss_from_hanging_lands_when_the_try_after_it_aims_higher():
     from bplir_drake.analysis.montecarlo.sampling import sample_params
     from bplir_drake.analysis.montecarlo.study import load_study
     from bplir_drake.analysis.swing.run import SwingRunner
-    from bplir_drake.analysis.traverse.run import swing_params
+    from moves import traverse_swing
 
     study = load_study(LINE.parent / "study_traverse.toml").with_(seed=777)
     p = paced_48v(study.params)
     p, seed, _ = sample_params(dc.replace(study, params=p), 28)
-    first = retry_params(swing_params(p, 2, 1.2, math.radians(2.6)), end_at_line=False)
+    first = tried(p, 2, 1.2, math.radians(2.6), end_at_line=False)
     runner = SwingRunner()
     s = runner.run(first, seed=seed).summary
     band = first.gripper.capture_distance
     assert s["outcome"] == "timeout" and s["closest_distance_m"] > band
     assert -band < s["estimated_peak_height_m"] < -0.5 * band
-    again = retry_params(first, s, end_at_line=False)
+    assert raises_aim(first, s)
+    again = tried(p, 2, 1.2, math.radians(2.6), end_at_line=False, raised=1)
     assert again.landing.landing_bias == pytest.approx(0.005)
     s2 = runner.run(again, seed=seed).summary
     assert s2["outcome"] == "captured" and 0.2 < s2["capture_speed_mps"] < 0.4
@@ -283,20 +285,20 @@ def test_the_original_robots_try_from_hanging_lands_with_the_apex_shot_where_the
     ends with the elbow lifting the gripper, where the aim law raises its
     aim as link 1 falls back and the elbow chases the line along it (0.64
     m/s, a crash; 8 of draws 0-39 and 22 of 100 on root seed 778 crash so).
-    With the apex shot held from ``traverse.retry_lift_min_time`` it lands
+    With the apex shot held from ``RETRY_LIFT_HOLD`` (50 ms) it lands
     (measured 0.35 m/s; 1 of 40 and 1 of 100 crash)."""
     from bplir_drake.analysis.montecarlo.sampling import sample_params
     from bplir_drake.analysis.montecarlo.study import load_study
     from bplir_drake.analysis.swing.run import SwingRunner
-    from bplir_drake.analysis.traverse.run import swing_params
+    from moves import traverse_swing
     from bplir_drake.diagrams.plan import tracking_plan
     from bplir_drake.systems.landing import resolved_landing
 
     study = load_study(LINE.parent / "study_traverse.toml").with_(seed=777)
     study = dc.replace(study, params=paced_48v(study.params))
     p, seed, _ = sample_params(study, 1)
-    again = retry_params(swing_params(p, 1, 1.2, 0.0))
-    assert again.landing.shoot_lift_min_time == p.traverse.retry_lift_min_time == 0.05
+    again = tried(p, 1, 1.2, 0.0)
+    assert again.landing.shoot_lift_min_time == 0.05
     aim = again.with_(landing=dc.replace(again.landing, shoot_lift_min_time=0.0))
     gains = tracking_plan(again.resolved())[1]
     states = gains.x0.vector_values(gains.x0.get_segment_times()).T
@@ -309,9 +311,7 @@ def test_the_original_robots_try_from_hanging_lands_with_the_apex_shot_where_the
     s = runner.run(again, seed=seed).summary
     assert s["outcome"] == "captured" and 0.2 < s["capture_speed_mps"] < 0.4
     # a swing from the line keeps the landing's own choice
-    assert swing_params(p, 1, 1.2, 0.0).landing.shoot_lift_min_time == 0.0
-    with pytest.raises(ParameterError, match="retry_lift_min_time"):
-        dc.replace(p.traverse, retry_lift_min_time=0.01)
+    assert traverse_swing(p, 1, 1.2, 0.0).landing.shoot_lift_min_time == 0.0
 
 
 def test_the_swapped_robots_try_from_hanging_ends_at_the_line_and_lands_from_the_damped_state():
@@ -328,19 +328,19 @@ def test_the_swapped_robots_try_from_hanging_ends_at_the_line_and_lands_from_the
     from bplir_drake.analysis.montecarlo.sampling import sample_params
     from bplir_drake.analysis.montecarlo.study import load_study
     from bplir_drake.analysis.swing.run import SwingRunner
-    from bplir_drake.analysis.traverse.run import swing_params
+    from moves import traverse_swing
 
     study = load_study(LINE.parent / "study_traverse.toml").with_(seed=777)
     study = dc.replace(study, params=paced_48v(study.params))
     p, seed, _ = sample_params(study, 5)
-    assert free_link_upright(swing_params(p, 2, 1.2, 0.0))
-    assert not free_link_upright(swing_params(p, 1, 1.2, 0.0))
-    again = retry_params(swing_params(p, 2, 1.2, math.radians(2.6)))
+    assert free_link_upright(traverse_swing(p, 2, 1.2, 0.0))
+    assert not free_link_upright(traverse_swing(p, 1, 1.2, 0.0))
+    again = tried(p, 2, 1.2, math.radians(2.6))
     assert again.plan.end_depth == 0.0
-    assert retry_params(swing_params(p, 1, 1.2, 0.0)).plan.end_depth == 0.013
+    assert tried(p, 1, 1.2, 0.0).plan.end_depth == 0.013
     start = damp(again, np.array([0.05, 0.0, 0.0, 0.0])).state
     assert 0.01 < start[0] < 0.03
-    deeper = retry_params(swing_params(p, 2, 1.2, math.radians(2.6)), end_at_line=False)
+    deeper = tried(p, 2, 1.2, math.radians(2.6), end_at_line=False)
     runner = SwingRunner()
     short = runner.run(deeper, seed=seed, start_state=start).summary
     assert short["outcome"] == "timeout" and short["closest_distance_m"] > 0.03
@@ -354,24 +354,23 @@ def test_the_swapped_robots_try_keeps_the_deeper_plan_where_the_one_ending_at_th
     of the driver's i^2 t budget than hanging.i2t_share (no guess kept
     to it: on the span's +7.6 deg chord a 44 % pump, on which 4 of 16 draws
     of tuning root seed 777 crashed and none on the plan ending 13 mm below),
-    its try keeps ``traverse.plan_end_depth``; at 30 V (no share) and for a
+    its try keeps a traversal's end depth; at 30 V (no share) and for a
     cooler plan it ends at the line."""
     import math
 
-    from bplir_drake.analysis.traverse import recovery
-    from bplir_drake.analysis.traverse.run import swing_params
+    from bplir_drake.diagrams import retry_plan
+    from moves import traverse_swing
     from bplir_drake.systems.motor import interlock_budget
 
     heat = {}
-    monkeypatch.setattr(recovery, "scenario_plan", lambda p: p.plan.end_depth)
-    monkeypatch.setattr(recovery, "planned_i2t", lambda depth, motor: heat[depth]
+    monkeypatch.setattr(retry_plan, "scenario_plan", lambda p: p.plan.end_depth)
+    monkeypatch.setattr(retry_plan, "planned_i2t", lambda depth, motor: heat[depth]
                         * interlock_budget(motor))
     b48 = paced_48v(BplirParams())
-    swing = swing_params(b48, 2, 1.2, math.radians(7.6))
     heat[0.0] = 0.44
-    assert retry_params(swing).plan.end_depth == 0.013
+    assert tried(b48, 2, 1.2, math.radians(7.6)).plan.end_depth == 0.013
     heat[0.0] = 0.34
-    assert retry_params(swing).plan.end_depth == 0.0
+    assert tried(b48, 2, 1.2, math.radians(7.6)).plan.end_depth == 0.0
     heat[0.0] = 0.9
-    assert retry_params(swing_params(BplirParams(), 2, 1.2, 0.0)).plan.end_depth == 0.0
-    assert retry_params(swing_params(b48, 1, 1.2, 0.0)).plan.end_depth == 0.013
+    assert tried(BplirParams(), 2, 1.2, 0.0).plan.end_depth == 0.0
+    assert tried(b48, 1, 1.2, 0.0).plan.end_depth == 0.013

@@ -83,7 +83,9 @@ def _with_settings(params, args):
 def _with_hardware(params, args):
     """``params`` with the ``--hardware`` options (comma-separated names)."""
     names = [n.strip() for n in (getattr(args, "hardware", None) or "").split(",") if n.strip()]
-    return params.with_hardware(*names) if names else params
+    from ..params import with_hardware
+
+    return with_hardware(params, *names) if names else params
 
 
 #: figure formats every drawing command writes (``--format``)

@@ -9,25 +9,18 @@ from .options import command, option, shared
 # ------------------------------------------------------------------ plan
 def cmd_plan(args) -> int:
     """``bplir plan``: plan a swing by trajectory optimisation."""
-    import dataclasses as dc
-
     import numpy as np
 
     from ..diagrams.plan import (energy_balance, hanging_plan, plan_swing, planned_i2t,
                                  plot_plan, pump_plan)
-    from ..params import pumping, swapped
+    from ..params import Manoeuvre, derive
     from ..systems.motor import interlock_budget
 
-    params = _load_params(args)
-    if args.incline is not None:
-        params = params.with_(scenario=dc.replace(params.scenario, incline_deg=args.incline))
-    if args.gripper == 2:
-        params = swapped(params)
-    if args.pump:
-        if args.knots is not None or args.power is not None:
-            raise InputError("--pump plans on its own knots within the motor's power rating; "
-                             "allowed without --knots and --power")
-        params = pumping(params)
+    if args.pump and (args.knots is not None or args.power is not None):
+        raise InputError("--pump plans on its own knots within the motor's power rating; "
+                         "allowed without --knots and --power")
+    params = derive(_load_params(args), Manoeuvre(gripper=args.gripper, incline_deg=args.incline,
+                                                  reach="pump" if args.pump else None))
     out = _out_dir(args.out)
     # plan_swing validates the scenario, the power limit and the knots
     given = {} if args.knots is None else {"knots": args.knots}   # else each planner's own

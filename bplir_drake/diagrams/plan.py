@@ -24,12 +24,12 @@ from dataclasses import replace
 
 import numpy as np
 
-from ..params import BplirParams, ParameterError
+from ..params import BplirParams, ParameterError, around
 from .plan_plot import (  # noqa: F401 (re-exported)
     plot_plan)
 from .swing_plan import (  # noqa: F401 (re-exported)
     HANGING_GUESSES, HANGING_KNOTS, HANGING_MINOR_ITERATIONS, PLAN_FRICTION_SMOOTHING,
-    PUMP_KNOTS, UNBALANCED_SHARE, SwingPlan, energy_balance, hanging_planned, plan_envelope,
+    PUMP_KNOTS, UNBALANCED_SHARE, SwingPlan, energy_balance, planned_from_hanging, plan_envelope,
     plan_friction, plan_time_weight, plan_torque_limit, planned_target, pump_guesses,
     shifted_angles)
 from .plan_library import library_plan
@@ -311,7 +311,7 @@ def hanging_plan(params: BplirParams, *, power_limit: float | None = None,
     (:data:`HANGING_KNOTS`) with up to :data:`HANGING_MINOR_ITERATIONS`
     minor iterations, the torque within ``hanging.torque_share`` of its limit
     and the voltage within the envelope of ``hanging.supply_voltage``
-    (:func:`hanging_planned`: a pump of several swings the tracker can
+    (:func:`planned_from_hanging`: a pump of several swings the tracker can
     follow with headroom), no warm start.  With ``hanging.i2t_share``
     a feasible plan that by itself uses more of the driver's i^2 t budget
     (:func:`planned_i2t`) gives way to the next guess, and the least
@@ -322,7 +322,7 @@ def hanging_plan(params: BplirParams, *, power_limit: float | None = None,
     about 90 s).  When none is feasible: ``ParameterError`` naming why, or
     with ``strict=False`` the last guess's plan (``bplir plan`` reports
     it)."""
-    params = hanging_planned(params)
+    params = planned_from_hanging(params)
     allowance = i2t_allowance(params)
     kept = None   # (i^2 t, plan) of the least heating feasible plan
     for guess in HANGING_GUESSES:
@@ -364,7 +364,7 @@ def _warm_from_level(params: BplirParams, power_limit, knots: int, progress: boo
 def hanging_solve(made: BplirParams, *, power_limit: float | None = None,
                   knots: int = HANGING_KNOTS, progress: bool = False, **start) -> SwingPlan:
     """One solve of the plan from hanging of ``made`` (as
-    :func:`hanging_planned` makes it): ``plan.end_depth``, its own iteration
+    :func:`planned_from_hanging` makes it): ``plan.end_depth``, its own iteration
     limit, started from ``start`` (``guess_duration``
     or ``initial``, as :func:`plan_swing` takes them)."""
     return plan_swing(made, power_limit=power_limit, end_depth=made.plan.end_depth, knots=knots,
@@ -406,7 +406,7 @@ def planned_i2t(plan: SwingPlan, motor) -> float:
 
 def i2t_allowance(params: BplirParams) -> float:
     """The driver's i^2 t (A^2 s) a plan from hanging of ``params`` (as
-    :func:`hanging_planned` makes it) may use by itself:
+    :func:`planned_from_hanging` makes it) may use by itself:
     ``hanging.i2t_share`` of the budget (infinite with the share 0)."""
     share = params.hanging.i2t_share
     return share * interlock_budget(params.motor) if share > 0.0 else math.inf
@@ -438,7 +438,7 @@ def tracking_gains(plant, friction, plan: SwingPlan, cache: bool = True,
     inputs = gains_inputs(plant, friction, plan, weights)
 
     def solve():
-        model, _ = plan_model(BplirParams.of_plant(plant, friction))   # any link lengths
+        model, _ = plan_model(around(plant, friction))   # any link lengths
         return plan_gains(model, plan.times, plan.states, plan.torque, weights)
 
     if not cache:

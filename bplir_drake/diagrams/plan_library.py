@@ -40,7 +40,7 @@ from ..io import atomic_path
 from .plan_cache import PACKAGED, cache_dir, damage, plan_key
 from .swing_plan import (HANGING_GUESSES, HANGING_KNOTS, HANGING_MINOR_ITERATIONS,
                          PLAN_FRICTION_SMOOTHING, PUMP_KNOTS, UNBALANCED_SHARE, SwingPlan,
-                         hanging_planned, plan_envelope, plan_friction, plan_time_weight,
+                         planned_from_hanging, plan_envelope, plan_friction, plan_time_weight,
                          plan_torque_limit, planned_target, pump_guesses, shifted_angles)
 
 #: the grid of the shipped libraries: line inclines (deg) and grip spacings (m)
@@ -81,7 +81,7 @@ class PlanLibrary:
 def model_inputs(params: BplirParams) -> dict:
     """Every input of a library plan and its gains other than the incline
     and the grip spacing (the planner's defaults for the solver settings;
-    from hanging, its own: :func:`~.swing_plan.hanging_planned`, knots,
+    from hanging, its own: :func:`~.swing_plan.planned_from_hanging`, knots,
     iteration limit, guesses and i^2 t share; the elbow-rate bound 0, none,
     kept in the key of the libraries shipped when it was a parameter)."""
     made, hanging = _as_planned(params), params.scenario.start == "hanging"
@@ -107,7 +107,7 @@ def model_inputs(params: BplirParams) -> dict:
 def _as_planned(params: BplirParams) -> BplirParams:
     """``params`` as the planner makes its plan (from hanging: within its
     own torque share and supply)."""
-    return hanging_planned(params) if params.scenario.start == "hanging" else params
+    return planned_from_hanging(params) if params.scenario.start == "hanging" else params
 
 
 def library_path(params: BplirParams, directory: Path = PACKAGED) -> Path:

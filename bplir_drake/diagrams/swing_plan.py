@@ -12,7 +12,8 @@ import numpy as np
 
 from ..io import Result
 from ..params import BplirParams
-from ..params.files import robot_scales
+from ..params.derive import planned_from_hanging  # noqa: F401 (re-exported)
+from ..params.follow import robot_scales
 from ..systems.plant import initial_configuration, kinetic_energy, potential_energy
 from .plan_plot import plot_plan
 
@@ -265,15 +266,3 @@ def pump_guesses(plant) -> tuple[float, ...]:
     """:data:`PUMP_GUESSES` in seconds for the robot ``plant``."""
     t0 = robot_scales(plant)[0]
     return tuple(round(k * t0, 2) for k in PUMP_GUESSES)
-
-
-def hanging_planned(params: BplirParams) -> BplirParams:
-    """``params`` as a plan from hanging is made with: ``plan.torque_share``
-    at most ``hanging.torque_share``, and the motor at
-    ``hanging.supply_voltage`` when that is set (the robot swings at its own
-    supply; only the plan keeps to the other's envelope)."""
-    pl, motor, h = params.plan, params.motor, params.hanging
-    if h.supply_voltage > 0:
-        motor = replace(motor, supply_voltage=h.supply_voltage)
-    return params.with_(motor=motor, plan=replace(
-        pl, torque_share=min(pl.torque_share, h.torque_share)))

@@ -77,14 +77,27 @@ from .model import (  # noqa: F401
     swapped_plant,
     swapped_imu,
     swapped,
-    pumping,
-    PUMP_TIME,
     parameter_reference,
     BLOCKS,
     _dissertation,
     _lab,
     PRESETS,
     preset)
+from .follow import robot_scales, follow  # noqa: F401
+from .derive import (  # noqa: F401
+    Manoeuvre,
+    derive,
+    with_hardware,
+    imu_only,
+    around,
+    planned_from_hanging,
+    free_link_tilt,
+    free_link_upright,
+    PUMP_TIME,
+    TRAVERSE_END_SHARE,
+    RETRY_TIME,
+    RETRY_LIFT_HOLD,
+    UPRIGHT_FREE_LINK)
 from .files import (  # noqa: F401
     from_dict,
     read_toml,
@@ -103,6 +116,6 @@ __all__ = [
     "from_dict", "load_toml", "to_toml",
     "save_toml", "to_dict", "sigma_from_density", "DriveParams", "GripperParams", "TraverseParams",
     "PlanParams", "HangingParams", "LandingParams",
-    "swapped", "pumping", "PUMP_TIME", "swapped_plant", "swapped_imu", "parameter_reference", "BLOCKS", "plugin_name",
+    "swapped", "Manoeuvre", "derive", "with_hardware", "imu_only", "PUMP_TIME", "swapped_plant", "swapped_imu", "parameter_reference", "BLOCKS", "plugin_name",
 ]
 

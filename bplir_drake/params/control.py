@@ -17,12 +17,12 @@ TRAPEZOID_TUNING = {"integration": "trapezoid", "accel_process_sigma": 2.0,
 
 
 #: the shooting landing's aim and hold of the robot without the jaw's line
-#: sensor (the defaults; :meth:`BplirParams.imu_only`)
+#: sensor (the defaults; :func:`~.derive.imu_only`)
 IMU_ONLY_TUNING = {"shoot_height": -0.015, "shoot_min_time": 0.04, "shoot_lift_min_time": 0.0}
 
 
 #: the jaw's line sensor as a hardware option: its range, and the landing's
-#: aim and hold with it (:meth:`BplirParams.with_hardware`)
+#: aim and hold with it (:func:`~.derive.with_hardware`)
 LINE_SENSOR_OPTION = {"range": 0.2, "shoot_height": -0.018, "shoot_min_time": 0.03,
                       "shoot_lift_min_time": 0.05}
 
@@ -39,7 +39,7 @@ LINE_SENSOR_OPTION = {"range": 0.2, "shoot_height": -0.018, "shoot_min_time": 0.
 SUPPLY_48V_OPTION = {"supply_voltage": 48.0, "hanging_supply_voltage": 30.0, "shoot_brake_ratio": 1.6}
 
 
-#: named hardware options on top of a preset (:meth:`BplirParams.with_hardware`)
+#: named hardware options on top of a preset (:func:`~.derive.with_hardware`)
 HARDWARE_OPTIONS = {
     "line-sensor": "a range sensor in each gripper's jaw reading the line within 0.2 m",
     "48v": "a 48 V supply (the motor's datasheet rating) instead of the 30 V the robot has; "

@@ -1,14 +1,12 @@
 """The whole parameter set (BplirParams), the swapped robot, the presets and the parameter reference the docs are generated from."""
 from __future__ import annotations
 
-import math
-
 from dataclasses import dataclass, field, fields, replace
 from typing import Any
 from .base import ParameterError, _is_plugin, _range_text
 from .robot import FrictionParams, MotorParams, PlantParams, RobotFileParams
 from .sensing import EstimatorParams, ImuParams, LineSensorParams
-from .control import CONTROLLER_PRESETS, ControllerParams, current_preset_name, HARDWARE_OPTIONS, IMU_ONLY_TUNING, LINE_SENSOR_OPTION, PathParams, SUPPLY_48V_OPTION
+from .control import CONTROLLER_PRESETS, ControllerParams, current_preset_name, PathParams
 from .plan import HangingParams, LandingParams, PlanParams
 from .scenario import DriveParams, GripperParams, ScenarioParams, TraverseParams
 
@@ -37,6 +35,9 @@ class BplirParams:
     true_plant: PlantParams | None = None
     true_friction: FrictionParams | None = None
     preset_name: str = "dissertation"
+    #: the fields a file or ``--set`` gave ("block.field"), which no rule
+    #: in the robot's units moves (:func:`~.follow.follow`)
+    given: frozenset = field(default=frozenset(), compare=False, repr=False)
 
     def __post_init__(self):
         if (self.imu.r1 > (self.true_plant or self.plant).l1
@@ -49,8 +50,7 @@ class BplirParams:
         for block, name, h, rest in (
                 ("landing", "shoot_height", -self.landing.shoot_height, False),
                 ("landing", "shoot_lift_height", -self.landing.shoot_lift_height, False),
-                ("plan", "end_depth", self.plan.end_depth, True),   # the plan comes to rest
-                ("traverse", "plan_end_depth", self.traverse.plan_end_depth, True)):
+                ("plan", "end_depth", self.plan.end_depth, True)):   # the plan comes to rest
             if h > band or (rest and h == band):
                 raise ParameterError(
                     f"{block}.{name} = {getattr(getattr(self, block), name):g} m lies below the "
@@ -96,50 +96,6 @@ class BplirParams:
         sensor = self.line_sensor if name == "plan" else replace(self.line_sensor, range=0.0)
         return replace(self, controller=ControllerParams.preset_named(name), path=path,
                        line_sensor=sensor)
-
-    @classmethod
-    def of_plant(cls, plant: PlantParams, friction: FrictionParams | None = None) -> "BplirParams":
-        """The default parameters around another robot's links (``plant``,
-        ``friction``): the IMUs and the filter's geometry moved to the middle
-        of its links, so links shorter than the default IMU radii are
-        accepted (a plant-only model, such as the planner's, reads none of
-        them)."""
-        base = cls()
-        return replace(base, plant=plant, friction=friction or base.friction,
-                       imu=replace(base.imu, r1=plant.l1 / 2, r2=plant.l2 / 2),
-                       estimator=replace(base.estimator, r1=plant.l1 / 2, r2=plant.l2 / 2,
-                                         l1=plant.l1))
-
-    def imu_only(self) -> "BplirParams":
-        """The robot without the jaw's line sensor (``line_sensor.range = 0``:
-        the IMUs alone), with the shooting landing's aim of that robot
-        (:data:`IMU_ONLY_TUNING`)."""
-        return replace(self, line_sensor=replace(self.line_sensor, range=0.0),
-                       landing=replace(self.landing, **IMU_ONLY_TUNING))
-
-    def with_hardware(self, *names: str) -> "BplirParams":
-        """The robot with the named hardware options (:data:`HARDWARE_OPTIONS`):
-        ``"line-sensor"`` (the jaw's line range sensor and the landing's aim
-        with it, :data:`LINE_SENSOR_OPTION`), ``"48v"`` (a 48 V supply, its
-        swings from hanging planned as the 30 V robot plans them, and a
-        traversal's landing shot braking where far out of reach,
-        :data:`SUPPLY_48V_OPTION`)."""
-        p = self
-        for name in names:
-            if name == "line-sensor":
-                o = LINE_SENSOR_OPTION
-                p = replace(p, line_sensor=replace(p.line_sensor, range=o["range"]),
-                            landing=replace(p.landing,
-                                            **{k: v for k, v in o.items() if k != "range"}))
-            elif name == "48v":
-                o = SUPPLY_48V_OPTION
-                p = replace(p, motor=replace(p.motor, supply_voltage=o["supply_voltage"]),
-                            hanging=replace(p.hanging, supply_voltage=o["hanging_supply_voltage"]),
-                            traverse=replace(p.traverse, shoot_brake_ratio=o["shoot_brake_ratio"]))
-            else:
-                raise ParameterError(f"unknown hardware option '{name}'; allowed: "
-                                     + ", ".join(HARDWARE_OPTIONS))
-        return p
 
     def with_estimator(self, spec: str, args=()) -> "BplirParams":
         """A user's estimator ``"module:factory"`` (or a registered name) in the
@@ -188,21 +144,6 @@ def swapped(params: BplirParams) -> BplirParams:
         true_plant=None if true is None else swapped_plant(true),
         imu=swapped_imu(params.imu, params.simulated_plant),
         estimator=replace(est, l1=nominal.l2, r1=nominal.l2 - est.r2, r2=est.l1 - est.r1))
-
-
-#: a pumping manoeuvre's timeout, the longest its plan may take, in the
-#: robot's time unit sqrt(L/g) (9.4 s on the default robot)
-PUMP_TIME = 20.0
-
-
-def pumping(params: BplirParams) -> BplirParams:
-    """The robot ``params`` reaching the next grip from the line by pumping
-    (``scenario.manoeuvre = "pump"``): its swing's timeout at least
-    :data:`PUMP_TIME` of its time unit ``sqrt(L/g)``."""
-    p, sc = params.plant, params.scenario
-    timeout = max(sc.max_time, round(PUMP_TIME * math.sqrt((p.l1 + p.l2) / p.g), 2))
-    return replace(params, scenario=replace(sc, manoeuvre="pump", start="line",
-                                            max_time=timeout))
 
 
 def parameter_reference(blocks=None) -> list[dict[str, Any]]:

@@ -31,6 +31,15 @@ RETIRED: dict[tuple[str, str], tuple[str, str] | float] = {
     ("traverse", "swapped_retry_end_depth"): 0.0,   # the free link's pose decides
 }
 
+#: retired fields a manoeuvre's rule in the robot's units decides now
+#: (``params.derive``): ``(block, field)`` -> (the rule, its value on the
+#: default robot, which a file may give silently)
+RULED: dict[tuple[str, str], tuple[str, float]] = {
+    ("traverse", "plan_end_depth"): ("derive.TRAVERSE_END_SHARE of the capture band", 0.013),
+    ("traverse", "retry_max_time"): ("derive.RETRY_TIME sqrt(L/g)", 6.0),
+    ("traverse", "retry_lift_min_time"): ("derive.RETRY_LIFT_HOLD sqrt(L/g)", 0.05),
+}
+
 
 #: fields that moved to another block: ``(block, field)`` -> ``(block, field)``
 #: (the capture criterion is the gripper's, a property of the robot; how a
@@ -113,6 +122,12 @@ def drop_retired(data: dict[str, Any], blocks: dict[str, type]) -> dict[str, Any
     if isinstance(out.get("estimator"), dict):
         out["estimator"], ignored = loop_tuning(out["estimator"])
         data = out
+    for (block, name), (rule, value) in RULED.items():
+        table = out.get(block)
+        if isinstance(table, dict) and name in table:
+            if table[name] != value:
+                ignored.append(f"{block}.{name} = {table[name]!r} (now the rule {rule})")
+            out[block] = {k: v for k, v in table.items() if k != name}
     for (block, name), now in RETIRED.items():
         table = out.get(block)
         if not isinstance(table, dict) or name not in table:

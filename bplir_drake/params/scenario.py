@@ -113,7 +113,6 @@ class TraverseParams(_Block):
     clearance: float = _p(0.05, "m", 0, 1, doc="gap kept between a clasped gripper and an obstacle")
     landing_tolerance: float = _p(0.08, "m", 0, 1, doc="planned landings lie at least this much further from obstacles (the swing's landing error)")
     swing_mode: str = field(default="plan", metadata=dict(doc="how traversal swings are steered: plan (plan tracking) or the path generator (adaptive)", allowed="plan, adaptive"))
-    plan_end_depth: float = _p(0.013, "m", 0, 0.1, doc="swing_mode 'plan': the planned swing comes to rest this far below the line (plan.end_depth of every traversal swing)")
     # swing_mode 'plan': the single swing's apex landing and delay compensation
     # (landing.landing_*, plan.delay_compensation) on every traversal swing
     landing: bool = field(default=True, metadata=dict(doc="traversal swings end with the single swing's landing law"))
@@ -124,8 +123,6 @@ class TraverseParams(_Block):
     retries: int = _count(2, "", 0, 5, doc="swings tried again after a timeout, each from hanging at rest (0: a timeout ends the traversal)")
     shoot_brake_ratio: float = _p(0.0, "", 0, 10, doc="landing.shoot_brake_ratio of the traversal's swings, where a timed-out swing is tried again and a crash ends the run (0: the landing's own)")
     retry_aim_raise: float = _p(0.005, "m", 0, MAX_LANDING_BIAS, doc="after a try from hanging that timed out with the robot's estimate of the gripper within the capture band (the estimate ran above the truth), the next try aims this much higher")
-    retry_lift_min_time: float = _p(0.05, "s", 0, 0.5, doc="landing.shoot_lift_min_time of a swing tried again from hanging: where its plan lifts the gripper with the elbow, the apex shot held from this instead of the aim law (0: the landing's own)")
-    retry_max_time: float = _p(6.0, "s", 1, 60, doc="scenario.max_time of a swing tried again from hanging (it pumps before it reaches)")
     recover_limit: float = _p(240.0, "s", 1, 3600, doc="longest the robot damps its swing after a timeout before it gives up")
     recover_energy: float = _p(0.05, "J", 0, 10, lo_open=True, doc="the swing counts as damped when its energy above hanging at rest is below this")
     recover_kp: float = _p(20.0, "N m/rad", 0, 1000, doc="stiffness of the elbow's damping law tau = kp (lean q1' - q2) - kd q2'")
@@ -138,5 +135,4 @@ class TraverseParams(_Block):
                 f"traverse.grip_spacing = {self.grip_spacing:g} m is outside [spacing_min, "
                 f"spacing_max] = [{self.spacing_min:g}, {self.spacing_max:g}] m; allowed "
                 "spacing_min <= grip_spacing <= spacing_max")
-        self._off_or_at_least("retry_lift_min_time", 0.02, "the landing's own")
         self._one_of("swing_mode", TRAVERSE_SWING_MODES)

@@ -48,7 +48,7 @@ def solve_from(q: BplirParams, initial=None, guess_duration: float | None = None
         return P.pump_solve(q, **start)
     if q.scenario.start != "hanging":
         return P.plan_swing(q, end_depth=q.plan.end_depth, **start)
-    made = P.hanging_planned(q)
+    made = P.planned_from_hanging(q)
     plan = P.hanging_solve(made, **start)
     if plan.feasible and P.planned_i2t(plan, made.motor) > P.i2t_allowance(made):
         return dc.replace(plan, feasible=False)
@@ -146,7 +146,7 @@ def cool(params: BplirParams, plans: dict) -> tuple[dict, set]:
     robot heavier than the model trips the driver on it or crashes."""
     if params.scenario.start != "hanging":
         return dict(plans), set()
-    motor = P.hanging_planned(params).motor
+    motor = P.planned_from_hanging(params).motor
 
     def share(plan):   # of the driver's i^2 t budget the plan's torque alone uses
         return P.planned_i2t(plan, motor) / interlock_budget(motor)

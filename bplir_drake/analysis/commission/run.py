@@ -10,10 +10,9 @@ from pathlib import Path
 
 from ...diagrams.plan_library import robot_library_path
 from ...io import atomic_path, write_json_atomic
-from ...params import BplirParams, pumping, save_toml, swapped
+from ...diagrams.retry_plan import retry
+from ...params import BplirParams, Manoeuvre, derive, save_toml
 from ..montecarlo.runner import run_study
-from ..traverse.recovery import retry_params
-from ..traverse.swing_setup import swing_params
 from .grid import at, solve_library
 from .margins import (assumptions, binding_line, electric_margins, landing_impact,
                       motor_figures)
@@ -38,8 +37,8 @@ def held_by(params: BplirParams, gripper: int) -> tuple[BplirParams, BplirParams
     """The robot ``params`` holding with ``gripper`` (2: seen from its other
     gripper), as its swing from the line and as that swing tried again from
     hanging (a traversal's recovery) are commissioned."""
-    robot = params if gripper == 1 else swapped(params)
-    tries = retry_params(swing_params(params, gripper, params.scenario.grip_spacing, 0.0))
+    robot = derive(params, Manoeuvre(gripper=gripper))
+    tries = retry(params, Manoeuvre(gripper=gripper, incline_deg=0.0, context="retry"))
     return robot, tries
 
 
@@ -62,7 +61,7 @@ def commission(params: BplirParams, *, inclines=(0.0,), spacings=None,
     same grid where its swing from the line has a plan (no try of a swing
     that has none): a point without a plan there is a limit too.  With
     ``pumps``, where the single swing leaves a limit, the same grid and
-    studies of the pumping manoeuvre (:func:`~bplir_drake.params.pumping`),
+    studies of the pumping manoeuvre (``Manoeuvre(reach="pump")``),
     and the manoeuvre whose studies do better is the robot's (the other's
     rows and studies are kept, ``chosen`` false).  With ``out`` the robot's parameters, its
     libraries, the studies (resumable), ``commission.json``, ``report.md``
@@ -84,7 +83,7 @@ def commission(params: BplirParams, *, inclines=(0.0,), spacings=None,
         robot, tries = held_by(params, g)
         chosen = _manoeuvre(robot, g, **grid)
         if pumps and chosen.limits:
-            pump = _manoeuvre(pumping(robot), g, **grid)
+            pump = _manoeuvre(derive(params, Manoeuvre(gripper=g, reach="pump")), g, **grid)
             if pump.score() > chosen.score():
                 chosen, pump = pump, chosen
             found.add(pump, chosen=False)
@@ -227,7 +226,7 @@ def _short(v: dict) -> str:
 def _save(result: CommissionResult, out: Path, grippers, figure) -> None:
     """The result's files in ``out``."""
     robots = [r for g in grippers for r in held_by(result.params, g)]
-    robots += [pumping(robots[k]) for k in range(0, len(robots), 2)]   # each swing's pump
+    robots += [derive(result.params, Manoeuvre(gripper=g, reach="pump")) for g in grippers]
     for lib in (robot_library_path(r) for r in robots):
         if lib.exists():
             (out / "plans").mkdir(exist_ok=True)

@@ -26,11 +26,10 @@ from ...diagrams.plan_cache import cache_dir
 from ...diagrams.plan_library import (LIBRARY_SAMPLES, PlanLibrary, library_path,
                                       load_library)
 from ...diagrams.swing_plan import SwingPlan
-from ...params import BplirParams, preset
-from ...params.files import robot_scales
+from ...diagrams.retry_plan import retry
+from ...params import BplirParams, Manoeuvre, derive, preset, with_hardware
+from ...params.follow import robot_scales
 from ...params.robot import PlantParams
-from ..traverse.recovery import retry_params
-from ..traverse.swing_setup import swing_params
 
 
 @dataclass(frozen=True)
@@ -73,11 +72,12 @@ def shipped_robots(hardware=()) -> dict[str, BplirParams]:
     options), its traversal swings holding with either gripper and those
     swings tried again from hanging (``scripts/plan_library.py`` builds
     them)."""
-    base = preset().with_hardware(*hardware)
-    line = {g: swing_params(base, g, 1.2, 0.0) for g in (1, 2)}
+    base = with_hardware(preset(), *hardware)
+    step = {g: Manoeuvre(gripper=g, spacing=1.2, incline_deg=0.0, context="traverse")
+            for g in (1, 2)}
     return {"swing": base.with_(path=dc.replace(base.path, mode="plan")),
-            "traverse-1": line[1], "traverse-2": line[2],
-            "hanging-1": retry_params(line[1]), "hanging-2": retry_params(line[2])}
+            "traverse-1": derive(base, step[1]), "traverse-2": derive(base, step[2]),
+            "hanging-1": retry(base, step[1]), "hanging-2": retry(base, step[2])}
 
 
 def shipped_references() -> list[Reference]:

@@ -20,7 +20,7 @@ import numpy as np
 
 from ..montecarlo.study import Distribution, Study
 from ..montecarlo.statistics import samples_to_show, wilson_interval
-from ..traverse.recovery import free_link_tilt, UPRIGHT_FREE_LINK
+from ...params.derive import free_link_tilt, UPRIGHT_FREE_LINK
 from .margins import motor_figures
 from .similarity import Scales
 

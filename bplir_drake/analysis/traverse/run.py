@@ -29,16 +29,18 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ...params import BplirParams, swapped
+from ...params import BplirParams, Manoeuvre, derive
+from ...params.derive import raises_aim
+from ...diagrams import retry_plan
 from ...systems.drive import ride
 from ...systems.motor import i2t_after_rest, i2t_trace, rest_for
 from ...systems.plant import initial_configuration, swapped_state, target_configuration
 from ...io import Result
 from .line import Line
 from .route import hold_position, plan_route
-from .recovery import can_retry, damp, damping_drive, retry_params
+from .recovery import can_retry, damp, damping_drive
 from .swing_setup import (  # noqa: F401 (re-exported)
-    swing_params, swing_chord, learnt_landing, budgeted_currents, capture_impulse)
+    swing_chord, budgeted_currents, capture_impulse)
 from .result import (  # noqa: F401 (re-exported)
     TraverseRow, TraverseTotals,
     OUTCOMES, ROW_FIELDS, MotionLog, Segment, TraverseResult)
@@ -253,15 +255,17 @@ class _Traversal:
         hold_g = self.front_gripper
         hold, start = self.front, self.rear
         spacing, inc = swing_chord(self.line, start, hold, reach)
-        p = learnt_landing(swing_params(self.params, hold_g, spacing, inc),
-                           self.landing_errors[hold_g])
+        m = Manoeuvre(gripper=hold_g, spacing=spacing, incline_deg=math.degrees(inc),
+                      context="traverse", learnt=tuple(self.landing_errors[hold_g]))
+        p = derive(self.params, m)
         self._rest_before(p, obstacle)
         x_start, attempt = None, 1
         while True:
             s, x_end = self._attempt(p, obstacle, attempt, x_start)
             if s.outcome not in ("timeout", "fault") or attempt > tp.retries:
                 break
-            retry = retry_params(p, s)
+            m = dc.replace(m, raised=m.raised + raises_aim(p, s))
+            retry = retry_plan.retry(self.params, m)
             if not can_retry(retry):
                 self._row("recover", 0.0, obstacle=obstacle, holding_gripper=str(hold_g),
                           hold_m=hold, outcome="no plan from hanging")
@@ -442,5 +446,5 @@ def run_traverse(line: Line, params: BplirParams, *, seed: int = 0, progress: bo
     return TraverseResult(line, params, seed, tr.rows, totals, tr.motion, tr.clamps, tr.holds)
 
 
-__all__ = ["TraverseResult", "run_traverse", "swing_params", "budgeted_currents",
+__all__ = ["TraverseResult", "run_traverse", "budgeted_currents",
            "capture_impulse", "OUTCOMES", "ROW_FIELDS", "Segment"]

@@ -1,0 +1,117 @@
+"""One derivation: what a manoeuvre runs with is ``params.derive``'s answer
+on every path (TOML, Python, the command line), hardware options compose
+in the robot's units, and the manoeuvres' rules are stated in them."""
+import dataclasses as dc
+import json
+import math
+
+import pytest
+
+from bplir_drake.cli.main import main
+from bplir_drake.params import (BplirParams, GripperParams, Manoeuvre, ParameterError,
+                                PlantParams, RETRY_TIME, TRAVERSE_END_SHARE, derive, from_dict,
+                                load_toml, parameter_reference, to_dict, with_hardware)
+
+#: a robot of its own: shorter, lighter links and a hook whose capture band is 30 mm
+HOOK = {"plant": {"l1": 0.6, "l2": 0.5, "lc1": 0.3, "lc2": 0.28, "m1": 0.9, "m2": 0.7,
+                  "I1": 0.03, "I2": 0.02},
+        "gripper": {"capture_distance": 0.03}}
+
+
+def _toml(path):
+    lines = []
+    for block, table in HOOK.items():
+        lines.append(f"[{block}]")
+        lines += [f"{k} = {v}" for k, v in table.items()]
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def _python():
+    base = BplirParams()
+    return dc.replace(base, plant=dc.replace(base.plant, **HOOK["plant"]),
+                      gripper=GripperParams(capture_distance=0.03))
+
+
+def test_a_robot_in_toml_in_python_and_on_the_command_line_derives_the_same(tmp_path, capsys):
+    """The same robot read from TOML, built in Python with ``dataclasses.replace``
+    (nothing followed yet) and listed by ``bplir params --config`` derives
+    identical parameters for the same manoeuvre, held by either gripper, as a
+    single swing, a pump, a traversal's swing and a try from hanging."""
+    f = _toml(tmp_path / "hook.toml")
+    toml, python = load_toml(f), _python()
+    assert python.imu.r1 == BplirParams().imu.r1   # Python's: not followed yet
+    for m in (Manoeuvre(), Manoeuvre(gripper=2), Manoeuvre(reach="pump"),
+              Manoeuvre(gripper=2, context="traverse", spacing=0.81, incline_deg=3.04),
+              Manoeuvre(gripper=1, context="retry", raised=1)):
+        assert to_dict(derive(toml, m)) == to_dict(derive(python, m))
+    assert main(["params", "--config", str(f), "--json"]) == 0
+    listed = {(r["block"], r["name"]): r["value"]
+              for r in json.loads(capsys.readouterr().out)["parameters"]}
+    derived = derive(python)
+    for (block, name), value in listed.items():
+        want = getattr(getattr(derived, block), name)
+        assert value == (list(want) if isinstance(want, tuple) else want), (block, name)
+    # the robot's units, not the default robot's SI numbers
+    base = BplirParams()
+    assert derived.imu.r1 == pytest.approx(base.imu.r1 * 0.6 / base.plant.l1, rel=1e-12)
+    assert derived.landing.shoot_height == pytest.approx(1.5 * -0.015, rel=1e-12)
+    assert derive(derived) == derived   # following is idempotent
+
+
+def test_hardware_options_compose_with_a_config_in_the_robots_units(tmp_path, capsys):
+    """``--config hook.toml --hardware line-sensor`` on a robot whose
+    capture band is 30 mm aims the landing 1.5 times the default robot's
+    line-sensor aim (27 mm of 30, not 18), holds it for the robot's own
+    time unit, keeps the sensor's 0.2 m range, and the options' order does
+    not matter."""
+    f = _toml(tmp_path / "hook.toml")
+    assert main(["params", "landing", "--config", str(f), "--hardware", "line-sensor",
+                 "--json"]) == 0
+    rows = {r["name"]: r["value"] for r in json.loads(capsys.readouterr().out)["parameters"]}
+    hook, base = load_toml(f), BplirParams()
+    kt = math.sqrt((0.6 + 0.5) / (base.plant.l1 + base.plant.l2))
+    assert rows["shoot_height"] == pytest.approx(-0.018 * 1.5, rel=1e-12)
+    assert rows["shoot_min_time"] == pytest.approx(max(0.03 * kt, 0.02), rel=1e-12)
+    assert rows["shoot_lift_min_time"] == pytest.approx(0.05 * kt, rel=1e-12)
+    both = with_hardware(hook, "line-sensor", "48v")
+    assert both == with_hardware(hook, "48v", "line-sensor")
+    assert both.line_sensor.range == 0.2 and both.motor.supply_voltage == 48.0
+    assert derive(hook, hardware=("line-sensor",)) == with_hardware(hook, "line-sensor")
+
+
+def test_a_manoeuvres_rules_are_in_the_robots_units():
+    """A traversal's swing rests 0.65 of the capture band below the line
+    (13 mm of the default 20 mm, 19.5 of the hook's 30); a try from hanging
+    has 12.8 sqrt(L/g) to arrive (6.0 s on the default robot) and counts
+    its raised aims; a pump has 20 sqrt(L/g)."""
+    base, hook = BplirParams(), derive(_python())
+    step = Manoeuvre(context="traverse")
+    assert TRAVERSE_END_SHARE == 0.65 and RETRY_TIME == 12.8
+    assert derive(base, step).plan.end_depth == 0.013
+    assert derive(hook, step).plan.end_depth == pytest.approx(0.0195)
+    t0 = math.sqrt((0.6 + 0.5) / 9.81)
+    assert derive(base, Manoeuvre(context="retry")).scenario.max_time == 6.0
+    assert derive(hook, Manoeuvre(context="retry")).scenario.max_time == round(12.8 * t0, 2)
+    assert derive(hook, Manoeuvre(reach="pump")).scenario.max_time == round(20 * t0, 2)
+    raised = derive(base, Manoeuvre(context="retry", raised=2)).landing.landing_bias
+    assert raised == pytest.approx(2 * base.traverse.retry_aim_raise)
+    held = derive(base, Manoeuvre(gripper=2))
+    assert (held.plant.l1, held.plant.l2) == (base.plant.l2, base.plant.l1)
+
+
+def test_a_manoeuvre_out_of_range_is_one_line_and_old_fields_are_retired():
+    """A manoeuvre names its allowed values; the fields the manoeuvres'
+    rules replaced load silently at the default robot's values and with a
+    warning naming the rule otherwise; fewer than 227 parameters remain."""
+    with pytest.raises(ParameterError, match="manoeuvre gripper = 3; allowed: 1, 2"):
+        Manoeuvre(gripper=3)
+    with pytest.raises(ParameterError, match="manoeuvre context = 'rest'; allowed: single"):
+        Manoeuvre(context="rest")
+    assert from_dict({"traverse": {"plan_end_depth": 0.013, "retry_max_time": 6.0}}) \
+        == BplirParams()
+    with pytest.warns(FutureWarning, match=r"traverse.retry_max_time = 8.0 \(now the rule "
+                                           r"derive.RETRY_TIME sqrt\(L/g\)\)"):
+        from_dict({"traverse": {"retry_max_time": 8.0}})
+    assert len(parameter_reference()) == 225 < 227
+    assert isinstance(BplirParams().plant, PlantParams)

@@ -23,6 +23,7 @@ from .control import HARDWARE_OPTIONS, IMU_ONLY_TUNING, LINE_SENSOR_OPTION, SUPP
 from .follow import follow, followed, in_units, robot_scales
 from .model import BLOCKS, BplirParams, preset, swapped
 from .plan import MAX_LANDING_BIAS
+from .robot import line_pose
 
 #: where a manoeuvre starts, how it reaches the line, in what context it is done
 STARTS, REACHES, CONTEXTS = ("line", "hanging"), ("swing", "pump"), ("single", "traverse", "retry")
@@ -194,14 +195,8 @@ def free_link_tilt(p: BplirParams, spacing: float | None = None) -> float:
     """How far (rad) the free link of the robot ``p`` stands from upright
     in its end pose on a level line at ``spacing`` (default
     ``traverse.grip_spacing``; the nominal model's, elbow below the line)."""
-    d = p.traverse.grip_spacing if spacing is None else spacing
-    l1, l2 = p.plant.l1, p.plant.l2
-    if not abs(l1 - l2) < d < l1 + l2:
-        raise ParameterError(f"grip spacing = {d:g} m is out of reach of the links; "
-                             f"allowed ({abs(l1 - l2):.4g}, {l1 + l2:.4g}) m")
-    elbow = math.acos(max(-1.0, min(1.0, (l1 ** 2 + l2 ** 2 - d ** 2) / (2 * l1 * l2))))
-    pivot = math.acos(max(-1.0, min(1.0, (l1 ** 2 + d ** 2 - l2 ** 2) / (2 * l1 * d))))
-    free = (pivot - math.pi / 2 + elbow) % (2.0 * math.pi) - math.pi   # q1 + q2; 0: down
+    q1, q2 = line_pose(p.traverse.grip_spacing if spacing is None else spacing, p.plant)
+    free = (q1 + q2 + math.pi) % (2.0 * math.pi) - math.pi   # 0: hanging down
     return math.pi - abs(free)
 
 

@@ -197,3 +197,24 @@ class RobotFileParams(_Block):
     free_gripper: str = field(default="free_gripper", metadata=dict(
         doc="frame (or link) of the free gripper at the end of link 2",
         allowed="a frame of the file"))
+
+
+def line_pose(grip_spacing: float, p: PlantParams) -> tuple[float, float]:
+    """(q1, q2) rad of the robot ``p`` with both grippers on a level line
+    ``grip_spacing`` apart, the free gripper behind the holding one and the
+    elbow below the line (the law of cosines; :func:`~bplir_drake.systems.
+    plant.initial_configuration` turns it onto an inclined line)."""
+    l1, l2, D = p.l1, p.l2, grip_spacing
+    lo, hi = abs(l1 - l2), l1 + l2
+    if not (lo < D < hi):
+        raise ParameterError(
+            f"scenario.grip_spacing = {D:g} m is out of reach of the links; "
+            f"allowed ({lo:.4g}, {hi:.4g}) m")
+    # interior angle at the elbow from the law of cosines
+    cos_e = (l1 ** 2 + l2 ** 2 - D ** 2) / (2 * l1 * l2)
+    q2 = -(math.pi - math.acos(max(-1.0, min(1.0, cos_e))))
+    # angle of link 1 from the downward vertical: gripper at (-D, 0)
+    # with q2 < 0 the elbow hangs below the line
+    cos_b = (l1 ** 2 + D ** 2 - l2 ** 2) / (2 * l1 * D)
+    beta = math.acos(max(-1.0, min(1.0, cos_b)))  # angle at the pivot
+    return -(math.pi / 2 - beta), q2

@@ -23,7 +23,8 @@ from pathlib import Path
 import numpy as np
 import pydrake.math as dmath
 
-from ..params import ParameterError, PlantParams
+from ..params import PlantParams
+from ..params.robot import line_pose
 from ..params.robot_file import parse_description
 
 # ----------------------------------------------------------- closed form
@@ -165,20 +166,7 @@ def initial_configuration(grip_spacing: float, p: PlantParams,
     the direction of travel, +x), i.e. at ``-D (cos a, sin a)``.  With the
     Table 4.3 links and D = 1.2 m this is about (-0.334, -1.997) rad.
     """
-    l1, l2, D = p.l1, p.l2, grip_spacing
-    lo, hi = abs(l1 - l2), l1 + l2
-    if not (lo < D < hi):
-        raise ParameterError(
-            f"scenario.grip_spacing = {D:g} m is out of reach of the links; "
-            f"allowed ({lo:.4g}, {hi:.4g}) m")
-    # interior angle at the elbow from the law of cosines
-    cos_e = (l1 ** 2 + l2 ** 2 - D ** 2) / (2 * l1 * l2)
-    q2 = -(math.pi - math.acos(max(-1.0, min(1.0, cos_e))))
-    # angle of link 1 from the downward vertical: gripper at (-D, 0)
-    # with q2 < 0 the elbow hangs below the line
-    cos_b = (l1 ** 2 + D ** 2 - l2 ** 2) / (2 * l1 * D)
-    beta = math.acos(max(-1.0, min(1.0, cos_b)))  # angle at the pivot
-    q1 = -(math.pi / 2 - beta)
+    q1, q2 = line_pose(grip_spacing, p)
     return np.array([q1 + incline, q2])
 
 

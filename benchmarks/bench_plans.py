@@ -35,7 +35,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def robots(hardware=()):
-    from bplir_drake.diagrams.retry_plan import retry
+    from bplir_drake.planning.retry import retry
     from bplir_drake.params import Manoeuvre, derive, preset, with_hardware
 
     base = with_hardware(preset(), *hardware)
@@ -51,8 +51,8 @@ def waits(params, n: int, rng) -> list[tuple[float, bool]]:
     """(wall s, blended from the library) of ``tracking_plan`` at ``n``
     random scenarios of the envelope whose plans the library blends (the
     others are counted, not solved: a solve takes 15 s to minutes)."""
-    from bplir_drake.diagrams.plan import tracking_plan
-    from bplir_drake.diagrams.plan_library import library_path, load_library, same_manoeuvre
+    from bplir_drake.planning.solve import tracking_plan
+    from bplir_drake.planning.library import library_path, load_library, same_manoeuvre
 
     lib = load_library(library_path(params))
     out = []
@@ -70,7 +70,7 @@ def waits(params, n: int, rng) -> list[tuple[float, bool]]:
 
 def solve_wait(params) -> float:
     """Wall s of one plan and its gains solved at +13 deg, 1.23 m."""
-    from bplir_drake.diagrams.plan import tracking_plan
+    from bplir_drake.planning.solve import tracking_plan
 
     p = params.with_(scenario=dc.replace(params.scenario, incline_deg=13.0, grip_spacing=1.23),
                      plan=dc.replace(params.plan, library=False))

@@ -7,7 +7,7 @@ import numpy as np
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.analysis import ResetIntegratorFromFlags
 
-from .io import HUNG_PLUGIN, WallClockLimit, wall_clock_limit  # noqa: F401 (re-exported)
+from .io import HUNG_PLUGIN, WallClockLimit, wall_clock_limit
 
 
 class SimulationError(RuntimeError):

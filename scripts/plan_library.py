@@ -45,8 +45,8 @@ def main(argv=None) -> int:
     os.environ["BPLIR_CACHE_DIR"] = args.cache
     from bplir_drake.analysis.commission.grid import solve_library
     from bplir_drake.analysis.commission.similarity import shipped_robots
-    from bplir_drake.diagrams.plan_cache import plan_key
-    from bplir_drake.diagrams.plan_library import (LIBRARY_INCLINES, LIBRARY_SPACINGS, describe,
+    from bplir_drake.planning.cache import plan_key
+    from bplir_drake.planning.library import (LIBRARY_INCLINES, LIBRARY_SPACINGS, describe,
                                                    library_path, load_library, model_inputs)
 
     libs = shipped_robots([h for h in args.hardware.split(",") if h])

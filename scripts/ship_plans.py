@@ -41,7 +41,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 def scenarios():
     """(plans to solve, plans whose gains ship) as callables returning a plan."""
-    from bplir_drake.diagrams import plan as P
+    from bplir_drake.planning import solve as P
     from bplir_drake.analysis.traverse.line import load_line
     from bplir_drake.analysis.traverse.route import plan_route
     from bplir_drake.params import with_hardware
@@ -118,7 +118,7 @@ def traverse_swing(robot, gripper, spacing, incline):
 
 def tried(robot, gripper, spacing, incline, **kw):
     """That swing tried again from hanging."""
-    from bplir_drake.diagrams.retry_plan import retry
+    from bplir_drake.planning.retry import retry
 
     return retry(robot, _step(gripper, spacing, incline, **kw))
 
@@ -132,9 +132,9 @@ def main(argv=None) -> int:
     cache = Path(args.cache) if args.cache else Path(tempfile.mkdtemp(prefix="bplir-plans-"))
     cache.mkdir(parents=True, exist_ok=True)
     os.environ["BPLIR_CACHE_DIR"] = str(cache)
-    from bplir_drake.diagrams import plan as P
-    from bplir_drake.diagrams import plan_cache
-    from bplir_drake.diagrams.plan_cache import PACKAGED
+    from bplir_drake.planning import solve as P
+    from bplir_drake.planning import cache as plan_cache
+    from bplir_drake.planning.cache import PACKAGED
 
     plans, tracked = scenarios()
     plan_cache.USED = set()   # every file the set reads or solves

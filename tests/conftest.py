@@ -77,7 +77,7 @@ def stopped_work(monkeypatch, tmp_path):
     from bplir_drake import estimation
     from bplir_drake.analysis import montecarlo
     from bplir_drake.analysis.control import report
-    from bplir_drake.diagrams import plan
+    from bplir_drake.planning import solve as plan
 
     monkeypatch.setattr(Simulator, "AdvanceTo", _stop)
     monkeypatch.setattr(plan, "_solve_plan", _stop)
@@ -120,11 +120,11 @@ def ends_cleanly(argv) -> int | None:
 
 
 def quick_plan(params, *a, **k):
-    """A stand-in for the plan solver (``diagrams.plan._solve_plan``): a 1 s
+    """A stand-in for the plan solver (``planning.solve._solve_plan``): a 1 s
     plan at rest, not SNOPT's minute."""
     import numpy as np
 
-    from bplir_drake.diagrams.plan import SwingPlan
+    from bplir_drake.planning.solve import SwingPlan
 
     t = np.linspace(0.0, 1.0, 5)
     return SwingPlan(t, np.zeros((5, 4)), np.zeros(5), np.zeros((5, 2)), True, True, "stub",

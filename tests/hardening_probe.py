@@ -317,7 +317,7 @@ def class_11(d: Path):
 
 def _quick_plans():
     """Make the plan solver a 1 s plan at rest (:func:`conftest.quick_plan`)."""
-    from bplir_drake.diagrams import plan as P
+    from bplir_drake.planning import solve as P
 
     P._solve_plan = quick_plan
 
@@ -358,7 +358,7 @@ def class_12(d: Path):
 def library_class_12(d: Path):
     import warnings
 
-    from bplir_drake.diagrams import plan_library
+    from bplir_drake.planning import library as plan_library
 
     bad = d / "library-damaged.npz"
     bad.write_bytes(b"PK\x03\x04 not a zip at all")

@@ -1,7 +1,7 @@
 """The manoeuvres the tests derive often, as ``params.derive`` gives them."""
 import math
 
-from bplir_drake.diagrams.retry_plan import retry
+from bplir_drake.planning.retry import retry
 from bplir_drake.params import Manoeuvre, derive
 
 

@@ -124,13 +124,14 @@ def test_every_public_definition_has_a_docstring():
 LAYERS = {"io": set(), "progress": set(), "csvfile": {"io"}, "plotting": {"io"},
           "params": {"io"},
           "systems": {"params", "io"},
-          "diagrams": {"params", "io", "csvfile", "progress", "plotting", "systems"},
+          "planning": {"params", "io", "csvfile", "progress", "plotting", "systems"},
+          "diagrams": {"params", "io", "csvfile", "progress", "plotting", "systems", "planning"},
           "simulate": {"params", "io", "systems"},
           "estimation": {"params", "io", "csvfile", "progress", "plotting", "systems"},
-          "analysis": {"params", "io", "csvfile", "progress", "plotting", "systems", "diagrams",
-                       "simulate", "estimation"},
-          "cli": {"params", "io", "csvfile", "progress", "plotting", "systems", "diagrams",
-                  "simulate", "estimation", "analysis"}}
+          "analysis": {"params", "io", "csvfile", "progress", "plotting", "systems", "planning",
+                       "diagrams", "simulate", "estimation"},
+          "cli": {"params", "io", "csvfile", "progress", "plotting", "systems", "planning",
+                  "diagrams", "simulate", "estimation", "analysis"}}
 
 
 def test_imports_only_go_down_the_layers():

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from bplir_drake.analysis.identification import calibration as C
+from bplir_drake.analysis.identification import deadband as DB
 from bplir_drake.analysis.identification import fit as F
 from bplir_drake.cli import main
 from bplir_drake.params import around
@@ -40,15 +41,15 @@ def test_calibration_recovers_friction_within_5_percent(tmp_path, params, true_f
 
 
 def test_deadband_identified_within_5_percent(params):
-    d = C.identify_deadband(params)
+    d = DB.identify_deadband(params)
     for side in ("forward", "reverse"):
         assert d[side] == pytest.approx(params.motor.deadband, rel=0.05)   # 0.8243 vs 0.8234
     wider = params.with_(motor=dc.replace(params.motor, deadband=1.2))
-    assert C.identify_deadband(wider, max_torque=2.0)["forward"] == pytest.approx(1.2, rel=0.05)
+    assert DB.identify_deadband(wider, max_torque=2.0)["forward"] == pytest.approx(1.2, rel=0.05)
 
 
 def test_identified_family_contains_its_step_responses(params):
-    fam = C.identify_plant_family(params, n_plants=2)
+    fam = DB.identify_plant_family(params, n_plants=2)
     assert len(fam.fits) == 8
     inside = []
     for t, y, v in fam.responses:
@@ -64,7 +65,7 @@ def test_identified_family_contains_its_step_responses(params):
 
 
 def test_step_below_deadband_does_not_move(params):
-    t, y = C.cpfl_step_response(params, 5.0)   # a v = 0.64 N m < 0.82 N m
+    t, y = DB.cpfl_step_response(params, 5.0)   # a v = 0.64 N m < 0.82 N m
     assert np.abs(y).max() < 1e-9
 
 

@@ -122,7 +122,7 @@ def plan_files(draw):
 @FUZZ
 @given(plan=plan_files())
 def test_no_plan_file_ends_in_a_traceback(stopped_work, monkeypatch, plan):
-    from bplir_drake.diagrams import plan as planning
+    from bplir_drake.planning import solve as planning
     from conftest import _stop
 
     monkeypatch.setattr(planning, "tracking_gains", _stop)   # the LQR is the work

@@ -85,7 +85,7 @@ def test_the_worked_example_commissions_a_similar_robot_end_to_end(own_cache, mo
 def test_the_commissioned_library_is_what_a_swing_reads(own_cache):
     """After commissioning, a swing of the robot blends its plan from the
     robot's library instead of solving."""
-    from bplir_drake.diagrams.plan import scenario_plan
+    from bplir_drake.planning.solve import scenario_plan
 
     params = load_toml(SCALED)
     commission(params, spacings=[0.84], samples=1, seed=2, workers=1, grippers=(1,))

@@ -18,7 +18,7 @@ def swing_samples():
     """(the IMU samples (N, 6) of the default swing, seed 0; the absolute
     start state the robot believes)."""
     from bplir_drake.analysis.swing.run import run_swing
-    from bplir_drake.diagrams.swing import believed_start
+    from bplir_drake.diagrams.swing_setup import believed_start
     from bplir_drake.systems.plant import absolute_from_relative
 
     x0 = absolute_from_relative(np.r_[believed_start(preset())[:2], 0.0, 0.0])

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from bplir_drake.analysis.control import qft as Q
+from bplir_drake.analysis.control import plants as PL
 from bplir_drake.analysis.control.study import elbow_step, windup_release
 from bplir_drake.diagrams import build_control_loop, build_cpfl_plant
 from bplir_drake.params import ControllerParams, ParameterError
@@ -67,7 +68,7 @@ def test_controller_uses_nominal_parameters_only(params):
 
 
 def test_published_design_on_dissertation_family():
-    fam = Q.dissertation_family(td=None)
+    fam = PL.dissertation_family(td=None)
     d = ControllerParams.preset_named("cpfl-qft").design
     K, F = control.tf(d["k_num"], d["k_den"]), control.tf(d["f_num"], d["f_den"])
     dc_ = [float(np.real(control.dcgain(F * control.feedback(p.tf * K, 1)))) for p in fam.plants]
@@ -80,12 +81,12 @@ def test_published_design_on_dissertation_family():
     # with the delays of (4.16) the published K destabilises the loop
     md = Q.max_stable_delay(fam, K)
     assert md["largest_delay_all_plants_s"] == pytest.approx(0.0432, abs=0.001)
-    vd = Q.verify(Q.dissertation_family(), K, F, Q.QftSpecs())
+    vd = Q.verify(PL.dissertation_family(), K, F, Q.QftSpecs())
     assert vd.checks["closed_loop_stable"]["worst"] > 0
 
 
 def test_qft_design_meets_specs_on_a_fresh_diagram_family(params):
-    fam = Q.diagram_family(params, 55, seed=3)   # not the family it was designed on
+    fam = PL.diagram_family(params, 55, seed=3)   # not the family it was designed on
     assert len(fam) == 56
     d = params.controller.design
     K, F = control.tf(d["k_num"], d["k_den"]), control.tf(d["f_num"], d["f_den"])
@@ -128,7 +129,7 @@ def test_closed_loops_are_balanced_and_their_steps_match_an_ode_solution(params)
 
     d = params.controller.design
     K, F = control.tf(d["k_num"], d["k_den"]), control.tf(d["f_num"], d["f_den"])
-    G = Q.diagram_family(params, 2, seed=3).plants[0].rational(6)
+    G = PL.diagram_family(params, 2, seed=3).plants[0].rational(6)
     raw = control.feedback(control.ss([], [], [], [[1.0]]), control.ss(G) * control.ss(K))
     assert np.linalg.cond(np.asarray(raw.A)) > 1e40
     L, S, T, TF, U, PS = closed_loops(G, K, F)
@@ -147,7 +148,7 @@ def test_closed_loops_are_balanced_and_their_steps_match_an_ode_solution(params)
 def test_qft_design_on_the_nonlinear_loop(params):
     rng = np.random.default_rng(7)
     for i in range(3):
-        p = Q.perturbed(params, rng)
+        p = PL.perturbed(params, rng)
         m = elbow_step(p, 0.5)
         assert m.final_error < 0.1
         assert m.settling_time < 0.39
@@ -202,7 +203,7 @@ def test_lab_preset_quantises_and_delays():
 
 
 def test_v_max_over_box(params):
-    r = Q.v_max_over_box(params, n=5)
+    r = PL.v_max_over_box(params, n=5)
     a0, b0 = cpfl_terms([0, 0], [0, 0], params.plant, params.friction)
     assert r["v_max_largest"] >= 20.0 / a0 - 1e-9
     assert r["v_max_guaranteed"] == 0.0   # 20 N m cannot hold the elbow everywhere in the box
@@ -213,7 +214,7 @@ def test_v_max_over_box(params):
     (lambda: Q.QftSpecs(omegas=[1.0, -2.0]), "positive"),
     (lambda: Q.QftSpecs(omegas=[]), "positive"),
     (lambda: Q.QftSpecs(stability_db=0.0), "stability_db"),
-    (lambda: Q.diagram_family(None, 0), "n_samples"),
+    (lambda: PL.diagram_family(None, 0), "n_samples"),
 ])
 def test_bad_specs_and_families(make, words):
     with pytest.raises(Q.QftError, match=words):

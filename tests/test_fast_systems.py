@@ -15,6 +15,7 @@ from bplir_drake.params import (EstimatorParams, FrictionParams, GripperParams, 
                                 ScenarioParams,
                                 preset)
 from bplir_drake.systems import ekf as E
+from bplir_drake.systems import ekf_model as EM
 from bplir_drake.systems.friction import (JointFriction, friction_system, friction_torques,
                                           set_friction)
 from bplir_drake.systems.gripper import LineGeometry, first_arrival, line_metrics
@@ -100,9 +101,9 @@ def test_closed_form_ekf_jacobians_equal_autodiff(est):
     n = 6 if est.estimate_bias else 4
     for _ in range(50):
         x, u = rng.normal(size=n), 3.0 * rng.normal(size=2)
-        v, A, W = E.jacobians(E.discrete_f, x, u, est)
+        v, A, W = EM.jacobians(EM.discrete_f, x, u, est)
         v2, A2, W2 = E.discrete_f_jacobians(x, u, est)
-        h, H, _ = E.jacobians(E.kinematic_h, x, u, est)
+        h, H, _ = EM.jacobians(EM.kinematic_h, x, u, est)
         h2, H2 = E.kinematic_h_jacobian(x, u, est)
         for a, b in ((v, v2), (A, A2), (W, W2), (h, h2), (H, H2)):
             np.testing.assert_allclose(a, b, rtol=0, atol=1e-12)

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from moves import traverse_swing
-from bplir_drake.diagrams import plan as P
-from bplir_drake.diagrams.plan_library import (LIBRARY_INCLINES, LIBRARY_SPACINGS,
+from bplir_drake.planning import solve as P
+from bplir_drake.planning.library import (LIBRARY_INCLINES, LIBRARY_SPACINGS,
                                                library_path, library_plan, load_library,
                                                same_manoeuvre)
 from bplir_drake.params import preset

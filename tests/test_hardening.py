@@ -20,7 +20,7 @@ from bplir_drake.analysis import montecarlo as mc
 from bplir_drake.analysis.identification.calibration import CalibrationError, read_calibration_csv
 from bplir_drake.estimation import LogError, read_imu_csv, write_imu_csv
 from bplir_drake.io import dumps_strict
-from bplir_drake.diagrams.plan import SwingPlan
+from bplir_drake.planning.solve import SwingPlan
 from bplir_drake.params import ParameterError, load_toml
 from conftest import parse_strict_json as strict_json
 from conftest import paced_48v, plugin_source
@@ -378,14 +378,14 @@ def test_plan_depends_only_on_the_nominal_model_and_a_hit_is_bit_identical(tmp_p
     fresh solve bit for bit."""
     import dataclasses as dc
 
-    from bplir_drake.diagrams import plan_cache
-    from bplir_drake.diagrams.plan import plan_swing
+    from bplir_drake.planning import cache as plan_cache
+    from bplir_drake.planning.solve import plan_swing
     from bplir_drake.params import preset
 
     monkeypatch.setenv("BPLIR_CACHE_DIR", str(tmp_path))
     seen = []
     real_cached = plan_cache.cached
-    from bplir_drake.diagrams import plan as P
+    from bplir_drake.planning import solve as P
 
     def spy(inputs, solve, **kw):
         seen.append(plan_cache.plan_key(inputs))
@@ -423,8 +423,8 @@ def test_tracking_gains_cache_hit_is_bit_identical_and_keyed_by_every_input(tmp_
     any input is a new key."""
     import dataclasses as dc
 
-    from bplir_drake.diagrams import plan as P
-    from bplir_drake.diagrams import plan_cache
+    from bplir_drake.planning import solve as P
+    from bplir_drake.planning import cache as plan_cache
     from bplir_drake.params import preset
 
     monkeypatch.setenv("BPLIR_CACHE_DIR", str(tmp_path))
@@ -503,8 +503,8 @@ def test_shipped_plans_serve_a_fresh_install(monkeypatch, tmp_path):
     their cache keys: with an empty cache they are read, never solved."""
     import dataclasses as dc
 
-    from bplir_drake.diagrams import plan as P
-    from bplir_drake.diagrams import plan_cache
+    from bplir_drake.planning import solve as P
+    from bplir_drake.planning import cache as plan_cache
     from bplir_drake.params import load_toml
 
     shipped = sorted(plan_cache.PACKAGED.glob("plan-*.npz"))
@@ -582,8 +582,8 @@ def test_shipped_gains_serve_the_tests_plans(monkeypatch, tmp_path):
     shipped gains file belongs to a plan the tests track."""
     import dataclasses as dc
 
-    from bplir_drake.diagrams import plan as P
-    from bplir_drake.diagrams import plan_cache
+    from bplir_drake.planning import solve as P
+    from bplir_drake.planning import cache as plan_cache
     from moves import traverse_swing
     from bplir_drake.params import from_dict, load_toml, preset
 
@@ -652,7 +652,7 @@ def test_a_fault_inside_is_one_line_and_debug_shows_the_traceback(tmp_path, caps
 
 
 def _tiny_plan():
-    from bplir_drake.diagrams.plan import SwingPlan
+    from bplir_drake.planning.solve import SwingPlan
 
     t = np.linspace(0.0, 1.0, 5)
     return SwingPlan(t, np.zeros((5, 4)), np.zeros(5), np.zeros((5, 2)), True, True, "test",
@@ -664,7 +664,7 @@ def test_a_damaged_cached_plan_is_moved_aside_and_solved_again(monkeypatch, tmp_
     """An empty, truncated or foreign ``plan-<key>.npz`` in the cache does not
     stop the robot: it is moved aside (``.damaged``), with a warning naming
     it, the plan solved again and stored."""
-    from bplir_drake.diagrams import plan_cache
+    from bplir_drake.planning import cache as plan_cache
 
     monkeypatch.setenv("BPLIR_CACHE_DIR", str(tmp_path))
     inputs = {"test": "damaged", "damage": damage.decode(errors="replace")}
@@ -685,8 +685,8 @@ def test_the_shipped_plans_serve_whatever_state_the_cache_is_in(monkeypatch, tmp
     a lock file is neither followed nor truncated."""
     import os
 
-    from bplir_drake.diagrams import plan as P
-    from bplir_drake.diagrams import plan_cache
+    from bplir_drake.planning import solve as P
+    from bplir_drake.planning import cache as plan_cache
     from bplir_drake.params import preset
 
     def no_solve(*a, **k):
@@ -1030,7 +1030,7 @@ def test_a_calibration_log_ignores_extra_columns_text_or_numbers(tmp_path):
 def test_ctrl_c_inside_a_solver_callback_is_an_interrupt(monkeypatch, tmp_path, capsys):
     """Ctrl-C while SNOPT runs reaches Python wrapped in a RuntimeError from
     Drake's callback: still the interrupt's one line and exit 130."""
-    from bplir_drake.diagrams import plan as P
+    from bplir_drake.planning import solve as P
     from bplir_drake.cli import main
 
     def interrupted(*a, **k):

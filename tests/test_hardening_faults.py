@@ -301,7 +301,7 @@ def _bplir_with_solver(solver: str, cache, *argv):
     (:func:`conftest.quick_plan`); ``BPLIR_CACHE_DIR`` is
     ``cache``.  A ``CompletedProcess``."""
     def replaced():
-        from bplir_drake.diagrams import plan as P
+        from bplir_drake.planning import solve as P
 
         def refuse(*a, **k):
             raise SystemExit("solved a shipped plan")

@@ -67,7 +67,7 @@ def _writers(tmp_path):
     from matplotlib.figure import Figure
 
     from bplir_drake import io
-    from bplir_drake.diagrams.plan_cache import _write_npz
+    from bplir_drake.planning.cache import _write_npz
     from bplir_drake.plotting import save_figure
 
     def figure():

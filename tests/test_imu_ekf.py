@@ -12,6 +12,7 @@ from bplir_drake.estimation import estimate
 from bplir_drake.params import EstimatorParams, ImuParams, PlantParams
 from bplir_drake.simulate import make_simulator, run
 from bplir_drake.systems import ekf as E
+from bplir_drake.systems import ekf_model as EM
 from bplir_drake.systems.imu import imu_kinematics
 from bplir_drake.systems.plant import absolute_from_relative
 
@@ -58,20 +59,20 @@ def test_measurement_model_and_printed_erratum():
     th, w, a = np.array([0.4, -0.9]), np.array([1.1, -2.3]), np.array([0.7, 3.0])
     imu = imu_kinematics(th, w, a, p.r1, p.r2, p.l1, p.g)
     x, u = np.concatenate([th, w]), imu[[2, 4]]
-    np.testing.assert_allclose(E.kinematic_h(x, u, p), imu[[0, 1, 3, 5]], atol=1e-12)
-    np.testing.assert_allclose(E.kinematic_f(x, u, p)[2:], a, atol=1e-12)
-    printed = E.kinematic_h_printed(x, u, p)
+    np.testing.assert_allclose(EM.kinematic_h(x, u, p), imu[[0, 1, 3, 5]], atol=1e-12)
+    np.testing.assert_allclose(EM.kinematic_f(x, u, p)[2:], a, atol=1e-12)
+    printed = EM.kinematic_h_printed(x, u, p)
     assert printed[3] - imu[5] == pytest.approx((p.l1 / p.r1 - 1) * p.r2 * w[1] ** 2, rel=1e-9)
 
 
-@pytest.mark.parametrize("fun", [E.kinematic_f, E.kinematic_h])
+@pytest.mark.parametrize("fun", [EM.kinematic_f, EM.kinematic_h])
 def test_autodiff_jacobians_match_finite_differences(fun):
     p = EstimatorParams()
     rng = np.random.default_rng(3)
     for _ in range(10):
         x = rng.uniform(-2, 2, 6)
         u = rng.uniform(-5, 5, 2)
-        _, Jx, Ju = E.jacobians(fun, x, u, p)
+        _, Jx, Ju = EM.jacobians(fun, x, u, p)
         h = 1e-6
         for i in range(6):
             d = np.zeros(6)
@@ -221,7 +222,7 @@ def test_heuns_step_in_the_loop_estimates_the_landing_rates_better():
     import dataclasses as dc
 
     from bplir_drake.analysis.swing.run import run_swing
-    from bplir_drake.diagrams.swing import believed_start
+    from bplir_drake.diagrams.swing_setup import believed_start
     from bplir_drake.estimation import estimate
     from bplir_drake.params import TRAPEZOID_TUNING, BplirParams
     from bplir_drake.systems.plant import absolute_from_relative

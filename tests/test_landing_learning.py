@@ -22,7 +22,7 @@ def test_the_arrival_height_error_is_the_estimates_error_at_the_arrival():
     held estimate is up to 3.2 mm off at seed 1's arrival, the gripper
     still rising."""
     from bplir_drake.analysis.swing.run import run_swing
-    from bplir_drake.systems.plan_tracker import height_rates
+    from bplir_drake.systems.landing import height_rates
 
     p = preset()
     s = with_hardware(p, "line-sensor")

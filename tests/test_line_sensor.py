@@ -10,7 +10,7 @@ from pydrake.systems.primitives import ConstantVectorSource
 from bplir_drake.params import LineSensorParams, ParameterError, preset
 from bplir_drake.systems.ekf import EkfState, ekf_gap_update
 from bplir_drake.systems.line_sensor import LineSensor, line_gap
-from bplir_drake.systems.plan_tracker import height_rates
+from bplir_drake.systems.landing import height_rates
 from bplir_drake.systems.plant import initial_configuration
 from bplir_drake.params import with_hardware, imu_only
 
@@ -131,7 +131,8 @@ def test_the_standstill_calibration_measures_the_sensors_offset_on_the_line():
     calibration is unchanged by it."""
     import dataclasses as dc
 
-    from bplir_drake.diagrams.swing import standstill_calibration, swing_geometry
+    from bplir_drake.diagrams.swing import standstill_calibration
+    from bplir_drake.diagrams.swing_setup import swing_geometry
     from bplir_drake.systems.line_sensor import standstill_readings
 
     p = with_hardware(preset(), "line-sensor")

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from bplir_drake.diagrams.open_loop import build_plant_with_friction
-from bplir_drake.diagrams.swing_plan import SwingPlan, energy_balance, plan_friction
+from bplir_drake.planning.swing_plan import SwingPlan, energy_balance, plan_friction
 from bplir_drake.params import preset
 from bplir_drake.systems.friction import friction_torques_along
 

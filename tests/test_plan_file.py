@@ -7,8 +7,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bplir_drake.diagrams.plan import tracking_plan
-from bplir_drake.diagrams.plan_file import read_plan_file
+from bplir_drake.planning.solve import tracking_plan
+from bplir_drake.planning.file import read_plan_file
 from bplir_drake.params import ParameterError, RobotFileParams, load_toml
 from bplir_drake.params.robot_file import describe_robot
 
@@ -79,7 +79,7 @@ def test_a_bad_plan_file_is_one_line(tmp_path):
                        f"plan.file={tmp_path / 'strong.csv'}", "--out", tmp_path / "o")
     assert_one_line_error(rc, err, "torque up to 5 N m", "controller.torque_limit = 3 N m")
     with pytest.raises(ParameterError, match="needs plan.file"):
-        from bplir_drake.diagrams.swing import start_state
+        from bplir_drake.diagrams.swing_setup import start_state
 
         p = load_toml(ACROMONK)
         start_state(p.with_(scenario=dc.replace(p.scenario, start="plan")))

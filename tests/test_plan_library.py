@@ -8,8 +8,8 @@ import pytest
 
 from bplir_drake.analysis.traverse.swing_setup import swing_chord
 from moves import traverse_swing
-from bplir_drake.diagrams import plan as P
-from bplir_drake.diagrams.plan_library import (LIBRARY_INCLINES, LIBRARY_SPACINGS,
+from bplir_drake.planning import solve as P
+from bplir_drake.planning.library import (LIBRARY_INCLINES, LIBRARY_SPACINGS,
                                                library_path, library_plan, load_library)
 from bplir_drake.params import preset
 from bplir_drake.systems.plant import initial_configuration
@@ -37,7 +37,7 @@ def test_every_default_robot_has_a_library_that_blends_where_it_can(robots):
     original robot (at -20 deg, 0.9 m the plan's last link-1 bump is
     missing); the swapped robot (the heavy link swinging, at the edge of
     its torque) has holes uphill and switches to a pumping swing."""
-    from bplir_drake.diagrams.plan_library import same_manoeuvre
+    from bplir_drake.planning.library import same_manoeuvre
 
     for name, p in robots.items():
         lib = load_library(library_path(p))

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from bplir_drake.analysis.swing.run import run_swing
-from bplir_drake.diagrams.plan import planned_target, tracking_plan
+from bplir_drake.planning.solve import planned_target, tracking_plan
 from bplir_drake.params import ParameterError, preset
 from bplir_drake.systems.plan_tracker import PlanTracker
 from bplir_drake.systems.plant import gripper_position
@@ -179,8 +179,8 @@ def test_a_plan_off_1_2_m_is_also_started_from_the_1_2_m_plan():
     from the 1.2 m plan the solve finds its neighbours' kind of swing (two
     reversals, link 1's share of the rise 0.86, so the auto law shoots), and
     :func:`scenario_plan` keeps the cheapest plan it found."""
-    from bplir_drake.diagrams.plan import plan_swing, scenario_plan
-    from bplir_drake.systems.plan_tracker import landing_law, link1_share
+    from bplir_drake.planning.solve import plan_swing, scenario_plan
+    from bplir_drake.systems.landing import landing_law, link1_share
 
     p = preset()   # the planner's own choice (the library holds a blend here)
     q = p.with_(scenario=dc.replace(p.scenario, grip_spacing=1.27),
@@ -332,8 +332,8 @@ def test_auto_landing_law_follows_who_lifts_the_gripper(incline, share, hold, ai
     ``shoot_lift_min_time`` at ``shoot_lift_height`` -- the line sensor's
     tuning -- or, with ``shoot_lift_min_time = 0`` (the default robot, IMUs
     alone), it aims."""
-    from bplir_drake.diagrams.plan import scenario_plan
-    from bplir_drake.systems.plan_tracker import landing_law, link1_share, resolved_landing
+    from bplir_drake.planning.solve import scenario_plan
+    from bplir_drake.systems.landing import landing_law, link1_share, resolved_landing
 
     base = preset()
     p = with_hardware(base, "line-sensor")

@@ -11,10 +11,11 @@ import termios
 
 import numpy as np
 
-from bplir_drake.analysis.control.qft import QftSpecs, design_qft, dissertation_family
+from bplir_drake.analysis.control.qft import QftSpecs, design_qft
+from bplir_drake.analysis.control.plants import dissertation_family
 from bplir_drake.analysis.identification.calibration import synthetic_log
 from bplir_drake.analysis.identification.fit import calibrate
-from bplir_drake.diagrams.plan import plan_swing
+from bplir_drake.planning.solve import plan_swing
 from bplir_drake.params import preset
 from bplir_drake.progress import progress_bar
 from forked import bplir_forked, start_forked

@@ -9,8 +9,8 @@ from pathlib import Path
 
 import pytest
 
-from bplir_drake.diagrams import plan as P
-from bplir_drake.diagrams.plan_library import model_inputs
+from bplir_drake.planning import solve as P
+from bplir_drake.planning.library import model_inputs
 from bplir_drake.params import PUMP_TIME, Manoeuvre, ParameterError, derive, from_dict, preset
 
 sys.path.insert(0, str(Path(__file__).parent))
@@ -186,7 +186,7 @@ def test_pumps_of_other_phases_are_not_blended_but_the_nearest_is_taken(monkeypa
     pump takes the nearer one's plan (its duration), a single swing none."""
     import numpy as np
 
-    from bplir_drake.diagrams import plan_library as L
+    from bplir_drake.planning import library as L
 
     n = L.LIBRARY_SAMPLES
     states = np.zeros((1, 2, n, 4))

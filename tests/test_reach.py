@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bplir_drake.diagrams.plan import tracking_plan
+from bplir_drake.planning.solve import tracking_plan
 from bplir_drake.params import preset
 from bplir_drake.systems.plan_tracker import Landing, PlanTracker, Reach
 from bplir_drake.systems.plant import forward_dynamics

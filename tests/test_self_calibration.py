@@ -17,6 +17,7 @@ from bplir_drake.analysis.estimation.study import (angle_rmse, encoder_truth, re
 from bplir_drake.estimation import aligned_truth, encoder_lead, estimate, gyro_integral
 from bplir_drake.params import EstimatorParams, preset
 from bplir_drake.systems import ekf as E
+from bplir_drake.systems import ekf_model as EM
 
 
 def test_closed_form_jacobians_with_every_calibration_state():
@@ -31,20 +32,20 @@ def test_closed_form_jacobians_with_every_calibration_state():
     for _ in range(10):
         x = np.r_[rng.uniform(-2, 2, 4), rng.uniform(-0.05, 0.05, 6), rng.uniform(0.4, 0.6, 2)]
         u = rng.uniform(-5, 5, 2)
-        f, A, B = E.kinematic_f_jacobians(x, u, p)
-        f_ad, A_ad, B_ad = E.jacobians(E.kinematic_f, x, u, p)
+        f, A, B = EM.kinematic_f_jacobians(x, u, p)
+        f_ad, A_ad, B_ad = EM.jacobians(EM.kinematic_f, x, u, p)
         np.testing.assert_allclose(f, f_ad, atol=1e-12)
         np.testing.assert_allclose(A, A_ad, atol=1e-10)
         np.testing.assert_allclose(B, B_ad, atol=1e-12)
         h, H = E.kinematic_h_jacobian(x, u, p)
-        h_ad, H_ad, _ = E.jacobians(E.kinematic_h, x, u, p)
+        h_ad, H_ad, _ = EM.jacobians(EM.kinematic_h, x, u, p)
         np.testing.assert_allclose(h, h_ad, atol=1e-12)
         np.testing.assert_allclose(H, H_ad, atol=1e-10)
         # Heun's step, with the inputs at both ends of the period and held
         heun = dc.replace(p, integration="heun")
         for uu in (rng.uniform(-5, 5, 4), u):
             xn, A, W = E.discrete_f_jacobians(x, uu, heun)
-            xn_ad, A_ad, W_ad = E.jacobians(E.discrete_f, x, uu, heun)
+            xn_ad, A_ad, W_ad = EM.jacobians(EM.discrete_f, x, uu, heun)
             np.testing.assert_allclose(xn, xn_ad, atol=1e-12)
             np.testing.assert_allclose(A, A_ad, atol=1e-10)
             np.testing.assert_allclose(W, W_ad, atol=1e-12)
@@ -73,7 +74,7 @@ def test_heun_step_is_second_order_and_unbiases_the_calibration():
             # the tangential accelerometer reads r w1' + g sin(theta1) = 0 at
             # both ends: link 1 then swings as a pendulum of length r1
             ref = solve_ivp(pendulum, (0, T), [x[0], x[2]], rtol=1e-12, atol=1e-12).y[:, -1]
-            step = E.discrete_f(x, np.zeros(4 if integration == "heun" else 2), e)
+            step = EM.discrete_f(x, np.zeros(4 if integration == "heun" else 2), e)
             errs.append(np.hypot(step[0] - ref[0], step[2] - ref[1]))
         ratio[integration] = errs[0] / errs[1]
     # measured: 7.96 (2.9e-5 at 10 ms) and 3.93 (9.9e-4 at 10 ms)

@@ -38,7 +38,7 @@ def test_a_swing_that_did_not_capture_prints_its_closest_approach(tmp_path):
 def test_plan_says_feasible_and_whether_the_solver_proved_it_optimal(tmp_path, monkeypatch):
     """``bplir plan`` says "feasible, not proven optimal (solver ...: its
     status)" instead of "feasible (..., optimal: False)"."""
-    from bplir_drake.diagrams import plan as P
+    from bplir_drake.planning import solve as P
 
     def stopped(params, *a, **k):
         t = np.linspace(0.0, 1.0, 5)

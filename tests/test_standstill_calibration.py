@@ -157,7 +157,8 @@ def test_the_filter_starts_from_the_pose_the_robot_believes_not_the_true_one():
     filter's start."""
     from bplir_drake.analysis.swing.run import swing_diagram
     from bplir_drake.diagrams import swing_geometry
-    from bplir_drake.diagrams.swing import believed_start, standstill_calibration
+    from bplir_drake.diagrams.swing import standstill_calibration
+    from bplir_drake.diagrams.swing_setup import believed_start
     from bplir_drake.params import preset
     from bplir_drake.systems.plant import absolute_from_relative
 

@@ -188,7 +188,7 @@ def _voltage_in_log(args):
     largest breach of the deliverable torque window, outcome)."""
     import tempfile
 
-    from bplir_drake.analysis.swing.run import write_log_csv
+    from bplir_drake.analysis.swing.logs import write_log_csv
     from bplir_drake.params import preset
 
     incline, seed = args
@@ -237,7 +237,7 @@ def test_the_swing_diagram_composes_in_a_users_builder_and_runs_with_a_plain_sim
     from pydrake.systems.primitives import LogVectorOutput
 
     from bplir_drake.analysis.swing.run import SWING_ACCURACY, swing_diagram
-    from bplir_drake.diagrams.swing import SWING_PORTS
+    from bplir_drake.diagrams.swing_ports import SWING_PORTS
     from bplir_drake.params import preset
 
     params = preset()

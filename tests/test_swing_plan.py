@@ -1,4 +1,4 @@
-"""Trajectory-optimised swing plans (diagrams/plan.py, `bplir plan`):
+"""Trajectory-optimised swing plans (planning/solve.py, `bplir plan`):
 is the 20 degree uphill swing feasible within the motor's 220 W rating?"""
 import dataclasses as dc
 import json
@@ -10,7 +10,7 @@ import pytest
 matplotlib.use("Agg")
 
 from bplir_drake.plotting import save_figure  # noqa: E402
-from bplir_drake.diagrams.plan import plan_swing  # noqa: E402
+from bplir_drake.planning.solve import plan_swing  # noqa: E402
 from bplir_drake.cli import main  # noqa: E402
 from bplir_drake.diagrams import swing_geometry  # noqa: E402
 from bplir_drake.params import BplirParams  # noqa: E402
@@ -85,7 +85,7 @@ def test_the_plan_command_writes_no_figure_with_no_plots(monkeypatch, tmp_path, 
     """``bplir plan --no-plots``: the plan's CSV and JSON, no plan.png, and
     the summary's figure is null (the solver a stand-in:
     :func:`conftest.quick_plan`)."""
-    from bplir_drake.diagrams import plan as P
+    from bplir_drake.planning import solve as P
     from conftest import quick_plan
 
     monkeypatch.setenv("BPLIR_CACHE_DIR", str(tmp_path / "cache"))
@@ -106,7 +106,7 @@ def test_tracking_gains_accept_links_shorter_than_the_default_imu_radii(monkeypa
     the default robot's)."""
     import numpy as np
 
-    from bplir_drake.diagrams import plan as P
+    from bplir_drake.planning import solve as P
     from bplir_drake.params import BplirParams, ParameterError, PlantParams
 
     plant = PlantParams(m1=0.63, m2=0.63, l1=0.34, l2=0.34, lc1=0.18, lc2=0.16,
@@ -132,7 +132,7 @@ def test_a_solver_that_stops_early_is_not_called_proof_of_no_plan(tmp_path):
     infeasible limits is reported as "no feasible plan"."""
     import dataclasses as dc
 
-    from bplir_drake.diagrams import plan as P
+    from bplir_drake.planning import solve as P
     from bplir_drake.params import preset
 
     stopped = P.plan_swing(preset(), knots=7, iterations=1, cache=False)
@@ -155,7 +155,7 @@ def test_the_plan_command_plans_a_swing_from_hanging_as_the_swing_does(monkeypat
     solver is replaced by one that stops at once)."""
     import numpy as np
 
-    from bplir_drake.diagrams import plan as P
+    from bplir_drake.planning import solve as P
     from bplir_drake.systems.plant import start_configuration
 
     monkeypatch.setenv("BPLIR_CACHE_DIR", str(tmp_path / "cache"))
@@ -201,7 +201,7 @@ def test_a_plan_from_hanging_that_heats_the_driver_gives_way_to_a_cooler_guess(
     current i for n driver ticks of dt gives n dt (i^2 - i_cont^2)."""
     import numpy as np
 
-    from bplir_drake.diagrams import plan as P
+    from bplir_drake.planning import solve as P
     from bplir_drake.systems.motor import interlock_budget
 
     monkeypatch.setenv("BPLIR_CACHE_DIR", str(tmp_path / "cache"))
@@ -257,7 +257,7 @@ def test_a_plan_from_hanging_no_guess_finds_starts_from_the_level_lines(monkeypa
     (:func:`warm_guess`); on a level line there is nothing to start from."""
     import numpy as np
 
-    from bplir_drake.diagrams import plan as P
+    from bplir_drake.planning import solve as P
 
     monkeypatch.setenv("BPLIR_CACHE_DIR", str(tmp_path / "cache"))
     calls, level_fails = [], False

@@ -495,7 +495,7 @@ def test_the_rest_planner_budgets_the_landing_at_the_torque_limit():
     within the shooting landing's 30 cm of the line; the delay probe's
     torques on the first eight ticks; without a landing the plan's and the
     probe's alone."""
-    from bplir_drake.diagrams.plan import tracking_plan
+    from bplir_drake.planning.solve import tracking_plan
     from bplir_drake.analysis.traverse.run import budgeted_currents
     from moves import traverse_swing
     from bplir_drake.systems.delay_id import probe_torques

@@ -170,7 +170,7 @@ def test_the_48v_robot_tries_again_on_the_30v_robots_plan():
     needs no more voltage than the 30 V supply gives.  The first swing's
     first try in a -6 N m headwind times out; the try from hanging lands
     and the line is passed."""
-    from bplir_drake.diagrams.plan import tracking_plan
+    from bplir_drake.planning.solve import tracking_plan
     from moves import traverse_swing
 
     p, b = with_hardware(BplirParams(), "48v"), BplirParams()
@@ -204,7 +204,7 @@ def test_a_try_from_hanging_with_an_i2t_share_keeps_the_driver_cool_on_the_span_
 
     from bplir_drake.analysis.swing.run import SwingRunner
     from moves import traverse_swing
-    from bplir_drake.diagrams import plan as P
+    from bplir_drake.planning import solve as P
     from bplir_drake.systems.motor import interlock_budget
 
     p = tried(paced_48v(BplirParams()), 2, 1.2, math.radians(2.6)).resolved()
@@ -291,7 +291,7 @@ def test_the_original_robots_try_from_hanging_lands_with_the_apex_shot_where_the
     from bplir_drake.analysis.montecarlo.study import load_study
     from bplir_drake.analysis.swing.run import SwingRunner
     from moves import traverse_swing
-    from bplir_drake.diagrams.plan import tracking_plan
+    from bplir_drake.planning.solve import tracking_plan
     from bplir_drake.systems.landing import resolved_landing
 
     study = load_study(LINE.parent / "study_traverse.toml").with_(seed=777)
@@ -358,7 +358,7 @@ def test_the_swapped_robots_try_keeps_the_deeper_plan_where_the_one_ending_at_th
     cooler plan it ends at the line."""
     import math
 
-    from bplir_drake.diagrams import retry_plan
+    from bplir_drake.planning import retry as retry_plan
     from moves import traverse_swing
     from bplir_drake.systems.motor import interlock_budget
 

@@ -9,7 +9,7 @@ from .options import command, option
 # ------------------------------------------------------------------ calibrate
 def cmd_calibrate(args) -> int:
     """``bplir calibrate``: fit the model to a logged run."""
-    from ..analysis.identification.calibration import identify_deadband, identify_plant_family
+    from ..analysis.identification.deadband import identify_deadband, identify_plant_family
     from ..analysis.identification.fit import (calibrate, check_bounds, cross_validate,
                                                write_calibrated_toml)
 

@@ -12,7 +12,8 @@ def cmd_estimate(args) -> int:
     """``bplir estimate``: run the kinematic EKF over an IMU log."""
     from dataclasses import replace
 
-    from ..analysis.estimation.plots import plot_estimate, plot_estimate_report
+    from ..analysis.estimation.plots import plot_estimate_report
+    from ..estimation import plot_estimate
     from ..estimation import estimate, read_imu_csv, write_estimate_csv
 
     params = _load_params(args)

@@ -11,8 +11,8 @@ def cmd_plan(args) -> int:
     """``bplir plan``: plan a swing by trajectory optimisation."""
     import numpy as np
 
-    from ..diagrams.plan import (energy_balance, hanging_plan, plan_swing, planned_i2t,
-                                 plot_plan, pump_plan)
+    from ..planning.solve import energy_balance, hanging_plan, plan_swing, planned_i2t, pump_plan
+    from ..planning.figure import plot_plan
     from ..params import Manoeuvre, derive
     from ..systems.motor import interlock_budget
 

@@ -41,7 +41,8 @@ def _swing_params(args):
 
 def cmd_swing(args) -> int:
     """``bplir swing``: one swing (or a comparison, or a study sample's replay)."""
-    from ..analysis.swing.run import run_swing, summary_with_params, write_log_csv
+    from ..analysis.swing.run import run_swing, summary_with_params
+    from ..analysis.swing.logs import write_log_csv
     from ..analysis.swing.plots import animate_swing, replay_swing_html
 
     replay_info = None

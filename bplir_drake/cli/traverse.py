@@ -15,8 +15,8 @@ def cmd_traverse(args) -> int:
     from ..analysis.traverse.line import load_line
     from ..analysis.traverse.plots import plot_timeline, traverse_replay_html
     from ..analysis.traverse.result import MOTION_FORMAT
-    from ..analysis.traverse.run import (manoeuvre_table, run_traverse, totals_lines,
-                                        write_rows_csv)
+    from ..analysis.traverse.run import run_traverse
+    from ..analysis.traverse.tables import manoeuvre_table, totals_lines, write_rows_csv
 
     replay_info = None
     if args.replay is not None or args.sample is not None:

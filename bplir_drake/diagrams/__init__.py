@@ -19,9 +19,9 @@ estimators only ever see the nominal blocks.
 from .control import build_control_loop, build_cpfl_plant, build_cpfl_step
 from .open_loop import build_free_swing, build_plant_with_friction, build_sensor_swing
 from .parts import Built, add_imus, add_plant_with_friction, sampled
-from .swing import (SAMPLE_FIELDS, add_actuation, add_interlock, add_robot, add_sensing,
-                    add_swing_controller, add_swing_loggers, build_swing, set_swing_sample,
-                    swing_geometry, swing_structure)
+from .swing import (
+    SAMPLE_FIELDS, add_actuation, add_interlock, add_robot, add_sensing, add_swing_controller, add_swing_loggers, build_swing, set_swing_sample, swing_structure)
+from .swing_setup import swing_geometry
 from .swing_ports import SWING_INPUTS, SWING_PORTS, SWING_SIGNALS, estimate_times
 
 __all__ = ["Built", "sampled", "add_plant_with_friction", "add_imus", "build_free_swing",

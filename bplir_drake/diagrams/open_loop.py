@@ -8,6 +8,7 @@ from pydrake.systems.primitives import LogVectorOutput
 
 from ..params import BplirParams
 from ..systems.ekf import KinematicEkf
+from ..systems.frictional_plant import frictional_plant
 from ..systems.motor import MotorDriver
 from ..systems.schedule import TickLogger
 from .parts import Built, add_imus, add_plant_with_friction, pulse_source, torque_source
@@ -59,16 +60,13 @@ def build_free_swing(params: BplirParams, elbow_torque=0.0, *, friction: bool = 
 
 def build_plant_with_friction(params: BplirParams, *, nominal: bool = False) -> Built:
     """Plant + friction with the elbow actuation exported as the diagram's
-    input and the plant state as its output: the object to linearise."""
-    builder = DiagramBuilder()
-    pp = params.plant if nominal else params.simulated_plant
-    fp = params.friction if nominal else params.simulated_friction
-    plant, fr = add_plant_with_friction(builder, pp, fp, linearizable=True)
-    builder.ExportInput(plant.get_actuation_input_port(), "elbow_torque")
-    builder.ExportOutput(plant.get_state_output_port(), "state")
-    diagram = builder.Build()
-    diagram.set_name("plant_with_friction")
-    return Built(diagram, plant, {"friction": fr}, {}, params)
+    input and the plant state as its output: the object to linearise
+    (:func:`~bplir_drake.systems.frictional_plant.frictional_plant` of the
+    simulated robot, or of the nominal one)."""
+    diagram = frictional_plant(params.plant if nominal else params.simulated_plant,
+                               params.friction if nominal else params.simulated_friction)
+    return Built(diagram, diagram.GetSubsystemByName("bplir_plant"),
+                 {"friction": diagram.GetSubsystemByName("joint_friction")}, {}, params)
 
 
 def build_sensor_swing(params: BplirParams, x0_estimate=(0.0, 0.0, 0.0, 0.0), *,

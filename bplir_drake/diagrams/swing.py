@@ -45,18 +45,16 @@ from ..systems.friction import FRICTION_PARAMETERS, set_friction
 from ..systems.motor import MotorDriver
 from ..systems.plant import INERTIAL_FIELDS, set_inertial_parameters
 from ..systems.schedule import TickColumns, TickLogger
-from .parts import Built, Robot, add_plant_with_friction, sampled  # noqa: F401 (re-exported)
-from .swing_controller import (  # noqa: F401 (re-exported)
+from .parts import Built, Robot, add_plant_with_friction, sampled
+from .swing_controller import (
     add_swing_controller)
 from ..systems.gripper import GripperInterlock
-from .swing_ports import (SWING_PORTS, SWING_SIGNALS,  # noqa: F401 (re-exported)
-                          add_external_torque, export_swing_ports)
-from .plan import tracking_plan
+from .swing_ports import add_external_torque, export_swing_ports
+from ..planning.solve import tracking_plan
 from .onboard import add_onboard, fuses
 from .sensing import add_sensing
 from ..systems.onboard import OnboardComputer
-from .swing_setup import (SwingSetup, believed_start, start_state,  # noqa: F401 (re-exported)
-                          standstill_calibration, swing_geometry, swing_setup)
+from .swing_setup import standstill_calibration, swing_setup
 
 #: the parameter fields a context carries (:func:`set_swing_sample`), by
 #: block (the disturbance fields only when the built swing has disturbances)
@@ -241,7 +239,7 @@ def build_swing(params: BplirParams, *, seed: int | None = None, use_estimator: 
     disturbances; with ``use_estimator=False`` the controller reads the true
     state sampled at its tick instead of the estimate; ``plan_gains`` are
     the tracking gains of a planned swing for ``path.mode = "plan"``
-    (default: those of :func:`bplir_drake.diagrams.plan.tracking_plan`,
+    (default: those of :func:`bplir_drake.planning.solve.tracking_plan`,
     from the nominal model and the scenario).
     ``controller`` / ``estimator``: your own (:mod:`.plugin`), a factory
     ``factory(nominal params) -> System`` or a ``"module:factory"`` spec,

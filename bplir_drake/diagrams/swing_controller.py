@@ -8,7 +8,8 @@ from ..systems.controller import CpflController
 from ..systems.disturbance import delay_steps
 from ..systems.delay_id import planned_probe
 from .plugin import make_plugin
-from ..systems.plan_tracker import ApexShot, Landing, PlanTracker, Reach, resolved_landing
+from ..systems.plan_tracker import ApexShot, Landing, PlanTracker, Reach
+from ..systems.landing import resolved_landing
 from ..systems.path_generator import PathGenerator
 from ..systems.delay_id import DelayIdentifier
 from ..systems.predictor import DelayPredictor
@@ -133,7 +134,7 @@ def plan_tracker(params, comp: DelayCompensation, path_geometry, plan_gains) -> 
     """The plan tracker of :func:`_add_plan_tracker`, not yet in a diagram."""
     if plan_gains is None:
         raise ValueError("path.mode = 'plan' needs the tracking gains of a planned swing: "
-                         "plan_gains=tracking_plan(params)[1] (bplir_drake.diagrams.plan)")
+                         "plan_gains=tracking_plan(params)[1] (bplir_drake.planning.solve)")
     pp = params.landing
     law = pp.landing_law
     if law == "auto":   # resolved on the plan's own samples (the breaks of x0), as

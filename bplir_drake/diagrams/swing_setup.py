@@ -16,7 +16,7 @@ from ..systems.imu import standstill_samples
 from ..systems.line_sensor import standstill_readings
 from ..systems.path import PathGeometry
 from ..systems.plant import absolute_from_relative, start_configuration, target_configuration
-from .plan_file import read_plan_file
+from ..planning.file import read_plan_file
 
 
 @dataclass(frozen=True)

@@ -37,12 +37,9 @@ measurement noise ``R = diag(sigma_w^2, sigma_w^2, sigma_mu^2, sigma_mu^2)``
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-from functools import lru_cache, wraps
 
 import numpy as np
 import pydrake.math as dmath
-from pydrake.autodiffutils import AutoDiffXd, ExtractGradient, ExtractValue, InitializeAutoDiff
 from pydrake.common.value import AbstractValue
 
 from .base import PySystem
@@ -51,8 +48,8 @@ from . import ekf_kernel
 from .calibration import ImuCalibration
 from .line_sensor import line_gap
 from .schedule import declare_store, declare_tick_result
-from .ekf_model import (  # noqa: F401 (re-exported)
-    _per_block, _identity, state_layout, GROUP_NOISE, _pair, _gyro_terms, imu_radii, kinematic_f, kinematic_h, kinematic_h_printed, jacobians, EkfState, noise_matrices, _input_noises, initial_state, input_ends, discrete_f, kinematic_f_jacobians, discrete_f_jacobians, kinematic_h_jacobian, _walk_variances, misalignment_columns)
+from .ekf_model import (
+    _identity, state_layout, imu_radii, EkfState, noise_matrices, _input_noises, initial_state, discrete_f_jacobians, kinematic_h_jacobian, _walk_variances, misalignment_columns)
 
 
 # ----------------------------------------------------------- model functions

@@ -1,6 +1,6 @@
 """Tracking a planned swing: a time-varying LQR around the plan.
 
-The plan (:func:`bplir_drake.diagrams.plan.plan_swing`) is a
+The plan (:func:`bplir_drake.planning.solve.plan_swing`) is a
 full-state trajectory of the *nominal* model.  Drake's
 ``FiniteHorizonLinearQuadraticRegulator`` linearises the nominal plant (with
 its friction model) along it and integrates the Riccati equation backwards;
@@ -12,7 +12,7 @@ limit.
 By default this controller is indexed by **time** since the start of the
 swing: it is the way to climb a steep line, where the planned motion swings
 link 1 back before going forward and so is not a path ``q2 = phi(q1)`` (see
-:mod:`bplir_drake.diagrams.plan`).  With ``indexing = "state"`` it
+:mod:`bplir_drake.planning.solve`).  With ``indexing = "state"`` it
 reads no clock: the plan is evaluated at the phase nearest to the estimate
 (mostly in the joint angles; rates weigh (0.1 s)^2), searched forward
 only.  The LQR's feedback then acts across the plan, not along it: timing
@@ -28,19 +28,16 @@ Outputs ``torque`` (the command) and ``reference`` (the plan's elbow angle).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields, replace
+from dataclasses import dataclass
 
 import numpy as np
 
 from .base import PySystem
 from ..params import PLAN_INDEXING
-from .motor import torque_window, torque_window_of  # noqa: F401 (torque_window re-exported)
-from .plant import bias_term, gravity_vector, mass_matrix
+from .motor import torque_window_of
 from .schedule import declare_store, declare_tick_result
 from .tracker_kernel import plan_tick, tracking_torque, window_constants
-from .landing import (  # noqa: F401 (re-exported)
-    _LineServo, Reach, Landing, ApexShot, link1_share, resolved_landing, landing_law, height_rates, height_torque,
-    terminal_rule)
+from .landing import Reach, Landing, ApexShot, terminal_rule
 
 
 @dataclass(frozen=True)

@@ -4,7 +4,7 @@ neighbours (continuation), then from the planner's straight-line guesses,
 then made fit to blend (:mod:`.refine`); in parallel over the grid, each solve in the plan cache (so a stopped run
 resumes where it stopped), the library saved where ``swing``,
 ``montecarlo`` and ``traverse`` look for it
-(:func:`~bplir_drake.diagrams.plan_library.robot_library_path`)."""
+(:func:`~bplir_drake.planning.library.robot_library_path`)."""
 from __future__ import annotations
 
 import dataclasses as dc
@@ -14,9 +14,9 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from ...diagrams import plan as P
-from ...diagrams.swing_plan import energy_balance
-from ...diagrams.plan_library import (assemble_library, library_entry, robot_library_key,
+from ...planning import solve as P
+from ...planning.swing_plan import energy_balance
+from ...planning.library import (assemble_library, library_entry, robot_library_key,
                                       robot_library_path, save_library)
 from ...params import BplirParams
 from ...systems.plan_tracker import TrackerWeights
@@ -42,7 +42,7 @@ class PointResult:
     #: each solve tried, in turn: its first guess and how the solver ended
     tried: tuple = ()
     #: the share of the energy the plan exchanges that its energy balance
-    #: leaves unaccounted (:func:`~bplir_drake.diagrams.swing_plan.energy_balance`)
+    #: leaves unaccounted (:func:`~bplir_drake.planning.swing_plan.energy_balance`)
     energy_residual: float = math.nan
 
     def row(self) -> dict:
@@ -136,7 +136,7 @@ def solve_library(params: BplirParams, inclines, spacings, *, workers: int = 0,
     none has one), then the grid made fit to blend
     (:func:`~.refine.refined`; a replaced point's ``how`` says so).  Saved at
     ``path`` under ``key`` (default: the plan cache's commissioned library,
-    :func:`~bplir_drake.diagrams.plan_library.robot_library_path`)."""
+    :func:`~bplir_drake.planning.library.robot_library_path`)."""
     pool = dict(workers=workers, dask=dask, scheduler=scheduler, progress=progress)
     points = [(float(a), float(d)) for a in inclines for d in spacings]
     first = min(points, key=lambda p: (abs(p[0]), abs(p[1] - params.scenario.grip_spacing)))

@@ -8,8 +8,8 @@ import math
 
 import numpy as np
 
-from ...diagrams.plan import planned_i2t
-from ...diagrams.swing_plan import UNBALANCED_SHARE
+from ...planning.solve import planned_i2t
+from ...planning.swing_plan import UNBALANCED_SHARE
 from ...params import GripperParams, ImuParams
 from ...systems.motor import interlock_budget
 from ...systems.plant import gripper_position, gripper_velocity, mass_matrix

@@ -13,7 +13,7 @@ from __future__ import annotations
 import dataclasses as dc
 from collections import Counter
 
-from ...diagrams import plan as P
+from ...planning import solve as P
 from ...params import BplirParams, ParameterError
 from ...systems.motor import interlock_budget
 

@@ -8,9 +8,9 @@ import tempfile
 import time
 from pathlib import Path
 
-from ...diagrams.plan_library import robot_library_path
+from ...planning.library import robot_library_path
 from ...io import atomic_path, write_json_atomic
-from ...diagrams.retry_plan import retry
+from ...planning.retry import retry
 from ...params import BplirParams, Manoeuvre, derive, save_toml
 from ..montecarlo.runner import run_study
 from .grid import at, solve_library

@@ -10,7 +10,7 @@ it and torques multiplied by ``Q0' / Q0``.  A robot that is only nearly
 similar gets a guess the solver corrects in a few iterations, where the
 straight-line guess from start to target often ends in no plan at all.
 The planner's price of time follows the same rule
-(:func:`~bplir_drake.diagrams.swing_plan.plan_time_weight`), so the scaled
+(:func:`~bplir_drake.planning.swing_plan.plan_time_weight`), so the scaled
 plan is the scaled robot's optimum, not just a feasible swing.
 """
 from __future__ import annotations
@@ -22,11 +22,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ...diagrams.plan_cache import cache_dir
-from ...diagrams.plan_library import (LIBRARY_SAMPLES, PlanLibrary, library_path,
+from ...planning.cache import cache_dir
+from ...planning.library import (LIBRARY_SAMPLES, PlanLibrary, library_path,
                                       load_library)
-from ...diagrams.swing_plan import SwingPlan
-from ...diagrams.retry_plan import retry
+from ...planning.swing_plan import SwingPlan
+from ...planning.retry import retry
 from ...params import BplirParams, Manoeuvre, derive, preset, with_hardware
 from ...params.follow import robot_scales
 from ...params.robot import PlantParams

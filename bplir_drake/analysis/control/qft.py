@@ -30,8 +30,7 @@ import control
 import numpy as np
 from ...io import Result
 from .errors import QftError   # defined apart so the command line need not import control
-from .plants import (  # noqa: F401 (re-exported)
-    Plant, PlantFamily, _check_omegas, dissertation_family, _s, perturbed, STATE_BOX, SWING_BOX, linearized_cpfl_plant, diagram_family, v_max_over_box)
+from .plants import PlantFamily, _check_omegas, _s
 from .loops import closed_loops, step_responses
 from .plots import plot_family_responses
 from ...progress import progress_bar

@@ -16,6 +16,7 @@ import numpy as np
 from ...io import dumps_strict
 from ...params import BplirParams, ControllerParams
 from . import qft as Q
+from . import plants as PL
 from .plots import plot_family_responses, plot_nichols, plot_tracking, plot_zero_dynamics
 from ...systems.controller import outer_loop_numerator
 from .zero_dynamics import zero_dynamics_portrait
@@ -66,8 +67,8 @@ class QftReport:
 def _published(ctrl: ControllerParams, specs) -> tuple[dict, Any, Any, Any]:
     import control
 
-    fam_nodelay = Q.dissertation_family(td=None)
-    fam = Q.dissertation_family()
+    fam_nodelay = PL.dissertation_family(td=None)
+    fam = PL.dissertation_family()
     d = ctrl.design
     K = control.tf(d["k_num"], d["k_den"])  # as published: negative for (4.16)
     F = control.tf(d["f_num"], d["f_den"])
@@ -87,7 +88,7 @@ def _from_diagram(params: BplirParams, ctrl: ControllerParams, specs, plants: in
     import control
 
 
-    fam = Q.diagram_family(params, plants, seed=seed)
+    fam = PL.diagram_family(params, plants, seed=seed)
     d = ctrl.design
     K = control.tf(outer_loop_numerator(ctrl), d["k_den"])
     F = control.tf(d["f_num"], d["f_den"])
@@ -99,7 +100,7 @@ def _from_diagram(params: BplirParams, ctrl: ControllerParams, specs, plants: in
                             "worst_ratio": des["worst_ratio"], "params": des["params"]}
     ver = Q.verify(fam, K, F, specs)
     report |= {"verification": ver.summary(),
-               "v_max_6_19": Q.v_max_over_box(params),
+               "v_max_6_19": PL.v_max_over_box(params),
                "largest_delay_K_keeps_stable": Q.max_stable_delay(fam, K)}
     return report, fam, ver, K
 

@@ -20,12 +20,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...params import EstimatorParams
-from ...systems.ekf import jacobians, kinematic_f, kinematic_h
+from ...systems.ekf_model import jacobians, kinematic_f, kinematic_h
 from ...io import Result
 from .plots import plot_observability
 from dataclasses import replace
 from ..model.linearization import hanging_linearization
-from ...systems.ekf import GROUP_NOISE, state_layout
+from ...systems.ekf import state_layout
+from ...systems.ekf_model import GROUP_NOISE
 
 DEFAULT_THRESHOLD = 1e-3
 

@@ -3,7 +3,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...estimation import plot_estimate  # noqa: F401 (re-exported)
 from ...plotting import figure_axes, finish
 
 

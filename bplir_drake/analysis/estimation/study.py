@@ -17,7 +17,7 @@ from ...systems.plant import absolute_from_relative
 from ...io import Result
 import dataclasses as dc
 import math
-from .plots import plot_estimate
+from ...estimation import plot_estimate
 
 #: the default scenario of 5.5: free response, actuation, knock
 DEFAULT_TORQUE = ((0.0, 3.0, 3.6), (0.0, 3.0, 0.0))

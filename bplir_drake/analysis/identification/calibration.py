@@ -36,12 +36,10 @@ from ...csvfile import csv_rows
 from ...io import atomic_path
 
 from ...params import BplirParams
-from .deadband import (  # noqa: F401 (re-exported)
-    identify_deadband, cpfl_step_response, damped_integrator_response, fit_step, PlantFamilyFit, identify_plant_family)
 from ...diagrams import build_free_swing
 from ...diagrams.open_loop import build_acrobot, set_acrobot
 from ...simulate import Log, logs, make_simulator, run
-from .errors import CalibrationError  # noqa: F401 (re-exported)
+from .errors import CalibrationError
 
 CALIBRATION_COLUMNS = ("t", "q1", "q2")
 FITTABLE = {

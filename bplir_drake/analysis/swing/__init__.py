@@ -5,7 +5,7 @@
   its plan's gains), :class:`~.run.SwingResult`, log export;
 * :mod:`.compare` -- the controller presets on one scenario;
 * the plans and their tracking gains live one layer down, in
-  :mod:`bplir_drake.diagrams.plan` (cached by :mod:`bplir_drake.diagrams.plan_cache`);
+  :mod:`bplir_drake.planning.solve` (cached by :mod:`bplir_drake.planning.cache`);
 * :mod:`.summary` -- :class:`~.summary.SwingSummary`, the typed summary;
 * :mod:`.plots` -- plots and animation of a swing result.
 """

@@ -9,7 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ...diagrams.plan_file import read_plan_file
+from ...planning.file import read_plan_file
 from ...io import Result
 from ...plotting import figure_axes, finish
 

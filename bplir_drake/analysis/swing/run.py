@@ -12,23 +12,20 @@ from __future__ import annotations
 import dataclasses as dc
 import math
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
-from ...io import Result, atomic_path, dumps_strict
+from ...io import Result, dumps_strict
 
 from ...diagrams import build_swing, set_swing_sample, swing_geometry, swing_structure
 from ...params import BplirParams, checked_seed, plugin_name, to_dict
 from ...simulate import Log, logs, make_simulator, run_until_outcome
-from ...systems.plant import gripper_position, gripper_velocity, kinetic_energy, potential_energy
-from .logs import (  # noqa: F401 (re-exported)
-    LOG_COLUMNS, log_table, motor_columns, write_log_csv, gripper_speed)
+from .logs import log_table
 from .summary import SwingSummary
 from .plots import plot_swing
-from ...systems.plan_tracker import height_rates
-from ...diagrams.plan import tracking_plan
-from ...diagrams.swing import start_state as plan_start_state
+from ...systems.landing import height_rates
+from ...planning.solve import tracking_plan
+from ...diagrams.swing_setup import start_state as plan_start_state
 
 
 def draw_true_friction(params: BplirParams, seed: int) -> BplirParams:

@@ -9,7 +9,7 @@ from the state the timed-out swing ended in, in steps of a second, until
 the energy above hanging at rest falls below ``traverse.recover_energy``
 (damped) or ``traverse.recover_limit`` has passed, or the energy grows
 beyond where it began (the law pumping instead of draining: given up).
-:func:`~bplir_drake.diagrams.retry_plan.retry` is the swing tried again
+:func:`~bplir_drake.planning.retry.retry` is the swing tried again
 from hanging (``scenario.start``; its numbers, ``params.derive``).
 """
 from __future__ import annotations
@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...params import BplirParams, ParameterError
-from ...diagrams.plan import scenario_plan
+from ...planning.solve import scenario_plan
 from ...simulate import make_simulator, run
 from ...systems.plant import kinetic_energy, potential_energy
 from ...diagrams.open_loop import build_damping
@@ -85,7 +85,7 @@ def damping_drive(d: Damping, motor):
 
 def can_retry(p: BplirParams) -> bool:
     """Whether the planner finds a swing from hanging for ``p`` (a try
-    again, :func:`~bplir_drake.diagrams.retry_plan.retry`) on the nominal model."""
+    again, :func:`~bplir_drake.planning.retry.retry`) on the nominal model."""
     try:
         scenario_plan(p.resolved())
     except ParameterError:

@@ -25,32 +25,27 @@ from __future__ import annotations
 
 import dataclasses as dc
 import math
-from dataclasses import dataclass, field
 
 import numpy as np
 
 from ...params import BplirParams, Manoeuvre, derive
 from ...params.derive import raises_aim
-from ...diagrams import retry_plan
+from ...planning import retry as retry_plan
 from ...systems.drive import ride
 from ...systems.motor import i2t_after_rest, i2t_trace, rest_for
 from ...systems.plant import initial_configuration, swapped_state, target_configuration
-from ...io import Result
 from .line import Line
 from .route import hold_position, plan_route
 from .recovery import can_retry, damp, damping_drive
-from .swing_setup import (  # noqa: F401 (re-exported)
+from .swing_setup import (
     swing_chord, budgeted_currents, capture_impulse)
-from .result import (  # noqa: F401 (re-exported)
-    TraverseRow, TraverseTotals,
-    OUTCOMES, ROW_FIELDS, MotionLog, Segment, TraverseResult)
-from .tables import (  # noqa: F401 (re-exported)
-    TABLE_COLUMNS, _cell, manoeuvre_table, totals_lines, traverse_totals, write_rows_csv)
+from .result import TraverseRow, OUTCOMES, ROW_FIELDS, MotionLog, Segment, TraverseResult
+from .tables import traverse_totals
 from ..swing.run import SwingRunner, draw_true_friction
 from .isolated import IsolatedRunners
 from ..live import Following
 from .plots import line_scene
-from ...diagrams.plan import tracking_plan
+from ...planning.solve import tracking_plan
 from ...progress import progress_bar
 from ...systems.plant import gripper_position
 

@@ -6,7 +6,7 @@ import numpy as np
 from ...params import BplirParams
 from ...systems.delay_id import planned_probe
 from ...systems.motor import max_torque
-from ...systems.plan_tracker import height_rates, landing_law
+from ...systems.landing import height_rates, landing_law
 from ...systems.plant import gripper_velocity, mass_matrix
 
 

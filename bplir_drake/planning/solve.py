@@ -25,23 +25,19 @@ from dataclasses import replace
 import numpy as np
 
 from ..params import BplirParams, ParameterError, around
-from .plan_plot import (  # noqa: F401 (re-exported)
-    plot_plan)
-from .swing_plan import (  # noqa: F401 (re-exported)
-    HANGING_GUESSES, HANGING_KNOTS, HANGING_MINOR_ITERATIONS, PLAN_FRICTION_SMOOTHING,
-    PUMP_KNOTS, UNBALANCED_SHARE, SwingPlan, energy_balance, planned_from_hanging, plan_envelope,
-    plan_friction, plan_time_weight, plan_torque_limit, planned_target, pump_guesses,
-    shifted_angles)
-from .plan_library import library_plan
-from .plan_file import read_plan_file
-from .open_loop import build_plant_with_friction
+from .swing_plan import (
+    HANGING_GUESSES, HANGING_KNOTS, HANGING_MINOR_ITERATIONS, PLAN_FRICTION_SMOOTHING, PUMP_KNOTS, UNBALANCED_SHARE, SwingPlan, energy_balance, plan_envelope, plan_friction, plan_time_weight, plan_torque_limit, planned_target, pump_guesses, shifted_angles)
+from ..params.derive import planned_from_hanging
+from .library import library_plan
+from .file import read_plan_file
+from ..systems.frictional_plant import frictional_plant
 from ..systems.plant import start_configuration
-from .plan_cache import cached
+from .cache import cached
 from ..systems.friction import friction_torques_along
 from ..systems.motor import i2t_trace, interlock_budget
 from ..progress import progress_bar
 from ..systems.plan_tracker import RICCATI_ACCURACY, TrackerWeights, plan_gains
-from .plan_status import (  # noqa: F401 (re-exported)
+from .status import (
     SOLVER_STATUS, no_plan_message)
 
 
@@ -51,8 +47,7 @@ def plan_model(params: BplirParams):
     elbow torque as input and the state as output."""
 
     friction = plan_friction(params.friction)
-    return build_plant_with_friction(params.with_(friction=friction), nominal=True).diagram, \
-        friction
+    return frictional_plant(params.plant, friction), friction
 
 
 def plan_swing(params: BplirParams, *, power_limit: float | None = None, knots: int = 41,

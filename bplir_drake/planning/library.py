@@ -37,11 +37,10 @@ from ..systems.friction import friction_torques_along
 from ..systems.plan_tracker import RICCATI_ACCURACY, TrackerWeights, TrackingGains, plan_gains
 from ..systems.plant import start_configuration
 from ..io import atomic_path
-from .plan_cache import PACKAGED, cache_dir, damage, plan_key
-from .swing_plan import (HANGING_GUESSES, HANGING_KNOTS, HANGING_MINOR_ITERATIONS,
-                         PLAN_FRICTION_SMOOTHING, PUMP_KNOTS, UNBALANCED_SHARE, SwingPlan,
-                         planned_from_hanging, plan_envelope, plan_friction, plan_time_weight,
-                         plan_torque_limit, planned_target, pump_guesses, shifted_angles)
+from .cache import PACKAGED, cache_dir, damage, plan_key
+from .swing_plan import (
+    HANGING_GUESSES, HANGING_KNOTS, HANGING_MINOR_ITERATIONS, PLAN_FRICTION_SMOOTHING, PUMP_KNOTS, UNBALANCED_SHARE, SwingPlan, plan_envelope, plan_friction, plan_time_weight, plan_torque_limit, planned_target, pump_guesses, shifted_angles)
+from ..params.derive import planned_from_hanging
 
 #: the grid of the shipped libraries: line inclines (deg) and grip spacings (m)
 LIBRARY_INCLINES = tuple(float(a) for a in range(-20, 21, 5))

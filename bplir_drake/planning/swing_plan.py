@@ -12,10 +12,9 @@ import numpy as np
 
 from ..io import Result
 from ..params import BplirParams
-from ..params.derive import planned_from_hanging  # noqa: F401 (re-exported)
 from ..params.follow import robot_scales
 from ..systems.plant import initial_configuration, kinetic_energy, potential_energy
-from .plan_plot import plot_plan
+from .figure import plot_plan
 
 
 #: smallest Coulomb smoothing velocity the planner uses (rad/s)

@@ -4,7 +4,7 @@ input the planner (or the LQR) reads.
 A DirectCollocation solve of a swing takes about a minute; a Monte Carlo
 study, the tests and ``bplir swing`` with ``path.mode = "plan"`` need the same
 few plans again and again.  :func:`cached` stores a
-:class:`~bplir_drake.diagrams.plan.SwingPlan` as ``plan-<key>.npz`` in
+:class:`~bplir_drake.planning.solve.SwingPlan` as ``plan-<key>.npz`` in
 the cache directory (``$BPLIR_CACHE_DIR``, default ``~/.cache/bplir-drake``),
 where ``key`` is the SHA-256 of the planner's inputs (nominal model,
 scenario geometry, limits, solver settings), the Drake version and
@@ -225,7 +225,7 @@ def cached(inputs: dict, solve, kind: str = "plan", make=None):
     else from the cache, else ``solve()`` once (stored when the cache is
     usable; a damaged cache file is moved aside and re-solved).  A plan is
     rebuilt from its file by ``make(**fields)`` (the plan's class,
-    :class:`~bplir_drake.diagrams.plan.SwingPlan`)."""
+    :class:`~bplir_drake.planning.solve.SwingPlan`)."""
     if kind == "plan" and make is None:
         raise TypeError("cached(kind='plan') needs make=, the plan's class")
     load, save = (_loader(make), _save) if kind == "plan" else (load_gains, save_gains)

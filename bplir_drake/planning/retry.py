@@ -6,7 +6,7 @@ import math
 from dataclasses import replace
 
 from ..params import BplirParams, Manoeuvre, ParameterError, derive, planned_from_hanging
-from .plan import i2t_allowance, planned_i2t, scenario_plan
+from .solve import i2t_allowance, planned_i2t, scenario_plan
 
 
 def retry(robot: BplirParams, manoeuvre: Manoeuvre, hardware=()) -> BplirParams:

@@ -35,7 +35,7 @@ def _one(job):
     """(outcome, capture speed, wall s) of sample ``index`` at one setting."""
     global _RUNNER
     from bplir_drake.analysis.montecarlo.sampling import sample_params
-    from bplir_drake.analysis.swing.run import SwingRunner
+    from bplir_drake.analysis.swing.swing_runner import SwingRunner
 
     study, index, integrator, accuracy = job
     if _RUNNER is None:
@@ -77,7 +77,7 @@ def main(argv=None) -> int:
     from dataclasses import replace
 
     from bplir_drake.analysis.montecarlo.study import load_study
-    from bplir_drake.analysis.swing.run import SWING_ACCURACY, SWING_INTEGRATOR
+    from bplir_drake.analysis.swing.swing_runner import SWING_ACCURACY, SWING_INTEGRATOR
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("-n", type=int, default=100)

@@ -6,7 +6,7 @@ import time
 
 import numpy as np
 
-from bplir_drake.analysis.estimation.study import simulate_estimation
+from bplir_drake.analysis.estimation.filter_study import simulate_estimation
 from bplir_drake.estimation import estimate
 from bplir_drake.params import preset
 from bplir_drake.systems.ekf import ekf_step, initial_state

@@ -46,7 +46,8 @@ import math
 
 import numpy as np
 
-from bplir_drake.analysis.estimation.study import angle_rmse, encoder_truth, realistic_imu_log
+from bplir_drake.analysis.estimation.filter_study import (
+    angle_rmse, encoder_truth, realistic_imu_log)
 from bplir_drake.estimation import aligned_truth, encoder_lead, estimate, gyro_integral
 from bplir_drake.params import preset
 

@@ -81,7 +81,7 @@ def solve_wait(params) -> float:
 
 def study_share(samples: int) -> tuple[float, float, dict]:
     """(wall s, s spent getting plans, outcomes) of the realistic study at +13 deg."""
-    import bplir_drake.analysis.swing.run as run
+    import bplir_drake.analysis.swing.swing_runner as run
     from bplir_drake.analysis import montecarlo as mc
 
     spent = [0.0]

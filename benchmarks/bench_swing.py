@@ -24,7 +24,7 @@ def free_swing_rate(duration: float = 20.0) -> float:
     """Simulated s per wall s of plant + friction swinging freely (the
     swing's integrator accuracy, logging at 1 ms, energies computed)."""
     from bplir_drake.analysis.model.freeswing import simulate_free_swing
-    from bplir_drake.analysis.swing.run import SWING_ACCURACY
+    from bplir_drake.analysis.swing.swing_runner import SWING_ACCURACY
     from bplir_drake.params import preset
 
     p = preset()
@@ -45,7 +45,7 @@ def python_tick_floor(systems: int = 2, duration: float = 20.0, period: float = 
     from pydrake.systems.framework import DiagramBuilder, LeafSystem
     from pydrake.systems.primitives import ConstantVectorSource, LogVectorOutput
 
-    from bplir_drake.analysis.swing.run import SWING_ACCURACY
+    from bplir_drake.analysis.swing.swing_runner import SWING_ACCURACY
     from bplir_drake.diagrams.parts import add_plant_with_friction
     from bplir_drake.params import preset
 
@@ -88,7 +88,7 @@ def python_systems() -> int:
     ``LeafSystem`` s (the 100 Hz chain: the onboard computer -- IMU
     sampler, EKF, delay identifier, predictor and plan tracker as one
     system -- and the interlock)."""
-    from bplir_drake.analysis.swing.run import swing_diagram
+    from bplir_drake.analysis.swing.swing_runner import swing_diagram
     from bplir_drake.params import preset
 
     def leaves(d):
@@ -113,7 +113,7 @@ def cpp_ceiling(seeds: int = 5, accuracies=(1e-4, 1e-3)):
     from pydrake.systems.primitives import LogVectorOutput, TrajectorySource, ZeroOrderHold
     from pydrake.trajectories import PiecewisePolynomial
 
-    from bplir_drake.analysis.swing.run import SWING_INTEGRATOR, run_swing
+    from bplir_drake.analysis.swing.swing_runner import SWING_INTEGRATOR, run_swing
     from bplir_drake.diagrams.parts import Built, add_imu_sensors
     from bplir_drake.diagrams.swing import add_robot
     from bplir_drake.params import preset
@@ -171,7 +171,7 @@ def closed_loop(seeds: int, reused: bool = True):
     simulation, as the reference loop's excludes its set-up; else
     ``run_swing``, a diagram built for every swing.  Warm: the first swing
     is run once before timing."""
-    from bplir_drake.analysis.swing.run import SwingRunner, run_swing
+    from bplir_drake.analysis.swing.swing_runner import SwingRunner, run_swing
     from bplir_drake.params import preset
 
     p = preset()
@@ -195,7 +195,7 @@ def chain_cost(seeds: int, ceiling: float, period: float = 0.01) -> float:
     outputs included, the diagram's set-up and the summary not) over seeds
     0..seeds-1, less the C++ part's at the same accuracy (``ceiling``,
     simulated s per wall s, :func:`cpp_ceiling`), per tick."""
-    from bplir_drake.analysis.swing import run as run_module
+    from bplir_drake.analysis.swing import swing_runner as run_module
     from bplir_drake.params import preset
 
     inner, spent = run_module.run_until_outcome, [0.0, 0.0]
@@ -231,7 +231,7 @@ def breakdown(seeds: int, parts: bool = False):
     ticks in Python, where its terminal law runs), whose timers then add to
     the tick's own time.  Returns (ticks, wall s of the swings,
     {label: wall s})."""
-    from bplir_drake.analysis.swing.run import SwingRunner
+    from bplir_drake.analysis.swing.swing_runner import SwingRunner
     from bplir_drake.params import preset
     from bplir_drake.systems import gripper, onboard, onboard_kernel, plan_tracker
 
@@ -307,7 +307,7 @@ def main():
           f"{fresh_sim / fresh_wall / peer:.2f} of the reference")
     print(f"ratio closed loop / free swing: {loop / free:.3f}")
     ceiling = cpp_ceiling()
-    from bplir_drake.analysis.swing.run import SWING_ACCURACY
+    from bplir_drake.analysis.swing.swing_runner import SWING_ACCURACY
 
     print("the closed loop's C++ part alone (plant, friction, motor, the four Drake IMU sensors "
           "and the state sampled at the ticks, the loggers; the commands replayed; seeds 0-4): "

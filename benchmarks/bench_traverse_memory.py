@@ -19,7 +19,7 @@ CHILD = r"""
 import dataclasses as dc, json, resource, sys, tempfile, time
 from pathlib import Path
 from bplir_drake.analysis.traverse.line import line_from_dict
-from bplir_drake.analysis.traverse.run import run_traverse
+from bplir_drake.analysis.traverse.traversal import run_traverse
 from bplir_drake.params import preset
 
 n = int(sys.argv[1])

@@ -3,7 +3,7 @@ a wider grip spacing, and a different seed; the controller keeps the nominal mod
 import tempfile
 from pathlib import Path
 
-from bplir_drake.analysis.swing.run import run_swing
+from bplir_drake.analysis.swing.swing_runner import run_swing
 from bplir_drake.params import load_toml
 
 text = """

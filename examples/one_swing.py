@@ -1,5 +1,5 @@
 """Run one swing and print its summary (copy and adapt)."""
-from bplir_drake.analysis.swing.run import run_swing
+from bplir_drake.analysis.swing.swing_runner import run_swing
 from bplir_drake.plotting import save_figure
 from bplir_drake.params import preset
 

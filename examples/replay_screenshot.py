@@ -24,8 +24,8 @@ from pathlib import Path
 import numpy as np
 from PIL import Image
 
-from bplir_drake.analysis.swing.plots import replay_swing_html
-from bplir_drake.analysis.swing.run import run_swing
+from bplir_drake.analysis.swing.swing_plots import replay_swing_html
+from bplir_drake.analysis.swing.swing_runner import run_swing
 from bplir_drake.params import preset
 
 #: headless Chromium without a GPU (WebGL on SwiftShader) and without network

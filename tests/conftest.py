@@ -76,7 +76,7 @@ def stopped_work(monkeypatch, tmp_path):
 
     from bplir_drake import estimation
     from bplir_drake.analysis import montecarlo
-    from bplir_drake.analysis.control import report
+    from bplir_drake.analysis.control import qft_report as report
     from bplir_drake.planning import solve as plan
 
     monkeypatch.setattr(Simulator, "AdvanceTo", _stop)

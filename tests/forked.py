@@ -115,9 +115,9 @@ _MAIN = []
 
 
 #: the modules the simulating commands import, loaded before the first fork
-READY = ("bplir_drake.analysis.swing.run", "bplir_drake.analysis.swing.plots",
-         "bplir_drake.analysis.montecarlo", "bplir_drake.analysis.traverse.run",
-         "bplir_drake.analysis.traverse.plots")
+READY = ("bplir_drake.analysis.swing.swing_runner", "bplir_drake.analysis.swing.swing_plots",
+         "bplir_drake.analysis.montecarlo", "bplir_drake.analysis.traverse.traversal",
+         "bplir_drake.analysis.traverse.traverse_plots")
 
 
 def _child(argv, env, preexec, before, main, pipes, new_session):

@@ -198,7 +198,7 @@ def class_7(d: Path):
 
     matplotlib.use("Agg")
     from bplir_drake.analysis.montecarlo import Study
-    from bplir_drake.analysis.montecarlo.plots import plot_histograms
+    from bplir_drake.analysis.montecarlo.study_plots import plot_histograms
 
     peak = 19.896212903225805
     rows = [{"outcome": "passed", "capture_speed_mps": 0.3 + 0.01 * k, "swing_time_s": 8.38,
@@ -447,7 +447,7 @@ def class_16(d: Path):
 def class_17(d: Path):
     """scenario.seed in [0, 2^32) from --seed, --set and a config; run_swing's
     seed a whole number in that range."""
-    from bplir_drake.analysis.swing.run import run_swing
+    from bplir_drake.analysis.swing.swing_runner import run_swing
     from bplir_drake.params import BplirParams, ParameterError
 
     (d / "seed.toml").write_text("[scenario]\nseed = 4294967296\n")

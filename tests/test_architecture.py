@@ -4,13 +4,14 @@ errors and noise seed, wind and gusts), and running it through a reused
 diagram gives exactly what a freshly built diagram gives."""
 from dataclasses import replace
 
+import re
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from bplir_drake.analysis.montecarlo import Distribution, Study, sample_params
-from bplir_drake.analysis.swing.run import SwingRunner, run_swing, swing_diagram
+from bplir_drake.analysis.swing.swing_runner import SwingRunner, run_swing, swing_diagram
 from bplir_drake.diagrams import build_swing, set_swing_sample, swing_structure
 from bplir_drake.params import BplirParams
 
@@ -337,3 +338,35 @@ def test_every_data_file_is_installed_with_the_package():
     covered = {p for pattern in patterns for p in package.glob(pattern)}
     data = {p for p in (package / "data").rglob("*") if p.is_file() and "__pycache__" not in p.parts}
     assert data and data <= covered, sorted(str(p.relative_to(package)) for p in data - covered)
+
+
+def _package_files():
+    return sorted((Path(__file__).resolve().parents[1] / "bplir_drake").rglob("*.py"))
+
+
+def test_no_two_modules_share_a_name():
+    """One name per meaning: a module's file name is unique in the package
+    (a package's face, ``__init__``, aside)."""
+    from collections import Counter
+
+    names = Counter(p.name for p in _package_files() if p.name != "__init__.py")
+    assert sorted(n for n, c in names.items() if c > 1) == []
+
+
+def test_nothing_is_re_exported_outside_a_package_face():
+    """A name is imported from the module that defines it: no module but a
+    package's ``__init__`` keeps an unused import alive for others."""
+    hits = [f"{p.name}:{i}" for p in _package_files() if p.name != "__init__.py"
+            for i, line in enumerate(p.read_text().splitlines(), 1) if "noqa: F401" in line]
+    assert hits == []
+
+
+def test_trajectory_optimisation_lives_in_the_planning_layer():
+    """Only ``planning/`` solves trajectory optimisations, and it plans on
+    the nominal model's system from ``systems``, not on a wired diagram."""
+    users = {p.parent.name + "/" + p.name for p in _package_files()
+             if re.search(r"import \(?[^)]*\bDirectCollocation\b",
+                          p.read_text())}
+    assert users and all(u.startswith("planning/") for u in users), users
+    assert LAYERS["planning"] == {"params", "io", "csvfile", "progress", "plotting", "systems"}
+    assert "planning" in LAYERS["diagrams"] and "diagrams" not in LAYERS["planning"]

@@ -4,7 +4,7 @@ import json
 import numpy as np
 import pytest
 
-from bplir_drake.analysis.estimation.study import simulate_estimation
+from bplir_drake.analysis.estimation.filter_study import simulate_estimation
 from bplir_drake.cli import main
 from bplir_drake.estimation import LogError, read_imu_csv, write_imu_csv
 

@@ -146,7 +146,7 @@ def test_acromonk_in_its_own_units_lands_as_docs_robots_says():
     """examples/acromonk.toml, seed 0 (docs/robots.md): with the rules in
     its own units it captures at 0.32 m/s, its estimate within 0.06 rad
     (with the BPLIR's numbers it arrived at 0.51 m/s, a crash)."""
-    from bplir_drake.analysis.swing.run import run_swing
+    from bplir_drake.analysis.swing.swing_runner import run_swing
 
     s = run_swing(load_toml(ROOT / "examples" / "acromonk.toml")).summary()
     assert s["outcome"] == "captured"

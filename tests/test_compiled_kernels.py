@@ -17,7 +17,7 @@ from bplir_drake.systems.predictor import nominal_rates
 def swing_samples():
     """(the IMU samples (N, 6) of the default swing, seed 0; the absolute
     start state the robot believes)."""
-    from bplir_drake.analysis.swing.run import run_swing
+    from bplir_drake.analysis.swing.swing_runner import run_swing
     from bplir_drake.diagrams.swing_setup import believed_start
     from bplir_drake.systems.plant import absolute_from_relative
 
@@ -62,7 +62,7 @@ def test_the_compiled_calibration_correction_is_the_calibrations():
     """A standstill calibration's misalignment and scale removed in the
     compiled step (``cal``) equal :meth:`ImuCalibration.correct` followed by
     the plain step."""
-    from bplir_drake.systems.calibration import ImuCalibration
+    from bplir_drake.systems.standstill import ImuCalibration
 
     p = EstimatorParams()
     cal = ImuCalibration(misalign=(0.03, -0.02), scale=(0.01, -0.015))

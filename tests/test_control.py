@@ -8,7 +8,7 @@ import pytest
 
 from bplir_drake.analysis.control import qft as Q
 from bplir_drake.analysis.control import plants as PL
-from bplir_drake.analysis.control.study import elbow_step, windup_release
+from bplir_drake.analysis.control.cpfl_study import elbow_step, windup_release
 from bplir_drake.diagrams import build_control_loop, build_cpfl_plant
 from bplir_drake.params import ControllerParams, ParameterError
 from bplir_drake.systems.controller import CpflController, cpfl_terms

@@ -153,7 +153,7 @@ def test_a_traversal_drawn_live_in_meshcat_is_the_same_traversal():
     second, here unpaced) and crosses the line as without the view."""
     from bplir_drake.analysis.live import LiveView
     from bplir_drake.analysis.traverse.line import load_line
-    from bplir_drake.analysis.traverse.run import run_traverse
+    from bplir_drake.analysis.traverse.traversal import run_traverse
 
     p = BplirParams()
     line = load_line(ROOT / "examples" / "line_flat.toml")

@@ -214,7 +214,7 @@ def test_fast_swing_matches_an_accurate_reference():
     against RK5 at 1e-10 on the same diagram the same outcome, a median
     capture-speed error within the 2e-3 m/s the speed work asks for and
     none beyond 5e-3 m/s (median 1.3e-3, largest 2.0e-3 measured)."""
-    from bplir_drake.analysis.swing.run import SwingRunner
+    from bplir_drake.analysis.swing.swing_runner import SwingRunner
 
     params = preset()
     runner = SwingRunner()
@@ -241,7 +241,7 @@ def test_the_onboard_computer_is_its_parts_wired_one_by_one():
     from pathlib import Path
 
     from bplir_drake.analysis.montecarlo import load_study, sample_params
-    from bplir_drake.analysis.swing.run import SwingRunner
+    from bplir_drake.analysis.swing.swing_runner import SwingRunner
 
     study = load_study(Path(__file__).resolve().parents[1] / "examples" / "study_realistic.toml")
     runs = [(preset(), 3), (preset(), 4), (with_hardware(preset(), "line-sensor"), 1),
@@ -269,7 +269,7 @@ def test_a_released_swing_diagram_is_freed_with_the_onboard_computers_parts():
     import gc
     import weakref
 
-    from bplir_drake.analysis.swing.run import swing_diagram
+    from bplir_drake.analysis.swing.swing_runner import swing_diagram
 
     built = swing_diagram(preset(), seed=0)
     computer = built.systems["controller"]
@@ -291,7 +291,7 @@ def test_the_quick_template_lookup_names_the_module_pydrakes_own_does():
     from pydrake.systems.framework import LeafSystem_
     from pydrake.systems.scalar_conversion import TemplateSystem
 
-    from bplir_drake.systems.base import quick_template_scopes
+    from bplir_drake.systems.pysystem import quick_template_scopes
 
     def template(name):
         @TemplateSystem.define(name, T_list=(float,))

@@ -110,7 +110,7 @@ def test_between_grid_points_the_blend_is_the_solved_manoeuvre_and_lands(tries):
     hanging to the line, seeds 0-2 (measured 0.21-0.29 m/s)."""
     import math
 
-    from bplir_drake.analysis.swing.run import run_swing
+    from bplir_drake.analysis.swing.swing_runner import run_swing
 
     p = tried(preset(), 1, 1.05, math.radians(2.6))
     plan, _ = P.tracking_plan(p)
@@ -132,7 +132,7 @@ def test_the_swapped_robots_try_on_the_span_chord_is_blended_and_lands(tries):
     robot to the line, seeds 0-2 (measured 0.27-0.30 m/s)."""
     import math
 
-    from bplir_drake.analysis.swing.run import run_swing
+    from bplir_drake.analysis.swing.swing_runner import run_swing
 
     p = tried(preset(), 2, 1.2, math.radians(2.6))
     assert P.tracking_plan(p)[0].status == "interpolated"

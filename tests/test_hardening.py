@@ -196,7 +196,7 @@ def test_unusable_output_locations(tmp_path):
 
 
 def test_swing_checks_its_output_before_simulating(monkeypatch, tmp_path):
-    import bplir_drake.analysis.swing.run as S
+    import bplir_drake.analysis.swing.swing_runner as S
 
     def boom(*a, **k):
         raise AssertionError("simulated before checking the output directory")

@@ -5,7 +5,7 @@ import dataclasses as dc
 import numpy as np
 import pytest
 
-from bplir_drake.analysis.estimation.study import simulate_estimation
+from bplir_drake.analysis.estimation.filter_study import simulate_estimation
 from bplir_drake.analysis.estimation.observability import observability_along
 from bplir_drake.diagrams import build_sensor_swing
 from bplir_drake.estimation import estimate
@@ -221,7 +221,7 @@ def test_heuns_step_in_the_loop_estimates_the_landing_rates_better():
     predicts link 1's stop from its rate)."""
     import dataclasses as dc
 
-    from bplir_drake.analysis.swing.run import run_swing
+    from bplir_drake.analysis.swing.swing_runner import run_swing
     from bplir_drake.diagrams.swing_setup import believed_start
     from bplir_drake.estimation import estimate
     from bplir_drake.params import TRAPEZOID_TUNING, BplirParams
@@ -310,7 +310,7 @@ def test_misalignments_are_estimated_in_flight_unless_the_imus_are_very_noisy():
     import dataclasses as dc
 
     from bplir_drake.params import EstimatorParams
-    from bplir_drake.systems.calibration import ImuCalibration
+    from bplir_drake.systems.standstill import ImuCalibration
     from bplir_drake.systems.ekf import KinematicEkf, misalign_held, state_layout
 
     p = EstimatorParams()

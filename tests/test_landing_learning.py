@@ -21,7 +21,7 @@ def test_the_arrival_height_error_is_the_estimates_error_at_the_arrival():
     (measured 0.40 / -0.20 mm) and the default robot (2.45 / 0.38 mm); the
     held estimate is up to 3.2 mm off at seed 1's arrival, the gripper
     still rising."""
-    from bplir_drake.analysis.swing.run import run_swing
+    from bplir_drake.analysis.swing.swing_runner import run_swing
     from bplir_drake.systems.landing import height_rates
 
     p = preset()
@@ -87,7 +87,7 @@ def test_a_traversal_learns_its_landing_and_passes():
     47, 53 and 66 learning made the later arrivals faster, not slower."""
     from bplir_drake.analysis.montecarlo import load_study, sample_params
     from bplir_drake.analysis.traverse.line import load_line
-    from bplir_drake.analysis.traverse.run import run_traverse
+    from bplir_drake.analysis.traverse.traversal import run_traverse
 
     root = Path(__file__).resolve().parents[1] / "examples"
     p, seed, _ = sample_params(load_study(root / "study_traverse.toml").with_(seed=1), 40)

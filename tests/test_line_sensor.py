@@ -101,7 +101,7 @@ def test_the_sensor_removes_the_landing_error_that_link_length_errors_leave():
     -0.37 / 0.70 mm with it, within 0.10 mm with the sensor."""
     import dataclasses as dc
 
-    from bplir_drake.analysis.swing.run import run_swing
+    from bplir_drake.analysis.swing.swing_runner import run_swing
 
     p0 = preset()
     cases = ((0.002, -0.002, 6.84e-3, 3.22e-3), (-0.002, 0.002, -4.14e-3, -0.37e-3),
@@ -156,7 +156,7 @@ def test_a_calibrated_offset_does_not_move_the_landing():
     standstill window) the estimate lands 5.1 mm lower (-5.09 mm)."""
     import dataclasses as dc
 
-    from bplir_drake.analysis.swing.run import run_swing
+    from bplir_drake.analysis.swing.swing_runner import run_swing
 
     p = with_hardware(preset(), "line-sensor")
     p = p.with_(imu=dc.replace(p.imu, noise=False),

@@ -256,7 +256,7 @@ def test_true_state_study_records_it_and_swings_on_the_true_state(tmp_path, caps
     """``--true-state``: the study file records ``use_estimator = false`` and
     every sample is the swing controlled from the true state (what
     estimation costs a study; README, realistic study)."""
-    from bplir_drake.analysis.swing.run import run_swing
+    from bplir_drake.analysis.swing.swing_runner import run_swing
 
     out = tmp_path / "ts"
     assert main(["montecarlo", "-n", "1", "--seed", "5", "--workers", "1", "--true-state",

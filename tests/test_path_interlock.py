@@ -150,7 +150,7 @@ def test_latch_lift_rescues_a_swing_that_stops_just_short_of_the_line():
     import dataclasses as dc
 
     from bplir_drake.analysis import montecarlo as mc
-    from bplir_drake.analysis.swing.run import run_swing
+    from bplir_drake.analysis.swing.swing_runner import run_swing
     from bplir_drake.params import TRAPEZOID_TUNING
 
     p, seed, _ = mc.sample_params(mc.Study(samples=5, seed=0), 3)

@@ -27,7 +27,7 @@ def test_a_plan_from_its_csv_is_tracked_as_the_same_plan_in_memory(tmp_path):
     """AcroMonk's swing (examples/acromonk.toml, its shipped plan): the plan
     written to a CSV with other column names and tracked from it gives the
     swing of the plan from memory, every number within 1e-9."""
-    from bplir_drake.analysis.swing.run import SwingRunner
+    from bplir_drake.analysis.swing.swing_runner import SwingRunner
 
     p = load_toml(ACROMONK)
     plan = tracking_plan(p)[0]
@@ -89,7 +89,7 @@ def test_a_swing_can_start_where_the_plan_starts(tmp_path):
     """scenario.start = "plan": the simulated robot starts in the plan
     file's first state, moving (a plan cut 0.2 s into AcroMonk's swing),
     and the filter starts believing it."""
-    from bplir_drake.analysis.swing.run import SwingRunner
+    from bplir_drake.analysis.swing.swing_runner import SwingRunner
 
     p = load_toml(ACROMONK)
     plan = tracking_plan(p)[0]

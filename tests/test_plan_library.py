@@ -6,7 +6,7 @@ import dataclasses as dc
 import numpy as np
 import pytest
 
-from bplir_drake.analysis.traverse.swing_setup import swing_chord
+from bplir_drake.analysis.traverse.step_setup import swing_chord
 from moves import traverse_swing
 from bplir_drake.planning import solve as P
 from bplir_drake.planning.library import (LIBRARY_INCLINES, LIBRARY_SPACINGS,
@@ -127,7 +127,7 @@ def test_only_the_model_the_library_was_solved_for_reads_it(robots):
 def test_a_swing_at_an_incline_off_the_grid_captures(robots):
     """+13 deg (between the +10 and +15 deg plans), 1.23 m: the default
     robot tracks the blended plan and captures, seeds 0-2."""
-    from bplir_drake.analysis.swing.run import run_swing
+    from bplir_drake.analysis.swing.swing_runner import run_swing
 
     p = _at(preset(), 13.0, 1.23)
     assert P.tracking_plan(p)[0].status == "interpolated"

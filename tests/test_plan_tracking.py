@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bplir_drake.analysis.swing.run import run_swing
+from bplir_drake.analysis.swing.swing_runner import run_swing
 from bplir_drake.planning.solve import planned_target, tracking_plan
 from bplir_drake.params import ParameterError, preset
 from bplir_drake.systems.plan_tracker import PlanTracker
@@ -393,7 +393,7 @@ def test_auto_landing_lands_realistic_swings_the_aim_law_crashes(k, aim_speed, a
     the auto law (the shot on this line) captures.  Over samples 0-119 of
     that seed the auto law turned 12 crashes into captures and lost none."""
     from bplir_drake.analysis.montecarlo import load_study, sample_params
-    from bplir_drake.analysis.swing.run import SwingRunner
+    from bplir_drake.analysis.swing.swing_runner import SwingRunner
 
     root = Path(__file__).resolve().parents[1] / "examples"
     p, seed, _ = sample_params(load_study(root / "study_realistic.toml").with_(seed=2), k)

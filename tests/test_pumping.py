@@ -62,7 +62,7 @@ def test_a_pump_whose_plan_does_not_keep_the_robots_energy_is_not_feasible(monke
 def test_commissioning_keeps_the_manoeuvre_whose_studies_do_better(monkeypatch):
     """A swing below the bar and a pump shown ready: the pump is the robot's,
     its limits none; the swing's rows and study are kept, not chosen."""
-    from bplir_drake.analysis.commission import run
+    from bplir_drake.analysis.commission import commissioning as run
 
     def manoeuvre(robot, g, **grid):
         kind = robot.scenario.manoeuvre

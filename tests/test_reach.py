@@ -92,7 +92,7 @@ def test_the_reach_captures_on_the_back_swing_short_of_the_grip():
     short of the planned grip.  Sample 0 of root seed 2 at +20 deg (1.2 m),
     on both criteria."""
     from bplir_drake.analysis.montecarlo import load_study, sample_params
-    from bplir_drake.analysis.swing.run import SwingRunner
+    from bplir_drake.analysis.swing.swing_runner import SwingRunner
 
     study = load_study(STUDY)
     assert study.params.scenario.min_travel_fraction == 1.9
@@ -119,7 +119,7 @@ def test_10_and_20_ms_of_delay_are_captured_on_the_grip_on_20_degree_lines(incli
     lab firmware's 10 ms of actuation delay, ``plan.delay_compensation``),
     EKF in the loop, with 10 and 20 ms of actuation delay, seeds 0 and 1:
     every case captured near the planned grip."""
-    from bplir_drake.analysis.swing.run import SwingRunner
+    from bplir_drake.analysis.swing.swing_runner import SwingRunner
 
     runner = SwingRunner()
     p = preset()
@@ -189,7 +189,7 @@ def test_held_out_samples_of_the_realistic_study_land_on_the_grip(incline):
     shipped plans).  Measured: 16 of 16 on every line, within 3.9, 4.5 and
     7.6 cm of the grip, the fastest at 0.371, 0.380 and 0.405 m/s."""
     from bplir_drake.analysis.montecarlo import load_study, sample_params
-    from bplir_drake.analysis.swing.run import SwingRunner
+    from bplir_drake.analysis.swing.swing_runner import SwingRunner
 
     study = load_study(STUDY)
     study = study.with_(
@@ -219,7 +219,7 @@ def test_link_2_parameters_off_by_10_percent(incline):
     hardest, lc2 -10 % at -20 deg under the aim law (a 5.5 cm shift of
     link 2's centre of mass, five times the realistic study's draw),
     arrives at 0.48 m/s, just inside the 0.5 m/s limit."""
-    from bplir_drake.analysis.swing.run import SwingRunner
+    from bplir_drake.analysis.swing.swing_runner import SwingRunner
 
     runner = SwingRunner()
     p = preset()

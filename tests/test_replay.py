@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from bplir_drake.analysis.swing import run_swing
-from bplir_drake.analysis.swing.plots import replay_swing_html, swing_replay_scene
+from bplir_drake.analysis.swing.swing_plots import replay_swing_html, swing_replay_scene
 from bplir_drake.cli import main
 from bplir_drake.params import preset
 

@@ -33,7 +33,7 @@ def _study(tmp):
 
 def _traversal(tmp):
     from bplir_drake.analysis.traverse.line import load_line
-    from bplir_drake.analysis.traverse.run import ROW_FIELDS, run_traverse
+    from bplir_drake.analysis.traverse.traversal import ROW_FIELDS, run_traverse
     from bplir_drake.params import BplirParams
 
     res = run_traverse(load_line(ROOT / "examples" / "line_flat.toml"), BplirParams())
@@ -49,7 +49,7 @@ def _benchmark(tmp):
 
 
 def _estimate(tmp):
-    from bplir_drake.analysis.estimation.study import simulate_estimation
+    from bplir_drake.analysis.estimation.filter_study import simulate_estimation
     from bplir_drake.estimation import estimate
     from bplir_drake.params import BplirParams
 
@@ -71,7 +71,7 @@ def _calibration(tmp):
 
 def _observability(tmp):
     from bplir_drake.analysis.estimation.observability import observability_along
-    from bplir_drake.analysis.estimation.study import simulate_estimation
+    from bplir_drake.analysis.estimation.filter_study import simulate_estimation
     from bplir_drake.params import BplirParams
 
     p = BplirParams()

@@ -123,7 +123,7 @@ def test_the_bplir_from_its_urdf_swings_as_the_hand_built_one():
     """The default swing (seed 0, EKF in the loop) of the robot read from
     the shipped URDF and of the hand-built one: every reported number within
     1e-9."""
-    from bplir_drake.analysis.swing.run import SwingRunner
+    from bplir_drake.analysis.swing.swing_runner import SwingRunner
     from bplir_drake.params import from_dict
 
     runner = SwingRunner()

@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 from bplir_drake.analysis.estimation.observability import calibration_identifiability
-from bplir_drake.analysis.estimation.study import (angle_rmse, encoder_truth, realistic_imu_log,
-                                                   simulate_estimation)
+from bplir_drake.analysis.estimation.filter_study import (
+    angle_rmse, encoder_truth, realistic_imu_log, simulate_estimation)
 from bplir_drake.estimation import aligned_truth, encoder_lead, estimate, gyro_integral
 from bplir_drake.params import EstimatorParams, preset
 from bplir_drake.systems import ekf as E

@@ -149,7 +149,8 @@ def test_success_vs_parameters_has_no_empty_panel_and_keeps_its_rate_clear(n, co
     from matplotlib.backends.backend_agg import FigureCanvasAgg
 
     from bplir_drake.analysis.montecarlo import Distribution, Study
-    from bplir_drake.analysis.montecarlo.plots import _grid_columns, plot_success_vs_parameters
+    from bplir_drake.analysis.montecarlo.study_plots import (
+        _grid_columns, plot_success_vs_parameters)
 
     assert _grid_columns(n) == columns
     names = ["true_friction.fv1", "true_friction.fv2", "true_friction.fc1", "true_friction.fc2"]

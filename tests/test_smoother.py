@@ -10,7 +10,7 @@ import functools
 import numpy as np
 import pytest
 
-from bplir_drake.analysis.estimation.study import simulate_estimation
+from bplir_drake.analysis.estimation.filter_study import simulate_estimation
 from bplir_drake.estimation import estimate
 from bplir_drake.params import preset
 

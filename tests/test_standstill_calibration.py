@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from bplir_drake.params import ImuParams
-from bplir_drake.systems.calibration import ImuCalibration, calibrate_standstill
+from bplir_drake.systems.standstill import ImuCalibration, calibrate_standstill
 from bplir_drake.systems.imu import corrupt, imu_kinematics, standstill_samples
 from bplir_drake.params import with_hardware, imu_only
 
@@ -155,7 +155,7 @@ def test_the_filter_starts_from_the_pose_the_robot_believes_not_the_true_one():
     perfect IMU's "misalignment" is exactly the true less the believed
     absolute angle, which keeps the accelerometers consistent with the
     filter's start."""
-    from bplir_drake.analysis.swing.run import swing_diagram
+    from bplir_drake.analysis.swing.swing_runner import swing_diagram
     from bplir_drake.diagrams import swing_geometry
     from bplir_drake.diagrams.swing import standstill_calibration
     from bplir_drake.diagrams.swing_setup import believed_start

@@ -48,7 +48,7 @@ def test_the_swapped_robots_short_swing_lands_with_its_elbow_capped():
     of two (this one, and draw 54, a timeout it lands) and of no other."""
     from bplir_drake.analysis.montecarlo.sampling import sample_params
     from bplir_drake.analysis.montecarlo.study import load_study
-    from bplir_drake.analysis.swing.run import SwingRunner
+    from bplir_drake.analysis.swing.swing_runner import SwingRunner
     from moves import traverse_swing
 
     study = load_study(EXAMPLES / "study_traverse.toml").with_(seed=777)

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from bplir_drake.plotting import save_figure
-from bplir_drake.analysis.swing.run import run_swing
+from bplir_drake.analysis.swing.swing_runner import run_swing
 from bplir_drake.cli import main
 
 
@@ -236,7 +236,7 @@ def test_the_swing_diagram_composes_in_a_users_builder_and_runs_with_a_plain_sim
     from pydrake.systems.framework import DiagramBuilder
     from pydrake.systems.primitives import LogVectorOutput
 
-    from bplir_drake.analysis.swing.run import SWING_ACCURACY, swing_diagram
+    from bplir_drake.analysis.swing.swing_runner import SWING_ACCURACY, swing_diagram
     from bplir_drake.diagrams.swing_ports import SWING_PORTS
     from bplir_drake.params import preset
 

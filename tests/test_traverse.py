@@ -16,7 +16,7 @@ import pytest
 
 from bplir_drake.analysis.traverse.line import LineError, line_from_dict, load_line
 from bplir_drake.analysis.traverse.route import max_width, plan_route
-from bplir_drake.analysis.traverse.run import capture_impulse, run_traverse
+from bplir_drake.analysis.traverse.traversal import capture_impulse, run_traverse
 from bplir_drake.cli import main
 from bplir_drake.params import preset, swapped, swapped_plant
 from bplir_drake.systems.motor import i2t_after_rest, i2t_trace, interlock_budget, rest_for
@@ -474,7 +474,7 @@ def test_the_shooting_landing_lands_the_swapped_robot(k, aim, speed):
     of the aim law's captures (sample 9, a 0.12 m/s arrival under the aim
     law)."""
     from bplir_drake.analysis.montecarlo import load_study, sample_params
-    from bplir_drake.analysis.swing.run import SwingRunner
+    from bplir_drake.analysis.swing.swing_runner import SwingRunner
     from moves import traverse_swing
 
     root = Path(__file__).resolve().parents[1] / "examples"
@@ -496,7 +496,7 @@ def test_the_rest_planner_budgets_the_landing_at_the_torque_limit():
     torques on the first eight ticks; without a landing the plan's and the
     probe's alone."""
     from bplir_drake.planning.solve import tracking_plan
-    from bplir_drake.analysis.traverse.run import budgeted_currents
+    from bplir_drake.analysis.traverse.traversal import budgeted_currents
     from moves import traverse_swing
     from bplir_drake.systems.delay_id import probe_torques
     from bplir_drake.systems.motor import max_torque
@@ -529,7 +529,7 @@ def test_the_motion_log_on_disk_is_the_one_in_memory(tmp_path):
     """A traversal's motion appended to a file as it goes reads back as the
     segments kept in memory (bit for bit), every k-th sample when a figure
     asks for at most so many, and a study's log keeps nothing."""
-    from bplir_drake.analysis.traverse.result import MotionLog, Segment
+    from bplir_drake.analysis.traverse.traverse_result import MotionLog, Segment
 
     rng = np.random.default_rng(0)
     segs = []
@@ -554,7 +554,7 @@ def test_the_dense_example_passes_with_shorter_swings():
     than two 1.2 m swings allow): the route sets shorter spacings and the
     default robot passes all five (seed 0), every swing's plan from the
     libraries."""
-    from bplir_drake.analysis.traverse.run import run_traverse
+    from bplir_drake.analysis.traverse.traversal import run_traverse
 
     line = load_line(ROOT / "examples" / "line_dense.toml")
     p = preset()
@@ -571,7 +571,7 @@ def test_swings_in_a_replaced_worker_process_give_the_same_traversal():
     swings (Drake keeps about 3 MB of every diagram built from Python
     systems): the traversal is the same as in the process, row for row."""
     from bplir_drake.analysis.traverse.isolated import IsolatedRunners
-    from bplir_drake.analysis.traverse.run import run_traverse
+    from bplir_drake.analysis.traverse.traversal import run_traverse
 
     line = load_line(ROOT / "examples" / "line_flat.toml")
     p = preset()
@@ -609,7 +609,7 @@ def test_the_tower_span_passes_at_48v():
     20 swings (seed 0), every plan blended from the shipped libraries
     (tests/test_plan_library.py); at 30 V it crashes at the ninth
     (docs/hardware.md)."""
-    from bplir_drake.analysis.traverse.run import run_traverse
+    from bplir_drake.analysis.traverse.traversal import run_traverse
 
     line = load_line(ROOT / "examples" / "line_tower.toml")
     res = run_traverse(line, with_hardware(preset(), "48v"), seed=0)

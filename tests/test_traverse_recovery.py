@@ -12,7 +12,7 @@ import pytest
 from bplir_drake.analysis.traverse.line import load_line
 from bplir_drake.analysis.traverse.recovery import damp, swing_energy
 from bplir_drake.params.derive import free_link_upright, raises_aim
-from bplir_drake.analysis.traverse.run import run_traverse
+from bplir_drake.analysis.traverse.traversal import run_traverse
 from bplir_drake.params import BplirParams, Manoeuvre, ParameterError, derive, swapped
 from conftest import paced_48v
 from bplir_drake.params import with_hardware
@@ -51,7 +51,7 @@ def test_a_timed_out_swing_is_damped_and_tried_again_from_hanging():
     # the figure shades the damping in its own colour and says so
     import matplotlib
     matplotlib.use("Agg")
-    from bplir_drake.analysis.traverse.plots import plot_timeline
+    from bplir_drake.analysis.traverse.traverse_plots import plot_timeline
     fig = plot_timeline(res)
     assert "red: damping after a timeout" in fig._suptitle.get_text()
     spans = [p for p in fig.axes[0].patches if abs(p.get_width() - recover["duration_s"]) < 1e-9]
@@ -87,7 +87,7 @@ def test_the_swapped_robot_is_tried_again_too():
 
 
 def test_without_a_plan_from_hanging_the_timeout_ends_the_traversal(monkeypatch):
-    import bplir_drake.analysis.traverse.run as run
+    import bplir_drake.analysis.traverse.traversal as run
 
     monkeypatch.setattr(run, "can_retry", lambda p: False)
     res = run_traverse(load_line(LINE), BplirParams(), seed=0, adjust=headwind(0, -6.0))
@@ -202,7 +202,7 @@ def test_a_try_from_hanging_with_an_i2t_share_keeps_the_driver_cool_on_the_span_
     with the driver's i^2 t at 26 % of the budget."""
     import math
 
-    from bplir_drake.analysis.swing.run import SwingRunner
+    from bplir_drake.analysis.swing.swing_runner import SwingRunner
     from moves import traverse_swing
     from bplir_drake.planning import solve as P
     from bplir_drake.systems.motor import interlock_budget
@@ -260,7 +260,7 @@ def test_a_near_miss_from_hanging_lands_when_the_try_after_it_aims_higher():
 
     from bplir_drake.analysis.montecarlo.sampling import sample_params
     from bplir_drake.analysis.montecarlo.study import load_study
-    from bplir_drake.analysis.swing.run import SwingRunner
+    from bplir_drake.analysis.swing.swing_runner import SwingRunner
     from moves import traverse_swing
 
     study = load_study(LINE.parent / "study_traverse.toml").with_(seed=777)
@@ -289,7 +289,7 @@ def test_the_original_robots_try_from_hanging_lands_with_the_apex_shot_where_the
     (measured 0.35 m/s; 1 of 40 and 1 of 100 crash)."""
     from bplir_drake.analysis.montecarlo.sampling import sample_params
     from bplir_drake.analysis.montecarlo.study import load_study
-    from bplir_drake.analysis.swing.run import SwingRunner
+    from bplir_drake.analysis.swing.swing_runner import SwingRunner
     from moves import traverse_swing
     from bplir_drake.planning.solve import tracking_plan
     from bplir_drake.systems.landing import resolved_landing
@@ -327,7 +327,7 @@ def test_the_swapped_robots_try_from_hanging_ends_at_the_line_and_lands_from_the
 
     from bplir_drake.analysis.montecarlo.sampling import sample_params
     from bplir_drake.analysis.montecarlo.study import load_study
-    from bplir_drake.analysis.swing.run import SwingRunner
+    from bplir_drake.analysis.swing.swing_runner import SwingRunner
     from moves import traverse_swing
 
     study = load_study(LINE.parent / "study_traverse.toml").with_(seed=777)

@@ -9,8 +9,8 @@ import os
 import sys
 import warnings
 
-from ..analysis.control.errors import QftError
-from ..analysis.identification.errors import CalibrationError
+from ..analysis.control.qft_error import QftError
+from ..analysis.identification.calibration_error import CalibrationError
 from ..csvfile import LogError
 from ..io import forget_stop, raise_stop, remove_unfinished
 from ..params import ParameterError

@@ -5,13 +5,17 @@ from __future__ import annotations
 import argparse
 
 from ..io import package_version
-from . import (benchmark, calibrate, commission, estimate, freeswing, model, montecarlo, observability,
-               parameters, plan, qft, replay, swing, traverse)
+from . import (benchmark_command, calibrate_command, commission_command, estimate_command,
+               freeswing_command, model_command, montecarlo_command, observability_command,
+               params_command, plan_command, qft_command, replay_command, swing_command,
+               traverse_command)
 from .common import _Parser
 
 #: the commands in the order ``bplir --help`` lists them
-COMMANDS = (model, parameters, freeswing, estimate, observability, swing, montecarlo, benchmark,
-            traverse, plan, commission, calibrate, replay, qft)
+COMMANDS = (model_command, params_command, freeswing_command, estimate_command,
+            observability_command, swing_command, montecarlo_command, benchmark_command,
+            traverse_command, plan_command, commission_command, calibrate_command, replay_command,
+            qft_command)
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -16,7 +16,7 @@ estimators only ever see the nominal blocks.
   (:func:`set_swing_sample`); :mod:`.swing_ports` -- its input and output
   ports, their signal names and the estimate's timing.
 """
-from .control import build_control_loop, build_cpfl_plant, build_cpfl_step
+from .cpfl_loop import build_control_loop, build_cpfl_plant, build_cpfl_step
 from .open_loop import build_free_swing, build_plant_with_friction, build_sensor_swing
 from .parts import Built, add_imus, add_plant_with_friction, sampled
 from .swing import (

@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 from pydrake.systems.primitives import ConstantVectorSource, TrajectorySource, ZeroOrderHold
 
-from ..systems.base import release_system
+from ..systems.pysystem import release_system
 from ..params import BplirParams, FrictionParams, PlantParams
 from ..systems.friction import JointFriction, friction_system
 from ..systems.imu import ImuSampler
@@ -50,7 +50,7 @@ class Built:
         builds diagrams in a loop (a study whose samples differ in structure)
         grew by about 3 MB a build.  Dropping those records on every system
         of the tree, and our systems' own references
-        (:func:`~bplir_drake.systems.base.release_system`), lets Python free
+        (:func:`~bplir_drake.systems.pysystem.release_system`), lets Python free
         the diagram with the last reference to it.  The handles in this
         object are cleared."""
         stack = [self.diagram] if self.diagram is not None else []

@@ -51,8 +51,8 @@ from .swing_controller import (
 from ..systems.gripper import GripperInterlock
 from .swing_ports import add_external_torque, export_swing_ports
 from ..planning.solve import tracking_plan
-from .onboard import add_onboard, fuses
-from .sensing import add_sensing
+from .onboard_chain import add_onboard, fuses
+from .sensors import add_sensing
 from ..systems.onboard import OnboardComputer
 from .swing_setup import standstill_calibration, swing_setup
 
@@ -248,7 +248,7 @@ def build_swing(params: BplirParams, *, seed: int | None = None, use_estimator: 
     a disturbance added to the joints, the estimate the controller reads);
     its outputs are always :data:`~.swing_ports.SWING_SIGNALS`.  With
     ``onboard`` (the default) the EKF-and-plan-tracker chain runs as one
-    system (:mod:`~bplir_drake.diagrams.onboard`: the same numbers as its
+    system (:mod:`~bplir_drake.diagrams.onboard_chain`: the same numbers as its
     parts wired one by one, ``onboard=False``, in less time).  The
     returned record carries the start configuration ``q0`` and the
     ``structure`` a context cannot change (:func:`set_swing_sample`).

@@ -10,7 +10,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..params import BplirParams, ParameterError
-from ..systems.calibration import ImuCalibration, calibrate_standstill
+from ..systems.standstill import ImuCalibration, calibrate_standstill
 from ..systems.gripper import LineGeometry
 from ..systems.imu import standstill_samples
 from ..systems.line_sensor import standstill_readings
@@ -100,7 +100,7 @@ def standstill_calibration(params: BplirParams, q0, seed: int,
     at rest in the true pose ``q0``: ``estimator.standstill_samples`` samples
     of the simulated sensors there
     (:func:`~bplir_drake.systems.imu.standstill_samples`, seeded by ``seed``)
-    reduced by :func:`~bplir_drake.systems.calibration.calibrate_standstill`
+    reduced by :func:`~bplir_drake.systems.standstill.calibrate_standstill`
     with the filter's gravity against the pose the robot believes it is in
     (``believed``, default :func:`believed_start`: the robot never reads its true pose); with a
     line sensor, as many of its readings there, whose mean is its offset

@@ -17,22 +17,8 @@ Dissertation sources: Table 4.3 (plant, friction), Table 4.2 and
 6 (controller), chapter 7 (path), docs/concepts.md (scenario and success criteria)."""
 from __future__ import annotations
 
-from .base import (  # noqa: F401
-    INF,
-    ParameterError,
-    _p,
-    _positive,
-    MAX_LENGTH,
-    _length,
-    _fraction,
-    _is_plugin,
-    plugin_name,
-    PLUGIN_GROUPS,
-    registered_plugins,
-    plugin_arguments,
-    _range_text,
-    _validate_block,
-    _Block)
+from .blocks import (
+    INF, ParameterError, _p, _positive, MAX_LENGTH, _length, _fraction, _is_plugin, plugin_name, PLUGIN_GROUPS, registered_plugins, plugin_arguments, _range_text, _validate_block, _Block)
 from .robot import (  # noqa: F401
     PlantParams,
     RobotFileParams,

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, fields, replace
-from .base import ParameterError, _Block, _count, _fraction, _p, _positive
+from .blocks import ParameterError, _Block, _count, _fraction, _p, _positive
 import warnings
 import numpy as _np
 

@@ -18,7 +18,7 @@ import math
 from dataclasses import dataclass, replace
 from types import SimpleNamespace
 
-from .base import ParameterError
+from .blocks import ParameterError
 from .control import HARDWARE_OPTIONS, IMU_ONLY_TUNING, LINE_SENSOR_OPTION, SUPPLY_48V_OPTION
 from .follow import follow, followed, in_units, robot_scales
 from .model import BLOCKS, BplirParams, preset, swapped

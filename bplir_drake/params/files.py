@@ -9,7 +9,7 @@ from dataclasses import replace
 from pathlib import Path
 from types import SimpleNamespace
 from typing import Any
-from .base import ParameterError
+from .blocks import ParameterError
 from .follow import followed
 from .plan import split_path_table
 from .model import BLOCKS, BplirParams, preset

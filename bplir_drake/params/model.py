@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field, fields, replace
 from typing import Any
-from .base import ParameterError, _is_plugin, _range_text
+from .blocks import ParameterError, _is_plugin, _range_text
 from .robot import FrictionParams, MotorParams, PlantParams, RobotFileParams
 from .sensing import EstimatorParams, ImuParams, LineSensorParams
 from .control import CONTROLLER_PRESETS, ControllerParams, current_preset_name, PathParams

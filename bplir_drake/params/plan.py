@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field, fields
 
-from .base import MAX_LENGTH, ParameterError, _Block, _count, _fraction, _p, _positive
+from .blocks import MAX_LENGTH, ParameterError, _Block, _count, _fraction, _p, _positive
 import warnings
 from .retired import MOVED, relocate
 

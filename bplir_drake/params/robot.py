@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
-from .base import MAX_LENGTH, ParameterError, _Block, _fraction, _length, _p, _positive
+from .blocks import MAX_LENGTH, ParameterError, _Block, _fraction, _length, _p, _positive
 
 
 # ---------------------------------------------------------------- plant

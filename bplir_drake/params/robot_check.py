@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .base import ParameterError
+from .blocks import ParameterError
 
 #: how far an inertia may break the triangle inequality or be negative,
 #: relative to its largest principal moment (a description's rounding)

@@ -31,7 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .base import ParameterError
+from .blocks import ParameterError
 from .robot import PlantParams
 from .robot_check import check_description
 

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numbers
 from dataclasses import dataclass, field
-from .base import MAX_LENGTH, ParameterError, _Block, _count, _fraction, _p, _positive
+from .blocks import MAX_LENGTH, ParameterError, _Block, _count, _fraction, _p, _positive
 from .plan import MAX_LANDING_BIAS
 
 

@@ -39,7 +39,7 @@ from ..params import ControllerParams, FrictionParams, PlantParams
 from .friction import friction_torques
 from .motor import torque_window
 from .plant import bias_term, gravity_vector, mass_matrix
-from .base import PySystem, quick_template_scopes, weak_callback
+from .pysystem import PySystem, quick_template_scopes, weak_callback
 from .schedule import declare_store, declare_tick_result
 from .state import RobotState
 

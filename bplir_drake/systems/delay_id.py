@@ -31,7 +31,7 @@ from __future__ import annotations
 import numpy as np
 from pydrake.systems.framework import EventStatus
 
-from .base import PySystem
+from .pysystem import PySystem
 from ..params import FrictionParams, MotorParams, PlantParams
 from . import nominal_kernel
 from .schedule import declare_store

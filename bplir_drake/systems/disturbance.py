@@ -24,7 +24,7 @@ import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import BasicVector
 
-from .base import PySystem
+from .pysystem import PySystem
 from ..params import ScenarioParams
 from .schedule import declare_sample, declare_store
 

@@ -42,10 +42,10 @@ import numpy as np
 import pydrake.math as dmath
 from pydrake.common.value import AbstractValue
 
-from .base import PySystem
+from .pysystem import PySystem
 from ..params import EstimatorParams
 from . import ekf_kernel
-from .calibration import ImuCalibration
+from .standstill import ImuCalibration
 from .line_sensor import line_gap
 from .schedule import declare_store, declare_tick_result
 from .ekf_model import (

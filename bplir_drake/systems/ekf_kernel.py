@@ -341,7 +341,7 @@ def step(x, P, u_prev, sample, first, hold, hold_misalign, c, walk, cal):
     corrected accelerometer readings mu_x1, mu_x2, mu_y1, mu_y2)``, as
     :func:`~bplir_drake.systems.ekf.ekf_step` on the sample corrected by
     the standstill calibration ``cal`` (misalignment 1, 2, scale 1, 2;
-    :meth:`~bplir_drake.systems.calibration.ImuCalibration.correct`)."""
+    :meth:`~bplir_drake.systems.standstill.ImuCalibration.correct`)."""
     s = sample.copy()
     if cal[0] != 0.0 or cal[1] != 0.0 or cal[2] != 0.0 or cal[3] != 0.0:
         _turned(s, cal[:2], cal[2:])

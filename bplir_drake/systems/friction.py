@@ -17,7 +17,7 @@ import pydrake.math as dmath
 from pydrake.systems.framework import LeafSystem_
 from pydrake.systems.scalar_conversion import TemplateSystem
 
-from .base import quick_template_scopes, weak_callback
+from .pysystem import quick_template_scopes, weak_callback
 from ..params import FrictionParams
 
 

@@ -28,7 +28,7 @@ from numba import njit
 from pydrake.common.containers import namedview
 from pydrake.systems.framework import EventStatus
 
-from .base import PySystem
+from .pysystem import PySystem
 from ..params import GripperParams, ScenarioParams
 from .schedule import declare_store
 

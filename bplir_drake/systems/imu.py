@@ -29,7 +29,7 @@ from numba import njit
 from pydrake.common.containers import namedview
 from pydrake.common.value import AbstractValue
 
-from .base import PySystem
+from .pysystem import PySystem
 from ..params import ImuParams
 from .schedule import declare_sample
 

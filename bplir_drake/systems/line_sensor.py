@@ -29,7 +29,7 @@ import math
 import numpy as np
 from pydrake.common.value import AbstractValue
 
-from .base import PySystem
+from .pysystem import PySystem
 from ..params import LineSensorParams
 from .schedule import declare_sample
 from .state import RobotState
@@ -48,7 +48,7 @@ def standstill_readings(params: LineSensorParams, seed: int, n: int) -> np.ndarr
     the line before a swing (the true gap is 0 there): its offset plus
     noise (``numpy.random.default_rng((seed, 2))``).  Their mean is the
     offset the standstill calibration removes
-    (:attr:`~bplir_drake.systems.calibration.ImuCalibration.line_offset`)."""
+    (:attr:`~bplir_drake.systems.standstill.ImuCalibration.line_offset`)."""
     noise = np.random.default_rng((int(seed), 2)).standard_normal(int(n))
     return params.offset + params.sigma * noise
 

@@ -28,7 +28,7 @@ from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import EventStatus
 
 from . import onboard_kernel
-from .base import PySystem
+from .pysystem import PySystem
 from .schedule import declare_sample
 
 

@@ -16,7 +16,7 @@ from pydrake.systems.scalar_conversion import TemplateSystem
 from ..params import PathParams, PlantParams
 from .path import (PathGeometry, constraint_acceleration, path_derivatives, predict_rate_squared,
                    projected_rate, step_blend_end)
-from .base import quick_template_scopes, weak_callback
+from .pysystem import quick_template_scopes, weak_callback
 from .schedule import declare_store, declare_tick_result
 from .state import RobotState
 

@@ -32,7 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .base import PySystem
+from .pysystem import PySystem
 from ..params import PLAN_INDEXING
 from .motor import torque_window_of
 from .schedule import declare_store, declare_tick_result

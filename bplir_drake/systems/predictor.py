@@ -16,7 +16,7 @@ import math
 
 import numpy as np
 
-from .base import PySystem
+from .pysystem import PySystem
 from ..params import FrictionParams, PlantParams
 from . import nominal_kernel
 from .kernels import read_only

@@ -33,7 +33,7 @@ import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import TriggerType, ValueProducer
 
-from .base import weak_callback
+from .pysystem import weak_callback
 
 
 def _after_first_tick(period: float, update):

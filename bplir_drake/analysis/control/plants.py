@@ -4,7 +4,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 import numpy as np
-from .errors import QftError
+from .qft_error import QftError
 from dataclasses import replace
 from ...diagrams import build_cpfl_plant
 from ...systems.controller import cpfl_terms

@@ -19,7 +19,7 @@ MATLAB QFT toolbox used in chapter 6 does, as data:
   tracking, input and output disturbance (Figs 6.10-6.12);
 * a loop-shaping design by constrained optimisation (:func:`design_qft`).
 
-Compute functions return data; :mod:`bplir_drake.analysis.control.plots` plots it.
+Compute functions return data; :mod:`bplir_drake.analysis.control.control_plots` plots it.
 """
 from __future__ import annotations
 
@@ -29,10 +29,10 @@ from dataclasses import dataclass, field
 import control
 import numpy as np
 from ...io import Result
-from .errors import QftError   # defined apart so the command line need not import control
+from .qft_error import QftError
 from .plants import PlantFamily, _check_omegas, _s
 from .loops import closed_loops, step_responses
-from .plots import plot_family_responses
+from .control_plots import plot_family_responses
 from ...progress import progress_bar
 
 

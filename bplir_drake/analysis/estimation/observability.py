@@ -22,7 +22,7 @@ import numpy as np
 from ...params import EstimatorParams
 from ...systems.ekf_model import jacobians, kinematic_f, kinematic_h
 from ...io import Result
-from .plots import plot_observability
+from .estimation_plots import plot_observability
 from dataclasses import replace
 from ..model.linearization import hanging_linearization
 from ...systems.ekf import state_layout

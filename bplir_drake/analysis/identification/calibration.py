@@ -39,7 +39,7 @@ from ...params import BplirParams
 from ...diagrams import build_free_swing
 from ...diagrams.open_loop import build_acrobot, set_acrobot
 from ...simulate import Log, logs, make_simulator, run
-from .errors import CalibrationError
+from .calibration_error import CalibrationError
 
 CALIBRATION_COLUMNS = ("t", "q1", "q2")
 FITTABLE = {

@@ -8,7 +8,7 @@ from ...params import BplirParams
 from ...diagrams import build_cpfl_step, build_free_swing
 from ...simulate import logs, make_simulator, run
 from ..control.plants import Plant, PlantFamily
-from ..swing.run import draw_true_friction
+from ..swing.swing_runner import draw_true_friction
 
 
 def identify_deadband(params: BplirParams, *, ramp_rate: float = 0.05, start: float = 0.3,

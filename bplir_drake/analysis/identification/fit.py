@@ -25,7 +25,7 @@ from ...plotting import figure_axes, finish
 from ...progress import progress_bar
 from ...systems.plant import bias_term, gravity_vector, mass_matrix
 from .calibration import (FITTABLE, RELATIVE_BOUNDS, CalibrationLog, _with, simulate_log)
-from .errors import CalibrationError
+from .calibration_error import CalibrationError
 
 
 def _rms(d) -> float:

@@ -17,7 +17,7 @@ import numpy as np
 from ...params import BplirParams
 from ...systems.motor import envelope_curve, no_load_speed
 from ...io import Result
-from .plots import plot_envelope
+from .model_plots import plot_envelope
 
 
 @dataclass

@@ -10,7 +10,7 @@ from ...params import BplirParams
 from ...simulate import logs, make_simulator, run
 from .energy import energy, energy_rate_from_forces
 from ...io import Result
-from .plots import plot_free_swing
+from .model_plots import plot_free_swing
 
 
 @dataclass

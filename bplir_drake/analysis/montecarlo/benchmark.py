@@ -30,9 +30,9 @@ import numpy as np
 
 from ...params import BplirParams, ParameterError, plugin_name
 from .executors import map_jobs
-from .plots import quantity_label
+from .study_plots import quantity_label
 from .sampling import apply_values, base_value, error_text, pinned
-from ..swing.run import run_swing
+from ..swing.swing_runner import run_swing
 from ...io import DictResult, Record, atomic_path
 from ...plotting import figure_axes, finish
 

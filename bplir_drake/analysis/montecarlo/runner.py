@@ -51,8 +51,8 @@ from .sampling import run_sample, sample_params
 from .statistics import summarize
 from .store import ResultWriter, columns, read_results
 from .study import RESULTS_FILE, STUDY_FILE, SUMMARY_FILE, Study, StudyError, load_study, save_study
-from ..swing.run import run_swing
-from .plots import plot_success_vs_parameters, study_figures
+from ..swing.swing_runner import run_swing
+from .study_plots import plot_success_vs_parameters, study_figures
 from .sampling import run_traverse_sample
 
 def check_out(study: Study, out) -> None:

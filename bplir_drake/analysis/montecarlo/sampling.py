@@ -12,9 +12,9 @@ import numpy as np
 from ...io import raise_stop
 from ...params import BplirParams
 from .study import Study, StudyRow
-from ..swing.run import SwingRunner
+from ..swing.swing_runner import SwingRunner
 from ..traverse.line import line_from_dict
-from ..traverse.run import run_traverse
+from ..traverse.traversal import run_traverse
 
 # ------------------------------------------------------------ one sample
 

@@ -9,8 +9,8 @@
 * :mod:`.summary` -- :class:`~.summary.SwingSummary`, the typed summary;
 * :mod:`.plots` -- plots and animation of a swing result.
 """
-from .run import (SWING_ACCURACY, SWING_INTEGRATOR, SwingResult, SwingRunner, run_swing,
-                  swing_diagram)
+from .swing_runner import (
+    SWING_ACCURACY, SWING_INTEGRATOR, SwingResult, SwingRunner, run_swing, swing_diagram)
 from .summary import SwingSummary
 
 __all__ = ["SWING_ACCURACY", "SWING_INTEGRATOR", "SwingResult", "SwingRunner", "SwingSummary",

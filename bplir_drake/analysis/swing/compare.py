@@ -5,7 +5,7 @@ from __future__ import annotations
 import dataclasses as dc
 
 from ...params import BplirParams
-from .run import run_swing
+from .swing_runner import run_swing
 from ...plotting import figure_axes, finish
 from ...systems.plant import gripper_position
 

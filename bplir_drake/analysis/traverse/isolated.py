@@ -22,7 +22,7 @@ from __future__ import annotations
 import multiprocessing as mp
 import os
 
-from ..swing.run import SwingRunner
+from ..swing.swing_runner import SwingRunner
 from ..workers import quiet_worker
 from ...systems.kernels import warm_up
 

@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 import math
-from .result import ROW_FIELDS, TraverseResult, TraverseTotals
+from .traverse_result import ROW_FIELDS, TraverseResult, TraverseTotals
 import io as _io
 from ...io import write_text_atomic
 import csv

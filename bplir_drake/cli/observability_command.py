@@ -8,7 +8,7 @@ from .options import command, option
 # ------------------------------------------------------------------ observability
 def cmd_observability(args) -> int:
     """``bplir observability``: observability of the kinematic model along a swing."""
-    from ..analysis.estimation.study import simulate_estimation
+    from ..analysis.estimation.filter_study import simulate_estimation
     from ..analysis.estimation.observability import observability_along, plant_gyro_observability
     from ..systems.plant import initial_configuration
 

@@ -13,7 +13,7 @@ from ..params import BplirParams
 from ..systems.imu import ImuSampler
 from ..systems.onboard import OnboardComputer
 from .parts import add_imu_sensors
-from .sensing import add_line_sensor, kinematic_ekf
+from .sensors import add_line_sensor, kinematic_ekf
 from .swing_controller import delay_compensation, plan_tracker
 
 
@@ -29,7 +29,7 @@ def fuses(params: BplirParams, use_estimator: bool, custom: bool) -> bool:
 def add_onboard(builder, params: BplirParams, robot, setup, seed: int,
                 plan_gains) -> tuple[OnboardComputer, dict[str, Any]]:
     """The onboard computer on the robot's IMUs (and line sensor), as
-    :func:`~bplir_drake.diagrams.sensing.add_sensing` and
+    :func:`~bplir_drake.diagrams.sensors.add_sensing` and
     :func:`~bplir_drake.diagrams.swing_controller.add_swing_controller` would
     build its parts.  Returns it and the controller's roles (``controller``,
     and ``delay_id`` when it identifies the delay), each the one system."""

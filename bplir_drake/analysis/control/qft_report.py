@@ -17,7 +17,7 @@ from ...io import dumps_strict
 from ...params import BplirParams, ControllerParams
 from . import qft as Q
 from . import plants as PL
-from .plots import plot_family_responses, plot_nichols, plot_tracking, plot_zero_dynamics
+from .control_plots import plot_family_responses, plot_nichols, plot_tracking, plot_zero_dynamics
 from ...systems.controller import outer_loop_numerator
 from .zero_dynamics import zero_dynamics_portrait
 

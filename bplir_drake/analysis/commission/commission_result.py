@@ -9,7 +9,7 @@ import numpy as np
 from ...io import Result, package_version
 from ...params import BplirParams
 from .margins import unbalanced
-from .report import plot_commission
+from .commission_report import plot_commission
 
 
 @dataclass

@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 from .common import InputError, _emit, _floats, _load_params, _out_dir, _progress, _save, _write_json
-from .logs import add_log_options, read_logs
+from .log_options import add_log_options, read_logs
 from .options import command, option
 
 

@@ -4,7 +4,7 @@
 manoeuvre: where each gripper is, the elbow driver's i^2 t integral and trip
 flag (the swing's driver starts where the last one ended; riding and resting
 let it fall at ``i_cont^2``), elapsed time and energy.  Each swing is a full
-closed-loop swing (:class:`~bplir_drake.analysis.swing.run.SwingRunner`) of
+closed-loop swing (:class:`~bplir_drake.analysis.swing.swing_runner.SwingRunner`) of
 the robot holding with the gripper in front of it: the original robot when
 gripper 1 (link 1's) holds, the swapped robot (:func:`bplir_drake.params.
 swapped`) when gripper 2 holds; its estimator starts from the known pose on
@@ -37,14 +37,13 @@ from ...systems.plant import initial_configuration, swapped_state, target_config
 from .line import Line
 from .route import hold_position, plan_route
 from .recovery import can_retry, damp, damping_drive
-from .swing_setup import (
-    swing_chord, budgeted_currents, capture_impulse)
-from .result import TraverseRow, OUTCOMES, ROW_FIELDS, MotionLog, Segment, TraverseResult
+from .step_setup import swing_chord, budgeted_currents, capture_impulse
+from .traverse_result import TraverseRow, OUTCOMES, ROW_FIELDS, MotionLog, Segment, TraverseResult
 from .tables import traverse_totals
-from ..swing.run import SwingRunner, draw_true_friction
+from ..swing.swing_runner import SwingRunner, draw_true_friction
 from .isolated import IsolatedRunners
 from ..live import Following
-from .plots import line_scene
+from .traverse_plots import line_scene
 from ...planning.solve import tracking_plan
 from ...progress import progress_bar
 from ...systems.plant import gripper_position

@@ -22,7 +22,7 @@ from ...params import BplirParams, checked_seed, plugin_name, to_dict
 from ...simulate import Log, logs, make_simulator, run_until_outcome
 from .logs import log_table
 from .summary import SwingSummary
-from .plots import plot_swing
+from .swing_plots import plot_swing
 from ...systems.landing import height_rates
 from ...planning.solve import tracking_plan
 from ...diagrams.swing_setup import start_state as plan_start_state

@@ -8,7 +8,7 @@ from .options import command, option, shared
 # ------------------------------------------------------------------ qft
 def cmd_qft(args) -> int:
     """``bplir qft``: verify (or design) the outer loop on a plant family."""
-    from ..analysis.control.report import qft_report
+    from ..analysis.control.qft_report import qft_report
 
     params = _load_params(args)
     if args.family == "diagram":

@@ -8,7 +8,7 @@ import numpy as np
 from ...params import BplirParams
 from ...io import Record, Result
 from .line import Line
-from .plots import plot_line_grips
+from .traverse_plots import plot_line_grips
 
 
 #: traversal outcomes: passed, or the first thing that went wrong

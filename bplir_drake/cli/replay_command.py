@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 from .common import _emit, _in_range, _load_params, _out_dir, _save, _write_json
-from .logs import add_log_options, read_logs
+from .log_options import add_log_options, read_logs
 from .options import command, option
 
 

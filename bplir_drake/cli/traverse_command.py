@@ -13,9 +13,9 @@ from .options import command, option
 def cmd_traverse(args) -> int:
     """``bplir traverse``: cross a stretch of line with obstacles."""
     from ..analysis.traverse.line import load_line
-    from ..analysis.traverse.plots import plot_timeline, traverse_replay_html
-    from ..analysis.traverse.result import MOTION_FORMAT
-    from ..analysis.traverse.run import run_traverse
+    from ..analysis.traverse.traverse_plots import plot_timeline, traverse_replay_html
+    from ..analysis.traverse.traverse_result import MOTION_FORMAT
+    from ..analysis.traverse.traversal import run_traverse
     from ..analysis.traverse.tables import manoeuvre_table, totals_lines, write_rows_csv
 
     replay_info = None

@@ -4,7 +4,7 @@ from __future__ import annotations
 from pathlib import Path
 from ..io import write_text_atomic
 from .common import _live_view, _plugin_args_need_a_plugin, InputError, _check_plugin, _emit, _load_params, _out_dir, _same, _save, _study_of, _with_path_mode, _write_json
-from .logs import add_log_options, read_logs
+from .log_options import add_log_options, read_logs
 from .options import command, option, shared
 
 
@@ -41,9 +41,9 @@ def _swing_params(args):
 
 def cmd_swing(args) -> int:
     """``bplir swing``: one swing (or a comparison, or a study sample's replay)."""
-    from ..analysis.swing.run import run_swing, summary_with_params
+    from ..analysis.swing.swing_runner import run_swing, summary_with_params
     from ..analysis.swing.logs import write_log_csv
-    from ..analysis.swing.plots import animate_swing, replay_swing_html
+    from ..analysis.swing.swing_plots import animate_swing, replay_swing_html
 
     replay_info = None
     replaying = args.replay is not None or args.sample is not None
@@ -113,7 +113,7 @@ def cmd_swing(args) -> int:
 
 def _run_live(params, run_swing):
     """The swing shown live in Meshcat (:func:`~.common._live_view`) with its scene."""
-    from ..analysis.swing.plots import swing_scene
+    from ..analysis.swing.swing_plots import swing_scene
 
     with _live_view(params, "swing", "real time") as view:
         view.scene(swing_scene(params))

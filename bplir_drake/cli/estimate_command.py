@@ -12,7 +12,7 @@ def cmd_estimate(args) -> int:
     """``bplir estimate``: run the kinematic EKF over an IMU log."""
     from dataclasses import replace
 
-    from ..analysis.estimation.plots import plot_estimate_report
+    from ..analysis.estimation.estimation_plots import plot_estimate_report
     from ..estimation import plot_estimate
     from ..estimation import estimate, read_imu_csv, write_estimate_csv
 
@@ -87,7 +87,7 @@ def _encoder_comparison(log, res):
     truth = _logged_truth(log)
     if truth is None:
         return None, {}
-    from ..analysis.estimation.study import angle_rmse
+    from ..analysis.estimation.filter_study import angle_rmse
     from ..estimation import aligned_truth, encoder_lead
 
     lead = encoder_lead(log.t, truth, log.samples)   # line the two clocks up

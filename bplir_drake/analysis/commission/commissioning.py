@@ -16,9 +16,9 @@ from ..montecarlo.runner import run_study
 from .grid import at, solve_library
 from .margins import (assumptions, binding_line, electric_margins, landing_impact,
                       motor_figures)
-from .result import CommissionResult
+from .commission_result import CommissionResult
 from .similarity import commissioned_references, shipped_references, similar_guesses
-from .report import write_report
+from .commission_report import write_report
 from .verdict import (DEFAULT_SAMPLES, READY_RATE, miss_reasons, no_plan_reason,
                       study_verdict, verification_study)
 

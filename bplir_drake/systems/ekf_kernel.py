@@ -52,16 +52,27 @@ def _radii(x, c):
 
 
 @njit(cache=True)
-def _f_jacobians(x, u0, u1, c):
-    """(f, df/dx, df/du) of the continuous kinematic model (5.10)."""
-    n = x.shape[0]
-    t1, t2, w1 = x[0], x[1], x[2]
+def _link_terms(x, u0, c):
+    """What the process and measurement models share at ``x``: (g, l1, the
+    sines and cosines of theta1, theta2 and theta2 - theta1, the IMU radii,
+    ``a1 = (u0 - g sin theta1) / r1`` of (5.10) and its derivative in
+    theta1)."""
+    t1, t2 = x[0], x[1]
     g, l1 = c[_G], c[_L1]
     s1, c1, s2, c2 = math.sin(t1), math.cos(t1), math.sin(t2), math.cos(t2)
     s21, c21 = math.sin(t2 - t1), math.cos(t2 - t1)
     r1, r2 = _radii(x, c)
     a1 = (u0 - g * s1) / r1
     a1_t1 = -g * c1 / r1
+    return g, l1, s1, c1, s2, c2, s21, c21, r1, r2, a1, a1_t1
+
+
+@njit(cache=True)
+def _f_jacobians(x, u0, u1, c):
+    """(f, df/dx, df/du) of the continuous kinematic model (5.10)."""
+    n = x.shape[0]
+    w1 = x[2]
+    g, l1, s1, c1, s2, c2, s21, c21, r1, r2, a1, a1_t1 = _link_terms(x, u0, c)
     a2 = (-l1 * c21 * a1 + u1 - g * s2 - l1 * w1 * w1 * s21) / r2
     f = np.zeros(n)
     f[0], f[1], f[2], f[3] = w1, x[3], a1, a2
@@ -203,13 +214,8 @@ def _predict(x, P, u, radial, c, walk):
 def _h_jacobian(x, u0, c):
     """(h, dh/dx) of the measurement model."""
     n = x.shape[0]
-    t1, t2, w1, w2 = x[0], x[1], x[2], x[3]
-    g, l1 = c[_G], c[_L1]
-    s1, c1, s2, c2 = math.sin(t1), math.cos(t1), math.sin(t2), math.cos(t2)
-    s21, c21 = math.sin(t2 - t1), math.cos(t2 - t1)
-    r1, r2 = _radii(x, c)
-    a1 = (u0 - g * s1) / r1
-    a1_t1 = -g * c1 / r1
+    w1, w2 = x[2], x[3]
+    g, l1, s1, c1, s2, c2, s21, c21, r1, r2, a1, a1_t1 = _link_terms(x, u0, c)
     b1 = b2 = k1 = k2 = 0.0
     bias, scale, pos = int(c[_BIAS]), int(c[_SCALE]), int(c[_POS])
     if bias >= 0:

@@ -31,8 +31,21 @@ from pydrake.systems.framework import EventStatus
 from .pysystem import PySystem
 from ..params import GripperParams, ScenarioParams
 from .schedule import declare_store
+from .state import Q1, Q1D, Q2, Q2D
 
 OUTCOMES = ("swinging", "captured", "crash", "timeout", "fault")
+
+#: the interlock's discrete state, in order: the status it outputs (the mode,
+#: an index into :data:`OUTCOMES`; whether the fixed gripper is open; the
+#: event's time; the speed, distance and travel at arrival; the closest
+#: distance), then what its arrival search carries from tick to tick
+#: (whether the vertical is passed, the last normal distance, the last state)
+STATE_FIELDS = ("mode", "fixed_open", "event_time", "speed", "distance", "travel", "closest",
+                "passed", "last_normal", "q1", "q2", "q1d", "q2d")
+(MODE, FIXED_OPEN, EVENT_TIME, SPEED, DISTANCE, TRAVEL, CLOSEST, PASSED, LAST_NORMAL,
+ LAST_STATE) = range(10)
+#: the geometry array the compiled search reads: link lengths, incline, spacing
+GEO_L1, GEO_L2, GEO_ALPHA, GEO_SPACING = range(4)
 
 
 @dataclass(frozen=True)
@@ -48,8 +61,8 @@ class LineGeometry:
 def line_metrics(x, g: LineGeometry):
     """(distance to the line, signed; along-line position; travel from the
     start; gripper speed) of the free gripper at state ``x``."""
-    return _metrics(float(x[0]), float(x[1]), float(x[2]), float(x[3]), g.l1, g.l2, g.alpha,
-                    g.grip_spacing)
+    return _metrics(float(x[Q1]), float(x[Q2]), float(x[Q1D]), float(x[Q2D]), g.l1, g.l2,
+                    g.alpha, g.grip_spacing)
 
 
 @njit(cache=True)
@@ -62,6 +75,13 @@ def _metrics(q1, q2, w1, w2, l1, l2, alpha, spacing):
     along = px * ca + py * sa
     normal = -px * sa + py * ca
     return normal, along, along + spacing, math.hypot(vx, vy)
+
+
+@njit(cache=True)
+def _state_metrics(x, geo):
+    """:func:`_metrics` of the state ``x`` on the geometry array ``geo``."""
+    return _metrics(x[Q1], x[Q2], x[Q1D], x[Q2D], geo[GEO_L1], geo[GEO_L2], geo[GEO_ALPHA],
+                    geo[GEO_SPACING])
 
 
 @njit(cache=True)
@@ -83,8 +103,8 @@ def hermite_state(x0, x1, T, s):
 @njit(cache=True)
 def _arrives(x0, x1, T, s, geo, band, travel_min, passed, last_normal):
     x = hermite_state(x0, x1, T, s)
-    normal, _, travel, _ = _metrics(x[0], x[1], x[2], x[3], geo[0], geo[1], geo[2], geo[3])
-    passed = passed or (x[0] - geo[2]) > 0.0
+    normal, _, travel, _ = _state_metrics(x, geo)
+    passed = passed or (x[Q1] - geo[GEO_ALPHA]) > 0.0
     hit = passed and travel >= travel_min and (
         abs(normal) <= band or last_normal < 0.0 <= normal)
     return hit, x, passed, normal, travel
@@ -95,11 +115,11 @@ def arrival(x0, x1, T, geo, band, travel_min, passed, last_normal, substeps, bis
     """:func:`first_arrival` on arrays: ``geo`` = (l1, l2, alpha, spacing),
     ``band`` the capture distance, ``travel_min`` the least travel; returns
     ``(found, s, x, passed, normal, closest)``."""
-    n1, _, travel1, v1 = _metrics(x1[0], x1[1], x1[2], x1[3], geo[0], geo[1], geo[2], geo[3])
-    n0, _, _, v0 = _metrics(x0[0], x0[1], x0[2], x0[3], geo[0], geo[1], geo[2], geo[3])
+    n1, _, travel1, v1 = _state_metrics(x1, geo)
+    n0, _, _, v0 = _state_metrics(x0, geo)
     reach = 2.0 * T * max(v0, v1) + band
     if min(abs(n0), abs(n1)) > reach and n0 * n1 > 0.0:
-        passed = passed or (x1[0] - geo[2]) > 0.0
+        passed = passed or (x1[Q1] - geo[GEO_ALPHA]) > 0.0
         closest = abs(n1) if passed and travel1 > 0.0 else math.inf
         return False, 0.0, x1, passed, n1, closest
     closest = math.inf
@@ -136,22 +156,23 @@ def interlock_update(d, x, t, period, geo, band, travel_min, tripped, estimate, 
     mode is set to ``fault`` (the driver ``tripped``, or the ``estimate`` or the
     ``torque`` not finite) or ``timeout`` (``t`` at ``max_time``), at ``t``.
     Returns ``(found, s, x)`` of :func:`arrival`."""
-    found, s, xa, passed, normal, closest = arrival(d[9:13], x, period, geo, band, travel_min,
-                                                    d[7] > 0.5, d[8], 8, 30)
-    if closest < d[6]:
-        d[6] = closest
-    d[7] = 1.0 if passed else 0.0
+    found, s, xa, passed, normal, closest = arrival(
+        d[LAST_STATE:LAST_STATE + 4], x, period, geo, band, travel_min, d[PASSED] > 0.5,
+        d[LAST_NORMAL], 8, 30)
+    if closest < d[CLOSEST]:
+        d[CLOSEST] = closest
+    d[PASSED] = 1.0 if passed else 0.0
     if not found:
         finite = math.isfinite(torque)
         for v in estimate:
             finite = finite and math.isfinite(v)
         if tripped > 0.5 or not finite:
-            d[0], d[2] = fault, t
+            d[MODE], d[EVENT_TIME] = fault, t
         elif t >= max_time - 1e-9:
-            d[0], d[2] = timeout, t
-    d[8] = normal
+            d[MODE], d[EVENT_TIME] = timeout, t
+    d[LAST_NORMAL] = normal
     for j in range(4):
-        d[9 + j] = x[j]
+        d[LAST_STATE + j] = x[j]
     return found, s, xa
 
 
@@ -196,10 +217,8 @@ class GripperInterlock(PySystem):
     (``EventStatus.ReachedTermination``)."""
 
     #: the discrete state, by name; the first ``N`` entries are the status
-    State = namedview("InterlockState", [
-        "mode", "fixed_open", "event_time", "speed", "distance", "travel", "closest",
-        "passed", "last_normal", "q1", "q2", "q1d", "q2d"])
-    N = 7
+    State = namedview("InterlockState", STATE_FIELDS)
+    N = PASSED
 
     def __init__(self, geometry: LineGeometry, scenario: ScenarioParams, period: float = 0.01,
                  gripper: GripperParams | None = None):
@@ -229,12 +248,12 @@ class GripperInterlock(PySystem):
 
     def _start(self, context, discrete_state):
         d = self._stored(context)
-        d[9:13] = self.state_port.Eval(context)  # q1, q2, q1d, q2d at t_0
+        d[LAST_STATE:LAST_STATE + 4] = self.state_port.Eval(context)   # at t_0
         discrete_state.get_mutable_vector(self._xd).SetFromVector(d[:])
 
     def _update(self, context, discrete_state):
         d = context.get_discrete_state(self._xd).get_value()
-        if d[0] != 0:   # mode: decided
+        if d[MODE] != 0:   # decided
             return EventStatus.ReachedTermination(self, "swing ended")
         d = d.copy()
         t = context.get_time()
@@ -246,11 +265,11 @@ class GripperInterlock(PySystem):
         if found:
             _, _, travel, speed = line_metrics(xa, self.geometry)
             ok = speed <= self.gripper.capture_speed
-            # mode, fixed open, event time, speed, distance, travel
-            d[0:6] = (OUTCOMES.index("captured" if ok else "crash"), 1.0 if ok else 0.0,
-                      t - self.period + s * self.period, speed, abs(d[8]), travel)
+            d[MODE:CLOSEST] = (OUTCOMES.index("captured" if ok else "crash"), 1.0 if ok else 0.0,
+                               t - self.period + s * self.period, speed, abs(d[LAST_NORMAL]),
+                               travel)
         discrete_state.set_value(self._xd, d)
-        if d[0] != 0:
+        if d[MODE] != 0:
             return EventStatus.ReachedTermination(self, "swing ended")
         return EventStatus.Succeeded()
 

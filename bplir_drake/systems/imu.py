@@ -34,6 +34,9 @@ from ..params import ImuParams
 from .schedule import declare_sample
 
 IMU_COLUMNS = ("gyro1", "gyro2", "acc1_x", "acc1_y", "acc2_x", "acc2_y")
+#: the sampler's held state: the sample, the two gyro bias walks, the next sample's index
+SAMPLER_FIELDS = (*IMU_COLUMNS, "walk1", "walk2", "index")
+SAMPLER_WALK1, SAMPLER_WALK2 = SAMPLER_FIELDS.index("walk1"), SAMPLER_FIELDS.index("walk2")
 
 
 def imu_kinematics(theta, omega, omega_dot, r1: float, r2: float, l1: float, g: float):
@@ -170,7 +173,7 @@ class ImuSampler(PySystem):
     (:meth:`set_sensor`); only the rate is fixed at construction.
     """
 
-    State = namedview("ImuSamplerState", [*IMU_COLUMNS, "walk1", "walk2", "index"])
+    State = namedview("ImuSamplerState", SAMPLER_FIELDS)
 
     def __init__(self, params: ImuParams, seed: int = 0):
         super().__init__()

@@ -11,6 +11,7 @@ import numpy as np
 
 from ..params import preset
 from . import ekf_kernel, gripper, imu, nominal_kernel, onboard_kernel, tracker_kernel
+from .state import ACCEL1_Y, ACCEL2_Y, ImuReadings
 
 
 def read_only(a) -> np.ndarray:
@@ -53,7 +54,7 @@ def _others(p) -> None:
     nominal_kernel.elbow_torque(c, 0.1, 0.2, 0.3, 0.4, 1.0)
     nominal_kernel.probe_rates(c, 0.1, 0.2, np.zeros(2), 1, 0.01, 0.0,
                                np.array([20.0, 0.1, 0.001]), 2)
-    gripper.interlock_update(np.zeros(13), np.zeros(4), 0.0, 0.01,
+    gripper.interlock_update(np.zeros(len(gripper.STATE_FIELDS)), np.zeros(4), 0.0, 0.01,
                              np.array([0.9, 0.9, 0.0, 1.2]), 0.02, 0.6, 0.0, np.zeros(4), 0.0,
                              5.0, 4.0, 3.0)
 
@@ -66,17 +67,23 @@ def _filter(p) -> None:
                     np.zeros(4))
     # the onboard computer's state: the EKF's x, P, u and flag, the tracker's
     # three, a predictor's two commands, the sampler's nine; the readings at rest
-    xd = np.zeros(n + n * n + 4 + 1 + 3 + 2 + 9)
+    ok = onboard_kernel
+    n_tr, n_imu, commands = len(tracker_kernel.TRACKER_FIELDS), len(imu.SAMPLER_FIELDS), 2
+    xd = np.zeros(n + n * n + 4 + 1 + n_tr + commands + n_imu)
     xd[n:n + n * n] = np.eye(n).ravel()
     tr = n + n * n + 5
-    at = np.array([len(xd) - 9, 0, n, n + n * n, n + n * n + 4, n, tr + 3, 2])
-    readings = np.zeros(12)
-    readings[[7, 10]] = 9.8
+    at = np.zeros(len(ok.AT), dtype=np.int64)
+    at[ok.AT_IMU], at[ok.AT_EKF_X], at[ok.AT_EKF_P] = len(xd) - n_imu, 0, n
+    at[ok.AT_EKF_U], at[ok.AT_EKF_FIRST], at[ok.AT_N] = n + n * n, n + n * n + 4, n
+    at[ok.AT_PREDICTOR], at[ok.AT_COMMANDS] = tr + n_tr, commands
+    readings = np.zeros(len(ImuReadings._fields))
+    readings[[ACCEL1_Y, ACCEL2_Y]] = 9.8
     rows = np.zeros((3, 4))
     onboard_kernel.tick(read_only(xd), readings, read_only(np.zeros(8)), 0, imu.pack(p.imu),
                         False, False, consts, walk, np.zeros(4),
                         nominal_kernel.pack(p.plant, p.friction), at, 0.01, 2,
-                        np.empty(len(xd)), np.empty(19), 0.0, True, tr, 0.0, 1.0, 0.5, rows,
+                        np.empty(len(xd)), np.empty(ok.RECORD_SIZE), 0.0, True, tr, 0.0, 1.0,
+                        0.5, rows,
                         np.zeros(3), rows, np.zeros(3), np.zeros(26),
                         nominal_kernel.pack(p.plant, p.friction),
                         tracker_kernel.window_constants(p.motor, 20.0), np.zeros(2))

@@ -30,6 +30,11 @@ from pydrake.systems.framework import EventStatus
 from . import onboard_kernel
 from .pysystem import PySystem
 from .schedule import declare_sample
+from .state import (ACCEL1_X, ACCEL1_Y, ACCEL2_X, ACCEL2_Y, GYRO1_Z, GYRO2_Z, OMEGA1, OMEGA2,
+                    THETA1, THETA2)
+
+#: the readings the IMU sampler takes, in its arguments' order
+READ = [GYRO1_Z, GYRO2_Z, ACCEL1_X, ACCEL1_Y, ACCEL2_X, ACCEL2_Y]
 
 
 
@@ -101,20 +106,15 @@ class OnboardComputer(PySystem):
         # the tick's results, held until the next tick: C++ output ports
         self._estimate = self.DeclareDiscreteState(4)
         self._command = self.DeclareDiscreteState(1)
-        self._record = self.DeclareDiscreteState(19)
-        self._rec = np.empty(19)
+        self._record = self.DeclareDiscreteState(onboard_kernel.RECORD_SIZE)
+        self._rec = np.empty(onboard_kernel.RECORD_SIZE)
         self._front = self._front_parts if self.line_port is not None else self._front_compiled
         declare_sample(self, self.period, self._tick)   # t_0 by initialization, then each t_k
         self._declare_outputs()
 
     #: the tick's signals in the ``record`` output, by name (one logger
-    #: records them): the estimate (relative), the command, the planned q2,
-    #: the IMU sample, the delay fit (zeros without an identifier), the
-    #: predicted state (the estimate without a predictor) and the delay in
-    #: ticks the tick compensated
-    RECORD = {"estimate": slice(0, 4), "command": slice(4, 5), "reference": slice(5, 6),
-              "imu": slice(6, 12), "delay_fit": slice(12, 14), "predicted": slice(14, 18),
-              "delay_steps": slice(18, 19)}
+    #: records them): :data:`~bplir_drake.systems.onboard_kernel.RECORD_FIELDS`
+    RECORD = onboard_kernel.record_slices()
 
     def record_columns(self) -> dict[str, slice]:
         """The logged signals of :data:`RECORD` (the swing's log names): no
@@ -170,12 +170,12 @@ class OnboardComputer(PySystem):
             new[self._tracker_at] = tracked[2:]
             if self._last_command is not None:
                 new[self._last_command] = tracked[0]
-            rec[4], rec[5] = tracked[0], tracked[1]
+            rec[self.RECORD["command"]], rec[self.RECORD["reference"]] = tracked[0], tracked[1]
         if self.identifier is not None:
             self._identify(xd, new, rec)
         discrete_state.set_value(self._xd, new)
         discrete_state.set_value(self._estimate, relative)
-        discrete_state.set_value(self._command, rec[4:5])
+        discrete_state.set_value(self._command, rec[self.RECORD["command"]])
         discrete_state.set_value(self._record, rec)
         return EventStatus.Succeeded()
 
@@ -185,10 +185,10 @@ class OnboardComputer(PySystem):
         stored."""
         s = self.slices
         held = xd[s["identifier"]]
-        rec[12:14] = self.identifier.fit(held)
+        rec[self.RECORD["delay_fit"]] = self.identifier.fit(held)
         if xd[self._ticks_at] < self.identifier.window + 0.5:   # still storing
             imu = new[self._imu]
-            new[s["identifier"]] = self.identifier.stored(held, lambda: rec[4],
+            new[s["identifier"]] = self.identifier.stored(held, lambda: rec[onboard_kernel.REC_COMMAND],
                                                           lambda: imu[:2])
 
     def _front_compiled(self, context, xd, steps, rec):
@@ -220,13 +220,13 @@ class OnboardComputer(PySystem):
         s, r = self.slices, self.readings_port.Eval(context)
         sensor, compiled = context.get_abstract_parameter(self._own).get_value()
         new = np.array(xd)
-        imu = self.sampler.next_state(xd[self._imu], r[2], r[5], r[6], r[7], r[9], r[10], sensor)
+        imu = self.sampler.next_state(xd[self._imu], *r[READ], sensor)
         post, u = self.ekf.posterior(
             xd[s["ekf_x"]], xd[s["ekf_P"]], xd[s["ekf_u"]], xd[s["ekf_first"]][0] > 0.5,
             imu[:6], context.get_time(), compiled,
             self.line_port.Eval(context) if self.line_port is not None else None)
         x = post.x
-        relative = np.array([x[0], x[1] - x[0], x[2], x[3] - x[2]])
+        relative = np.array([x[THETA1], x[THETA2] - x[THETA1], x[OMEGA1], x[OMEGA2] - x[OMEGA1]])
         state = relative
         if self.predictor is not None:
             state = self.predictor.prediction(xd[s["predictor"]], relative,
@@ -237,7 +237,9 @@ class OnboardComputer(PySystem):
         new[s["ekf_x"]], new[s["ekf_P"]], new[s["ekf_u"]] = x, post.P.ravel(), u
         new[s["ekf_first"]] = 0.0
         new[self._imu] = imu
-        rec[0:4], rec[6:12], rec[12:14], rec[14:18], rec[18] = relative, imu[:6], 0.0, state, steps
+        R = self.RECORD
+        rec[R["estimate"]], rec[R["imu"]], rec[R["delay_fit"]] = relative, imu[:6], 0.0
+        rec[R["predicted"]], rec[R["delay_steps"]] = state, steps
         return new, False, relative, state
 
     # ------------------------------------------------- a Monte Carlo sample

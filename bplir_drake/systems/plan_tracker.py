@@ -35,8 +35,9 @@ import numpy as np
 from .pysystem import PySystem
 from ..params import PLAN_INDEXING
 from .motor import torque_window_of
+from .state import Q2, Q2D
 from .schedule import declare_store, declare_tick_result
-from .tracker_kernel import plan_tick, tracking_torque, window_constants
+from .tracker_kernel import TRACKER_FIELDS, plan_tick, tracking_torque, window_constants
 from .landing import Reach, Landing, ApexShot, terminal_rule
 
 
@@ -163,7 +164,7 @@ class PlanTracker(PySystem):
         self.state_port = self.DeclareVectorInputPort("state", 4)
         self.steps_port = (self.DeclareVectorInputPort("delay_steps", 1) if adaptive_lead
                            else None)
-        self._xd = self.DeclareDiscreteState(3)  # [phase tau of the last tick, tick count, reach]
+        self._xd = self.DeclareDiscreteState(len(TRACKER_FIELDS))
         self._tick = declare_tick_result(self, self._tick_law,
                                          {self.xd_ticket(), self.all_input_ports_ticket()})
         declare_store(self, period, self._store)
@@ -187,7 +188,7 @@ class PlanTracker(PySystem):
         x0, u0, K, k0 = self.plan_at(t)
         if not reach:   # compiled: tracker_kernel.tracking_torque
             return (tracking_torque(np.asarray(x, dtype=float), x0, u0, K[0], k0, self._wc),
-                    float(x0[1]))   # the planned q2 (RobotState)
+                    float(x0[Q2]))   # the planned q2
         lo, hi = self.window(x)
         if isinstance(self.reach, ApexShot):
             u = self.reach.torque(np.asarray(x, dtype=float), window=(lo, hi))
@@ -226,7 +227,7 @@ class PlanTracker(PySystem):
                     break
                 i += 1
             x0, u0, K, k0 = zip(*got)
-            rows = (np.array(x0), np.array(u0, dtype=float), np.array([g[0] for g in K]),
+            rows = (np.array(x0), np.array(u0, dtype=float), np.array([row for (row,) in K]),
                     np.array(k0, dtype=float))
             if len(self._rows) < 16:
                 self._rows[lead] = rows
@@ -246,7 +247,7 @@ class PlanTracker(PySystem):
         """(lowest, highest) torque the tracker commands at the state ``x``."""
         if self.motor is None:
             return -self.torque_limit, self.torque_limit
-        return self._window(float(x[3]))   # q2d (RobotState)
+        return self._window(float(x[Q2D]))
 
     def phase(self, tau: float, x) -> float:
         """The plan time nearest to ``x`` in ``[tau, tau + search]``."""

@@ -15,3 +15,20 @@ from pydrake.common.containers import namedview
 
 RobotState = namedview("RobotState", ["q1", "q2", "q1d", "q2d"])
 AbsoluteState = namedview("AbsoluteState", ["theta1", "theta2", "omega1", "omega2"])
+
+#: the same orders as integers, for compiled code (numba reads no view):
+#: positions in a ``RobotState`` vector ...
+Q1, Q2, Q1D, Q2D = (RobotState._fields.index(n) for n in ("q1", "q2", "q1d", "q2d"))
+#: ... and in an ``AbsoluteState`` vector
+THETA1, THETA2, OMEGA1, OMEGA2 = (AbsoluteState._fields.index(n)
+                                  for n in ("theta1", "theta2", "omega1", "omega2"))
+
+#: the IMU readings the onboard computer takes in (its ``imu_readings``
+#: input): each IMU's gyro, then each one's accelerometer, in the sensor
+#: frame (rad/s, m/s^2); a link's rate is its gyro's z, the accelerometers'
+#: x and y lie in the plane of the swing
+ImuReadings = namedview("ImuReadings", [f"{kind}{i}_{axis}" for kind in ("gyro", "accel")
+                                        for i in (1, 2) for axis in "xyz"])
+GYRO1_Z, GYRO2_Z, ACCEL1_X, ACCEL1_Y, ACCEL2_X, ACCEL2_Y = (
+    ImuReadings._fields.index(n)
+    for n in ("gyro1_z", "gyro2_z", "accel1_x", "accel1_y", "accel2_x", "accel2_y"))

@@ -31,6 +31,12 @@ def fma(typingctx, a, b, c):
     return sig, codegen
 
 
+#: the plan tracker's state (:class:`~bplir_drake.systems.plan_tracker.PlanTracker`'s):
+#: the plan phase of its last tick, its tick count and its terminal law's latch
+TRACKER_FIELDS = ("phase", "count", "latch")
+TRACKER_PHASE, TRACKER_COUNT, TRACKER_LATCH = range(len(TRACKER_FIELDS))
+
+
 @njit(cache=True)
 def gain_sum(K, d):
     """``sum_j K[j] d[j]``: the first product rounded, each next one fused

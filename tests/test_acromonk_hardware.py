@@ -49,6 +49,7 @@ def _bf_swing(out, *options):
                  "--out", out)
 
 
+@pytest.mark.slow
 def test_the_back_forth_tvlqr_hardware_run_is_reproduced(tmp_path):
     """bplir swing on examples/acromonk_bf.toml (the URDF, the plan the
     hardware tracked, its LQR weights) against the hardware log from the

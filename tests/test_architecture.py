@@ -30,6 +30,7 @@ def _study() -> Study:
     return Study(base, dists, samples=3, seed=11)
 
 
+@pytest.mark.slow
 def test_three_samples_through_one_diagram_equal_three_fresh_builds():
     study = _study()
     runner = SwingRunner()
@@ -156,6 +157,7 @@ def test_imports_only_go_down_the_layers():
     assert not wrong, "\n".join(wrong)
 
 
+@pytest.mark.slow
 def test_the_default_robot_builds_and_swings_without_the_analysis_package():
     """``build_swing(BplirParams())`` in a fresh interpreter: the plan's gains
     come from the layer below analysis, the default context is the swing,

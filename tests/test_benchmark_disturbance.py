@@ -146,6 +146,7 @@ def quick_benchmark(tmp_path_factory):
     return json.loads(text.getvalue()), out
 
 
+@pytest.mark.slow
 def test_the_default_on_the_quick_benchmark_held_out_seed_1(quick_benchmark):
     """``bplir benchmark --quick --seed 1`` for the default robot and controller.
     Seed 1 is held out: the calibration default, the noise widening and the
@@ -160,6 +161,7 @@ def test_the_default_on_the_quick_benchmark_held_out_seed_1(quick_benchmark):
     assert [r["label"] for r in res["rows"] if not r["success"]] == ["IMU noise x10"]
 
 
+@pytest.mark.slow
 def test_figures_are_vector_on_request_and_the_benchmark_legend_covers_no_bar(tmp_path, capsys,
                                                                             quick_benchmark):
     """``bplir swing --format pdf`` and ``bplir benchmark --format svg`` write

@@ -18,6 +18,7 @@ def true_friction(params):
     return dc.replace(f, fv1=f.fv1 * 1.2, fv2=f.fv2 * 0.8, fc1=f.fc1 * 0.8, fc2=f.fc2 * 1.2)
 
 
+@pytest.mark.slow
 def test_calibration_recovers_friction_within_5_percent(tmp_path, params, true_friction, capsys):
     """Synthetic Fig. 4.7 log: 8 s free swing + elbow square wave, friction
     of the logged robot changed by +/-20 %, 1 mrad angle noise.  Fitted
@@ -40,6 +41,7 @@ def test_calibration_recovers_friction_within_5_percent(tmp_path, params, true_f
     assert (tmp_path / "out" / "calibration.png").stat().st_size > 30_000
 
 
+@pytest.mark.slow
 def test_deadband_identified_within_5_percent(params):
     d = DB.identify_deadband(params)
     for side in ("forward", "reverse"):
@@ -48,6 +50,7 @@ def test_deadband_identified_within_5_percent(params):
     assert DB.identify_deadband(wider, max_torque=2.0)["forward"] == pytest.approx(1.2, rel=0.05)
 
 
+@pytest.mark.slow
 def test_identified_family_contains_its_step_responses(params):
     fam = DB.identify_plant_family(params, n_plants=2)
     assert len(fam.fits) == 8
@@ -96,6 +99,7 @@ def test_bad_fit_names(params):
         F.calibrate(params, log, ("mass3",))
 
 
+@pytest.mark.slow
 def test_a_small_robots_inertia_is_fitted_within_bounds_of_its_own_size():
     """Masses and inertias are fitted within 0.1x-10x their nominal values:
     a 0.34 m robot (DFKI's AcroMonk scale, I2 = 0.0017 kg m^2, below the
@@ -148,6 +152,7 @@ def test_a_logged_torque_replays_into_the_model(tmp_path, params, capsys):
     assert "--threshold = -1 rad is out of range" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_several_short_logs_fit_jointly_and_cross_validate(tmp_path):
     """Three 1.5 s logs of AcroMonk's links (examples/acromonk.toml) whose
     elbow friction is 40 % above the config's: fitted jointly from the

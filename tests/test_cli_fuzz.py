@@ -5,6 +5,7 @@ traceback.  The work itself (a simulation, a plan solve, a study) is
 stopped where it would start: what is fuzzed is everything before it.
 The readers' own fuzz is in test_hardening.py."""
 
+import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -43,6 +44,7 @@ def command_lines(draw):
     return argv
 
 
+@pytest.mark.slow
 @settings(max_examples=150, deadline=None, derandomize=True,
           suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
 @given(argv=command_lines())

@@ -7,6 +7,7 @@ fuzzed is the reading and checking before it."""
 from pathlib import Path
 
 import numpy as np
+import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -119,6 +120,7 @@ def plan_files(draw):
     return "\n".join(["t,q1,q2,q1d,q2d,tau"] + [",".join(r) for r in rows]) + "\n", columns
 
 
+@pytest.mark.slow
 @FUZZ
 @given(plan=plan_files())
 def test_no_plan_file_ends_in_a_traceback(stopped_work, monkeypatch, plan):

@@ -78,6 +78,7 @@ def test_bad_input_exits_2_with_one_line(argv, words, capsys):
     assert words in err
 
 
+@pytest.mark.slow
 def test_bad_toml_via_console_script(tmp_path):
     bad = tmp_path / "bad.toml"
     bad.write_text("[plant]\nlc1 = 2.0\n")

@@ -1,11 +1,13 @@
 """`bplir qft` and the zero-dynamics portraits."""
 import json
+import pytest
 
 import numpy as np
 from bplir_drake.analysis.control.zero_dynamics import zero_dynamics_portrait
 from bplir_drake.cli import main
 
 
+@pytest.mark.slow
 def test_qft_cli_diagram_family(tmp_path, capsys, strict_json):
     assert main(["qft", "--plants", "12", "--seed", "4", "--out", str(tmp_path), "--json"]) == 0
     out = strict_json(capsys.readouterr().out)   # no NaN or Infinity (hardening item 9)
@@ -17,6 +19,7 @@ def test_qft_cli_diagram_family(tmp_path, capsys, strict_json):
                 .replace("responses", "family_responses")).with_suffix(".png").stat().st_size > 30_000
 
 
+@pytest.mark.slow
 def test_qft_cli_dissertation_family(tmp_path, capsys):
     assert main(["qft", "--family", "dissertation", "--controller", "dissertation", "--out",
                  str(tmp_path), "--json"]) == 0

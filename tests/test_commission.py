@@ -39,6 +39,7 @@ def test_rules_in_the_robots_units_keep_the_default_robot_and_scale_for_another(
     assert same.plan == base.plan
 
 
+@pytest.mark.slow
 def test_the_worked_example_commissions_a_similar_robot_end_to_end(own_cache, monkeypatch):
     """docs/commission.md's example runs as written: the BPLIR at 0.7 scale
     gets the BPLIR's plan, scaled (duration x sqrt(0.7), torque x 0.7^4),

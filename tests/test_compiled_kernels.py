@@ -30,6 +30,7 @@ LAYOUTS = {"bias": {}, "misalignment": {"estimate_misalignment": True},
                    "estimate_imu_position": True}}
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("integration", ["euler", "trapezoid", "heun"])
 @pytest.mark.parametrize("layout", list(LAYOUTS))
 @pytest.mark.parametrize("inflate", [0.0, 3.0])

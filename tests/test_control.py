@@ -85,6 +85,7 @@ def test_published_design_on_dissertation_family():
     assert vd.checks["closed_loop_stable"]["worst"] > 0
 
 
+@pytest.mark.slow
 def test_qft_design_meets_specs_on_a_fresh_diagram_family(params):
     fam = PL.diagram_family(params, 55, seed=3)   # not the family it was designed on
     assert len(fam) == 56

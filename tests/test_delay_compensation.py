@@ -45,6 +45,7 @@ def test_the_float_kernel_is_the_closed_form_with_friction(enabled):
         np.testing.assert_allclose(f(*x, tau), [x[2], x[3], *qdd], rtol=1e-12, atol=1e-12)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("delay", [0.01, 0.02])
 def test_a_known_delay_is_compensated(delay):
     """The adaptive path (the dissertation's generator and CPFL) with the
@@ -65,6 +66,7 @@ def test_a_known_delay_is_compensated(delay):
     assert without <= 1 and captured(compensated) >= without + 2
 
 
+@pytest.mark.slow
 def test_the_default_swing_captures_with_10_and_20_ms_of_delay():
     """The default robot and controller (the delay probed and identified at
     the start, :mod:`bplir_drake.systems.delay_id`) on seeds 4-9, none used

@@ -8,6 +8,7 @@ import pytest
 DOC = Path(__file__).resolve().parents[1] / "docs" / "python.md"
 
 
+@pytest.mark.slow
 def test_the_python_guide_runs(tmp_path, monkeypatch, capsys):
     blocks = re.findall(r"```python\n(.*?)```", DOC.read_text(), re.S)
     assert len(blocks) >= 7
@@ -58,6 +59,7 @@ def test_the_readme_says_no_measured_figure_of_its_own():
     assert found == [], found
 
 
+@pytest.mark.slow
 def test_the_documentation_site_builds_without_warnings(tmp_path):
     """The site builds from docs/ with warnings as errors (the command the
     README names), and the parameter reference lists every parameter with
@@ -102,6 +104,7 @@ def test_test_docstrings_say_what_they_check_in_a_few_lines():
                                                                getattr(node, "name", ""))
 
 
+@pytest.mark.slow
 def test_the_results_pages_and_the_readme_table_match_the_stored_outputs():
     """Every figure of the README's results tables and of docs/results is
     what ``scripts/results_pages.py`` makes from the stored outputs in

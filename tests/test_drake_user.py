@@ -119,6 +119,7 @@ def test_an_estimate_input_replaces_the_estimator_only():
                       estimator="examples/my_estimator.py:make")
 
 
+@pytest.mark.slow
 def test_a_swing_shown_live_in_meshcat():
     """``run_swing(p, live=LiveView(...))`` (``bplir swing --meshcat``) serves
     Meshcat on this machine, draws the robot 30 times a simulated second,
@@ -147,6 +148,7 @@ def test_a_swing_shown_live_in_meshcat():
     assert wall >= 0.95 * T and abs(view.frames - 30 * T) <= 2
 
 
+@pytest.mark.slow
 def test_a_traversal_drawn_live_in_meshcat_is_the_same_traversal():
     """``run_traverse(..., live=LiveView(...))`` (``bplir traverse --meshcat``)
     draws the line and its obstacles and every swing (30 frames a simulated

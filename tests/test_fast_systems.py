@@ -145,6 +145,7 @@ def _exact_prediction(s, qd1, s_e, g, p, fv1):
                      [Y], rtol=1e-12, atol=1e-12).y[0, -1]
 
 
+@pytest.mark.slow
 def test_predictor_converges_to_the_exact_reduced_dynamics():
     """At the default step (0.005 rad) the RK4 predictor is within 2e-4
     (rad/s)^2 of an exact solve, on states like those of a swing.  The
@@ -208,6 +209,7 @@ def test_interlock_locates_the_arrival_between_ticks_exactly():
                                                      abs=1e-9)
 
 
+@pytest.mark.slow
 def test_fast_swing_matches_an_accurate_reference():
     """The default integrator (error-controlled RK3 at 1e-3): seeds 0-9
     all captured, each run ending at the tick after the interlock decided;

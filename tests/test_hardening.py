@@ -68,7 +68,7 @@ def _imu_log(path, extra=None):
 # ------------------------------------------------------------------ files in
 
 def test_preset_and_config_combine(tmp_path):
-    """Item 1: the file's tables override the named preset."""
+    """The file's tables override the named preset."""
     f = tmp_path / "f.toml"
     f.write_text("[friction]\nfc2 = 0.9\n")
     rc, out, err = bplir("model", "--preset", "lab", "--config", f, "--json")
@@ -84,7 +84,7 @@ def test_preset_and_config_combine(tmp_path):
     (b"[friction]\nfc2 = 0.9 \xe9\n", "not UTF-8", False),
 ])
 def test_binary_and_utf16_files_are_one_line_errors(tmp_path, content, words, subprocess_):
-    """Item 2, for every file-reading command (--config, estimate, calibrate,
+    """Binary and UTF-16 files are one-line errors for every file-reading command (--config, estimate, calibrate,
     montecarlo --study): through the console entry point for the binary
     file, in-process (the same main()) for the others."""
     f = tmp_path / "bad.dat"
@@ -148,7 +148,8 @@ def test_true_plant_errors_name_their_table(tmp_path):
     (["montecarlo", "-n", "2", "--path-mode", ""], "--path-mode = '' is unknown"),
 ])
 def test_every_option_has_a_range(tmp_path, argv, words):
-    """Item 8; nothing is written (item 12: no empty output directory)."""
+    """An option outside its range is one line naming the range, and nothing
+    is written (no empty output directory either)."""
     log = _imu_log(tmp_path / "imu.csv")
     out = tmp_path / "o"
     argv = [str(log) if a == "LOG" else a for a in argv]
@@ -169,7 +170,7 @@ def test_benchmark_controllers_checked_before_any_output(tmp_path, controllers):
 
 
 def test_unusable_scheduler_address(tmp_path):
-    """Item 5."""
+    """A scheduler address that is not one is a one-line error."""
     rc, _, err = bplir("montecarlo", "-n", "2", "--scheduler", "notanaddress",
                        "--out", tmp_path / "mc")
     assert_one_line_error(rc, err, "cannot reach the Dask scheduler at notanaddress")
@@ -178,7 +179,7 @@ def test_unusable_scheduler_address(tmp_path):
 # ------------------------------------------------------------------ files out
 
 def test_unusable_output_locations(tmp_path):
-    """Item 3: an existing file, a pseudo filesystem, a missing directory."""
+    """Output locations that cannot be used are refused: an existing file, a pseudo filesystem, a missing directory."""
     afile = tmp_path / "afile"
     afile.write_text("keep me")
     rc, _, err = bplir("freeswing", "--out", afile)
@@ -209,7 +210,7 @@ def test_swing_checks_its_output_before_simulating(monkeypatch, tmp_path):
 
 
 def test_interrupted_render_leaves_no_truncated_file(monkeypatch, tmp_path):
-    """Item 10: Ctrl-C while the animation is written: the earlier complete
+    """Ctrl-C while the animation is written: the earlier complete
     outputs stay, no partial or temporary file is left, and the message says
     only that."""
     from PIL import Image
@@ -236,7 +237,8 @@ def test_interrupted_render_leaves_no_truncated_file(monkeypatch, tmp_path):
 
 
 def test_smaller_n_keeps_finished_rows_and_reports_the_first_n(tmp_path):
-    """Item 6."""
+    """A rerun asking for fewer samples keeps the finished rows and reports
+    the first N."""
     out = tmp_path / "mc"
     args = ("--out", out, "--workers", "1", "--no-plots", "--json")
     assert bplir("montecarlo", "-n", "4", *args)[0] == 0
@@ -249,7 +251,7 @@ def test_smaller_n_keeps_finished_rows_and_reports_the_first_n(tmp_path):
 
 
 def test_results_table_rewrite_is_atomic(monkeypatch, tmp_path):
-    """Item 7: a failure while the table is rewritten leaves the old one."""
+    """A failure while the table is rewritten leaves the old one."""
     study = mc.Study(samples=3, seed=0)
     path = tmp_path / "results.csv"
     rows = [{"index": k, "seed": k, "outcome": "captured", "success": True, "error": ""}
@@ -308,8 +310,9 @@ def _wait_for_rows(proc, results: Path, rows: int, timeout: float = 240.0) -> No
         time.sleep(0.02)
 
 
+@pytest.mark.slow
 def test_ctrl_c_on_a_two_worker_study_keeps_finished_rows(tmp_path):
-    """Item 10: Ctrl-C (SIGINT to the whole process group, as a terminal
+    """Ctrl-C (SIGINT to the whole process group, as a terminal
     sends it) on a 2-worker study ends it (exit 130, one line: no worker
     prints), keeps every finished row; the same command then resumes."""
     import os
@@ -343,8 +346,9 @@ def test_strict_json_replaces_nan_and_infinity():
     assert strict_json(text) == {"a": None, "b": [None, None, 1.5], "c": None, "d": [1.0, None]}
 
 
+@pytest.mark.slow
 def test_every_json_output_is_strict(tmp_path):
-    """Item 9: the commands' --json output and their JSON files parse with a
+    """The commands' --json output and their JSON files parse with a
     parser that rejects NaN and Infinity (a timed-out swing has no capture
     speed: null).  In-process: the same main() the console script runs.
     ``benchmark`` and ``qft`` are checked the same way where their own
@@ -373,7 +377,7 @@ def test_every_json_output_is_strict(tmp_path):
 
 def test_plan_depends_only_on_the_nominal_model_and_a_hit_is_bit_identical(tmp_path,
                                                                              monkeypatch):
-    """Item 13: the plan's inputs (its cache key) are the nominal model and
+    """The plan's inputs (its cache key) are the nominal model and
     the scenario; the simulated robot never enters; a cache hit equals a
     fresh solve bit for bit."""
     import dataclasses as dc
@@ -923,6 +927,7 @@ def test_kill_9_of_a_study_leaves_no_worker_running(tmp_path):
     assert alive == []
 
 
+@pytest.mark.slow
 def test_a_second_study_into_the_same_directory_is_refused_with_the_holders_pid(tmp_path):
     """Two ``bplir montecarlo`` runs into one directory: while the first
     runs the second is one line naming the first's PID (exit 2), and the

@@ -55,8 +55,9 @@ def _imu_log(path, n=300):
      "trv/"),
     (["montecarlo", "-n", "2", "--workers", "1", "--out", "{d}/mc"], "mc/"),
 ])
+@pytest.mark.slow
 def test_a_full_disk_is_one_line_naming_the_file(argv, wrote, tmp_path):
-    """Row 7: outputs that cannot be written (no file may grow past 48 KiB):
+    """Outputs that cannot be written (no file may grow past 48 KiB):
     one line naming the file the command was writing, exit 1, no temporary
     file left."""
     log = _imu_log(tmp_path / "imu.csv", 3000)   # an estimate of it is about 500 KiB
@@ -72,7 +73,7 @@ def test_a_full_disk_is_one_line_naming_the_file(argv, wrote, tmp_path):
 
 
 def test_a_plugin_answering_nan_names_the_swing_the_time_and_the_port(tmp_path):
-    """Row 5: a controller whose torque turns NaN at 0.3 s: one line naming
+    """A controller whose torque turns NaN at 0.3 s: one line naming
     the swing (its seed), the time and the port, exit 1."""
     plugin = tmp_path / "nan.py"
     plugin.write_text(plugin_source("out.SetAtIndex(0, float('nan')); return"))
@@ -85,6 +86,7 @@ def test_a_plugin_answering_nan_names_the_swing_the_time_and_the_port(tmp_path):
     assert "NaN in the actuation input port" in line
 
 
+@pytest.mark.slow
 def test_a_hung_plugin_is_stopped_by_the_wall_clock_limit(tmp_path):
     """A controller that never returns: the swing stops at the wall-clock
     limit (one line naming it, exit 1); in a 2-worker study every sample
@@ -135,7 +137,7 @@ def test_replaying_a_study_runs_its_plugin_only_when_the_user_names_it(tmp_path)
 
 
 def test_outputs_are_not_left_private(tmp_path):
-    """Row 22's other half: outputs written through a temporary file get the
+    """Outputs written through a temporary file get the
     usual mode (0666 less the umask), not the temporary file's 0600."""
     import os
 
@@ -149,6 +151,7 @@ def test_outputs_are_not_left_private(tmp_path):
     assert path.stat().st_mode & 0o777 == 0o644
 
 
+@pytest.mark.slow
 def test_reading_a_log_costs_its_numbers_not_its_text(tmp_path):
     """A 300 000-row IMU log is read in a process whose resident memory grows
     by less than 80 bytes per row (its seven numbers are 56 bytes; the text
@@ -250,8 +253,9 @@ def test_the_issues_rows_through_the_console_entry_point(row, tmp_path):
         assert not out.exists()
 
 
+@pytest.mark.slow
 def test_a_plan_solve_ends_at_ctrl_c_with_130(tmp_path):
-    """Row 8: Ctrl-C while a plan is solved from a cold cache: exit 130 and
+    """Ctrl-C while a plan is solved from a cold cache: exit 130 and
     the interrupt's one line (not a RuntimeError from the solver's
     callback)."""
     import os
@@ -316,7 +320,7 @@ def _bplir_with_solver(solver: str, cache, *argv):
 
 @pytest.mark.parametrize("where", ["/proc/bplir-no-such/cache", "a file"])
 def test_an_unusable_cache_directory_still_swings_on_the_shipped_plans(where, tmp_path):
-    """Row 10 from the command line: with ``BPLIR_CACHE_DIR`` inside /proc or
+    """From the command line, with ``BPLIR_CACHE_DIR`` inside /proc or
     a file the default swing runs on the shipped plan and gains (nothing
     is solved: the solver is switched off in that process) and captures.
     (A file where the directory should be is unusable even to root, which

@@ -78,6 +78,7 @@ def test_learnt_landing_is_the_share_of_the_mean_earlier_error():
     assert learnt(off, [-0.004]) == 0.0
 
 
+@pytest.mark.slow
 def test_a_traversal_learns_its_landing_and_passes():
     """Sample 40 of the realistic traversal study, root seed 1 (held out),
     ``line_flat``: gripper 1's robot estimates its gripper 3.5 mm high at

@@ -167,6 +167,7 @@ def test_bad_replay_exit_2(argv, words, two_worker_dir, capsys):
     assert err.startswith("bplir: error:") and err.count("\n") == 1 and words in err
 
 
+@pytest.mark.slow
 def test_dask_local_cluster_gives_the_same_table(tmp_path, two_worker_dir):
     pytest.importorskip("dask.distributed")
     out2, _ = two_worker_dir
@@ -240,6 +241,7 @@ def test_broad_example_study_covers_every_kind_of_uncertainty():
     assert p.true_plant.l2 == drawn["true_plant.l2"]
 
 
+@pytest.mark.slow
 def test_unreachable_dask_scheduler_is_one_line_exit_2(tmp_path, capsys, monkeypatch):
     pytest.importorskip("dask.distributed")
     from bplir_drake.analysis.montecarlo import executors

@@ -110,6 +110,7 @@ def test_envelope_off_delivers_any_current_at_any_speed():
     assert out["torque"][-1] == pytest.approx(p.torque_per_amp * 15.0, rel=1e-6)
 
 
+@pytest.mark.slow
 def test_energy_balance_over_a_swing_closes():
     """Electrical energy in = copper loss + the gearbox and motor losses of
     (4.12)'s efficiencies + the robot's mechanical energy change + what

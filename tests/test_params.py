@@ -181,6 +181,7 @@ def test_former_controller_preset_names_are_accepted_with_a_notice(tmp_path):
     assert '"plan"' in out
 
 
+@pytest.mark.slow
 def test_the_console_script_versions_lists_sets_and_passes_plugin_arguments(tmp_path):
     """Through the installed ``bplir`` console script itself: ``--version``,
     ``params --json``, a swing with ``--set plant.m2=1.6`` (the swing ran

@@ -106,6 +106,7 @@ def test_a_swing_can_start_where_the_plan_starts(tmp_path):
     assert np.allclose(est.data[0], plan.states[k], atol=0.05)
 
 
+@pytest.mark.slow
 def test_a_log_in_the_robot_files_coordinates_replays_beside_drakes_acrobot(tmp_path):
     """bplir replay on a log written the way a robot's firmware writes it
     (its own column names, its joint angles, its clock): mapped to the
@@ -178,6 +179,7 @@ def test_our_plant_is_drakes_acrobot_when_the_centres_of_mass_are_on_axis():
         assert np.abs(ours - log.q).max() > 0.5   # it moved
 
 
+@pytest.mark.slow
 def test_a_swing_against_a_logged_run(tmp_path):
     """bplir swing --against: the swing of AcroMonk's example against a log
     of the same swing under the firmware's column names reproduces it to

@@ -36,6 +36,7 @@ def test_planned_target_rests_inside_the_band(uphill):
             uphill.with_(plan=dc.replace(uphill.plan, end_depth=0.03)))
 
 
+@pytest.mark.slow
 def test_uphill_swing_with_ekf_tracking_a_plan(uphill):
     """The +20 deg line, seeds 0-19 (friction +/-20 %, IMU noise, EKF; the
     default robot and landing): all 20 captured at 0.19-0.40 m/s (median
@@ -59,6 +60,7 @@ def test_uphill_swing_with_ekf_tracking_a_plan(uphill):
         assert 0.18 < s["capture_speed_mps"] < 0.41 and s["peak_voltage_V"] <= 29.4 + 1e-9
 
 
+@pytest.mark.slow
 def test_downhill_swing_with_ekf_tracking_a_plan(uphill):
     """The -20 deg line, seeds 0-19 (friction +/-20 %, IMU noise, EKF; the
     default robot, whose auto landing law aims here): all 20 captured at
@@ -125,6 +127,7 @@ def test_state_indexed_tracker_reads_no_clock(uphill):
     assert out[0][2] == pytest.approx(t_i, abs=0.01)
 
 
+@pytest.mark.slow
 def test_clock_free_uphill_swing(uphill):
     """The same 20 degree swing with the plan indexed by the estimated state
     (no clock), with the default landing: every one of seeds 0-19 captured

@@ -122,6 +122,7 @@ def test_a_broken_plugin_is_refused_naming_the_port(bad, factory, message, capsy
         BplirParams().with_controller("not a plugin")
 
 
+@pytest.mark.slow
 def test_the_example_plugin_through_the_command_line(tmp_path, capsys, strict_json):
     # the example never captures: each swing runs to its timeout, here 1 s
     short = ["--set", "scenario.max_time=1.0"]
@@ -297,6 +298,7 @@ def test_a_plugin_takes_its_factorys_arguments_from_the_command_line(tmp_path):
     assert rc == 2 and "plug-in argument '1x=2' must be key=value" in err
 
 
+@pytest.mark.slow
 def test_an_installed_package_registers_a_plugin_under_a_stable_name(tmp_path):
     """A package that declares an entry point in ``bplir_drake.controllers``
     makes its controller available by name: ``--controller const-torque``

@@ -181,6 +181,7 @@ def test_landing_takes_over_in_the_last_forward_swing_and_aims_at_the_band():
     assert land.aim(np.r_[X[-1, :2], -1.0, 0.0]) == (0.0, 0.0)   # never above the line
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("incline", [0.0, 20.0, -20.0])
 def test_held_out_samples_of_the_realistic_study_land_on_the_grip(incline):
     """The default robot and controller on samples 0-15 of root seed 2 of

@@ -84,6 +84,7 @@ MAKERS = {"swing": _swing, "study": _study, "traversal": _traversal, "benchmark"
           "estimate": _estimate, "calibration": _calibration, "observability": _observability}
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("kind", list(MAKERS))
 def test_every_result_speaks_one_protocol(kind, tmp_path):
     from matplotlib.figure import Figure

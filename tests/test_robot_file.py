@@ -136,6 +136,7 @@ def test_the_bplir_from_its_urdf_swings_as_the_hand_built_one():
         assert urdf[k] == pytest.approx(hand[k], abs=1e-9, nan_ok=True), k
 
 
+@pytest.mark.slow
 def test_a_short_link_robot_runs_every_command(tmp_path, monkeypatch):
     """AcroMonk's links (0.31 m, examples/acromonk.toml) through model, plan,
     swing and calibrate: no BPLIR default in the way (the IMU radii, grip

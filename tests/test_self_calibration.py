@@ -111,6 +111,7 @@ def constant_bias_logs():
     return out
 
 
+@pytest.mark.slow
 def test_bias_misalignment_scale_and_distance_recovered(constant_bias_logs):
     """From starts up to 1 rad off, every drawn IMU error is recovered (the
     smoothed estimate; measured on these logs: misalignment within 0.16 deg,
@@ -148,6 +149,7 @@ def test_a_log_at_rest_identifies_the_biases_and_nothing_else():
             assert rows[f"{name} {i}"]["ratio"] > 0.5
 
 
+@pytest.mark.slow
 def test_benchmark_targets_on_held_out_logs():
     """``bench_estimation.py``'s measures on held-out logs 100-102: after 5 s
     the causal filter within 1.3x and the smoother within 1.0x of the

@@ -141,6 +141,7 @@ def test_the_swing_figure_draws_the_gripper_against_its_inclined_line():
         "along the line", "above the line", "the line (20 deg)", "the grip, 1.2 m along it"]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("n, columns", [(4, 2), (6, 3), (25, 5), (7, 2)])
 def test_success_vs_parameters_has_no_empty_panel_and_keeps_its_rate_clear(n, columns):
     """One panel per drawn quantity (a grid with no empty panel where one

@@ -46,6 +46,7 @@ def _rmse(x, run, t_from=5.0):
     return np.sqrt(np.mean((x[m, :2] - run.truth[m, :2]) ** 2, axis=0))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["seed 2", "seed 3"])
 def test_nis_of_a_consistent_filter_lies_in_its_95_percent_band(name):
     p, run = _run(name)
@@ -58,6 +59,7 @@ def test_nis_of_a_consistent_filter_lies_in_its_95_percent_band(name):
     assert loose["mean_nis"] < 1.3 and not loose["consistent"]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["seed 2", "seed 3", "seed 4, gyro biases"])
 def test_the_smoother_beats_the_filter(name):
     p, run = _run(name)

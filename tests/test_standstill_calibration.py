@@ -83,6 +83,7 @@ def _imu_group(standstill: int, seed: int, n: int, sensor_range: float = 0.0) ->
     return [k for k in range(n) if not run_sample(st, k)["success"]]
 
 
+@pytest.mark.slow
 def test_calibration_captures_swings_with_biased_misaligned_imus():
     """The realistic study's IMU errors alone (bias ±0.03 rad/s,
     misalignment ±2.5 deg, noise x0.5-2), EKF in the loop, the IMUs alone,
@@ -117,6 +118,7 @@ def test_measured_noise_widens_the_filter_only_beyond_the_tolerance():
     assert wide.accel_meas_sigma == pytest.approx(3 * est.accel_meas_sigma)
 
 
+@pytest.mark.slow
 def test_widening_to_the_measured_noise_lands_swings_with_noisy_imus():
     """IMU noise x5 (both sensors), default swing, seeds 0-7 (the widening
     has no tuned gain: R follows the measured ratio).  The default robot:

@@ -54,6 +54,7 @@ def _swing_outcome(seed):
             s["fixed_gripper_open"], s["swing_time_s"])
 
 
+@pytest.mark.slow
 def test_twenty_seeds_with_ekf_and_uncertain_friction():
     """The default robot (IMUs alone, 30 V) and controller (plan tracking,
     the shot, standstill calibration, the delay probe), friction drawn
@@ -146,6 +147,7 @@ def test_bad_scenario_files_exit_2(tmp_path, toml, words, capsys):
     assert err.count("\n") == 1 and words in err
 
 
+@pytest.mark.slow
 def test_compare_presets_and_examples(tmp_path, monkeypatch, params, capsys):
     from bplir_drake.analysis.swing.compare import compare_presets, comparison_table, plot_comparison
 

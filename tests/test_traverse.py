@@ -418,6 +418,7 @@ def _traversal_study_resumes_and_replays(tmp_path, capsys):
     assert "cannot be drawn in a traversal study" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_traversals_trip_rest_study_and_replay(tmp_path, capsys):
     """The traversals, in one test so that one process computes the two
     plans' tracking gains (about 25 s) once: back-to-back swings trip the
@@ -566,6 +567,7 @@ def test_the_dense_example_passes_with_shorter_swings():
     assert len(swings) == 10 and res.totals["obstacles_passed"] == 5
 
 
+@pytest.mark.slow
 def test_swings_in_a_replaced_worker_process_give_the_same_traversal():
     """A long line's swings run in a forked worker replaced every few
     swings (Drake keeps about 3 MB of every diagram built from Python
@@ -603,6 +605,7 @@ def test_a_front_gripper_landed_close_to_the_next_obstacle_rides_back():
         hold_position(line, p, 2, ob.start - 0.03)
 
 
+@pytest.mark.slow
 def test_the_tower_span_passes_at_48v():
     """examples/line_tower.toml (a 60 m span, ten obstacles, chords from
     -10.5 to +9.7 deg) with the 48 V supply: all ten obstacles passed in

@@ -31,6 +31,7 @@ def headwind(swing: int, torque: float):
     return adjust
 
 
+@pytest.mark.slow
 def test_a_timed_out_swing_is_damped_and_tried_again_from_hanging():
     """-6 N m of headwind on the first swing's first try: it times out at
     3 s; the elbow damps the swing and the try from hanging, wind gone,
@@ -66,6 +67,7 @@ def test_without_retries_the_timeout_ends_the_traversal():
     assert [r["kind"] for r in res.rows].count("recover") == 0
 
 
+@pytest.mark.slow
 def test_the_swapped_robot_is_tried_again_too():
     """-10 N m of headwind on the second swing (the swapped robot: its
     swinging link, 3.23 kg with its centre of mass 0.69 m out, needs
@@ -136,6 +138,7 @@ def test_a_swing_from_hanging_needs_plan_tracking():
         BplirParams(scenario=dc.replace(BplirParams().scenario, start="upside down"))
 
 
+@pytest.mark.slow
 def test_a_swing_that_trips_the_driver_is_tried_again():
     """The first try of the second swing (the swapped robot's, about 300
     A^2 s) with a driver that holds its peak current for 0.2 s only (an

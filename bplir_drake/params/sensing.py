@@ -148,7 +148,7 @@ class EstimatorParams(_Block):
         biases the calibration states, see
         :func:`bplir_drake.systems.ekf.discrete_f`) and those states held
         for the first 2 s, while the angles converge from an unknown start
-        (``bplir estimate --self-calibrate``; issue 20)."""
+        (``bplir estimate --self-calibrate``)."""
         return replace(self, estimate_bias=True, estimate_misalignment=True,
                        estimate_gyro_scale=True, estimate_imu_position=True,
                        integration="heun", calibrate_after=max(self.calibrate_after, 2.0))

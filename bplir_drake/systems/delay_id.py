@@ -21,10 +21,7 @@ friction and the driver's current loop, :func:`probe_rates`), removes each
 gyro's mean error (the gyro biases, a steady model error) and keeps the
 candidate with the least squared error -- if the runner-up's error is at
 least ``min_ratio`` times it; a fit that cannot tell the candidates apart
-(sensors far noisier than the study's) keeps the nominal delay.  Tested: the candidates' fits and
-the whole swing's identification on the study's draws (README, "Monte
-Carlo").
-"""
+(sensors far noisier than the study's) keeps the nominal delay."""
 from __future__ import annotations
 
 

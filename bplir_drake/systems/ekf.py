@@ -2,7 +2,7 @@
 
 State ``(theta1, theta2, omega1, omega2[, b1, b2][, eps1, eps2][, k1, k2])``
 in absolute angles, with optional gyro-bias states (the dissertation's
-recommended extension) and self-calibration states (issue 20): each
+recommended extension) and self-calibration states: each
 accelerometer's mounting misalignment ``eps_i`` and each gyro's scale error
 ``k_i``, and each IMU's distance ``r_i`` along its link (:func:`state_layout`).
 

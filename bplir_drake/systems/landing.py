@@ -175,10 +175,10 @@ class ApexShot:
     ``landing``.
 
     It corrects the swing's energy while the elbow still has leverage on
-    the gripper's height: the swapped robot's swinging link points almost
-    straight up at the end, where its elbow moves the gripper along the
-    line rather than up, and the aim law lags (README, "Traversal Monte
-    Carlo")."""
+    the gripper's height: where the free link ends near upright (a long
+    holding link and a short free one, :func:`~bplir_drake.params.robot.line_pose`),
+    the elbow moves the gripper along the line rather than up at the end,
+    and the aim law, which acts only then, lags."""
 
     landing: Landing
     friction: object

@@ -1,4 +1,4 @@
-"""Standstill calibration of the IMUs before a swing (issue 17).
+"""Standstill calibration of the IMUs before a swing.
 
 Before a swing both grippers hold the line: the pose is known (the joint
 encoders and the grip geometry) and the robot is at rest.  Over a window of

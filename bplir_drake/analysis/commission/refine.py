@@ -24,8 +24,7 @@ REPAIR_RATIO = 1.5
 
 #: the share of the driver's i^2 t budget a library plan from hanging may use
 #: by itself (assumed: the tracker's feedback heats the driver about as much
-#: again, and on the example lines' chords the swapped BPLIR's pumps use
-#: 13-33 % or 36-72 %, so any share between 0.33 and 0.36 separates them)
+#: again, and the two together keep a margin below the budget)
 COOL_SHARE = 0.35
 
 

@@ -107,7 +107,7 @@ def simulate_estimation(params: BplirParams, q0=(0.8, 0.4), duration: float = 10
 def realistic_imu_log(params: BplirParams, seed: int, duration: float = 25.0, *,
                       drift: float = 0.002):
     """(simulated run, drawn errors) of a log whose IMUs carry what real ones
-    do (``benchmarks/bench_estimation.py``, issue 20), drawn from ``seed``:
+    do (``benchmarks/bench_estimation.py``), drawn from ``seed``:
     gyro biases within +/-0.03 rad/s plus a 0.002 rad/s/sqrt(s) random walk,
     gyro scale errors within +/-2 %, accelerometer misalignments within
     +/-3 deg, IMU positions off by up to +/-2 cm from the filter's geometry

@@ -25,8 +25,8 @@ def budgeted_currents(plan, p: BplirParams) -> np.ndarray:
     the planned swing ``plan`` of ``p``: the plan's, and from the moment the
     planned gripper comes within the terminal law's take-over depth of the
     line (in the plan's second half) to its end, the current of the torque
-    limit.  The terminal law's feedback is not planned, and the swapped
-    robot's runs at the limit there (README, "Traversal Monte Carlo").  The
+    limit.  The terminal law's feedback is not planned, and may run at the
+    limit there.  The
     delay probe (``plan.delay_probe``) adds its torques to the first
     ticks."""
 

@@ -11,10 +11,9 @@ swapped`) when gripper 2 holds; its estimator starts from the known pose on
 the line (both grippers clamped) as every swing does.
 
 Swings track trajectory-optimised plans (``traverse.swing_mode = "plan"``,
-``path.mode = "plan"``) by default: the default path generator crashes the
-swapped robot (its swinging link is the heavy one; 1.72 m/s at 1.2 m
-spacing) and times out on inclined lines; ``"params"`` uses the swing
-controller of the parameters as given.
+``path.mode = "plan"``) by default: the path generator crashes where the
+swinging link is the heavy one and times out on inclined lines; ``"params"`` uses the swing controller of the parameters as
+given.
 
 The interlock of chapter 4 in software: a swing opens its swinging gripper
 only while the other one is clamped, and the traversal goes on only after

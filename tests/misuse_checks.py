@@ -1,8 +1,8 @@
-"""The third hardening probe's reproductions, one function a class: each
-runs the ``bplir`` console entry point in a process of its own (or the
-package's function, where the class is about one) and returns None when
-the class holds, else what broke.  ``test_hardening_round3.py`` runs them
-as tests; ``python tests/hardening_probe.py`` re-runs the whole probe."""
+"""Adversarial checks, one function for each way a user broke the package:
+each runs the ``bplir`` console entry point in a process of its own (or the
+package's function, where the check is about one) and returns None when
+it holds, else what broke.  ``test_misuse.py`` runs them as tests; ``python
+tests/misuse_checks.py`` runs them all."""
 from __future__ import annotations
 
 import json
@@ -118,7 +118,7 @@ def angle_log(d: Path, name: str, hole=0.0, row=None, col=1, value=0.0) -> Path:
 
 
 # ------------------------------------------------------------------ classes
-def class_1(d: Path):
+def a_plugin_exit_mid_swing_is_one_line(d: Path):
     """A plug-in calling sys.exit mid-swing: one line and exit 1 (swing); an
     error row naming it (a study on one worker)."""
     spec3 = plugin(d, "exit3.py", "sys.exit(3)")
@@ -132,7 +132,7 @@ def class_1(d: Path):
                  else f"study: exit {rc2}, rows {rows}, {err2[-300:]!r}")
 
 
-def class_2(d: Path):
+def a_massless_or_negative_link_is_bad_input(d: Path):
     """A URDF link of mass 0 (with an inertia) or -1, or an inertia no body
     can have: refused with one line, exit 2 (Drake would substitute)."""
     edits = {"mass0": lambda s: s.replace('value="1.5155"', 'value="0"'),
@@ -149,7 +149,7 @@ def class_2(d: Path):
     return None
 
 
-def class_3(d: Path):
+def a_nan_in_a_robot_pose_is_bad_input(d: Path):
     """A NaN in a URDF pose or axis: bad input (exit 2), not a fault."""
     for name, edit in (("origin", lambda s: s.replace('xyz="0 0 -0.9091"', 'xyz="0 0 nan"')),
                        ("axis", lambda s: s.replace('<axis xyz="0 -1 0"/>',
@@ -161,7 +161,7 @@ def class_3(d: Path):
     return None
 
 
-def class_4(d: Path):
+def an_implausible_log_angle_is_refused(d: Path):
     """A log with q1 = 1e300 or q2 = 1000: the range check's own line."""
     for cmd, col, value in (("replay", 1, 1e300), ("calibrate", 2, 1000.0)):
         log = angle_log(d, f"{cmd}.csv", row=20, col=col, value=value)
@@ -172,7 +172,7 @@ def class_4(d: Path):
     return None
 
 
-def class_5(d: Path):
+def a_hole_in_a_log_is_refused(d: Path):
     """A 5 s hole in a 1.4 s log: refused by replay and calibrate."""
     log = angle_log(d, "hole.csv", hole=5.0)
     for cmd in ("replay", "calibrate"):
@@ -183,14 +183,14 @@ def class_5(d: Path):
     return None
 
 
-def class_6(d: Path):
+def a_replay_window_below_two_samples_is_refused(d: Path):
     """``replay --window 1e-9``: refused at once (two sampling periods at least)."""
     rc, _, err = bplir("replay", angle_log(d, "ok.csv"), "--window", "1e-9", "--out", d / "r",
                        timeout=20)
     return one_error_line(rc, err, 2, "--window = 1e-09 s is out of range", "allowed [0.02")
 
 
-def class_7(d: Path):
+def a_constant_study_column_draws_its_histogram(d: Path):
     """A study's histogram of a column constant to its last bit (the
     traversals' peak torque at the motor's limit) draws instead of raising
     'Too many bins'."""
@@ -212,7 +212,7 @@ def class_7(d: Path):
     return None if counts == [4, 4, 4, 4] else f"histogram counts {counts}"
 
 
-def class_8(d: Path):
+def a_sigterm_during_a_traverse_rerun_is_one_line(d: Path):
     """SIGTERM during a rerun of ``traverse`` into a finished --out: the
     motion log and the summary are the finished run's, whole; no temporary
     file is left."""
@@ -253,7 +253,7 @@ def long_line(d: Path, obstacles: int = 22) -> Path:
     return d / "long.toml"
 
 
-def class_9(d: Path):
+def signals_reach_a_traversal_run_in_workers(d: Path):
     """A traversal whose swings run in a worker: SIGTERM and Ctrl-C give the
     one line and no worker's traceback; kill -9 of the parent leaves no
     worker running and nothing printed."""
@@ -282,7 +282,7 @@ def class_9(d: Path):
     return None
 
 
-def class_10(d: Path):
+def ctrl_c_on_a_dask_study_is_one_line(d: Path):
     """``--dask``: Ctrl-C gives the one line, no worker's traceback or log."""
     proc = start("montecarlo", "-n", "200", "--dask", "--workers", "2", "--no-plots",
                  "--out", d / "mc", fork=False)
@@ -295,7 +295,7 @@ def class_10(d: Path):
     return one_line_stop(proc.returncode, err, 130, "interrupted")
 
 
-def class_11(d: Path):
+def a_printing_plugin_under_dask_keeps_json_clean(d: Path):
     """``--dask --json`` with a plug-in that prints and then calls sys.exit
     mid-swing: standard output is the JSON summary alone, each sample is an
     error row naming the exit, nothing else is said."""
@@ -329,7 +329,7 @@ def quick_solver(cache: Path, *argv):
     return bplir(*argv, env={"BPLIR_CACHE_DIR": cache}, before=_quick_plans)
 
 
-def class_12(d: Path):
+def a_wrong_cached_plan_is_never_used(d: Path):
     """A well-formed but wrong plan in the cache (NaN torque, times reversed,
     a short states array) is moved aside, named in a note, and solved
     again; a damaged plan library is named and not used."""
@@ -352,10 +352,10 @@ def class_12(d: Path):
                 or not aside.exists() or json.loads(out)["peak_torque_Nm"] != 0.0:
             return f"{what}: exit {rc}, moved aside {aside.exists()}, {err[-400:]!r}"
         aside.unlink()
-    return library_class_12(d)
+    return library_a_wrong_cached_plan_is_never_used(d)
 
 
-def library_class_12(d: Path):
+def library_a_wrong_cached_plan_is_never_used(d: Path):
     import warnings
 
     from bplir_drake.planning import library as plan_library
@@ -380,7 +380,7 @@ def plan_csv(d: Path, name: str, last=None, gap=0.0) -> Path:
     return d / name
 
 
-def class_13(d: Path):
+def an_odd_plan_file_is_refused(d: Path):
     """plan.file with its last row at t = 1e9, a 30 s gap, or file_columns
     naming one column twice: bad input, one line, exit 2."""
     cases = {"late": ({"last": 1e9}, "", "spans 1e+09 s; allowed at most 60 s"),
@@ -398,7 +398,7 @@ def class_13(d: Path):
     return None
 
 
-def class_14(d: Path):
+def a_looping_plugin_factory_meets_the_wall_limit(d: Path):
     """A plug-in factory that loops is stopped by scenario.wall_limit."""
     (d / "loop.py").write_text("def make(params):\n    while True:\n        pass\n")
     t0 = time.monotonic()
@@ -416,7 +416,7 @@ def tiny_robot(d: Path) -> Path:
         'ixx="1e-12" ixy="0" ixz="0" iyy="1e-12" iyz="0" izz="1e-15"'))
 
 
-def class_15(d: Path):
+def a_crawling_free_swing_meets_the_wall_limit(d: Path):
     """``freeswing`` of a robot with a 1e-9 kg link honours wall_limit; so
     does a calibration's simulation of it."""
     config = tiny_robot(d)
@@ -431,7 +431,7 @@ def class_15(d: Path):
                                 "wall-clock limit of 1 s"))
 
 
-def class_16(d: Path):
+def a_negative_results_index_is_refused(d: Path):
     """A results.csv row with index -1: the resumed study refuses it."""
     study = ["montecarlo", "-n", "1", "--workers", "1", "--no-plots", "--out", d / "mc"]
     rc, _, err = bplir(*study)
@@ -444,7 +444,7 @@ def class_16(d: Path):
     return one_error_line(rc, err, 2, "holds a row of sample -1")
 
 
-def class_17(d: Path):
+def seeds_are_ranged_on_every_path(d: Path):
     """scenario.seed in [0, 2^32) from --seed, --set and a config; run_swing's
     seed a whole number in that range."""
     from bplir_drake.analysis.swing.swing_runner import run_swing
@@ -467,12 +467,31 @@ def class_17(d: Path):
     return None
 
 
-CLASSES = {k: globals()[f"class_{k}"] for k in range(1, 18)}
+#: every check, by what it guards
+CHECKS = {f.__name__: f for f in (
+    a_plugin_exit_mid_swing_is_one_line,
+    a_massless_or_negative_link_is_bad_input,
+    a_nan_in_a_robot_pose_is_bad_input,
+    an_implausible_log_angle_is_refused,
+    a_hole_in_a_log_is_refused,
+    a_replay_window_below_two_samples_is_refused,
+    a_constant_study_column_draws_its_histogram,
+    a_sigterm_during_a_traverse_rerun_is_one_line,
+    signals_reach_a_traversal_run_in_workers,
+    ctrl_c_on_a_dask_study_is_one_line,
+    a_printing_plugin_under_dask_keeps_json_clean,
+    a_wrong_cached_plan_is_never_used,
+    an_odd_plan_file_is_refused,
+    a_looping_plugin_factory_meets_the_wall_limit,
+    a_crawling_free_swing_meets_the_wall_limit,
+    a_negative_results_index_is_refused,
+    seeds_are_ranged_on_every_path,
+)}
 
 
 def main() -> int:
     broken = 0
-    for k, case in CLASSES.items():
+    for name, case in CHECKS.items():
         with tempfile.TemporaryDirectory() as d:
             t0 = time.monotonic()
             try:
@@ -480,10 +499,9 @@ def main() -> int:
             except Exception as exc:   # noqa: BLE001 - a probe that broke is a class broken
                 problem = f"{type(exc).__name__}: {' '.join(str(exc).split())[:300]}"
         broken += problem is not None
-        print(f"class {k:2d} {'holds ' if problem is None else 'BROKEN'} "
-              f"({time.monotonic() - t0:5.1f} s) {' '.join(case.__doc__.split())[:60]}"
-              + (f"\n    {problem}" if problem else ""))
-    print(f"{17 - broken} of 17 classes hold")
+        print(f"{'holds ' if problem is None else 'BROKEN'} ({time.monotonic() - t0:5.1f} s) "
+              f"{name}" + (f"\n    {problem}" if problem else ""))
+    print(f"{len(CHECKS) - broken} of {len(CHECKS)} checks hold")
     return 1 if broken else 0
 
 

@@ -159,7 +159,7 @@ def _terminal_laws(p):
     lp = p.landing
     return {"shoot": ApexShot.from_params(p.plant, p.friction, 0.0, lp),
             "aim": Landing.from_params(p.plant, 0.0, lp),
-            "reach": Reach.from_params(p.plant, 0.0, dc.replace(lp, landing_lead=0.0,
+            "reach": Reach.from_params(p.plant, 0.0, dc.replace(lp, landing_law="reach",
                                                                 reach_speed=0.3))}
 
 

@@ -115,3 +115,45 @@ def test_a_manoeuvre_out_of_range_is_one_line_and_old_fields_are_retired():
         from_dict({"traverse": {"retry_max_time": 8.0}})
     assert len(parameter_reference()) == 225 < 227
     assert isinstance(BplirParams().plant, PlantParams)
+
+
+def test_the_landing_law_is_chosen_by_its_name(tmp_path):
+    """``landing.landing_law = "none"`` tracks the plan to its end and
+    ``"reach"`` picks the terminal reach; a file written when
+    ``landing_lead = 0`` switched the landing off reads as the law by name,
+    with one warning, and the lead can no longer be 0."""
+    import warnings
+
+    from bplir_drake.diagrams.swing_controller import DelayCompensation, plan_tracker
+    from bplir_drake.diagrams.swing_setup import swing_geometry
+    from bplir_drake.params import preset
+    from bplir_drake.planning.solve import tracking_plan
+    from bplir_drake.systems.landing import ApexShot, Landing, Reach
+
+    p = preset()
+    old = tmp_path / "old.toml"
+    old.write_text("[landing]\nlanding_lead = 0.0\n")
+    with pytest.warns(FutureWarning, match=r"landing.landing_lead = 0 \(now "
+                                           r"landing.landing_law = 'none'\)"):
+        assert load_toml(old).landing == dc.replace(p.landing, landing_law="none")
+    old.write_text("[landing]\nlanding_lead = 0.0\nreach_speed = 0.2\n")
+    with pytest.warns(FutureWarning, match="landing_law = 'reach'"):
+        assert load_toml(old).landing.landing_law == "reach"
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert load_toml(_write(tmp_path / "new.toml", "[landing]\nlanding_law = 'none'\n")
+                         ).landing.landing_law == "none"
+    with pytest.raises(ParameterError, match="landing.landing_lead"):
+        dc.replace(p.landing, landing_lead=0.0)
+    gains, geometry = tracking_plan(p)[1], swing_geometry(p)[2]
+    laws = {}
+    for law in ("shoot", "aim", "reach", "none"):
+        q = p.with_(landing=dc.replace(p.landing, landing_law=law))
+        laws[law] = plan_tracker(q, DelayCompensation(None, 0, ()), geometry, gains).reach
+    assert isinstance(laws["shoot"], ApexShot) and isinstance(laws["aim"], Landing)
+    assert isinstance(laws["reach"], Reach) and laws["none"] is None
+
+
+def _write(path, text):
+    path.write_text(text)
+    return path

@@ -45,7 +45,7 @@ def test_lab_preset_geometry():
     (P.ScenarioParams, {"incline_deg": 90.0}, ["scenario.incline_deg", "90"]),
     (P.ScenarioParams, {"seed": -3}, ["scenario.seed"]),
     (P.ControllerParams, {"preset": "pid"}, ["controller.preset", "plan"]),
-    (P.LandingParams, {"landing_law": "lqr"}, ["landing.landing_law", "aim, shoot"]),
+    (P.LandingParams, {"landing_law": "lqr"}, ["landing.landing_law", "auto, shoot, aim, reach, none"]),
     (P.TraverseParams, {"swing_mode": "x"}, ["traverse.swing_mode", "adaptive"]),
 ])
 def test_bad_parameters_name_field_and_range(block, kwargs, words):

@@ -385,7 +385,8 @@ def test_landing_law_option(tmp_path, capsys):
     assert sensor_auto["capture_speed_mps"] == pytest.approx(0.203, abs=0.005)
     assert main(["montecarlo", "-n", "1", "--landing-law", "lqr", "--out", str(tmp_path)]) == 2
     err = capsys.readouterr().err
-    assert err == "bplir: error: --landing-law = 'lqr' is unknown; allowed: aim, shoot, auto\n"
+    assert err == ("bplir: error: --landing-law = 'lqr' is unknown; allowed: auto, shoot, aim, "
+                   "reach, none\n")
 
 
 # sample 107's grip spacing (1.196 m): its plan blended from the plan library

@@ -39,7 +39,7 @@ def test_reach_linearises_the_distance_to_the_line(alpha):
     toward an aim above the gripper, -sqrt(2 brake (h - aim)) below it."""
     p = preset().plant
     reach = Reach.from_params(p, alpha, dc.replace(preset().landing, reach_speed=0.2,
-                                                    landing_lead=0.0))
+                                                    landing_law="reach"))
     rng = np.random.default_rng(7)
     for _ in range(20):
         x = np.r_[alpha + rng.uniform(0.1, 0.4), rng.uniform(1.6, 2.2), rng.normal(0, 1, 2)]
@@ -61,7 +61,7 @@ def test_reach_takes_over_near_the_line_in_the_second_half_and_latches():
     within ``depth`` of the line, or when the plan has ended, and keeps it."""
     p = preset()
     p = p.with_(path=dc.replace(p.path, mode="plan"),
-                landing=dc.replace(p.landing, reach_speed=0.2, landing_lead=0.0),
+                landing=dc.replace(p.landing, reach_speed=0.2, landing_law="reach"),
                 scenario=dc.replace(p.scenario, incline_deg=20.0))
     plan, gains = tracking_plan(p)
     reach = Reach.from_params(p.plant, math.radians(20.0), p.landing)
@@ -86,7 +86,7 @@ STUDY = Path(__file__).resolve().parents[1] / "examples" / "study_realistic.toml
 
 
 def test_the_reach_captures_on_the_back_swing_short_of_the_grip():
-    """Why the reach is off by default (``landing.reach_speed = 0``): with it
+    """Why the reach is not the default law (``landing.landing_law = "reach"``): with it
     (0.2 m/s) swings count as captured by the 0.8 D criterion although the
     gripper fell back and grabbed the line at the next slow moment, 0.6-0.9 m
     short of the planned grip.  Sample 0 of root seed 2 at +20 deg (1.2 m),
@@ -98,7 +98,7 @@ def test_the_reach_captures_on_the_back_swing_short_of_the_grip():
     assert study.params.scenario.min_travel_fraction == 1.9
     study = study.with_(
         seed=2, params=study.params.with_(
-            landing=dc.replace(study.params.landing, reach_speed=0.2, landing_lead=0.0),
+            landing=dc.replace(study.params.landing, reach_speed=0.2, landing_law="reach"),
             scenario=dc.replace(study.params.scenario, incline_deg=20.0)),
         distributions=tuple(d for d in study.distributions
                             if d.name != "scenario.grip_spacing"))

@@ -436,12 +436,14 @@ def test_traversal_swings_land_and_the_swapped_robot_aims_at_the_line():
 
     p = preset()
     one, two = (traverse_swing(p, g, 1.2, 0.0).landing for g in (1, 2))
-    assert one.landing_lead == two.landing_lead == p.landing.landing_lead > 0
+    assert one.landing_law == two.landing_law == p.landing.landing_law == "auto"
     assert traverse_swing(p, 1, 1.2, 0.0).plan.delay_compensation == p.plan.delay_compensation \
         == 0.01
     assert one == two   # the swapped robot is another robot, landed by the same settings
     off = p.with_(traverse=dc.replace(p.traverse, landing=False))
-    assert traverse_swing(off, 2, 1.2, 0.0).landing.landing_lead == 0.0
+    assert traverse_swing(off, 2, 1.2, 0.0).landing.landing_law == "none"
+    reach = p.with_(landing=dc.replace(p.landing, landing_law="reach"))
+    assert traverse_swing(reach, 1, 1.2, 0.0).landing.landing_law == "none"
 
 
 @pytest.mark.parametrize("k, before", [(7, "swing timeout")])
@@ -510,7 +512,7 @@ def test_the_rest_planner_budgets_the_landing_at_the_torque_limit():
     t = np.arange(len(cur)) * T
     planned = np.interp(t, plan.times, plan.torque)
     no_probe = p.with_(plan=dc.replace(p.plan, delay_probe=0.0),
-                       landing=dc.replace(p.landing, landing_lead=0.0))
+                       landing=dc.replace(p.landing, landing_law="none"))
     np.testing.assert_array_equal(budgeted_currents(plan, no_probe), np.abs(planned) / k)
     planned[:8] += probe_torques(p.plan.delay_probe)
     plain = np.abs(planned) / k
@@ -522,7 +524,7 @@ def test_the_rest_planner_budgets_the_landing_at_the_torque_limit():
     before, after = np.interp([start - T, start], plan.times, y)
     assert before < -p.landing.shoot_depth < after   # the window opens at 30 cm
     assert 0.15 < plan.duration - start < 0.35
-    off = p.with_(landing=dc.replace(p.landing, landing_lead=0.0))
+    off = p.with_(landing=dc.replace(p.landing, landing_law="none"))
     np.testing.assert_array_equal(budgeted_currents(plan, off), plain)
 
 

@@ -49,9 +49,10 @@ def shared(p, *names):
                       "adaptive (the path generator), plan (plan tracking with its "
                       "landing), rts, lab"),
              "landing": ("--landing-law", None, None,
-                         "plan tracking's landing: aim, shoot, or auto (the default) "
-                         "(shoot where link 1 carries the planned gripper to the line, "
-                         "aim where the elbow lifts it)")}
+                         "plan tracking's landing: auto (the default: shoot where link 1 "
+                         "carries the planned gripper to the line, aim where the elbow "
+                         "lifts it), shoot, aim, reach, or none (the plan tracked to its "
+                         "end)")}
     for n in names:
         option(p, *table[n])
         if n in ("controller", "estimator"):   # arguments of a plug-in's factory

@@ -143,11 +143,11 @@ def plan_tracker(params, comp: DelayCompensation, path_geometry, plan_gains) -> 
                                    plan_gains.x0.vector_values(
                                        plan_gains.x0.get_segment_times()).T, pp)
     reach = None
-    if pp.landing_lead > 0 and law == "shoot":
+    if law == "shoot":
         reach = ApexShot.from_params(params.plant, params.friction, path_geometry.alpha, pp)
-    elif pp.landing_lead > 0:
+    elif law == "aim":
         reach = Landing.from_params(params.plant, path_geometry.alpha, pp)
-    elif pp.reach_speed > 0:
+    elif law == "reach":
         reach = Reach.from_params(params.plant, path_geometry.alpha, pp)
     T = params.controller.period
     return PlanTracker(plan_gains, params.controller.torque_limit, T,

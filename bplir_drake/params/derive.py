@@ -132,11 +132,13 @@ def _traverse_swing(p: BplirParams, m: Manoeuvre) -> BplirParams:
     if tp.swing_mode != "plan":
         return p
     plan = replace(p.plan, end_depth=round(TRAVERSE_END_SHARE * p.gripper.capture_distance, 6))
-    landing = replace(p.landing, reach_speed=0.0)
+    landing = p.landing
+    if landing.landing_law == "reach":   # a traversal's swing lands by the apex laws or none
+        landing = replace(landing, landing_law="none")
     if tp.shoot_brake_ratio > 0.0:
         landing = replace(landing, shoot_brake_ratio=tp.shoot_brake_ratio)
     if not tp.landing:   # plan tracking alone, as traversals were first built
-        landing = replace(landing, landing_lead=0.0)
+        landing = replace(landing, landing_law="none")
         plan = replace(plan, delay_compensation=0.0, delay_probe=0.0)
     errors = [e for e in m.learnt if math.isfinite(e)]
     if tp.landing_learning > 0.0 and errors and tp.landing:

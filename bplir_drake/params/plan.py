@@ -10,7 +10,7 @@ from .retired import MOVED, relocate
 
 PLAN_INDEXING = ("time", "state")
 PLAN_FILE_ANGLES = ("package", "robot")
-LANDING_LAWS = ("aim", "shoot", "auto")
+LANDING_LAWS = ("auto", "shoot", "aim", "reach", "none")
 #: the most a landing's aim is raised or lowered (``landing.landing_bias``, m)
 MAX_LANDING_BIAS = 0.02
 
@@ -76,14 +76,15 @@ class HangingParams(_Block):
 
 @dataclass(frozen=True)
 class LandingParams(_Block):
-    """How plan tracking ends the swing on the line: the shooting landing
-    (``shoot``: link 1's stop aimed at the line), the aim law (``aim``: the
-    elbow lifts the gripper to a margin below it) or, off by default, the
-    terminal reach; ``auto`` picks between the first two on the plan."""
+    """How plan tracking ends the swing on the line, by the law's name: the
+    shooting landing (``shoot``: link 1's stop aimed at the line), the aim
+    law (``aim``: the elbow lifts the gripper to a margin below it), the
+    terminal reach (``reach``), or ``none`` (the plan tracked to its end);
+    ``auto`` picks between the first two on the plan."""
 
     _name = "landing"
     # the terminal reach (systems/landing.py), off by default
-    reach_speed: float = _p(0.0, "m/s", 0, 2, doc="the terminal reach's speed toward its aim (0: no reach; it lands on the back swing, short of the grip)")
+    reach_speed: float = _p(0.0, "m/s", 0, 2, doc="landing_law 'reach': the speed toward its aim the reach's profile starts from")
     reach_depth: float = _p(0.12, "m", 0, 0.5, doc="the reach takes over once the gripper is this close to the line in the plan's second half (or at the plan's end)")
     reach_lift: float = _p(-0.01, "m", -0.1, 0.1, doc="the reach aims the gripper this far from the line (negative: below, inside the capture band)")
     reach_brake: float = _positive(1.25, "m/s^2", doc="the reach's speed profile toward its aim, sqrt(reach_speed^2 + 2 reach_brake |distance|)")
@@ -91,14 +92,14 @@ class LandingParams(_Block):
     reach_hold: float = _p(-0.05, "m", -0.2, 0, doc="see reach_tangent")
     reach_rate_gain: float = _positive(30.0, "1/s", doc="the reach's speed error to acceleration gain")
     # the apex landing (systems/landing.py)
-    landing_lead: float = _p(0.025, "m s/rad", 0, 1, doc="the aim law aims landing_margin + landing_lead q1' below the line, so the gripper meets the band as link 1 stops (0: no aim law)")
+    landing_lead: float = _p(0.025, "m s/rad", 0, 1, lo_open=True, doc="the aim law aims landing_margin + landing_lead q1' below the line, so the gripper meets the band as link 1 stops")
     landing_margin: float = _p(0.01, "m", 0, 0.1, doc="the landing aims the gripper this far below the line when link 1 stops (inside the capture band)")
     landing_depth: float = _p(0.12, "m", 0, 0.5, doc="the aim law takes over once the gripper is this close to the line in the plan's last forward swing of link 1")
     landing_take_rate: float = _p(1.2, "rad/s", 0, 10, doc="... or once link 1 slows below this rate while decelerating")
     landing_gain: float = _positive(10.0, "1/s", doc="the landing's height error to rate gain")
     landing_rate_gain: float = _positive(30.0, "1/s", doc="the landing's rate error to acceleration gain")
     landing_min_decel: float = _positive(1.0, "rad/s^2", doc="link 1 counts as decelerating above this (nominal model, elbow held)")
-    landing_law: str = field(default="auto", metadata=dict(doc="plan tracking's terminal law: auto (shoot where link 1 carries the gripper to the line, aim where the elbow lifts it), shoot, aim", allowed="auto, shoot, aim"))
+    landing_law: str = field(default="auto", metadata=dict(doc="plan tracking's terminal law: auto (shoot where link 1 carries the gripper to the line, aim where the elbow lifts it), shoot, aim, reach (the terminal reach) or none (the plan tracked to its end)", allowed="auto, shoot, aim, reach, none"))
     landing_bias: float = _p(0.0, "m", -MAX_LANDING_BIAS, MAX_LANDING_BIAS, doc="how far the robot's estimate of the gripper's height ran above the truth at earlier landings; both landing laws aim this much higher")
     shoot_height: float = _p(-0.015, "m", -0.1, 0, doc="landing_law 'shoot': the gripper's aimed distance to the line when link 1 stops (negative: inside the capture band, at most gripper.capture_distance deep)")
     shoot_depth: float = _p(0.3, "m", 0, 1, doc="landing_law 'shoot': it takes over once the gripper is this close to the line in the plan's last forward swing of link 1")
@@ -115,10 +116,6 @@ class LandingParams(_Block):
     def _check(self):
         self._one_of("landing_law", LANDING_LAWS)
         self._off_or_at_least("shoot_lift_min_time", 0.02, "the aim law")
-        if self.landing_lead > 0 and self.reach_speed > 0:
-            raise ParameterError(f"landing.landing_lead = {self.landing_lead:g} m s/rad and "
-                                 f"landing.reach_speed = {self.reach_speed:g} m/s are both set; "
-                                 "allowed: one terminal law (set the other to 0)")
 
 
 #: fields of the former ``[path]`` table that are now in ``[plan]`` (by

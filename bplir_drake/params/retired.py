@@ -113,6 +113,18 @@ def loop_tuning(table: dict[str, Any]) -> tuple[dict[str, Any], list[str]]:
     return out, ignored
 
 
+def named_landing_law(table: dict[str, Any]) -> tuple[dict[str, Any], list[str]]:
+    """A ``[landing]`` table written when ``landing_lead = 0`` switched the
+    apex laws off (the reach on, where ``reach_speed`` was set), as the law
+    by name: ``landing_law = "reach"`` or ``"none"``, the lead left at its
+    default; and what was read so.  Another table is returned as it is."""
+    if table.get("landing_lead") != 0:
+        return table, []
+    law = "reach" if (table.get("reach_speed") or 0) > 0 else "none"
+    out = {k: v for k, v in table.items() if k != "landing_lead"} | {"landing_law": law}
+    return out, [f"landing.landing_lead = 0 (now landing.landing_law = {law!r})"]
+
+
 def drop_retired(data: dict[str, Any], blocks: dict[str, type]) -> dict[str, Any]:
     """``data`` (tables by block) with moved fields moved (:func:`move_fields`)
     and without its retired fields; one ``FutureWarning`` lists those whose
@@ -121,6 +133,10 @@ def drop_retired(data: dict[str, Any], blocks: dict[str, type]) -> dict[str, Any
     out, ignored = dict(data), []
     if isinstance(out.get("estimator"), dict):
         out["estimator"], ignored = loop_tuning(out["estimator"])
+        data = out
+    if isinstance(out.get("landing"), dict):
+        out["landing"], switched = named_landing_law(out["landing"])
+        ignored += switched
         data = out
     for (block, name), (rule, value) in RULED.items():
         table = out.get(block)

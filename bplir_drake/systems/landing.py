@@ -321,7 +321,8 @@ def resolved_landing(p, alpha: float, states, landing):
 
 
 def landing_law(p, alpha: float, states, landing) -> str:
-    """The law of :func:`resolved_landing`: ``"aim"`` or ``"shoot"``."""
+    """The law of :func:`resolved_landing`: ``"shoot"``, ``"aim"``,
+    ``"reach"`` or ``"none"`` (``"auto"`` resolved)."""
     return resolved_landing(p, alpha, states, landing)[0]
 
 

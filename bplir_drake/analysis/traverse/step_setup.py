@@ -36,10 +36,11 @@ def budgeted_currents(plan, p: BplirParams) -> np.ndarray:
     ticks = np.floor(t / p.controller.period + 1e-9).astype(int)
     tq = tq + np.array([probe[k] if k < len(probe) else 0.0 for k in ticks])
     tq = np.abs(tq)
-    if landing.landing_lead > 0:
-        alpha = math.radians(p.scenario.incline_deg)
-        law = landing_law(p.plant, alpha, plan.states, landing)
-        depth = landing.shoot_depth if law == "shoot" else landing.landing_depth
+    alpha = math.radians(p.scenario.incline_deg)
+    law = landing_law(p.plant, alpha, plan.states, landing)
+    if law != "none":
+        depth = {"shoot": landing.shoot_depth, "aim": landing.landing_depth,
+                 "reach": landing.reach_depth}[law]
         h = np.array([height_rates(p.plant, alpha, x)[0] for x in plan.states])
         near = (plan.times >= 0.5 * plan.duration) & (h > -depth)
         if near.any():

@@ -53,10 +53,10 @@ def test_the_worked_example_commissions_a_similar_robot_end_to_end(own_cache, mo
     for code in re.findall(r"```python\n(.*?)```", page, re.S):
         exec(compile(code, "commission.md", "exec"), namespace)
     r, out = namespace["result"], own_cache / "out" / "scaled"
-    line = [p for p in r.points if p["start"] == "line"]
+    line = [p for p in r.points if p.start == "line"]
     point, other = sorted(line, key=lambda p: p["holding"])   # holding with gripper 1, 2
     assert point["how"] == other["how"] == "similarity"
-    tries = sorted((p for p in r.points if p["start"] == "hanging"), key=lambda p: p["holding"])
+    tries = sorted((p for p in r.points if p.start == "hanging"), key=lambda p: p.holding)
     assert [p["how"] for p in tries] == ["similarity"] * 2   # the tries from hanging
     ref = next(x for x in shipped_references() if x.start == "line").library
     i, j = list(ref.inclines).index(0.0), list(ref.spacings).index(1.2)
@@ -67,7 +67,7 @@ def test_the_worked_example_commissions_a_similar_robot_end_to_end(own_cache, mo
         assert study["captured"] == 20 and study["capture_speed_p95_mps"] <= 0.5
     # 19 or 20 of 20 cannot show 97 %: the verdict says so, and how many swings would
     assert not r.ready and r.limits == [] and r.verdict == "not shown"
-    assert {st["holding"] for st in r.studies} == {1, 2}
+    assert {st.holding for st in r.studies} == {1, 2}
     assert len(r.unshown) == 2 and all("captured 20/20, Wilson 95 % 83.9-100.0 %" in x
                                        and "--samples 125" in x for x in r.unshown)
     s = json.loads(r.to_json())
@@ -163,14 +163,15 @@ def test_the_verdict_names_what_the_misses_show():
     from types import SimpleNamespace
 
     from bplir_drake.analysis.commission.verdict import miss_reasons
+    from bplir_drake.analysis.montecarlo.study import StudyRow
 
     robot = preset()
-    ok = dict(outcome="captured", max_estimation_error_rad=0.01, peak_torque_Nm=5.0,
+    ok = StudyRow(outcome="captured", max_estimation_error_rad=0.01, peak_torque_Nm=5.0,
               closest_distance_m=0.019, capture_speed_mps=0.3)
-    rows = [ok | {"scenario.grip_spacing": 1.1 + 0.002 * k} for k in range(90)]
-    rows += [ok | dict(outcome="timeout", closest_distance_m=0.0205 + 0.001 * k,
-                       peak_torque_Nm=20.0, capture_speed_mps=float("nan"),
-                       **{"scenario.grip_spacing": 1.3}) for k in range(10)]
+    rows = [StudyRow(ok, **{"scenario.grip_spacing": 1.1 + 0.002 * k}) for k in range(90)]
+    rows += [StudyRow(ok, outcome="timeout", closest_distance_m=0.0205 + 0.001 * k,
+                      peak_torque_Nm=20.0, capture_speed_mps=float("nan"),
+                      **{"scenario.grip_spacing": 1.3}) for k in range(10)]
     weak = [SimpleNamespace(peak_torque=19.0, feasible=True)]
     strong = [SimpleNamespace(peak_torque=5.0, feasible=True)]
     first, second = miss_reasons(robot, rows, weak)

@@ -158,11 +158,13 @@ def test_what_commissioning_assumed_is_said():
 
 def test_a_plan_that_does_not_keep_its_energy_is_named():
     """Over 10 % of the exchanged energy unaccounted: named; 9 % is the quadrature's."""
-    row = dict(holding=2, start="hanging", incline_deg=20.0, spacing_m=1.5)
+    from bplir_drake.analysis.commission.rows import PlanPoint
+
+    row = PlanPoint(holding=2, start="hanging", incline_deg=20.0, spacing_m=1.5)
     assert M.UNBALANCED_SHARE == 0.1
-    said = M.unbalanced([row | {"energy_residual_share": 0.11},
-                         row | {"energy_residual_share": 0.09, "holding": 1},
-                         row | {"energy_residual_share": math.nan}])
+    said = M.unbalanced([PlanPoint(row, energy_residual_share=0.11),
+                         PlanPoint(row, energy_residual_share=0.09, holding=1),
+                         PlanPoint(row, energy_residual_share=math.nan), row])
     assert said == ["gripper 2, from hanging, +20 deg, 1.5 m: its energy balance leaves 11 % "
                     "of the energy it exchanges unaccounted"]
 
@@ -170,9 +172,10 @@ def test_a_plan_that_does_not_keep_its_energy_is_named():
 def test_misses_of_a_study_on_one_spacing_are_read():
     """A study on one grip spacing draws none: its rows have no spacing column."""
     from bplir_drake.analysis.commission.verdict import miss_reasons
+    from bplir_drake.analysis.montecarlo.study import StudyRow
 
     robot = preset()
-    row = dict(outcome="timeout", max_estimation_error_rad=0.01, peak_torque_Nm=5.0,
+    row = StudyRow(outcome="timeout", max_estimation_error_rad=0.01, peak_torque_Nm=5.0,
                closest_distance_m=0.021, capture_speed_mps=float("nan"))
     said = miss_reasons(robot, [row] * 3, [])
     assert said[-1].endswith("at grip spacings 1.200 m on average (the study's 1.200 m)")

@@ -63,17 +63,20 @@ def test_commissioning_keeps_the_manoeuvre_whose_studies_do_better(monkeypatch):
     """A swing below the bar and a pump shown ready: the pump is the robot's,
     its limits none; the swing's rows and study are kept, not chosen."""
     from bplir_drake.analysis.commission import commissioning as run
+    from bplir_drake.analysis.commission.rows import PlanPoint, StudyVerdict
 
     def manoeuvre(robot, g, **grid):
         kind = robot.scenario.manoeuvre
         ok = kind == "pump"
-        study = dict(incline_deg=0.0, captured=290 if ok else 72, samples=300 if ok else 100,
-                     rate=0.967 if ok else 0.72, verdict="not shown" if ok else "below",
-                     wilson95=[0.94, 0.98], holding=g, manoeuvre=kind, seed=1, outcomes={},
-                     capture_speed_p95_mps=0.3, capture_speed_p50_mps=0.2,
-                     peak_voltage_V=20.0, peak_torque_Nm=5.0, samples_to_show=400, impact=None)
-        return run.Found(points=[dict(holding=g, start="line", manoeuvre=kind, incline_deg=0.0,
-                                      spacing_m=1.2, how="similarity")], studies=[study],
+        study = StudyVerdict(
+            incline_deg=0.0, captured=290 if ok else 72, samples=300 if ok else 100,
+            rate=0.967 if ok else 0.72, verdict="not shown" if ok else "below",
+            wilson95=[0.94, 0.98], holding=g, manoeuvre=kind, seed=1, outcomes={},
+            capture_speed_p95_mps=0.3, capture_speed_p50_mps=0.2,
+            peak_voltage_V=20.0, peak_torque_Nm=5.0, samples_to_show=400, impact=None)
+        return run.Found(points=[PlanPoint(holding=g, start="line", manoeuvre=kind,
+                                           incline_deg=0.0, spacing_m=1.2, how="similarity")],
+                         studies=[study],
                          limits=[] if ok else [f"gripper {g}: below"],
                          unshown=[f"gripper {g}: pumping: not shown"] if ok else [],
                          plans=[], binding={g: kind})
@@ -82,7 +85,7 @@ def test_commissioning_keeps_the_manoeuvre_whose_studies_do_better(monkeypatch):
     r = run.commission(preset(), grippers=(2,), hanging=False)
     assert r.limits == [] and r.unshown == ["gripper 2: pumping: not shown"]
     assert r.verdict == "not shown" and r.binding == {2: "pump"}
-    chosen = {(st["manoeuvre"], st["chosen"]) for st in r.studies}
+    chosen = {(st.manoeuvre, st.chosen) for st in r.studies}
     assert chosen == {("pump", True), ("swing", False)}
     assert math.isnan(r.rate(0.0, 1)) and r.rate(0.0, 2) == 0.967
     without = run.commission(preset(), grippers=(2,), hanging=False, pumps=False)

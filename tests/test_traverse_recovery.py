@@ -11,6 +11,7 @@ import pytest
 
 from bplir_drake.analysis.traverse.line import load_line
 from bplir_drake.analysis.traverse.recovery import damp, swing_energy
+from bplir_drake.analysis.swing.summary import SwingSummary
 from bplir_drake.params.derive import free_link_upright, raises_aim
 from bplir_drake.analysis.traverse.traversal import run_traverse
 from bplir_drake.params import BplirParams, Manoeuvre, ParameterError, derive, swapped
@@ -232,7 +233,7 @@ def test_a_try_that_missed_in_the_robots_own_estimate_aims_higher_next():
     raise_ = robot.traverse.retry_aim_raise
     band = robot.gripper.capture_distance
     assert 0.0 < raise_ <= 0.01 and robot.landing.landing_bias == 0.0
-    missed = {"outcome": "timeout", "estimated_peak_height_m": -0.75 * band}
+    missed = SwingSummary(outcome="timeout", estimated_peak_height_m=-0.75 * band)
     # a swing from the line that missed so: its try from hanging aims as before
     # (on the span at 48 V, held-out root seed 207, the raised tries after a
     # swing from the line crashed at 0.53 and 0.60 m/s)
@@ -244,8 +245,8 @@ def test_a_try_that_missed_in_the_robots_own_estimate_aims_higher_next():
     assert once.landing.landing_bias == pytest.approx(raise_)
     twice = derive(robot, Manoeuvre(context="retry", raised=2))
     assert twice.landing.landing_bias == pytest.approx(min(0.02, 2 * raise_))
-    assert not raises_aim(p, {"outcome": "timeout", "estimated_peak_height_m": -1.5 * band})
-    assert not raises_aim(p, {"outcome": "fault", "estimated_peak_height_m": 0.0})
+    assert not raises_aim(p, SwingSummary(outcome="timeout", estimated_peak_height_m=-1.5 * band))
+    assert not raises_aim(p, SwingSummary(outcome="fault", estimated_peak_height_m=0.0))
     assert derive(robot, Manoeuvre(context="retry", raised=5)).landing.landing_bias == 0.02
     off = robot.with_(traverse=dc.replace(robot.traverse, retry_aim_raise=0.0))
     assert not raises_aim(derive(off, Manoeuvre(context="retry")), missed)

@@ -181,16 +181,16 @@ def _retry(p: BplirParams, m: Manoeuvre) -> BplirParams:
     return p.with_(landing=landing)
 
 
-def raises_aim(p: BplirParams, summary: dict) -> bool:
+def raises_aim(p: BplirParams, summary) -> bool:
     """Whether the try from hanging ``p`` that ended with ``summary`` (its
-    swing's summary) teaches the next try to aim higher
+    swing's :class:`~bplir_drake.analysis.swing.summary.SwingSummary`) teaches the next try to aim higher
     (:attr:`Manoeuvre.raised`): it timed out with the robot's estimate of
     the gripper within the capture band (the jaw would have sensed the
     line).  A swing from the line ends its pump-less reach differently and
     teaches nothing here."""
-    peak = summary.get("estimated_peak_height_m", math.nan)
     return (p.traverse.retry_aim_raise > 0.0 and p.scenario.start == "hanging"
-            and summary.get("outcome") == "timeout" and peak >= -p.gripper.capture_distance)
+            and summary.outcome == "timeout"
+            and summary.estimated_peak_height_m >= -p.gripper.capture_distance)
 
 
 def free_link_tilt(p: BplirParams, spacing: float | None = None) -> float:

@@ -25,17 +25,17 @@ def plot_commission(result, axes=None):
     fig, ax = figure_axes(axes, 1, 3, figsize=(11, 3.6))
     own = Scales.of(result.params.plant)
     refs = [r for r in shipped_references() if r.start == "line"][:1]
-    line = [p for p in result.points if p.get("start", "line") == "line"]
-    for g, a, kind in sorted({(p["holding"], p["incline_deg"], p.get("manoeuvre", "swing"))
+    line = [p for p in result.points if p.start == "line"]
+    for g, a, kind in sorted({(p.holding, p.incline_deg, p.manoeuvre)
                               for p in line}):
-        rows = sorted((p for p in line if p["incline_deg"] == a and p["holding"] == g
-                       and p.get("manoeuvre", "swing") == kind), key=lambda p: p["spacing_m"])
-        d = [p["spacing_m"] / own.length for p in rows]
+        rows = sorted((p for p in line if p.incline_deg == a and p.holding == g
+                       and p.manoeuvre == kind), key=lambda p: p.spacing_m)
+        d = [p.spacing_m / own.length for p in rows]
         style = ("o" if g == 1 else "s") + ("-" if kind == "swing" else ":")
         label = f"gripper {g}, {a:+g} deg" + ("" if kind == "swing" else f", {kind}")
-        ax[0].plot(d, [p["duration_s"] / own.time for p in rows], style, label=label)
-        ax[1].plot(d, [p["peak_torque_Nm"] / own.torque for p in rows], style, label=label)
-    for a in sorted({p["incline_deg"] for p in result.points}):
+        ax[0].plot(d, [p.duration_s / own.time for p in rows], style, label=label)
+        ax[1].plot(d, [p.peak_torque_Nm / own.torque for p in rows], style, label=label)
+    for a in sorted({p.incline_deg for p in result.points}):
         for ref in refs:
             lib, sc = ref.library, Scales.of(ref.plant)
             i = int(np.argmin(np.abs(lib.inclines - a)))
@@ -56,16 +56,16 @@ def plot_commission(result, axes=None):
     ax[1].annotate("torque limit", (1.0, limit), xycoords=("axes fraction", "data"),
                    xytext=(-4, -9), textcoords="offset points", ha="right", fontsize=6,
                    color="0.3")
-    studies = sorted(result.studies, key=lambda s: (s["incline_deg"], s["holding"]))
+    studies = sorted(result.studies, key=lambda s: (s.incline_deg, s.holding))
     for k, st in enumerate(studies):
-        y, (lo, hi) = 100 * st["rate"], st["wilson95"]
+        y, (lo, hi) = 100 * st.rate, st.wilson95
         ax[2].errorbar([k], [y], yerr=[[y - 100 * lo], [100 * hi - y]], fmt="o" if
-                       st["holding"] == 1 else "s", capsize=4, color=f"C{st['holding'] - 1}")
-        ax[2].annotate(f"{st['captured']}/{st['samples']}", (k, y), textcoords="offset points",
+                       st.holding == 1 else "s", capsize=4, color=f"C{st.holding - 1}")
+        ax[2].annotate(f"{st.captured}/{st.samples}", (k, y), textcoords="offset points",
                        xytext=(0, 6), ha="center", fontsize=8)
     ax[2].set_xticks(range(len(studies)), [
-        f"gripper {st['holding']}\n{st.get('manoeuvre', 'swing')}"
-        + ("" if st.get("chosen", True) else "\n(not chosen)") + f"\n{st['incline_deg']:+g} deg"
+        f"gripper {st.holding}\n{st.manoeuvre}"
+        + ("" if st.chosen else "\n(not chosen)") + f"\n{st.incline_deg:+g} deg"
         for st in studies], fontsize=7)
     ax[2].set_xlim(-0.6, max(len(studies), 1) - 0.4)
     ax[2].axhline(100 * READY_RATE, ls=":", color="0.4", lw=1)
@@ -80,9 +80,9 @@ def plot_commission(result, axes=None):
 def _by(row: dict) -> str:
     """A row's manoeuvre from the line when it is a pump, and whether it was
     the one chosen (a single swing says nothing)."""
-    if row.get("manoeuvre", "swing") == "swing" and row.get("chosen", True):
+    if row.manoeuvre == "swing" and row.chosen:
         return ""
-    return f", {row.get('manoeuvre', 'swing')}" + ("" if row.get("chosen", True) else
+    return f", {row.manoeuvre}" + ("" if row.chosen else
                                                    " (not chosen)")
 
 
@@ -110,12 +110,12 @@ def report_markdown(result, fmt: str = "png") -> str:
               "| peak voltage (V) | peak torque (N m) |",
               "| --- | --- | --- | --- | --- | --- | --- |"]
     for st in result.studies:
-        lo, hi = st["wilson95"]
-        lines.append(f"| gripper {st['holding']}{_by(st)} | {st['incline_deg']:+g} | "
-                     f"{st['captured']}/{st['samples']} | "
-                     f"{100 * lo:.1f}-{100 * hi:.1f} % | {_num(st['capture_speed_p50_mps'])} / "
-                     f"{_num(st['capture_speed_p95_mps'])} | {_num(st['peak_voltage_V'], '.1f')} | "
-                     f"{_num(st['peak_torque_Nm'])} |")
+        lo, hi = st.wilson95
+        lines.append(f"| gripper {st.holding}{_by(st)} | {st.incline_deg:+g} | "
+                     f"{st.captured}/{st.samples} | "
+                     f"{100 * lo:.1f}-{100 * hi:.1f} % | {_num(st.capture_speed_p50_mps)} / "
+                     f"{_num(st.capture_speed_p95_mps)} | {_num(st.peak_voltage_V, '.1f')} | "
+                     f"{_num(st.peak_torque_Nm)} |")
     lines += _landing_lines(result.studies)
     if s["unbalanced"]:
         lines += ["", "## Plans that do not keep the robot's energy", "",
@@ -142,26 +142,26 @@ def report_markdown(result, fmt: str = "png") -> str:
               "| duration (s) | peak torque (N m) | peak voltage (V) |",
               "| --- | --- | --- | --- | --- | --- | --- | --- |"]
     for p in result.points:
-        lines.append(f"| gripper {p['holding']}{_by(p)} | {p.get('start', 'line')} | "
-                     f"{p['incline_deg']:+g} | {p['spacing_m']:.3f} | "
-                     f"{p['how']} | "
-                     f"{_num(p['duration_s'])} | {_num(p['peak_torque_Nm'])} | "
-                     f"{_num(p['peak_voltage_V'], '.1f')} |")
+        lines.append(f"| gripper {p.holding}{_by(p)} | {p.start} | "
+                     f"{p.incline_deg:+g} | {p.spacing_m:.3f} | "
+                     f"{p.how} | "
+                     f"{_num(p.duration_s)} | {_num(p.peak_torque_Nm)} | "
+                     f"{_num(p.peak_voltage_V, '.1f')} |")
     lines += ["", f"![commissioning]({FIGURE}.{fmt})", ""]
     return "\n".join(lines)
 
 
 def _landing_lines(studies) -> list[str]:
     """The report's section on how hard the robot lands, a line per study."""
-    rows = [st for st in studies if st.get("impact")]
+    rows = [st for st in studies if st.impact]
     if not rows:
         return []
     out = ["", "## How hard it lands", "",
            "At each study's capture speed p95, with the robot's effective mass at its gripper "
            "along the planned arrival (both joints free):", ""]
     for st in rows:
-        im = st["impact"]
-        out.append(f"- gripper {st['holding']}{_by(st)}, {st['incline_deg']:+g} deg: "
+        im = st.impact
+        out.append(f"- gripper {st.holding}{_by(st)}, {st.incline_deg:+g} deg: "
                    f"{_num(im['capture_speed_mps'])} m/s into {im['effective_mass_kg']:.2f} kg: "
                    f"{_num(im['impact_energy_J'], '.3f')} J, {_num(im['impact_impulse_Ns'], '.3f')} "
                    "N s")

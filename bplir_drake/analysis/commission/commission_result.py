@@ -14,9 +14,10 @@ from .commission_report import plot_commission
 
 @dataclass
 class CommissionResult(Result):
-    """A commissioned robot: its grids of plans (``points``: a row each, the
-    gripper it holds with, how it was solved and its figures), the
-    verification study at each incline and holding gripper (``studies``),
+    """A commissioned robot: its grids of plans (``points``: a
+    :class:`~.rows.PlanPoint` each, the gripper it holds with, how it was
+    solved and its figures), the verification study at each incline and
+    holding gripper (``studies``: a :class:`~.rows.StudyVerdict` each),
     the electric margins of its plans, ``limits``: one line per manoeuvre
     without a plan or study below the bar, with the reason and the number
     that shows it, and ``unshown``: one line per study whose capture rate is
@@ -56,17 +57,17 @@ class CommissionResult(Result):
     def summary(self) -> dict:
         """The ``--json`` object: ``ready``, ``studies``, ``limits``,
         ``plans`` (solved, from similarity), ``wall_s`` and the details."""
-        how = [p["how"] for p in self.points]
+        how = [p.how for p in self.points]
         return dict(
             robot=self.name, ready=self.ready, verdict=self.verdict,
-            studies=[dict(holding=s["holding"], incline_deg=s["incline_deg"], captured=s["captured"],
-                          samples=s["samples"], capture_speed_p95_mps=s["capture_speed_p95_mps"],
-                          capture_speed_p50_mps=s["capture_speed_p50_mps"],
-                          wilson95=s["wilson95"], verdict=s.get("verdict"),
-                          samples_to_show=s.get("samples_to_show"),
-                          seed=s["seed"], outcomes=s["outcomes"], impact=s.get("impact"),
-                          manoeuvre=s.get("manoeuvre", "swing"), chosen=s.get("chosen", True),
-                          peak_voltage_V=s["peak_voltage_V"], peak_torque_Nm=s["peak_torque_Nm"])
+            studies=[dict(holding=s.holding, incline_deg=s.incline_deg, captured=s.captured,
+                          samples=s.samples, capture_speed_p95_mps=s.capture_speed_p95_mps,
+                          capture_speed_p50_mps=s.capture_speed_p50_mps,
+                          wilson95=s.wilson95, verdict=s.verdict,
+                          samples_to_show=s.samples_to_show,
+                          seed=s.seed, outcomes=s.outcomes, impact=s.impact,
+                          manoeuvre=s.manoeuvre, chosen=s.chosen,
+                          peak_voltage_V=s.peak_voltage_V, peak_torque_Nm=s.peak_torque_Nm)
                      for s in self.studies],
             limits=list(self.limits), unshown=list(self.unshown),
             plans=dict(points=len(how), solved=sum(h != "none" for h in how),
@@ -84,15 +85,15 @@ class CommissionResult(Result):
         metre, the motor's losses included (J/m), and the swinging speed
         (m/min), swinging alone (no riding, no re-grip)."""
         d = self.params.scenario.grip_spacing
-        rows = [p for p in self.points if p["incline_deg"] == 0.0 and p["spacing_m"] == d
-                and p["how"] != "none" and p["holding"] == 1
-                and p.get("start", "line") == "line" and p.get("chosen", True)]
+        rows = [p for p in self.points if p.incline_deg == 0.0 and p.spacing_m == d
+                and p.how != "none" and p.holding == 1
+                and p.start == "line" and p.chosen]
         if not rows:
             return {}
         r = rows[0]
         return dict(energy_per_m_J=r.get("energy_in_J", math.nan) / d,
                     supply_energy_per_m_J=r.get("supply_energy_J", math.nan) / d,
-                    metres_per_min=60.0 * d / r["duration_s"])
+                    metres_per_min=60.0 * d / r.duration_s)
 
     def table(self):
         """The grid of plans, a row per point."""
@@ -107,7 +108,7 @@ class CommissionResult(Result):
         """The verification study's capture rate at ``incline`` holding with
         gripper ``holding`` by the manoeuvre chosen (nan: none)."""
         for s in self.studies:
-            if np.isclose(s["incline_deg"], incline) and s["holding"] == holding \
-                    and s.get("chosen", True):
-                return s["rate"]
+            if np.isclose(s.incline_deg, incline) and s.holding == holding \
+                    and s.chosen:
+                return s.rate
         return math.nan

@@ -17,6 +17,7 @@ from .grid import at, solve_library
 from .margins import (assumptions, binding_line, electric_margins, landing_impact,
                       motor_figures)
 from .commission_result import CommissionResult
+from .rows import PlanPoint, StudyVerdict
 from .similarity import commissioned_references, shipped_references, similar_guesses
 from .commission_report import write_report
 from .verdict import (DEFAULT_SAMPLES, READY_RATE, miss_reasons, no_plan_reason,
@@ -91,8 +92,8 @@ def commission(params: BplirParams, *, inclines=(0.0,), spacings=None,
         if hanging and any(p is not None for p in chosen.plans):
             from_hanging = solve_library(tries, inclines, spacings, **pool)
             found.plans += [r.plan for r in from_hanging.values()]
-            found.points += [r.row() | {"holding": g, "start": "hanging", "manoeuvre": "swing",
-                                        "chosen": True} for r in from_hanging.values()]
+            found.points += [PlanPoint(r.row(), holding=g, start="hanging")
+                             for r in from_hanging.values()]
             found.limits += [f"gripper {g}, from hanging: {_no_plan(tries, r)}"
                              for r in from_hanging.values() if r.plan is None]
     result = CommissionResult(name=name, params=params, points=found.points,
@@ -122,15 +123,15 @@ class Found:
     def score(self) -> tuple:
         """(studies captured above the bar less the limit lines, the
         studies' mean capture rate): the better manoeuvre scores higher."""
-        ok = sum(st["verdict"] != "below" for st in self.studies)
-        rates = [st["rate"] for st in self.studies]
+        ok = sum(st.verdict != "below" for st in self.studies)
+        rates = [st.rate for st in self.studies]
         return ok - len(self.limits), sum(rates) / max(len(rates), 1)
 
     def add(self, other: "Found", chosen: bool) -> None:
         """``other``'s rows and studies marked ``chosen``; its limits, plans
         and binding lines only when it is the manoeuvre chosen."""
-        self.points += [p | {"chosen": chosen} for p in other.points]
-        self.studies += [st | {"chosen": chosen} for st in other.studies]
+        self.points += [PlanPoint(p, chosen=chosen) for p in other.points]
+        self.studies += [StudyVerdict(st, chosen=chosen) for st in other.studies]
         if chosen:
             self.limits += other.limits
             self.unshown += other.unshown
@@ -147,7 +148,7 @@ def _manoeuvre(robot, g: int, *, inclines, spacings, samples, seed, out, pool) -
     solved = solve_library(robot, inclines, spacings, **pool)
     f = Found(plans=[r.plan for r in solved.values()])
     f.binding[g] = binding_line(robot, f.plans)
-    f.points = [r.row() | {"holding": g, "start": "line", "manoeuvre": kind}
+    f.points = [PlanPoint(r.row(), holding=g, start="line", manoeuvre=kind)
                 for r in solved.values()]
     head = f"gripper {g}: " + ("" if kind == "swing" else "pumping: ")
     f.limits = [head + _no_plan(robot, r) for r in solved.values() if r.plan is None]
@@ -159,10 +160,10 @@ def _manoeuvre(robot, g: int, *, inclines, spacings, samples, seed, out, pool) -
         where = None if out is None else out / "studies" / name
         v, why = _verify(robot, a, solved, samples, seed, spacings, where, pool)
         own = _own_spacing(robot, a, solved, spacings)
-        f.studies.append(v | {"holding": g, "manoeuvre": kind, "impact": None if own is None
-                              else landing_impact(robot, own, v["capture_speed_p95_mps"])})
+        f.studies.append(StudyVerdict(v, holding=g, manoeuvre=kind, impact=None if own is None
+                                      else landing_impact(robot, own, v.capture_speed_p95_mps)))
         if why:
-            (f.unshown if v["verdict"] == "not shown" else f.limits).append(head + why)
+            (f.unshown if v.verdict == "not shown" else f.limits).append(head + why)
     return f
 
 
@@ -172,10 +173,10 @@ def _verify(robot, incline, solved, samples, seed, spacings, where, pool):
     rate is above the bar but its interval is not, else why it misses)."""
     study = verification_study(robot, incline, samples, seed, spacings)
     summary, rows = _run(study, where, pool)
-    v = study_verdict(incline, summary) | {"seed": study.seed}
-    if v["verdict"] == "ready":
+    v = StudyVerdict(study_verdict(incline, summary), seed=study.seed)
+    if v.verdict == "ready":
         return v, ""
-    if v["verdict"] == "not shown":
+    if v.verdict == "not shown":
         return v, _not_shown(v)
     why = miss_reasons(robot, rows, [r.plan for r in solved.values()])
     return v, "; ".join([_short(v)] + why)
@@ -207,19 +208,19 @@ def _no_plan(params, res) -> str:
 def _not_shown(v: dict) -> str:
     """The line of a verification study whose rate is above
     :data:`READY_RATE` but whose Wilson interval reaches below it."""
-    lo, hi = v["wilson95"]
-    n = v["samples_to_show"]
-    return (f"{v['incline_deg']:+g} deg: captured {v['captured']}/{v['samples']}, Wilson 95 % "
-            f"{100 * lo:.1f}-{100 * hi:.1f} %: {v['samples']} swings cannot show "
+    lo, hi = v.wilson95
+    n = v.samples_to_show
+    return (f"{v.incline_deg:+g} deg: captured {v.captured}/{v.samples}, Wilson 95 % "
+            f"{100 * lo:.1f}-{100 * hi:.1f} %: {v.samples} swings cannot show "
             f"{100 * READY_RATE:.0f} %; {n} capturing as these did would (--samples {n})")
 
 
 def _short(v: dict) -> str:
     """The limit line of a verification study below :data:`READY_RATE`."""
-    misses = ", ".join(f"{n} {k}" for k, n in v["outcomes"].items() if k != "captured")
-    lo, hi = v["wilson95"]
-    return (f"{v['incline_deg']:+g} deg: captured {v['captured']}/{v['samples']} "
-            f"({100 * v['rate']:.0f} %, Wilson 95 % {100 * lo:.0f}-{100 * hi:.0f} %), below "
+    misses = ", ".join(f"{n} {k}" for k, n in v.outcomes.items() if k != "captured")
+    lo, hi = v.wilson95
+    return (f"{v.incline_deg:+g} deg: captured {v.captured}/{v.samples} "
+            f"({100 * v.rate:.0f} %, Wilson 95 % {100 * lo:.0f}-{100 * hi:.0f} %), below "
             f"{100 * READY_RATE:.0f} %; misses: {misses}")
 
 

@@ -226,11 +226,11 @@ def unbalanced(points) -> list[str]:
     the collocation's coarse steps lend it energy its tracking must find."""
     out = []
     for p in points:
-        r = p.get("energy_residual_share", math.nan)
+        r = p.energy_residual_share
         if r > UNBALANCED_SHARE:
-            kind = "" if p.get("manoeuvre", "swing") == "swing" else f" ({p['manoeuvre']})"
-            kind += "" if p.get("chosen", True) else " (not chosen)"
-            out.append(f"gripper {p['holding']}, from {p.get('start', 'line')}{kind}, "
-                       f"{p['incline_deg']:+g} deg, {p['spacing_m']:g} m: its energy balance "
+            kind = "" if p.manoeuvre == "swing" else f" ({p.manoeuvre})"
+            kind += "" if p.chosen else " (not chosen)"
+            out.append(f"gripper {p.holding}, from {p.start}{kind}, "
+                       f"{p.incline_deg:+g} deg, {p.spacing_m:g} m: its energy balance "
                        f"leaves {100 * r:.0f} % of the energy it exchanges unaccounted")
     return out

@@ -22,6 +22,7 @@ from ..montecarlo.study import Distribution, Study
 from ..montecarlo.statistics import samples_to_show, wilson_interval
 from ...params.derive import free_link_tilt, UPRIGHT_FREE_LINK
 from .margins import motor_figures
+from .rows import StudyVerdict
 from .similarity import Scales
 
 #: the verification study's uncertainty: (name, kind, size); kind "rel" is
@@ -87,7 +88,7 @@ def verification_study(params, incline: float, samples: int, seed: int,
     return Study(base, tuple(dists), samples, seed)
 
 
-def study_verdict(incline: float, summary: dict) -> dict:
+def study_verdict(incline: float, summary: dict) -> StudyVerdict:
     """One incline's line of the verdict from its study's summary:
     ``verdict`` is "ready" (the Wilson 95 % interval's lower end at or above
     :data:`READY_RATE`), "not shown" (the rate above it, the interval not:
@@ -98,14 +99,14 @@ def study_verdict(incline: float, summary: dict) -> dict:
     verdict = "ready" if lo >= READY_RATE else "not shown" if rate > READY_RATE else "below"
     pct = summary["percentiles"]
     speed = pct.get("capture_speed_mps", {})
-    return dict(incline_deg=float(incline), captured=k, samples=n,
-                rate=rate, wilson95=[lo, hi], verdict=verdict,
-                samples_to_show=samples_to_show(rate, READY_RATE) if n else None,
-                capture_speed_p50_mps=speed.get("p50", math.nan),
-                capture_speed_p95_mps=speed.get("p95", math.nan),
-                peak_voltage_V=pct.get("peak_voltage_V", {}).get("max", math.nan),
-                peak_torque_Nm=pct.get("peak_torque_Nm", {}).get("max", math.nan),
-                outcomes=summary["outcomes"])
+    return StudyVerdict(incline_deg=float(incline), captured=k, samples=n,
+                        rate=rate, wilson95=[lo, hi], verdict=verdict,
+                        samples_to_show=samples_to_show(rate, READY_RATE) if n else None,
+                        capture_speed_p50_mps=speed.get("p50", math.nan),
+                        capture_speed_p95_mps=speed.get("p95", math.nan),
+                        peak_voltage_V=pct.get("peak_voltage_V", {}).get("max", math.nan),
+                        peak_torque_Nm=pct.get("peak_torque_Nm", {}).get("max", math.nan),
+                        outcomes=summary["outcomes"])
 
 
 def no_plan_reason(params, incline: float, spacing: float, guess, tried=()) -> str:
@@ -146,11 +147,11 @@ def _short_of_the_grip(params, rows, misses) -> list[str]:
     robot's free link ends within :data:`UPRIGHT_FREE_LINK` of upright at
     those spacings, why the landing cannot make that up."""
     band = params.gripper.capture_distance
-    short = [r for r in misses if r["outcome"] == "timeout"
-             and r["closest_distance_m"] < 2.0 * band]
+    short = [r for r in misses if r.outcome == "timeout"
+             and r.closest_distance_m < 2.0 * band]
     if len(short) * 2 <= len(misses):
         return []
-    gap = 1e3 * float(np.median([r["closest_distance_m"] for r in short]))
+    gap = 1e3 * float(np.median([r.closest_distance_m for r in short]))
     own = params.scenario.grip_spacing   # a study on one spacing draws none
 
     def spacing(r):
@@ -177,13 +178,13 @@ def miss_reasons(params, rows, plans) -> list[str]:
     most of it, else the feedback's fight), the swing stopping just short
     of the grip, or the gripper arriving faster than the gripper's capture
     speed."""
-    misses = [r for r in rows if r["outcome"] not in ("captured", "error")]
+    misses = [r for r in rows if r.outcome not in ("captured", "error")]
     if not misses:
         return []
     n = len(misses)
-    far = [r for r in misses if r["max_estimation_error_rad"] > 0.1]
+    far = [r for r in misses if r.max_estimation_error_rad > 0.1]
     if len(far) * 2 > n:
-        err = float(np.median([r["max_estimation_error_rad"] for r in far]))
+        err = float(np.median([r.max_estimation_error_rad for r in far]))
         return [f"the estimate is lost: {len(far)} of {n} misses had it more than 0.1 rad from "
                 f"the truth (median {err:.2f} rad)"]
     out, limit = [], params.controller.torque_limit
@@ -195,7 +196,7 @@ def miss_reasons(params, rows, plans) -> list[str]:
                    f"(the plans use up to {used:.2f} N m, {100 * share:.0f} % of it)"
                    + (": more elbow torque would help" if share >= 0.8 else ""))
     out += _short_of_the_grip(params, rows, misses)
-    crashes = [r["capture_speed_mps"] for r in misses if r["outcome"] == "crash"]
+    crashes = [r.capture_speed_mps for r in misses if r.outcome == "crash"]
     speed = params.gripper.capture_speed
     if crashes and len(crashes) * 2 > n:
         out.append(f"{len(crashes)} of {n} misses reach the line faster than the gripper's "

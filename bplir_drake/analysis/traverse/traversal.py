@@ -299,7 +299,7 @@ class _Traversal:
                   outcome=s.outcome, capture_speed_mps=s.capture_speed_mps,
                   capture_impulse_Ns=impulse, effective_mass_kg=m_eff,
                   peak_torque_Nm=s.peak_torque_Nm, peak_power_W=s.peak_motor_power_W,
-                  peak_voltage_V=s.get("peak_voltage_V", math.nan),
+                  peak_voltage_V=s.peak_voltage_V,
                   energy_J=elec + standby, i2t_start_A2s=h0, i2t_end_A2s=self.h,
                   landing_bias_m=p.landing.landing_bias,
                   landing_height_error_m=s.landing_height_error_m, seed=seed,

@@ -113,7 +113,7 @@ def test_a_manoeuvre_out_of_range_is_one_line_and_old_fields_are_retired():
     with pytest.warns(FutureWarning, match=r"traverse.retry_max_time = 8.0 \(now the rule "
                                            r"derive.RETRY_TIME sqrt\(L/g\)\)"):
         from_dict({"traverse": {"retry_max_time": 8.0}})
-    assert len(parameter_reference()) == 225 < 227
+    assert len(parameter_reference()) == 226 < 227
     assert isinstance(BplirParams().plant, PlantParams)
 
 
@@ -157,3 +157,53 @@ def test_the_landing_law_is_chosen_by_its_name(tmp_path):
 def _write(path, text):
     path.write_text(text)
     return path
+
+
+def test_the_line_sensor_is_fitted_by_name(tmp_path):
+    """``line_sensor.fitted`` says whether the jaws carry the sensor; a file
+    from when ``range = 0`` meant none reads the same silently, and one
+    whose ``range > 0`` fitted it reads as fitted, with one warning."""
+    import warnings
+
+    from bplir_drake.params import load_toml, preset
+
+    p = preset()
+    assert not p.line_sensor.fitted and p.line_sensor.range == 0.2
+    old = _write(tmp_path / "old.toml", "[line_sensor]\nrange = 0.0\nsigma = 0.002\n")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert load_toml(old).line_sensor == dc.replace(p.line_sensor, sigma=0.002)
+    _write(old, "[line_sensor]\nrange = 0.3\n")
+    with pytest.warns(FutureWarning, match=r"line_sensor.range = 0.3 \(now line_sensor.fitted"):
+        sensor = load_toml(old).line_sensor
+    assert sensor.fitted and sensor.range == 0.3
+    with pytest.raises(ParameterError, match="line_sensor.range = 0 is out of range"):
+        dc.replace(p.line_sensor, range=0.0)
+
+
+def test_the_lift_law_is_named_and_traverse_landing_is_retired(tmp_path):
+    """``landing.lift_law`` names the law ``auto`` uses where the elbow
+    lifts the gripper; a file from when ``shoot_lift_min_time > 0`` chose
+    the shot reads as ``lift_law = "shoot"`` with one warning (0: the aim
+    law, silently), and ``traverse.landing = false`` reads as the law
+    ``none``."""
+    import warnings
+
+    from bplir_drake.params import load_toml, preset
+
+    p = preset()
+    assert (p.landing.lift_law, p.landing.shoot_lift_min_time) == ("aim", 0.05)
+    old = _write(tmp_path / "old.toml", "[landing]\nshoot_lift_min_time = 0.0\n")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert load_toml(old) == p
+    _write(old, "[landing]\nshoot_lift_min_time = 0.06\n")
+    with pytest.warns(FutureWarning, match="shoot_lift_min_time = 0.06 without landing.lift_law"):
+        landing = load_toml(old).landing
+    assert (landing.lift_law, landing.shoot_lift_min_time) == ("shoot", 0.06)
+    _write(old, "[traverse]\nlanding = false\n")
+    with pytest.warns(FutureWarning, match=r"traverse.landing = false \(now landing.landing_law"):
+        assert load_toml(old).landing.landing_law == "none"
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert load_toml(_write(old, "[traverse]\nlanding = true\n")) == p

@@ -55,17 +55,17 @@ def test_the_sensor_reads_the_true_gap_plus_its_offset_and_noise_within_range():
     q[0] -= 0.03 / p.l1
     gap = line_gap(q[0], q[0] + q[1], p.l1, p.l2, 0.0)[0]
     assert 0.02 < gap < 0.04
-    exact = _readings(LineSensorParams(range=0.1, sigma=0.0, offset=0.002), [*q, 0, 0])[0]
+    exact = _readings(LineSensorParams(fitted=True, range=0.1, sigma=0.0, offset=0.002), [*q, 0, 0])[0]
     assert exact == pytest.approx([gap + 0.002, 1.0], abs=1e-12)
-    noisy = _readings(LineSensorParams(range=0.1, sigma=0.001), [*q, 0, 0], ticks=400)
+    noisy = _readings(LineSensorParams(fitted=True, range=0.1, sigma=0.001), [*q, 0, 0], ticks=400)
     assert np.all(noisy[:, 1] == 1.0)
     # 400 samples: the sample std within +-10 % of sigma (chi-square, ~3.5 sd)
     assert np.std(noisy[:, 0] - gap, ddof=1) == pytest.approx(0.001, rel=0.1)
     assert abs(np.mean(noisy[:, 0] - gap)) < 4 * 0.001 / 20
-    short = _readings(LineSensorParams(range=0.02, sigma=0.001), [*q, 0, 0])[0]
+    short = _readings(LineSensorParams(fitted=True, range=0.02, sigma=0.001), [*q, 0, 0])[0]
     assert list(short) == [0.0, 0.0]   # out of range: no reading
-    with pytest.raises(ValueError, match="range = 0"):
-        LineSensor(LineSensorParams(range=0.0), p.l1, p.l2, 0.0, 0.01)
+    with pytest.raises(ValueError, match="fitted is false"):
+        LineSensor(LineSensorParams(), p.l1, p.l2, 0.0, 0.01)
     with pytest.raises(ParameterError, match=r"line_sensor.range = -0.1 is out of range"):
         LineSensorParams(range=-0.1)
 
@@ -114,7 +114,7 @@ def test_the_sensor_removes_the_landing_error_that_link_length_errors_leave():
         still = base.with_(estimator=dc.replace(base.estimator, estimate_misalignment=False))
         runs = [run_swing(q, seed=0).summary for q in (
             still, base, with_hardware(base, "line-sensor").with_(
-                line_sensor=LineSensorParams(range=0.2, sigma=0.0)))]
+                line_sensor=LineSensorParams(fitted=True, range=0.2, sigma=0.0)))]
         assert [r["outcome"] for r in runs] == ["captured"] * 3
         errors = [r["landing_height_error_m"] for r in runs]
         assert errors[0] == pytest.approx(fixed, abs=0.02e-3)
@@ -143,7 +143,7 @@ def test_the_standstill_calibration_measures_the_sensors_offset_on_the_line():
     assert cal.line_offset == pytest.approx(np.mean(readings), abs=1e-15)
     assert cal.line_offset == pytest.approx(0.0008, abs=4 * 0.002 / math.sqrt(500))
     assert cal.summary()["line_sensor_offset_m"] == cal.line_offset
-    without = standstill_calibration(p.with_(line_sensor=dc.replace(p.line_sensor, range=0.0)),
+    without = standstill_calibration(p.with_(line_sensor=dc.replace(p.line_sensor, fitted=False)),
                                      q0, seed=4)
     assert without.line_offset == 0.0
     assert (without.bias, without.misalign) == (cal.bias, cal.misalign)
@@ -181,19 +181,20 @@ def test_the_presets_and_the_swapped_robot_choose_their_sensing():
     from bplir_drake.params import IMU_ONLY_TUNING, LINE_SENSOR_OPTION
 
     p = preset()
-    assert p.line_sensor.range == 0.0 and p.motor.supply_voltage == 30.0
+    assert not p.line_sensor.fitted and p.motor.supply_voltage == 30.0
     assert {k: getattr(p.landing, k) for k in IMU_ONLY_TUNING} == IMU_ONLY_TUNING
-    assert preset("lab").line_sensor.range == 0.0
+    assert not preset("lab").line_sensor.fitted
     s = with_hardware(p, "line-sensor")
+    assert s.line_sensor.fitted
     assert (s.line_sensor.range, s.landing.shoot_height, s.landing.shoot_min_time,
-            s.landing.shoot_lift_min_time) == tuple(LINE_SENSOR_OPTION.values())
-    assert s.with_controller("cpfl-qft").line_sensor.range == 0.0
-    assert s.with_controller("plan").line_sensor.range == 0.2
+            s.landing.lift_law, s.landing.shoot_lift_min_time) == tuple(LINE_SENSOR_OPTION.values())
+    assert not s.with_controller("cpfl-qft").line_sensor.fitted
+    assert s.with_controller("plan").line_sensor.fitted
     assert imu_only(s) == p
     assert with_hardware(p, "48v").motor.supply_voltage == 48.0
     with pytest.raises(ParameterError, match="unknown hardware option 'solar'"):
         with_hardware(p, "solar")
-    assert traverse_swing(s, 1, 1.2, 0.0).line_sensor.range == 0.2
+    assert traverse_swing(s, 1, 1.2, 0.0).line_sensor.fitted
     swapped = traverse_swing(s, 2, 1.2, 0.0)
     assert swapped.line_sensor == s.line_sensor
     assert swapped.landing == traverse_swing(s, 1, 1.2, 0.0).landing

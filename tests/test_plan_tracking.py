@@ -332,16 +332,17 @@ def test_auto_landing_law_follows_who_lifts_the_gripper(incline, share, hold, ai
     """``landing.landing_law = "auto"`` shoots where link 1 carries the planned
     gripper to the line (its share of the rise rate 30 cm below the line);
     where the elbow lifts it (the -20 deg plan) it shoots held from
-    ``shoot_lift_min_time`` at ``shoot_lift_height`` -- the line sensor's
-    tuning -- or, with ``shoot_lift_min_time = 0`` (the default robot, IMUs
-    alone), it aims."""
+    ``shoot_lift_min_time`` at ``shoot_lift_height`` where ``lift_law`` is
+    "shoot" -- the line sensor's tuning -- or, with ``lift_law = "aim"`` (the
+    default robot, IMUs alone), it aims."""
     from bplir_drake.planning.solve import scenario_plan
     from bplir_drake.systems.landing import landing_law, link1_share, resolved_landing
 
     base = preset()
     p = with_hardware(base, "line-sensor")
     assert p.landing.landing_law == base.landing.landing_law == "auto"
-    assert (p.landing.shoot_min_time, p.landing.shoot_lift_min_time) == (0.03, 0.05)
+    assert (p.landing.shoot_min_time, p.landing.lift_law, p.landing.shoot_lift_min_time) == \
+        (0.03, "shoot", 0.05)
     q = p.with_(scenario=dc.replace(p.scenario, incline_deg=incline))
     plan = scenario_plan(q)
     a = math.radians(incline)
@@ -351,12 +352,12 @@ def test_auto_landing_law_follows_who_lifts_the_gripper(incline, share, hold, ai
     assert dc.replace(path, shoot_min_time=q.landing.shoot_min_time,
                       shoot_height=q.landing.shoot_height) == q.landing
     assert landing_law(q.plant, a, plan.states, base.landing) == default
-    assert base.landing.shoot_lift_min_time == 0.0
+    assert base.landing.lift_law == "aim"
     for fixed in ("aim", "shoot"):
         assert resolved_landing(q.plant, a, plan.states, dc.replace(q.landing, landing_law=fixed)) \
             == (fixed, dc.replace(q.landing, landing_law=fixed))
-    with pytest.raises(ParameterError, match="shoot_lift_min_time = 0.01 s"):
-        dc.replace(q.landing, shoot_lift_min_time=0.01)
+    with pytest.raises(ParameterError, match="lift_law = 'never'"):
+        dc.replace(q.landing, lift_law="never")
 
 
 def test_landing_law_option(tmp_path, capsys):

@@ -77,7 +77,8 @@ def _imu_group(standstill: int, seed: int, n: int, sensor_range: float = 0.0) ->
                   params=p.with_(scenario=dc.replace(p.scenario, gust_rate=0.0),
                                  estimator=dc.replace(p.estimator,
                                                       standstill_samples=standstill),
-                                 line_sensor=dc.replace(p.line_sensor, range=sensor_range)))
+                                 line_sensor=dc.replace(p.line_sensor, fitted=bool(sensor_range),
+                                                        range=sensor_range or 0.2)))
     if not sensor_range:
         st = st.with_(params=imu_only(st.params))
     return [k for k in range(n) if not run_sample(st, k)["success"]]

@@ -440,7 +440,7 @@ def test_traversal_swings_land_and_the_swapped_robot_aims_at_the_line():
     assert traverse_swing(p, 1, 1.2, 0.0).plan.delay_compensation == p.plan.delay_compensation \
         == 0.01
     assert one == two   # the swapped robot is another robot, landed by the same settings
-    off = p.with_(traverse=dc.replace(p.traverse, landing=False))
+    off = p.with_(landing=dc.replace(p.landing, landing_law="none"))
     assert traverse_swing(off, 2, 1.2, 0.0).landing.landing_law == "none"
     reach = p.with_(landing=dc.replace(p.landing, landing_law="reach"))
     assert traverse_swing(reach, 1, 1.2, 0.0).landing.landing_law == "none"
@@ -450,8 +450,8 @@ def test_traversal_swings_land_and_the_swapped_robot_aims_at_the_line():
 def test_realistic_traversals_pass_with_the_landing(k, before):
     """Sample 7 of the realistic traversal study on held-out root seed 1
     (``examples/study_traverse.toml``, ``line_flat``): plan tracking alone
-    ends at the first swing (a timeout, not tried again), with the landing
-    every obstacle is passed."""
+    (``landing.landing_law = "none"``) ends at the first swing (a timeout,
+    not tried again), with the landing every obstacle is passed."""
     from bplir_drake.analysis.montecarlo import load_study, sample_params
     from bplir_drake.analysis.traverse.line import load_line
 
@@ -459,8 +459,9 @@ def test_realistic_traversals_pass_with_the_landing(k, before):
     study = load_study(root / "study_traverse.toml").with_(seed=1)
     line = load_line(root / "line_flat.toml")
     p, seed, _ = sample_params(study, k)
-    alone = run_traverse(line, p.with_(traverse=dc.replace(p.traverse, landing=False,
-                                                            retries=0)), seed=seed).totals
+    alone = run_traverse(line, p.with_(traverse=dc.replace(p.traverse, retries=0),
+                                       landing=dc.replace(p.landing, landing_law="none")),
+                         seed=seed).totals
     assert alone["outcome"] == before and alone["obstacles_passed"] == 0
     landed = run_traverse(line, p, seed=seed).totals
     assert landed["outcome"] == "passed" and landed["obstacles_passed"] == 3

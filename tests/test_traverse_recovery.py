@@ -302,8 +302,8 @@ def test_the_original_robots_try_from_hanging_lands_with_the_apex_shot_where_the
     study = dc.replace(study, params=paced_48v(study.params))
     p, seed, _ = sample_params(study, 1)
     again = tried(p, 1, 1.2, 0.0)
-    assert again.landing.shoot_lift_min_time == 0.05
-    aim = again.with_(landing=dc.replace(again.landing, shoot_lift_min_time=0.0))
+    assert (again.landing.lift_law, again.landing.shoot_lift_min_time) == ("shoot", 0.05)
+    aim = again.with_(landing=dc.replace(again.landing, lift_law="aim"))
     gains = tracking_plan(again.resolved())[1]
     states = gains.x0.vector_values(gains.x0.get_segment_times()).T
     assert resolved_landing(again.plant, 0.0, states, aim.landing)[0] == "aim"
@@ -315,7 +315,7 @@ def test_the_original_robots_try_from_hanging_lands_with_the_apex_shot_where_the
     s = runner.run(again, seed=seed).summary
     assert s["outcome"] == "captured" and 0.2 < s["capture_speed_mps"] < 0.4
     # a swing from the line keeps the landing's own choice
-    assert traverse_swing(p, 1, 1.2, 0.0).landing.shoot_lift_min_time == 0.0
+    assert traverse_swing(p, 1, 1.2, 0.0).landing.lift_law == "aim"
 
 
 def test_the_swapped_robots_try_from_hanging_ends_at_the_line_and_lands_from_the_damped_state():

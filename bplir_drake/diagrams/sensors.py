@@ -48,7 +48,7 @@ def kinematic_ekf(params: BplirParams, setup: SwingSetup, seed: int) -> Kinemati
     est = params.estimator
     ls = params.line_sensor
     alpha = math.radians(params.scenario.incline_deg)
-    line = (params.plant.l1, params.plant.l2, alpha, ls.filter_sigma) if ls.range > 0 else None
+    line = (params.plant.l1, params.plant.l2, alpha, ls.filter_sigma) if ls.fitted else None
     return KinematicEkf(
         est, absolute_from_relative(setup.believed),
         sigmas=(est.start_angle_sigma, est.start_rate_sigma, est.start_bias_sigma),
@@ -62,7 +62,7 @@ def add_line_sensor(builder, params: BplirParams, robot: Robot, seed: int, ekf,
     sample, or with ``now`` the sample it takes at this instant (for a
     system that samples at the tick's event)."""
     ls = params.line_sensor
-    if ls.range <= 0:
+    if not ls.fitted:
         return
     true = params.simulated_plant
     sensor = builder.AddNamedSystem("line_sensor", LineSensor(

@@ -114,7 +114,7 @@ def standstill_calibration(params: BplirParams, q0, seed: int,
     believed = absolute_from_relative(np.asarray(
         believed_start(params) if believed is None else believed, dtype=float)[:2])
     calibration = calibrate_standstill(samples, believed, params.estimator.g)
-    if params.line_sensor.range > 0 and params.scenario.start == "line":   # the gap is 0
+    if params.line_sensor.fitted and params.scenario.start == "line":   # the gap is 0
         offset = float(np.mean(standstill_readings(params.line_sensor, seed, n)))
         calibration = replace(calibration, line_offset=offset)
     return calibration

@@ -18,13 +18,13 @@ TRAPEZOID_TUNING = {"integration": "trapezoid", "accel_process_sigma": 2.0,
 
 #: the shooting landing's aim and hold of the robot without the jaw's line
 #: sensor (the defaults; :func:`~.derive.imu_only`)
-IMU_ONLY_TUNING = {"shoot_height": -0.015, "shoot_min_time": 0.04, "shoot_lift_min_time": 0.0}
+IMU_ONLY_TUNING = {"shoot_height": -0.015, "shoot_min_time": 0.04, "lift_law": "aim"}
 
 
 #: the jaw's line sensor as a hardware option: its range, and the landing's
 #: aim and hold with it (:func:`~.derive.with_hardware`)
 LINE_SENSOR_OPTION = {"range": 0.2, "shoot_height": -0.018, "shoot_min_time": 0.03,
-                      "shoot_lift_min_time": 0.05}
+                      "lift_law": "shoot", "shoot_lift_min_time": 0.05}
 
 
 #: the 48 V supply as a hardware option: the supply, a swing tried again from

@@ -122,9 +122,9 @@ def _traverse_swing(p: BplirParams, m: Manoeuvre) -> BplirParams:
     without the terminal reach (it lands where the gripper first moves
     slowly, sliding along the line if it must, where a traversal has to land
     on its grip between obstacles), resting :data:`TRAVERSE_END_SHARE` of
-    the band below the line, landing as a single swing does (the apex
-    landing, the delay probe and its compensation) unless
-    ``traverse.landing`` is off, its shot braking at
+    the band below the line, landing as a single swing does (by
+    ``landing.landing_law``, with the delay probe and its compensation),
+    its shot braking at
     ``traverse.shoot_brake_ratio`` where that is set, and aiming
     ``traverse.landing_learning`` of the mean landing height error it
     learnt (:attr:`Manoeuvre.learnt`) higher."""
@@ -137,11 +137,8 @@ def _traverse_swing(p: BplirParams, m: Manoeuvre) -> BplirParams:
         landing = replace(landing, landing_law="none")
     if tp.shoot_brake_ratio > 0.0:
         landing = replace(landing, shoot_brake_ratio=tp.shoot_brake_ratio)
-    if not tp.landing:   # plan tracking alone, as traversals were first built
-        landing = replace(landing, landing_law="none")
-        plan = replace(plan, delay_compensation=0.0, delay_probe=0.0)
     errors = [e for e in m.learnt if math.isfinite(e)]
-    if tp.landing_learning > 0.0 and errors and tp.landing:
+    if tp.landing_learning > 0.0 and errors and landing.landing_law != "none":
         mean = sum(errors) / len(errors)
         landing = replace(landing, landing_bias=_bias(tp.landing_learning * mean))
     return p.with_(path=replace(p.path, mode="plan"), plan=plan, landing=landing)
@@ -174,7 +171,7 @@ def _retry(p: BplirParams, m: Manoeuvre) -> BplirParams:
     if at_line:
         p = p.with_(plan=replace(p.plan, end_depth=0.0))
     hold = max(round(RETRY_LIFT_HOLD * t0, 3), 2 * p.controller.period)
-    landing = replace(p.landing, shoot_lift_min_time=hold)
+    landing = replace(p.landing, lift_law="shoot", shoot_lift_min_time=hold)
     if m.raised:
         landing = replace(landing, landing_bias=_bias(
             landing.landing_bias + m.raised * p.traverse.retry_aim_raise))
@@ -232,7 +229,7 @@ def with_hardware(p: BplirParams, *names: str) -> BplirParams:
     for name in names:
         if name == "line-sensor":
             o = dict(LINE_SENSOR_OPTION)
-            p = p.with_(line_sensor=replace(p.line_sensor, range=o.pop("range")),
+            p = p.with_(line_sensor=replace(p.line_sensor, fitted=True, range=o.pop("range")),
                         landing=replace(p.landing, **in_units(p, ref, "landing", o)))
         elif name == "48v":
             o = SUPPLY_48V_OPTION
@@ -246,11 +243,11 @@ def with_hardware(p: BplirParams, *names: str) -> BplirParams:
 
 
 def imu_only(p: BplirParams) -> BplirParams:
-    """``p`` without the jaw's line sensor (``line_sensor.range = 0``: the
-    IMUs alone), with the shooting landing's aim of that robot
+    """``p`` without the jaw's line sensor (``line_sensor.fitted`` false:
+    the IMUs alone), with the shooting landing's aim of that robot
     (:data:`IMU_ONLY_TUNING`, in ``p``'s units)."""
     ref = preset(p.preset_name)
-    return p.with_(line_sensor=replace(p.line_sensor, range=0.0),
+    return p.with_(line_sensor=replace(p.line_sensor, fitted=False),
                    landing=replace(p.landing, **in_units(p, ref, "landing", IMU_ONLY_TUNING)))
 
 

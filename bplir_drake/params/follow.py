@@ -105,7 +105,7 @@ def _scale_rules(p, ref) -> dict[tuple[str, str], Rule]:
     weight its value in units of 1/(m g L)^2 and its rate weights in units
     of sqrt(L/g)^2, the landing's times, rates and gains their value in
     units of sqrt(L/g) (:data:`LANDING_TIME_POWERS`; the shot's least stop
-    time at least two controller periods); a robot no description file
+    times at least two controller periods); a robot no description file
     gives (a ``[plant]`` table: no joints) has the reference's friction in
     its units (:data:`FRICTION_POWERS`)."""
     (t0, q0), (t1, q1) = robot_scales(ref.plant), robot_scales(p.plant)
@@ -117,7 +117,8 @@ def _scale_rules(p, ref) -> dict[tuple[str, str], Rule]:
         power = LANDING_TIME_POWERS.get(f.metadata.get("unit", ""))
         if power is not None and not isinstance(getattr(ref.landing, f.name), bool):
             out[("landing", f.name)] = _times(kt ** power)
-    out[("landing", "shoot_min_time")] = lambda v: max(v * kt, 2 * period)
+    for hold in ("shoot_min_time", "shoot_lift_min_time"):
+        out[("landing", hold)] = lambda v: max(v * kt, 2 * period)
     if not p.robot.file:
         out.update({("friction", n): _times(kq ** a * kt ** b)
                     for n, (a, b) in FRICTION_POWERS.items()})

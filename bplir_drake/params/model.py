@@ -93,7 +93,7 @@ class BplirParams:
                                                     plugin_args=tuple(args)))
         path = replace(self.path, mode="lab") if name == "lab" else self.path
         # the published robots sense the line with their IMUs alone
-        sensor = self.line_sensor if name == "plan" else replace(self.line_sensor, range=0.0)
+        sensor = self.line_sensor if name == "plan" else replace(self.line_sensor, fitted=False)
         return replace(self, controller=ControllerParams.preset_named(name), path=path,
                        line_sensor=sensor)
 
@@ -194,7 +194,7 @@ def _lab() -> BplirParams:
     return BplirParams(
         estimator=EstimatorParams(r1=0.5, r2=0.5, l1=0.8),
         controller=ControllerParams.preset_named("lab"),
-        line_sensor=LineSensorParams(range=0.0),
+        line_sensor=LineSensorParams(),
         preset_name="lab",
     )
 

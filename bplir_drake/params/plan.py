@@ -105,8 +105,9 @@ class LandingParams(_Block):
     shoot_depth: float = _p(0.3, "m", 0, 1, doc="landing_law 'shoot': it takes over once the gripper is this close to the line in the plan's last forward swing of link 1")
     shoot_min_time: float = _p(0.04, "s", 0.02, 0.5, doc="landing_law 'shoot': with less time to link 1's stop, or link 1 slower than shoot_min_rate, the stop time is held at this")
     shoot_min_rate: float = _p(0.02, "rad/s", 0, 5, doc="landing_law 'shoot': with link 1 slower than this the shot's stop time is held at shoot_min_time")
-    shoot_lift_min_time: float = _p(0.0, "s", 0, 0.5, doc="landing_law 'auto': shoot_min_time where the plan lifts the gripper with the elbow (downhill); 0: the aim law there")
-    shoot_lift_height: float = _p(-0.019, "m", -0.1, 0, doc="landing_law 'auto': shoot_height where the plan lifts the gripper with the elbow (see shoot_lift_min_time; at most gripper.capture_distance deep)")
+    lift_law: str = field(default="aim", metadata=dict(doc="landing_law 'auto': the law where the plan lifts the gripper with the elbow (downhill): aim, or shoot (held from shoot_lift_min_time, aimed at shoot_lift_height)", allowed="aim, shoot"))
+    shoot_lift_min_time: float = _p(0.05, "s", 0, 0.5, lo_open=True, doc="lift_law 'shoot': shoot_min_time where the plan lifts the gripper with the elbow")
+    shoot_lift_height: float = _p(-0.019, "m", -0.1, 0, doc="lift_law 'shoot': shoot_height where the plan lifts the gripper with the elbow (see shoot_lift_min_time; at most gripper.capture_distance deep)")
     shoot_hold_depth: float = _p(0.03, "m", 0, 1, doc="landing_law 'shoot': the stop time is held at shoot_min_time only within this of the aimed height")
     shoot_give_up_rate: float = _p(0.1, "rad/s", 0, 5, doc="landing_law 'shoot': once link 1 swings back faster than this with the gripper below its aim, the shot brakes the elbow and gives up")
     shoot_brake_ratio: float = _p(0.0, "", 0, 10, doc="landing_law 'shoot': a shot asking for more than this multiple of the torque the motor can give at the elbow's rate to lift the gripper towards the line brakes the elbow instead (0: never)")
@@ -115,7 +116,7 @@ class LandingParams(_Block):
 
     def _check(self):
         self._one_of("landing_law", LANDING_LAWS)
-        self._off_or_at_least("shoot_lift_min_time", 0.02, "the aim law")
+        self._one_of("lift_law", ("aim", "shoot"))
 
 
 #: fields of the former ``[path]`` table that are now in ``[plan]`` (by

@@ -125,6 +125,36 @@ def named_landing_law(table: dict[str, Any]) -> tuple[dict[str, Any], list[str]]
     return out, [f"landing.landing_lead = 0 (now landing.landing_law = {law!r})"]
 
 
+def fitted_line_sensor(table: dict[str, Any]) -> tuple[dict[str, Any], list[str]]:
+    """A ``[line_sensor]`` table written when ``range > 0`` fitted the sensor
+    and ``range = 0`` meant none, as ``fitted`` and the range: the same
+    sensor, or none (the range then left at its default); and what was read
+    so.  A table that says ``fitted`` is returned as it is."""
+    if "fitted" in table or "range" not in table:
+        return table, []
+    out = {k: v for k, v in table.items() if k != "range"}
+    if table["range"] == 0:
+        return out | {"fitted": False}, []   # what a table without range means too
+    return out | {"fitted": True, "range": table["range"]}, [
+        f"line_sensor.range = {table['range']!r} (now line_sensor.fitted = true, and the range)"]
+
+
+def named_lift_law(table: dict[str, Any]) -> tuple[dict[str, Any], list[str]]:
+    """A ``[landing]`` table written when ``shoot_lift_min_time > 0`` chose
+    the shot where the elbow lifts the gripper (0: the aim law), as
+    ``lift_law`` and the hold; and what was read so.  A table that says
+    ``lift_law`` is returned as it is."""
+    if "lift_law" in table or "shoot_lift_min_time" not in table:
+        return table, []
+    hold = table["shoot_lift_min_time"]
+    out = {k: v for k, v in table.items() if k != "shoot_lift_min_time"}
+    if hold == 0:
+        return out | {"lift_law": "aim"}, []   # what a table without it means too
+    return out | {"lift_law": "shoot", "shoot_lift_min_time": hold}, [
+        f"landing.shoot_lift_min_time = {hold!r} without landing.lift_law (now lift_law = "
+        "'shoot' and the hold)"]
+
+
 def drop_retired(data: dict[str, Any], blocks: dict[str, type]) -> dict[str, Any]:
     """``data`` (tables by block) with moved fields moved (:func:`move_fields`)
     and without its retired fields; one ``FutureWarning`` lists those whose
@@ -136,6 +166,18 @@ def drop_retired(data: dict[str, Any], blocks: dict[str, type]) -> dict[str, Any
         data = out
     if isinstance(out.get("landing"), dict):
         out["landing"], switched = named_landing_law(out["landing"])
+        out["landing"], lifted = named_lift_law(out["landing"])
+        ignored += switched + lifted
+        data = out
+    table = out.get("traverse")
+    if isinstance(table, dict) and "landing" in table:   # plan tracking alone: a law's name now
+        out["traverse"] = {k: v for k, v in table.items() if k != "landing"}
+        if table["landing"] is False:
+            out["landing"] = dict(out.get("landing") or {}) | {"landing_law": "none"}
+            ignored.append("traverse.landing = false (now landing.landing_law = 'none')")
+        data = out
+    if isinstance(out.get("line_sensor"), dict):
+        out["line_sensor"], switched = fitted_line_sensor(out["line_sensor"])
         ignored += switched
         data = out
     for (block, name), (rule, value) in RULED.items():

@@ -115,7 +115,6 @@ class TraverseParams(_Block):
     swing_mode: str = field(default="plan", metadata=dict(doc="how traversal swings are steered: plan (plan tracking) or the path generator (adaptive)", allowed="plan, adaptive"))
     # swing_mode 'plan': the single swing's apex landing and delay compensation
     # (landing.landing_*, plan.delay_compensation) on every traversal swing
-    landing: bool = field(default=True, metadata=dict(doc="traversal swings end with the single swing's landing law"))
     landing_learning: float = _p(0.5, "", 0, 1, doc="each swing aims this share of the mean landing height error of the earlier captures holding with the same gripper higher (0: no learning)")
     rest: bool = field(default=True, metadata=dict(doc="rest before a swing, and before a try again, until the driver's i^2 t state allows the planned swing"))
     i2t_margin: float = _p(0.2, "", 0, 0.9, doc="share of the driver's i^2 t budget a swing may not use: the planner rests until the planned swing keeps this share free")

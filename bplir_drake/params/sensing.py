@@ -48,11 +48,13 @@ class LineSensorParams(_Block):
     carry to find the conductor), sampled with the IMUs: it reads the free
     gripper's distance below the line, with white noise and a constant
     offset (its mounting), while that distance is within ``range``.  The
-    estimator fuses it (:mod:`bplir_drake.systems.line_sensor`); 0: no
-    sensor, the IMUs alone (the dissertation's robot)."""
+    estimator fuses it (:mod:`bplir_drake.systems.line_sensor`) where the
+    jaws carry one (``fitted``; not: the IMUs alone, the dissertation's
+    robot)."""
 
     _name = "line_sensor"
-    range: float = _p(0.0, "m", 0, 1, doc="largest gripper-to-line distance the sensor reads; 0: no sensor, the IMUs alone (the dissertation's robot)")
+    fitted: bool = field(default=False, metadata=dict(doc="the jaws carry the sensor (false: the IMUs alone, the dissertation's robot)"))
+    range: float = _p(0.2, "m", 0, 1, lo_open=True, doc="largest gripper-to-line distance the sensor reads")
     sigma: float = _p(0.001, "m", 0, 0.05, doc="white noise per sample")
     offset: float = _p(0.0, "m", -0.02, 0.02, doc="constant reading error (mounting): the sensor reads the distance plus this")
     filter_sigma: float = _positive(0.0015, "m", doc="the noise the estimator assumes for a reading (its R)")

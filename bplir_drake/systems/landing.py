@@ -307,14 +307,14 @@ def resolved_landing(p, alpha: float, states, landing):
     ``landing.shoot_min_time``; where the elbow lifts the gripper (the end of
     the -20 degree plan: link 1 creeps while the elbow stops the gripper
     at the line, and a short hold asks for the torque limit both ways), the
-    shot held from ``landing.shoot_lift_min_time`` and aimed at
-    ``landing.shoot_lift_height``, or the aim law if ``shoot_lift_min_time``
-    is 0 (the default, the robot without the line sensor)."""
+    law ``landing.lift_law``: the aim law (the default, the robot without
+    the line sensor), or the shot held from ``landing.shoot_lift_min_time``
+    and aimed at ``landing.shoot_lift_height``."""
     if landing.landing_law != "auto":
         return landing.landing_law, landing
     if link1_share(p, alpha, states, landing.shoot_depth) >= landing.shoot_link1_share:
         return "shoot", landing
-    if landing.shoot_lift_min_time > 0:
+    if landing.lift_law == "shoot":
         return "shoot", replace(landing, shoot_min_time=landing.shoot_lift_min_time,
                                 shoot_height=landing.shoot_lift_height)
     return "aim", landing

@@ -67,8 +67,8 @@ class LineSensor(PySystem):
     def __init__(self, params: LineSensorParams, l1: float, l2: float, alpha: float,
                  period: float, seed: int = 0):
         super().__init__()
-        if params.range <= 0.0:
-            raise ValueError("line_sensor.range = 0: there is no sensor to simulate")
+        if not params.fitted:
+            raise ValueError("line_sensor.fitted is false: there is no sensor to simulate")
         self.params = params
         self.geometry = (float(l1), float(l2), float(alpha))
         self.state_port = self.DeclareVectorInputPort("state", 4)

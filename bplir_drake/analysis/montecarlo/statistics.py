@@ -101,7 +101,8 @@ def summarize(study: Study, rows: list[dict]) -> dict:
         "controller": study.params.controller.preset,
         "hardware": {"supply_voltage_V": study.params.motor.supply_voltage,
                      "voltage_envelope": study.params.motor.envelope,
-                     "line_sensor_range_m": study.params.line_sensor.range},
+                     "line_sensor_range_m": study.params.line_sensor.range
+                     if study.params.line_sensor.fitted else 0.0},
         "package_version": package_version(),
     } | (_traverse_summary(study, ran) if study.line is not None else {})
 

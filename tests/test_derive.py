@@ -207,3 +207,37 @@ def test_the_lift_law_is_named_and_traverse_landing_is_retired(tmp_path):
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         assert load_toml(_write(old, "[traverse]\nlanding = true\n")) == p
+
+
+def test_a_switch_is_a_named_choice_beside_its_number(tmp_path):
+    """A number whose 0 used to turn something off (a threshold, a cap, a
+    share, a sentinel) holds the choice's name instead: every such field
+    accepts its number or its name, reads a 0 (the former spelling) as the
+    name, round-trips through TOML, and its allowed range names it."""
+    from dataclasses import fields
+
+    from bplir_drake.params import BLOCKS, load_toml, preset, save_toml
+
+    p = preset()
+    offs = {(b, f.name): f.metadata["off"] for b, cls in BLOCKS.items()
+            if b != "robot" and not b.startswith("true_") for f in fields(cls)
+            if f.metadata.get("off")}
+    assert offs == {("estimator", "inflate_nis"): "never", ("plan", "warm_spacing"): "none",
+                    ("hanging", "supply_voltage"): "motor", ("hanging", "i2t_share"): "none",
+                    ("landing", "reach_tangent"): "never",
+                    ("landing", "shoot_give_up_rate"): "never",
+                    ("landing", "shoot_brake_ratio"): "never",
+                    ("landing", "shoot_rate_cap"): "none",
+                    ("traverse", "shoot_brake_ratio"): "landing"}
+    for (block, name), off in offs.items():
+        table = getattr(p, block)
+        assert getattr(dc.replace(table, **{name: 0.0}), name) == off
+        assert getattr(from_dict({block: {name: 0}}), block) == dc.replace(table, **{name: off})
+        with pytest.raises(ParameterError, match=rf"{block}.{name} = 'off' .*or '{off}'"):
+            dc.replace(table, **{name: "off"})
+    q = p.with_(landing=dc.replace(p.landing, shoot_rate_cap="none"),
+                hanging=dc.replace(p.hanging, i2t_share=0.3))
+    save_toml(q, tmp_path / "q.toml")
+    assert load_toml(tmp_path / "q.toml") == q
+    ref = {(r["block"], r["name"]): r["range"] for r in parameter_reference()}
+    assert ref["landing", "shoot_rate_cap"] == "(0, 5] or 'none'"   # the unit in its own column

@@ -298,9 +298,9 @@ def test_a_shot_far_out_of_the_motors_reach_brakes_the_elbow():
 
     p = preset()
     p48 = with_hardware(preset(), "48v")
-    assert p48.traverse.shoot_brake_ratio == 1.6 and p48.landing.shoot_brake_ratio == 0.0
+    assert p48.traverse.shoot_brake_ratio == 1.6 and p48.landing.shoot_brake_ratio == "never"
     assert traverse_swing(p48, 2, 1.2, 0.0).landing.shoot_brake_ratio == 1.6
-    assert traverse_swing(p, 2, 1.2, 0.0).landing.shoot_brake_ratio == 0.0
+    assert traverse_swing(p, 2, 1.2, 0.0).landing.shoot_brake_ratio == "never"
     fr = FrictionParams(enabled=False)
     path = dc.replace(p.landing, landing_law="shoot", shoot_min_time=0.04, shoot_rate_cap=0.0,
                       shoot_height=-0.018, shoot_min_rate=0.1, shoot_hold_depth=1.0)

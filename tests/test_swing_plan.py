@@ -206,7 +206,7 @@ def test_a_plan_from_hanging_that_heats_the_driver_gives_way_to_a_cooler_guess(
 
     monkeypatch.setenv("BPLIR_CACHE_DIR", str(tmp_path / "cache"))
     p48 = with_hardware(BplirParams(), "48v")
-    assert p48.hanging.i2t_share == BplirParams().hanging.i2t_share == 0.0
+    assert p48.hanging.i2t_share == BplirParams().hanging.i2t_share == "none"
     p48 = p48.with_(hanging=dc.replace(p48.hanging, i2t_share=0.35))
     m = p48.motor
     budget = interlock_budget(m)

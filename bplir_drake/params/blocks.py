@@ -16,12 +16,20 @@ class ParameterError(ValueError):
 
 
 def _p(default, unit: str, lo: float = -INF, hi: float = INF, *, lo_open=False,
-       hi_open=False, doc: str = "", integer: bool = False):
+       hi_open=False, doc: str = "", integer: bool = False, off: str = ""):
     """A numeric field with unit and allowed range ``[lo, hi]`` (or open);
-    ``integer``: a whole number."""
+    ``integer``: a whole number; ``off``: the name of the choice that turns
+    what the number does off (the field then holds that name; a 0, its
+    former spelling, reads as it)."""
     return field(default=default, metadata=dict(unit=unit, lo=lo, hi=hi,
                                                 lo_open=lo_open, hi_open=hi_open,
-                                                doc=doc, integer=integer))
+                                                doc=doc, integer=integer, off=off))
+
+
+def number_or(value, off_value: float = 0.0) -> float:
+    """A field with an ``off`` choice as a number: ``off_value`` where it
+    holds the choice's name (what the compiled laws and the plan keys read)."""
+    return off_value if isinstance(value, str) else value
 
 
 def _count(default: int, unit: str, lo: float = 0, hi: float = INF, *, doc: str = ""):
@@ -118,7 +126,8 @@ def _range_text(md) -> str:
     left = "(" if md["lo_open"] or lo == -INF else "["
     right = ")" if md["hi_open"] or hi == INF else "]"
     unit = f" {md['unit']}" if md["unit"] else ""
-    return f"{left}{lo:g}, {hi:g}{right}{unit}"
+    off = f" or '{md['off']}'" if md.get("off") else ""
+    return f"{left}{lo:g}, {hi:g}{right}{unit}{off}"
 
 
 def _validate_block(block, name: str) -> None:
@@ -126,6 +135,9 @@ def _validate_block(block, name: str) -> None:
         md = f.metadata
         value = getattr(block, f.name)
         if "lo" not in md:
+            continue
+        if md.get("off") and (value == md["off"] or (value == 0 and not isinstance(value, bool))):
+            object.__setattr__(block, f.name, md["off"])   # 0: the choice's former spelling
             continue
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise ParameterError(
@@ -220,6 +232,8 @@ class _Block:
                             f"is not a finite number; allowed range "
                             f"{_range_text(f.metadata)}") from None
                 expected = type(getattr(base, f.name))
+                if f.metadata.get("off"):   # a number or the off choice's name: checked as built
+                    expected = None
                 if expected is bool and not isinstance(v, bool):
                     raise ParameterError(
                         f"{cls._name}.{f.name} = {v!r} must be true or false")

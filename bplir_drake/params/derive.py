@@ -135,7 +135,7 @@ def _traverse_swing(p: BplirParams, m: Manoeuvre) -> BplirParams:
     landing = p.landing
     if landing.landing_law == "reach":   # a traversal's swing lands by the apex laws or none
         landing = replace(landing, landing_law="none")
-    if tp.shoot_brake_ratio > 0.0:
+    if tp.shoot_brake_ratio != "landing":
         landing = replace(landing, shoot_brake_ratio=tp.shoot_brake_ratio)
     errors = [e for e in m.learnt if math.isfinite(e)]
     if tp.landing_learning > 0.0 and errors and landing.landing_law != "none":
@@ -208,10 +208,10 @@ def free_link_upright(p: BplirParams) -> bool:
 def planned_from_hanging(p: BplirParams) -> BplirParams:
     """``p`` as its plan from hanging is made with: ``plan.torque_share``
     at most ``hanging.torque_share``, and the motor at
-    ``hanging.supply_voltage`` when that is set (the robot swings at its own
-    supply; only the plan keeps to the other's envelope)."""
+    ``hanging.supply_voltage`` unless that is the motor's own (the robot
+    swings at its own supply; only the plan keeps to the other's envelope)."""
     pl, motor, h = p.plan, p.motor, p.hanging
-    if h.supply_voltage > 0:
+    if h.supply_voltage != "motor":
         motor = replace(motor, supply_voltage=h.supply_voltage)
     return p.with_(motor=motor, plan=replace(pl, torque_share=min(pl.torque_share,
                                                                   h.torque_share)))

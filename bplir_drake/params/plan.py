@@ -29,7 +29,7 @@ class PlanParams(_Block):
     torque_share: float = _fraction(1.0, doc="share of the torque limit the plan may use (the rest is the feedback's headroom)")
     spacing_step: float = _p(0.01, "m", 0, 0.1, doc="plans are made for the measured grip spacing rounded to this step, so a study drawing the spacing solves few plans (0: exact)")
     library: bool = field(default=True, metadata=dict(doc="a scenario the shipped plan library of its nominal robot covers gets its plan and gains interpolated from it, in milliseconds (false: every plan solved)"))
-    warm_spacing: float = _p(1.2, "m", 0, 2 * MAX_LENGTH, doc="a plan for another spacing is also solved from this spacing's plan and the cheaper one kept (0: straight-line guesses only)")
+    warm_spacing: float = _p(1.2, "m", 0, 2 * MAX_LENGTH, lo_open=True, off="none", doc="a plan for another spacing is also solved from this spacing's plan and the cheaper one kept (none: straight-line guesses only)")
     indexing: str = field(default="time", metadata=dict(doc="time (the plan read by the clock) or state (the plan phase nearest the estimate: no clock)", allowed="time, state"))
     delay_compensation: float = _p(0.01, "s", 0, 0.1, doc="actuation delay the tracker assumes until it has identified one (whole periods; the lab firmware's 10 ms)")
     delay_probe: float = _p(10.0, "N m", 0, 20, doc="amplitude of the delay probe, two opposite doublets on the first eight commands whose gyro echo identifies the delay (0: none)")
@@ -70,8 +70,8 @@ class HangingParams(_Block):
 
     _name = "hanging"
     torque_share: float = _fraction(1.0, doc="share of the torque limit the plan may use, at most plan.torque_share (the rest is the tracker's headroom over a pump of seconds)")
-    supply_voltage: float = _p(0.0, "V", 0, 100, doc="supply voltage whose envelope the plan keeps to (0: motor.supply_voltage; a lower one paces the pump below what the robot's supply allows)")
-    i2t_share: float = _p(0.0, "", 0, 1, doc="share of the driver's i^2 t budget the plan may use by itself from a reset driver; a guess whose plan uses more gives way to the next, and the least heating feasible plan is kept if none keeps to it (0: the first feasible guess)")
+    supply_voltage: float = _p("motor", "V", 0, 100, lo_open=True, off="motor", doc="supply voltage whose envelope the plan keeps to (motor: motor.supply_voltage; a lower one paces the pump below what the robot's supply allows)")
+    i2t_share: float = _p("none", "", 0, 1, lo_open=True, off="none", doc="share of the driver's i^2 t budget the plan may use by itself from a reset driver; a guess whose plan uses more gives way to the next, and the least heating feasible plan is kept if none keeps to it (none: the first feasible guess)")
 
 
 @dataclass(frozen=True)
@@ -88,7 +88,7 @@ class LandingParams(_Block):
     reach_depth: float = _p(0.12, "m", 0, 0.5, doc="the reach takes over once the gripper is this close to the line in the plan's second half (or at the plan's end)")
     reach_lift: float = _p(-0.01, "m", -0.1, 0.1, doc="the reach aims the gripper this far from the line (negative: below, inside the capture band)")
     reach_brake: float = _positive(1.25, "m/s^2", doc="the reach's speed profile toward its aim, sqrt(reach_speed^2 + 2 reach_brake |distance|)")
-    reach_tangent: float = _p(0.25, "m/s", 0, 10, doc="while the gripper slides along the line faster than this the reach holds it reach_hold from the line (0: never)")
+    reach_tangent: float = _p(0.25, "m/s", 0, 10, lo_open=True, off="never", doc="while the gripper slides along the line faster than this the reach holds it reach_hold from the line")
     reach_hold: float = _p(-0.05, "m", -0.2, 0, doc="see reach_tangent")
     reach_rate_gain: float = _positive(30.0, "1/s", doc="the reach's speed error to acceleration gain")
     # the apex landing (systems/landing.py)
@@ -109,9 +109,9 @@ class LandingParams(_Block):
     shoot_lift_min_time: float = _p(0.05, "s", 0, 0.5, lo_open=True, doc="lift_law 'shoot': shoot_min_time where the plan lifts the gripper with the elbow")
     shoot_lift_height: float = _p(-0.019, "m", -0.1, 0, doc="lift_law 'shoot': shoot_height where the plan lifts the gripper with the elbow (see shoot_lift_min_time; at most gripper.capture_distance deep)")
     shoot_hold_depth: float = _p(0.03, "m", 0, 1, doc="landing_law 'shoot': the stop time is held at shoot_min_time only within this of the aimed height")
-    shoot_give_up_rate: float = _p(0.1, "rad/s", 0, 5, doc="landing_law 'shoot': once link 1 swings back faster than this with the gripper below its aim, the shot brakes the elbow and gives up")
-    shoot_brake_ratio: float = _p(0.0, "", 0, 10, doc="landing_law 'shoot': a shot asking for more than this multiple of the torque the motor can give at the elbow's rate to lift the gripper towards the line brakes the elbow instead (0: never)")
-    shoot_rate_cap: float = _p(0.3, "rad/s", 0, 5, doc="landing_law 'shoot': within shoot_hold_depth of the aimed height the shot brakes the elbow back to this rate where it would turn it faster (the elbow's rate is most of the gripper's speed at capture; 0: no cap)")
+    shoot_give_up_rate: float = _p(0.1, "rad/s", 0, 5, lo_open=True, off="never", doc="landing_law 'shoot': once link 1 swings back faster than this with the gripper below its aim, the shot brakes the elbow and gives up")
+    shoot_brake_ratio: float = _p("never", "", 0, 10, lo_open=True, off="never", doc="landing_law 'shoot': a shot asking for more than this multiple of the torque the motor can give at the elbow's rate to lift the gripper towards the line brakes the elbow instead (never: it never does)")
+    shoot_rate_cap: float = _p(0.3, "rad/s", 0, 5, lo_open=True, off="none", doc="landing_law 'shoot': within shoot_hold_depth of the aimed height the shot brakes the elbow back to this rate where it would turn it faster (the elbow's rate is most of the gripper's speed at capture; none: no cap)")
     shoot_link1_share: float = _p(0.5, "", 0, 1, doc="landing_law 'auto': the shot where link 1 makes at least this share of the planned gripper's rise rate near the line, else the lift rule")
 
     def _check(self):

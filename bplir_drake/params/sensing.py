@@ -117,7 +117,7 @@ class EstimatorParams(_Block):
     standstill_samples: int = _count(500, "samples", 0, 100000, doc="IMU samples averaged at rest on the line before a swing to calibrate gyro biases and misalignments (0: none, the dissertation's filter; 500 = 5 s)")
     tuned_accel_noise: float = _positive(0.02156, "m/s^2", doc="accelerometer noise per sample the filter's accel_meas_sigma was set for (Table 5.1); a standstill calibration measuring more widens R by the ratio")
     noise_tolerance: float = _p(1.2, "", 1, 100, doc="R is widened only when the measured noise exceeds the tuned one by more than this factor (500 samples measure it within 6 %)")
-    inflate_nis: float = _p(0.0, "", 0, 1000, doc="covariance inflation: a tick whose normalised innovation squared exceeds this multiple of its expectation inflates the predicted covariance by the excess (0: never)")
+    inflate_nis: float = _p("never", "", 0, 1000, lo_open=True, off="never", doc="covariance inflation: a tick whose normalised innovation squared exceeds this multiple of its expectation inflates the predicted covariance by the excess (never: no inflation)")
     misalign_max_noise: float = _p(3.0, "", 1, 100, doc="misalignment states are held at the standstill calibration's values when it measures the IMUs noisier than this many times the tuned noise (their in-flight estimate then wanders)")
     estimate_bias: bool = field(default=True, metadata=dict(doc="estimate a constant gyro bias per IMU (two extra states)"))
     bias_sigma0: float = _positive(0.05, "rad/s", doc="initial gyro-bias standard deviation")

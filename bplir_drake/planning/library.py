@@ -33,6 +33,7 @@ from pathlib import Path
 import numpy as np
 
 from ..params import BplirParams
+from ..params.blocks import number_or
 from ..systems.friction import friction_torques_along
 from ..systems.plan_tracker import RICCATI_ACCURACY, TrackerWeights, TrackingGains, plan_gains
 from ..systems.plant import start_configuration
@@ -96,7 +97,7 @@ def model_inputs(params: BplirParams) -> dict:
     if hanging:
         out.update(rate_limit=0.0, guesses=list(HANGING_GUESSES),
                    minor_iterations=HANGING_MINOR_ITERATIONS,
-                   i2t_share=params.hanging.i2t_share)
+                   i2t_share=number_or(params.hanging.i2t_share))   # none: 0, as shipped
     elif params.scenario.manoeuvre == "pump":
         out.update(manoeuvre="pump", knots=PUMP_KNOTS, guesses=list(pump_guesses(params.plant)),
                    minor_iterations=HANGING_MINOR_ITERATIONS, balance=UNBALANCED_SHARE)

@@ -25,8 +25,8 @@ def retry(robot: BplirParams, manoeuvre: Manoeuvre, hardware=()) -> BplirParams:
 
 def too_hot(p: BplirParams) -> bool:
     """Whether the plan from hanging of ``p`` by itself uses more of the
-    driver's i^2 t than :func:`~.plan.i2t_allowance` (never with
-    ``hanging.i2t_share`` 0, or without a plan)."""
+    driver's i^2 t than :func:`~.solve.i2t_allowance` (never with
+    ``hanging.i2t_share`` "none", or without a plan)."""
     made = planned_from_hanging(p)
     allowance = i2t_allowance(made)
     if math.isinf(allowance):

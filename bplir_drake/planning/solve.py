@@ -285,9 +285,9 @@ def scenario_plan(params: BplirParams) -> SwingPlan:
         if plan.feasible:
             break
     warm = params.plan.warm_spacing
-    if step > 0:   # on the same grid (else the warm plan's own warm start recurses)
-        warm = _on_grid(warm, step)
-    if warm > 0 and not hanging and abs(params.scenario.grip_spacing - warm) > 1e-9:
+    if step > 0 and warm != "none":   # on the same grid (else the warm plan's own warm
+        warm = _on_grid(warm, step)   # start recurses)
+    if warm != "none" and not hanging and abs(params.scenario.grip_spacing - warm) > 1e-9:
         ref = scenario_plan(params.with_(scenario=replace(params.scenario, grip_spacing=warm)))
         started = plan_swing(params, end_depth=depth, initial=ref)
         w = plan_time_weight(params.plant)
@@ -402,9 +402,9 @@ def planned_i2t(plan: SwingPlan, motor) -> float:
 def i2t_allowance(params: BplirParams) -> float:
     """The driver's i^2 t (A^2 s) a plan from hanging of ``params`` (as
     :func:`planned_from_hanging` makes it) may use by itself:
-    ``hanging.i2t_share`` of the budget (infinite with the share 0)."""
+    ``hanging.i2t_share`` of the budget (infinite with the share "none")."""
     share = params.hanging.i2t_share
-    return share * interlock_budget(params.motor) if share > 0.0 else math.inf
+    return math.inf if share == "none" else share * interlock_budget(params.motor)
 
 
 _GAINS: dict = {}

@@ -107,7 +107,7 @@ def ekf_update(s: EkfState, z, u, p: EstimatorParams, *, with_innovation: bool =
     S = H @ PHt + R
     nu = np.asarray(z, dtype=float) - h
     S_raw = S
-    if p.inflate_nis > 0.0:   # covariance inflation (params doc)
+    if p.inflate_nis != "never":   # covariance inflation (params doc)
         excess = float(nu @ np.linalg.solve(S, nu)) / (p.inflate_nis * len(nu))
         if excess > 1.0:
             s = EkfState(s.x, s.P * excess)

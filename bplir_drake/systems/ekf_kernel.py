@@ -18,6 +18,7 @@ import numpy as np
 from numba import njit
 
 from ..params import EstimatorParams
+from ..params.blocks import number_or
 from .ekf_model import _walk_variances, state_layout
 
 #: the integrations by code in the packed constants
@@ -36,7 +37,7 @@ def pack(p: EstimatorParams) -> tuple[np.ndarray, np.ndarray]:
     def start(group):
         return float(layout[group].start) if group in layout else -1.0
 
-    c = np.array([p.r1, p.r2, p.l1, p.g, p.period, INTEGRATIONS[p.integration], p.inflate_nis,
+    c = np.array([p.r1, p.r2, p.l1, p.g, p.period, INTEGRATIONS[p.integration], number_or(p.inflate_nis),
                   start("bias"), start("misalign"), start("scale"), start("position"),
                   p.accel_process_sigma ** 2, p.gyro_meas_sigma ** 2, p.gyro_meas_sigma ** 2,
                   p.accel_meas_sigma ** 2, p.accel_meas_sigma ** 2])

@@ -4,6 +4,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, fields, replace
 import numpy as np
+from ..params.blocks import number_or
 from . import nominal_kernel
 from .plant import bias_term, gravity_vector, mass_matrix
 
@@ -21,7 +22,8 @@ class _LineServo:
         fields) on the nominal ``plant`` for a line inclined by ``alpha``
         (rad)."""
         names = [f.name for f in fields(cls) if f.name not in ("plant", "alpha")]
-        return cls(plant, alpha, **{n: getattr(landing, f"{cls._prefix}_{n}") for n in names})
+        return cls(plant, alpha, **{n: number_or(getattr(landing, f"{cls._prefix}_{n}"))
+                                    for n in names})
 
     def height(self, x) -> float:
         """The gripper's distance to the line (m, negative below it)."""
@@ -200,8 +202,8 @@ class ApexShot:
         height = min(0.0, landing.shoot_height + landing.landing_bias)
         return cls(Landing.from_params(plant, alpha, landing), friction, height,
                    landing.shoot_depth, landing.shoot_min_time, landing.shoot_min_rate,
-                   landing.shoot_hold_depth, landing.shoot_give_up_rate,
-                   landing.shoot_brake_ratio, landing.shoot_rate_cap)
+                   landing.shoot_hold_depth, number_or(landing.shoot_give_up_rate),
+                   number_or(landing.shoot_brake_ratio), number_or(landing.shoot_rate_cap))
 
     def takes_over(self, x) -> bool:
         """Whether the law takes over (asked in the plan's last forward

@@ -372,3 +372,20 @@ def test_trajectory_optimisation_lives_in_the_planning_layer():
     assert users and all(u.startswith("planning/") for u in users), users
     assert LAYERS["planning"] == {"params", "io", "csvfile", "progress", "plotting", "systems"}
     assert "planning" in LAYERS["diagrams"] and "diagrams" not in LAYERS["planning"]
+
+
+def test_the_released_import_paths_still_import():
+    """0.1.0 documented ``bplir_drake.analysis.swing.run`` and
+    ``bplir_drake.analysis.swing.plan``: code written against them runs."""
+    import subprocess
+    import sys
+
+    code = ("from bplir_drake.analysis.swing.run import run_swing, SwingResult, write_log_csv, "
+            "motor_summary\n"
+            "from bplir_drake.analysis.swing.plan import plan_swing, tracking_plan, SwingPlan\n"
+            "from bplir_drake.planning.solve import plan_swing as p\n"
+            "from bplir_drake.analysis.swing.swing_runner import run_swing as r\n"
+            "print(plan_swing is p and run_swing is r)\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout.strip()
+    assert out == "True"

@@ -41,7 +41,7 @@ from .motor import torque_window
 from .plant import bias_term, gravity_vector, mass_matrix
 from .pysystem import PySystem, quick_template_scopes, weak_callback
 from .schedule import declare_store, declare_tick_result
-from .state import RobotState
+from .state import Q1, Q1D, Q2, Q2D, RobotState
 
 
 # ----------------------------------------------------------- pure functions
@@ -192,7 +192,7 @@ class _CpflLaw:
         F, K = self.F, self.K
         rf = ((F.C @ xF)[0] if self.nF else 0.0 * r) + F.D[0, 0] * r
         e = rf - x.q2
-        a, b = cpfl_terms(x[0:2], x[2:4], self.plant_params,
+        a, b = cpfl_terms(x[Q1:Q2 + 1], x[Q1D:Q2D + 1], self.plant_params,
                           self.friction if self.ctrl.friction_compensation else None)
         limit = min(self.ctrl.torque_limit, avail) if avail > 0 else 0.0 * avail
         if self.motor is not None and self.motor.envelope and not self.continuous:

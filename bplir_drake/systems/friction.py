@@ -18,6 +18,7 @@ from pydrake.systems.framework import LeafSystem_
 from pydrake.systems.scalar_conversion import TemplateSystem
 
 from .pysystem import quick_template_scopes, weak_callback
+from .state import Q1D, Q2D
 from ..params import FrictionParams
 
 
@@ -83,7 +84,7 @@ def JointFriction_(T):
 
         def _calc(self, context, output):
             x = self.get_input_port(0).Eval(context)
-            f = friction_torques(x[2:4], self.params)
+            f = friction_torques(x[Q1D:Q2D + 1], self.params)
             output.SetFromVector(np.array([-f[0], -f[1]]))
 
     return Impl
@@ -139,14 +140,14 @@ def friction_system(params: FrictionParams, *, in_context: bool = False):
     x = MakeVectorVariable(4, "x")
     work = Variable("dissipated")
     if not in_context:
-        f = friction_torques(x[2:4], params)
-        return SymbolicVectorSystem(state=[work], input=x, dynamics=[f[0] * x[2] + f[1] * x[3]],
+        f = friction_torques(x[Q1D:Q2D + 1], params)
+        return SymbolicVectorSystem(state=[work], input=x, dynamics=[f[0] * x[Q1D] + f[1] * x[Q2D]],
                                     output=[-f[0], -f[1]])
     c = [Variable(name) for name in FRICTION_PARAMETERS]
     b, *drag = friction_structure(params)
-    f = [joint_friction(x[2 + i], c[i], c[2 + i], b, drag[i]) for i in range(2)]
+    f = [joint_friction(x[Q1D + i], c[i], c[2 + i], b, drag[i]) for i in range(2)]
     law = SymbolicVectorSystem(state=[work], input=[*x, *c],
-                               dynamics=[f[0] * x[2] + f[1] * x[3]], output=[-f[0], -f[1]])
+                               dynamics=[f[0] * x[Q1D] + f[1] * x[Q2D]], output=[-f[0], -f[1]])
     builder = DiagramBuilder()
     law = builder.AddNamedSystem("law", law)
     coeffs = builder.AddNamedSystem("coefficients",

@@ -61,7 +61,7 @@ class SwingResult(Result):
     @property
     def success(self) -> bool:
         """The swing captured the line (the success criteria)."""
-        return bool(self.summary["success"])
+        return bool(self.summary.success)
 
     def to_dict(self) -> dict:
         """The summary with the parameters it ran with (``summary.json``)."""

@@ -73,6 +73,8 @@ from .follow import robot_scales, follow  # noqa: F401
 from .derive import (  # noqa: F401
     Manoeuvre,
     derive,
+    as_planned,
+    on_line,
     with_hardware,
     imu_only,
     around,
@@ -102,6 +104,6 @@ __all__ = [
     "from_dict", "load_toml", "to_toml",
     "save_toml", "to_dict", "sigma_from_density", "DriveParams", "GripperParams", "TraverseParams",
     "PlanParams", "HangingParams", "LandingParams",
-    "swapped", "Manoeuvre", "derive", "with_hardware", "imu_only", "PUMP_TIME", "swapped_plant", "swapped_imu", "parameter_reference", "BLOCKS", "plugin_name",
+    "swapped", "Manoeuvre", "derive", "as_planned", "on_line", "with_hardware", "imu_only", "PUMP_TIME", "swapped_plant", "swapped_imu", "parameter_reference", "BLOCKS", "plugin_name",
 ]
 

@@ -217,6 +217,21 @@ def planned_from_hanging(p: BplirParams) -> BplirParams:
                                                                   h.torque_share)))
 
 
+def as_planned(p: BplirParams) -> BplirParams:
+    """``p`` as the planner makes its plan: from hanging, within its own
+    torque share and supply (:func:`planned_from_hanging`); else ``p``."""
+    return planned_from_hanging(p) if p.scenario.start == "hanging" else p
+
+
+def on_line(p: BplirParams, incline_deg: float, spacing: float) -> BplirParams:
+    """The manoeuvre ``p`` (as :func:`derive` gave it) on another line: this
+    incline (deg) and grip spacing (m), a point of its plan grid; nothing
+    else is derived again (the robot may already be seen from its other
+    gripper, whose units are not the description's)."""
+    return p.with_(scenario=replace(p.scenario, incline_deg=float(incline_deg),
+                                    grip_spacing=float(spacing)))
+
+
 def with_hardware(p: BplirParams, *names: str) -> BplirParams:
     """``p`` with the named hardware options (:data:`HARDWARE_OPTIONS`, in
     any order; their settings are the default robot's, put in ``p``'s

@@ -41,7 +41,7 @@ from ..io import atomic_path
 from .cache import PACKAGED, cache_dir, damage, plan_key
 from .swing_plan import (
     HANGING_GUESSES, HANGING_KNOTS, HANGING_MINOR_ITERATIONS, PLAN_FRICTION_SMOOTHING, PUMP_KNOTS, UNBALANCED_SHARE, SwingPlan, plan_envelope, plan_friction, plan_time_weight, plan_torque_limit, planned_target, pump_guesses, shifted_angles)
-from ..params.derive import planned_from_hanging
+from ..params.derive import as_planned
 
 #: the grid of the shipped libraries: line inclines (deg) and grip spacings (m)
 LIBRARY_INCLINES = tuple(float(a) for a in range(-20, 21, 5))
@@ -84,7 +84,7 @@ def model_inputs(params: BplirParams) -> dict:
     from hanging, its own: :func:`~.swing_plan.planned_from_hanging`, knots,
     iteration limit, guesses and i^2 t share; the elbow-rate bound 0, none,
     kept in the key of the libraries shipped when it was a parameter)."""
-    made, hanging = _as_planned(params), params.scenario.start == "hanging"
+    made, hanging = as_planned(params), params.scenario.start == "hanging"
     out = dict(plant=params.plant.key_dict(), friction=params.friction.as_dict(),
                envelope=plan_envelope(made), tau_max=plan_torque_limit(made),
                power=params.motor.power_rating, tmax=params.scenario.max_time,
@@ -102,12 +102,6 @@ def model_inputs(params: BplirParams) -> dict:
         out.update(manoeuvre="pump", knots=PUMP_KNOTS, guesses=list(pump_guesses(params.plant)),
                    minor_iterations=HANGING_MINOR_ITERATIONS, balance=UNBALANCED_SHARE)
     return out
-
-
-def _as_planned(params: BplirParams) -> BplirParams:
-    """``params`` as the planner makes its plan (from hanging: within its
-    own torque share and supply)."""
-    return planned_from_hanging(params) if params.scenario.start == "hanging" else params
 
 
 def library_path(params: BplirParams, directory: Path = PACKAGED) -> Path:
@@ -316,7 +310,7 @@ def library_plan(params: BplirParams):
     times = s * b["durations"]
     q0 = start_configuration(sc.start, sc.grip_spacing, params.plant, math.radians(sc.incline_deg))
     states = shifted_angles(s, b["states"], q0, planned_target(params, params.plan.end_depth))
-    made = _as_planned(params)
+    made = as_planned(params)
     env = plan_envelope(made)
     electric = {} if env is None else dict(
         voltage_limit=env["voltage"], voltage_share=env["share"], resistance=env["resistance"],

@@ -11,9 +11,9 @@ from pathlib import Path
 from ...planning.library import robot_library_path
 from ...io import atomic_path, write_json_atomic
 from ...planning.retry import retry
-from ...params import BplirParams, Manoeuvre, derive, save_toml
+from ...params import BplirParams, Manoeuvre, derive, on_line, save_toml
 from ..montecarlo.runner import run_study
-from .grid import at, solve_library
+from .grid import solve_library
 from .margins import (assumptions, binding_line, electric_margins, landing_impact,
                       motor_figures)
 from .commission_result import CommissionResult
@@ -199,7 +199,7 @@ def _run(study, where, pool: dict) -> tuple[dict, list]:
 
 def _no_plan(params, res) -> str:
     """The limit line of a grid point without a plan."""
-    q = at(params, res.incline, res.spacing)
+    q = on_line(params, res.incline, res.spacing)
     guesses = similar_guesses(q, shipped_references() + commissioned_references(), count=1)
     return no_plan_reason(params, res.incline, res.spacing, guesses[0] if guesses else None,
                           res.tried)

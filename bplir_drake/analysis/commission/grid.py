@@ -18,11 +18,11 @@ from ...planning import solve as P
 from ...planning.swing_plan import energy_balance
 from ...planning.library import (assemble_library, library_entry, robot_library_key,
                                       robot_library_path, save_library)
-from ...params import BplirParams
+from ...params import BplirParams, on_line
 from ...systems.plan_tracker import TrackerWeights
 from ..montecarlo.executors import map_jobs
 from .margins import supply_energy
-from .refine import at, refined, solve_from
+from .refine import refined, solve_from
 from .similarity import (commissioned_references, plan_kind, shipped_references,
                          similar_guesses)
 
@@ -65,7 +65,7 @@ def solve_point(params: BplirParams, incline: float, spacing: float,
     (a solved SwingPlan next to it), else from similar robots' plans scaled
     to this one, else (with ``straight``) from the straight-line guesses."""
     t0 = time.perf_counter()
-    q = at(params, incline, spacing)
+    q = on_line(params, incline, spacing)
     tries = [("similarity", g) for g in similar_guesses(
         q, shipped_references() + commissioned_references())]
     if neighbour is not None:
@@ -151,7 +151,7 @@ def solve_library(params: BplirParams, inclines, spacings, *, workers: int = 0,
             solved[res.incline, res.spacing] = res
     plans, changed = refined(params, {p: r.plan for p, r in solved.items()})
     for a, d in changed:
-        q = at(params, a, d)
+        q = on_line(params, a, d)
         solved[a, d] = dc.replace(solved[a, d], how="refined", plan=plans[a, d],
                                   entry=_entry(q, plans[a, d]),
                                   energy_residual=_residual(q, plans[a, d]))

@@ -14,7 +14,7 @@ import dataclasses as dc
 from collections import Counter
 
 from ...planning import solve as P
-from ...params import BplirParams, ParameterError
+from ...params import BplirParams, ParameterError, on_line
 from ...systems.motor import interlock_budget
 
 #: a plan costing more than this times the cheaper of its incline neighbours
@@ -26,12 +26,6 @@ REPAIR_RATIO = 1.5
 #: by itself (assumed: the tracker's feedback heats the driver about as much
 #: again, and the two together keep a margin below the budget)
 COOL_SHARE = 0.35
-
-
-def at(params: BplirParams, incline: float, spacing: float) -> BplirParams:
-    """``params`` with the scenario on this incline (deg) and grip spacing (m)."""
-    return params.with_(scenario=dc.replace(params.scenario, incline_deg=float(incline),
-                                            grip_spacing=float(spacing)))
 
 
 def solve_from(q: BplirParams, initial=None, guess_duration: float | None = None):
@@ -88,7 +82,7 @@ def repair(params: BplirParams, plans: dict) -> tuple[dict, set]:
         if plan is None or not near or plan.objective(w) <= REPAIR_RATIO * min(
                 p.objective(w) for p in near):
             continue
-        own = own_plan(at(params, a, d))
+        own = own_plan(on_line(params, a, d))
         if own is not None and own.objective(w) < plan.objective(w) \
                 and own.link1_reversals in {p.link1_reversals for p in near}:
             out[a, d] = own
@@ -129,7 +123,7 @@ def harmonise(params: BplirParams, plans: dict) -> tuple[dict, set]:
         outlier = plan.objective(w) > REPAIR_RATIO * ref.objective(w)
         if plan.link1_reversals == kind and not outlier:
             continue
-        new = solve_from(at(params, a, d), ref)
+        new = solve_from(on_line(params, a, d), ref)
         limit = plan.objective(w) * (1.0 if plan.link1_reversals == kind else REPAIR_RATIO)
         if new.feasible and new.link1_reversals == kind and new.objective(w) <= limit:
             out[a, d] = new
@@ -158,7 +152,7 @@ def cool(params: BplirParams, plans: dict) -> tuple[dict, set]:
         near = [p for p in _neighbours(out, a, d) if share(p) <= COOL_SHARE]
         if not near:
             continue
-        new = solve_from(at(params, a, d), min(near, key=share))
+        new = solve_from(on_line(params, a, d), min(near, key=share))
         if new.feasible and share(new) <= COOL_SHARE:
             out[a, d] = new
             changed.add((a, d))

@@ -51,6 +51,27 @@ def test_a_signal_while_the_finished_command_exits_is_one_line(tmp_path):
     assert p.stderr == "bplir: SIGTERM after the command had finished; its outputs are complete\n"
 
 
+def test_a_second_signal_after_a_stopped_command_adds_no_line(tmp_path):
+    """A process manager's second SIGTERM (``timeout`` passes its own on,
+    a control group is signalled whole) arriving while a command a first
+    SIGTERM stopped exits: the stop's one line and exit 143, not a second
+    line saying the outputs are complete."""
+    code = ("import os, signal, sys, time\n"
+            "sys.argv = ['bplir', 'params', 'plant']\n"
+            "from bplir_drake.cli import main, params_command\n"
+            "def slow(args):\n"
+            "    os.kill(os.getpid(), signal.SIGTERM)\n"
+            "    time.sleep(5)\n"
+            "params_command.cmd_params = slow\n"
+            "code = main()\n"
+            "os.kill(os.getpid(), signal.SIGTERM)\n"
+            "time.sleep(5)\n"
+            "sys.exit(code)\n")
+    p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert p.stderr == "bplir: terminated by SIGTERM; no output file was left half-written\n"
+    assert p.returncode == 128 + signal.SIGTERM
+
+
 @pytest.mark.parametrize("value", ["nan", "inf", "-inf"])
 def test_a_plugin_argument_must_be_finite(value):
     """``--controller-arg k=nan`` is refused (it would reach the factory as NaN)."""

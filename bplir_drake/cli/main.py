@@ -75,12 +75,20 @@ def _stdout_for(json: bool):
         out.close()
 
 
+#: the exit status of a command a signal stopped, once its line is written
+_STOPPED: list = [None]
+
+
 def _after_the_command(signum, frame) -> None:
     """A signal while the finished command's process exits (the
     interpreter's teardown, a fraction of a second): one line and the
-    signal's exit status, not a silent death by the signal."""
+    signal's exit status, not a silent death by the signal; after a
+    command a signal stopped (a process manager's second signal, ``timeout``
+    passing its own on), the stop's status and no second line."""
     import signal
 
+    if _STOPPED[0] is not None:
+        os._exit(_STOPPED[0])
     name = signal.Signals(signum).name
     with contextlib.suppress(OSError, ValueError):
         sys.stdout.flush()
@@ -95,6 +103,7 @@ def main(argv=None) -> int:
     input).  ``argv`` None: the console's command (``sys.argv``), whose process
     answers a signal with one line until it has exited."""
     args = _parser_of(build_parser).parse_args(argv)
+    _STOPPED[0] = None
     import signal
 
     shown = warnings.showwarning
@@ -130,12 +139,14 @@ def main(argv=None) -> int:
                              "(the same command resumes the study)\n")
         else:  # every output is written atomically: none is left half-written
             sys.stderr.write(f"bplir: {what}; no output file was left half-written\n")
+        _STOPPED[0] = code
         return code
     except Exception as exc:   # a fault inside: one line (the traceback with --debug)
         if args.debug:
             raise
         if "KeyboardInterrupt" in str(exc):   # Ctrl-C inside a C++ callback (SNOPT's)
             sys.stderr.write("bplir: interrupted; no output file was left half-written\n")
+            _STOPPED[0] = 130
             return 130
         text = " ".join(str(exc).split()) or "no message"
         sys.stderr.write(f"bplir: error: {args.command} failed: {type(exc).__name__}: "

@@ -65,9 +65,12 @@ def test_commissioning_keeps_the_manoeuvre_whose_studies_do_better(monkeypatch):
     from bplir_drake.analysis.commission import commissioning as run
     from bplir_drake.analysis.commission.rows import PlanPoint, StudyVerdict
 
+    grids = {}
+
     def manoeuvre(robot, g, **grid):
         kind = robot.scenario.manoeuvre
         ok = kind == "pump"
+        grids[kind] = grid["spacings"]
         study = StudyVerdict(
             incline_deg=0.0, captured=290 if ok else 72, samples=300 if ok else 100,
             rate=0.967 if ok else 0.72, verdict="not shown" if ok else "below",
@@ -85,6 +88,7 @@ def test_commissioning_keeps_the_manoeuvre_whose_studies_do_better(monkeypatch):
     r = run.commission(preset(), grippers=(2,), hanging=False)
     assert r.limits == [] and r.unshown == ["gripper 2: pumping: not shown"]
     assert r.verdict == "not shown" and r.binding == {2: "pump"}
+    assert grids == {"swing": (1.092, 1.2, 1.308), "pump": (1.092, 1.146, 1.2, 1.254, 1.308)}
     chosen = {(st.manoeuvre, st.chosen) for st in r.studies}
     assert chosen == {("pump", True), ("swing", False)}
     assert math.isnan(r.rate(0.0, 1)) and r.rate(0.0, 2) == 0.967
@@ -203,3 +207,14 @@ def test_pumps_of_other_phases_are_not_blended_but_the_nearest_is_taken(monkeypa
         plan, _ = L.library_plan(pumping(p.with_(scenario=p.scenario.__class__(grip_spacing=d))))
         assert plan.duration == pytest.approx(duration)
     assert L.library_plan(p.with_(scenario=p.scenario.__class__(grip_spacing=1.15))) is None
+
+
+def test_a_pumps_grid_halves_each_gap_of_the_swings():
+    """A pump is shifted onto a drawn spacing, not blended: its grid splits
+    each gap of the swing's grid in two, so no drawn spacing is shifted
+    more than a quarter of the swing grid's step."""
+    from bplir_drake.analysis.commission.commissioning import PUMP_GRID_DIVISIONS, pump_spacings
+
+    assert PUMP_GRID_DIVISIONS == 2
+    assert pump_spacings((1.308, 1.092, 1.2)) == (1.092, 1.146, 1.2, 1.254, 1.308)
+    assert pump_spacings((1.2,)) == (1.2,)

@@ -34,6 +34,21 @@ def default_spacings(params: BplirParams) -> tuple[float, ...]:
     return tuple(round(d + k * SPACING_SHARE * L, 3) for k in (-1, 0, 1))
 
 
+#: a pump's plan is shifted onto a drawn spacing, not blended with its
+#: neighbours' (their link-1 reversals may differ), so its grid splits each
+#: gap of the swing's into this many: the shift is at most half as far
+PUMP_GRID_DIVISIONS = 2
+
+
+def pump_spacings(spacings) -> tuple[float, ...]:
+    """The grid of a pump's spacings: ``spacings`` with each gap split into
+    :data:`PUMP_GRID_DIVISIONS` (mm)."""
+    s = sorted(spacings)
+    inner = [round(a + k * (b - a) / PUMP_GRID_DIVISIONS, 3) for a, b in zip(s, s[1:])
+             for k in range(1, PUMP_GRID_DIVISIONS)]
+    return tuple(sorted(s + inner))
+
+
 def held_by(params: BplirParams, gripper: int) -> tuple[BplirParams, BplirParams]:
     """The robot ``params`` holding with ``gripper`` (2: seen from its other
     gripper), as its swing from the line and as that swing tried again from
@@ -84,7 +99,8 @@ def commission(params: BplirParams, *, inclines=(0.0,), spacings=None,
         robot, tries = held_by(params, g)
         chosen = _manoeuvre(robot, g, **grid)
         if pumps and chosen.limits:
-            pump = _manoeuvre(derive(params, Manoeuvre(gripper=g, reach="pump")), g, **grid)
+            pump = _manoeuvre(derive(params, Manoeuvre(gripper=g, reach="pump")), g,
+                              **(grid | {"spacings": pump_spacings(spacings)}))
             if pump.score() > chosen.score():
                 chosen, pump = pump, chosen
             found.add(pump, chosen=False)

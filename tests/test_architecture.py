@@ -99,11 +99,19 @@ def test_results_plot_on_the_callers_axes_and_serialise(tmp_path):
 
 def _modules():
     import ast
-    from pathlib import Path
 
-    root = Path(__file__).resolve().parent.parent / "bplir_drake"
-    for path in sorted(root.rglob("*.py")):
-        yield path.relative_to(root.parent), ast.parse(path.read_text())
+    repo = Path(__file__).resolve().parents[1]
+    for path in _package_files():
+        yield path.relative_to(repo), ast.parse(path.read_text())
+
+
+def _fresh_python(code: str) -> str:
+    """What ``code`` prints in a fresh interpreter (it must succeed)."""
+    import subprocess
+    import sys
+
+    return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          check=True).stdout
 
 
 def test_every_public_definition_has_a_docstring():
@@ -163,9 +171,6 @@ def test_the_default_robot_builds_and_swings_without_the_analysis_package():
     come from the layer below analysis, the default context is the swing,
     and a plain ``Simulator`` flies it to a capture -- with no module of
     ``bplir_drake.analysis`` ever imported."""
-    import subprocess
-    import sys
-
     code = (
         "import sys\n"
         "from pydrake.systems.analysis import Simulator\n"
@@ -178,9 +183,7 @@ def test_the_default_robot_builds_and_swings_without_the_analysis_package():
         "lock = built.systems['interlock']\n"
         "print(lock.outcome(sim.get_context()))\n"
         "print(sorted(m for m in sys.modules if m.startswith('bplir_drake.analysis')))\n")
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                         check=True).stdout.splitlines()
-    assert out == ["captured", "[]"]
+    assert _fresh_python(code).splitlines() == ["captured", "[]"]
 
 
 def _import_graph() -> dict[str, set[str]]:
@@ -301,29 +304,19 @@ def test_calibration_loads_without_python_control():
     """``bplir calibrate`` (and a refusal of its log) does not wait for
     python-control, which only the QFT family of the step fits needs (it
     made the command start 2 s later)."""
-    import subprocess
-    import sys
-
     code = ("import sys, bplir_drake.analysis.identification.calibration\n"
             "print('control' in sys.modules, 'scipy.signal' in sys.modules)\n")
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                         check=True).stdout.strip()
-    assert out == "False False"
+    assert _fresh_python(code).strip() == "False False"
 
 
 def test_the_command_line_starts_without_pydrake():
     """``bplir --help``/``--version`` load the parser alone: importing the
     command line loads neither pydrake, nor matplotlib, scipy or
     python-control (each command imports its machinery when it runs)."""
-    import subprocess
-    import sys
-
     code = ("import sys, bplir_drake.cli\n"
             "print(sorted({m.split('.')[0] for m in sys.modules} & "
             "{'pydrake', 'matplotlib', 'scipy', 'control'}))\n")
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                         check=True).stdout.strip()
-    assert out == "[]"
+    assert _fresh_python(code).strip() == "[]"
 
 
 def test_every_data_file_is_installed_with_the_package():
@@ -377,8 +370,6 @@ def test_trajectory_optimisation_lives_in_the_planning_layer():
 def test_the_released_import_paths_still_import():
     """0.1.0 documented ``bplir_drake.analysis.swing.run`` and
     ``bplir_drake.analysis.swing.plan``: code written against them runs."""
-    import subprocess
-    import sys
 
     code = ("from bplir_drake.analysis.swing.run import run_swing, SwingResult, write_log_csv, "
             "motor_summary\n"
@@ -386,6 +377,4 @@ def test_the_released_import_paths_still_import():
             "from bplir_drake.planning.solve import plan_swing as p\n"
             "from bplir_drake.analysis.swing.swing_runner import run_swing as r\n"
             "print(plan_swing is p and run_swing is r)\n")
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                         check=True).stdout.strip()
-    assert out == "True"
+    assert _fresh_python(code).strip() == "True"

@@ -193,16 +193,6 @@ class _Block:
             raise ParameterError(f"{self._name}.{name} = '{value}' is unknown; allowed: "
                                  + ", ".join(allowed))
 
-    def _off_or_at_least(self, name: str, lo: float, off: str) -> None:
-        """Refuse a field that is neither 0 (meaning ``off``) nor at least
-        ``lo`` (its upper bound is the field's own range)."""
-        value = getattr(self, name)
-        if 0.0 < value < lo:
-            md = next(f.metadata for f in fields(self) if f.name == name)
-            unit = f" {md['unit']}" if md["unit"] else ""
-            raise ParameterError(f"{self._name}.{name} = {value:g}{unit} is out of range; "
-                                 f"allowed 0 ({off}) or {_range_text({**md, 'lo': lo})}")
-
     def as_dict(self) -> dict[str, Any]:
         return {f.name: getattr(self, f.name) for f in fields(self)}
 

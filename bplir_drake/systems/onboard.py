@@ -28,13 +28,11 @@ from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import EventStatus
 
 from . import onboard_kernel
+from .onboard_kernel import REC_COMMAND, REC_REFERENCE
 from .pysystem import PySystem
 from .schedule import declare_sample
 from .state import (ACCEL1_X, ACCEL1_Y, ACCEL2_X, ACCEL2_Y, GYRO1_Z, GYRO2_Z, OMEGA1, OMEGA2,
                     THETA1, THETA2)
-
-#: the readings the IMU sampler takes, in its arguments' order
-READ = [GYRO1_Z, GYRO2_Z, ACCEL1_X, ACCEL1_Y, ACCEL2_X, ACCEL2_Y]
 
 
 
@@ -170,12 +168,12 @@ class OnboardComputer(PySystem):
             new[self._tracker_at] = tracked[2:]
             if self._last_command is not None:
                 new[self._last_command] = tracked[0]
-            rec[self.RECORD["command"]], rec[self.RECORD["reference"]] = tracked[0], tracked[1]
+            rec[REC_COMMAND], rec[REC_REFERENCE] = tracked[0], tracked[1]
         if self.identifier is not None:
             self._identify(xd, new, rec)
         discrete_state.set_value(self._xd, new)
         discrete_state.set_value(self._estimate, relative)
-        discrete_state.set_value(self._command, rec[self.RECORD["command"]])
+        discrete_state.set_value(self._command, rec[REC_COMMAND:REC_COMMAND + 1])
         discrete_state.set_value(self._record, rec)
         return EventStatus.Succeeded()
 
@@ -188,7 +186,7 @@ class OnboardComputer(PySystem):
         rec[self.RECORD["delay_fit"]] = self.identifier.fit(held)
         if xd[self._ticks_at] < self.identifier.window + 0.5:   # still storing
             imu = new[self._imu]
-            new[s["identifier"]] = self.identifier.stored(held, lambda: rec[onboard_kernel.REC_COMMAND],
+            new[s["identifier"]] = self.identifier.stored(held, lambda: rec[REC_COMMAND],
                                                           lambda: imu[:2])
 
     def _front_compiled(self, context, xd, steps, rec):
@@ -220,7 +218,8 @@ class OnboardComputer(PySystem):
         s, r = self.slices, self.readings_port.Eval(context)
         sensor, compiled = context.get_abstract_parameter(self._own).get_value()
         new = np.array(xd)
-        imu = self.sampler.next_state(xd[self._imu], *r[READ], sensor)
+        imu = self.sampler.next_state(xd[self._imu], r[GYRO1_Z], r[GYRO2_Z], r[ACCEL1_X],
+                                      r[ACCEL1_Y], r[ACCEL2_X], r[ACCEL2_Y], sensor)
         post, u = self.ekf.posterior(
             xd[s["ekf_x"]], xd[s["ekf_P"]], xd[s["ekf_u"]], xd[s["ekf_first"]][0] > 0.5,
             imu[:6], context.get_time(), compiled,

@@ -489,9 +489,24 @@ CHECKS = {f.__name__: f for f in (
 )}
 
 
+#: the modules of further checks (each with its CHECKS), run with these
+MORE = ("process_checks",)
+
+
+def every_check() -> dict:
+    """The checks of this module and of :data:`MORE`, by name."""
+    import importlib
+
+    out = dict(CHECKS)
+    for module in MORE:
+        out |= importlib.import_module(module).CHECKS
+    return out
+
+
 def main() -> int:
     broken = 0
-    for name, case in CHECKS.items():
+    checks = every_check()
+    for name, case in checks.items():
         with tempfile.TemporaryDirectory() as d:
             t0 = time.monotonic()
             try:
@@ -501,7 +516,7 @@ def main() -> int:
         broken += problem is not None
         print(f"{'holds ' if problem is None else 'BROKEN'} ({time.monotonic() - t0:5.1f} s) "
               f"{name}" + (f"\n    {problem}" if problem else ""))
-    print(f"{len(CHECKS) - broken} of {len(CHECKS)} checks hold")
+    print(f"{len(checks) - broken} of {len(checks)} checks hold")
     return 1 if broken else 0
 
 

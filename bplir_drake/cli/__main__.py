@@ -1,6 +1,4 @@
 """``python -m bplir_drake.cli``: the ``bplir`` command."""
-import sys
+from .main import console
 
-from .main import main
-
-sys.exit(main())
+console()

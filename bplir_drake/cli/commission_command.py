@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from .common import InputError, _dpi, _emit, _in_range, _load_params, _out_dir, _progress
+from .common import InputError, _check_plugin, _dpi, _emit, _in_range, _load_params, _out_dir, _progress
 from .options import command, option, shared
 
 
@@ -27,6 +27,9 @@ def cmd_commission(args) -> int:
     if args.samples is not None:
         _in_range("--samples", args.samples, 1, 100000)
     _in_range("--seed", args.seed, 0, 2 ** 32 - 1)
+    if args.workers is not None:
+        _in_range("--workers", args.workers, 1, 256)
+    _check_plugin(params)   # a plug-in the robot file names is built before any work
     out = _out_dir(args.out)
     sized = {} if args.samples is None else {"samples": args.samples}
     result = commission(params, inclines=inclines, spacings=args.spacing, **sized,

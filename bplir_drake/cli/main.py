@@ -16,6 +16,7 @@ from ..io import forget_stop, raise_stop, remove_unfinished
 from ..params import ParameterError
 from .common import _OUT, InputError, Terminated, _interrupt, _terminate
 from .parser import build_parser
+from .process_exit import exit_now, flush_native_output
 
 
 def _note(message, category, filename, lineno, file=None, line=None) -> None:
@@ -71,6 +72,7 @@ def _stdout_for(json: bool):
     finally:
         out.flush()
         sys.stdout.flush()
+        flush_native_output()   # a solver's buffered lines go to stderr, not after the JSON
         os.dup2(out.fileno(), 1)
         out.close()
 
@@ -159,3 +161,23 @@ def main(argv=None) -> int:
         warnings.showwarning = shown
         for sig, handler in previous.items():   # the console's process: until it has exited
             signal.signal(sig, _after_the_command if argv is None else handler)
+
+
+def console() -> None:
+    """The ``bplir`` console script and ``python -m bplir_drake.cli``:
+    :func:`main` on ``sys.argv``, then the process ends with its status
+    (:func:`~.process_exit.exit_now`: a signal up to its last moment gets
+    its one line)."""
+    import traceback
+
+    try:
+        code = main()
+    except SystemExit as exc:   # argparse's usage errors and --help
+        code = exc.code
+        if isinstance(code, str):
+            sys.stderr.write(code + "\n")
+            code = 1
+    except BaseException:   # noqa: BLE001 - the process's top level (--debug)
+        traceback.print_exc()
+        code = 1
+    exit_now(code)

@@ -15,8 +15,10 @@ def cmd_replay(args) -> int:
     params = _load_params(args)
     _in_range("--threshold", args.threshold, 0.0, 10.0, lo_open=True, unit="rad")
     log, = read_logs(args, params, [args.log])
-    step = float(np.median(np.diff(log.t)))
-    _in_range("--window", args.window, 2 * step, max(2 * step, 600.0), unit="s")
+    # two sampling periods, to the clock's own digits (a 200 Hz log's 0.01 s,
+    # not the float sum 0.010000000000000009 of its times' differences)
+    least = float(f"{2 * float(np.median(np.diff(log.t))):.9g}")
+    _in_range("--window", args.window, least, max(least, 600.0), unit="s")
     out = _out_dir(args.out)
     res = replay_torque(params, log, threshold=args.threshold, window=args.window,
                         interpolation=args.interpolation, acrobot=args.acrobot)

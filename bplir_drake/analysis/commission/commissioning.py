@@ -12,7 +12,8 @@ from ...planning.library import robot_library_path
 from ...io import atomic_path, write_json_atomic
 from ...planning.retry import retry
 from ...params import BplirParams, Manoeuvre, derive, on_line, save_toml
-from ..montecarlo.runner import run_study
+from ..montecarlo.runner import check_out, run_study
+from ..montecarlo.study import StudyError
 from .grid import solve_library
 from .margins import (assumptions, binding_line, electric_margins, landing_impact,
                       motor_figures)
@@ -88,9 +89,9 @@ def commission(params: BplirParams, *, inclines=(0.0,), spacings=None,
     inclines = tuple(sorted(float(a) for a in inclines))
     spacings = tuple(sorted(spacings or default_spacings(params)))
     out = None if out is None else Path(out)
-    if out is not None:
-        out.mkdir(parents=True, exist_ok=True)
-        save_toml(params, out / "robot.toml")
+    if out is not None:   # before any work: nothing of another robot's is replaced
+        check_commission_out(params, out, grippers=grippers, inclines=inclines,
+                             spacings=spacings, samples=samples, seed=seed, pumps=pumps)
     pool = dict(workers=workers, dask=dask, scheduler=scheduler, progress=progress)
     grid = dict(inclines=inclines, spacings=spacings, samples=samples, seed=seed, out=out,
                 pool=pool)
@@ -171,9 +172,7 @@ def _manoeuvre(robot, g: int, *, inclines, spacings, samples, seed, out, pool) -
     for a in inclines:
         if all(solved[a, d].plan is None for d in spacings):
             continue
-        name = f"gripper{g}_incline_{a:+05.1f}" if kind == "swing" else \
-            f"gripper{g}_{kind}_incline_{a:+05.1f}"
-        where = None if out is None else out / "studies" / name
+        where = None if out is None else out / "studies" / study_name(g, kind, a)
         v, why = _verify(robot, a, solved, samples, seed, spacings, where, pool)
         own = _own_spacing(robot, a, solved, spacings)
         f.studies.append(StudyVerdict(v, holding=g, manoeuvre=kind, impact=None if own is None
@@ -181,6 +180,35 @@ def _manoeuvre(robot, g: int, *, inclines, spacings, samples, seed, out, pool) -
         if why:
             (f.unshown if v.verdict == "not shown" else f.limits).append(head + why)
     return f
+
+
+def study_name(gripper: int, kind: str, incline: float) -> str:
+    """The directory under ``studies/`` of the verification study of the
+    robot held by ``gripper`` reaching the line by ``kind`` at ``incline``."""
+    how = "" if kind == "swing" else f"_{kind}"
+    return f"gripper{gripper}{how}_incline_{incline:+05.1f}"
+
+
+def check_commission_out(params, out: Path, *, grippers, inclines, spacings, samples,
+                         seed, pumps) -> None:
+    """Refuse (``StudyError``, nothing written) an ``out`` whose ``plans``
+    or ``studies`` is a link (the commission would write where it points),
+    or whose studies are another commission's (another robot, other
+    samples' seed or grid): every study the commission may run is checked
+    before it solves a plan."""
+    for part in ("plans", "studies", "robot.toml", "commission.json"):
+        if (out / part).is_symlink():
+            raise StudyError(f"{out / part} is a symbolic link; a commission writes its "
+                             "own files there: remove the link or choose another --out")
+    for g in grippers:
+        kinds = [("swing", derive(params, Manoeuvre(gripper=g)), spacings)]
+        if pumps:
+            kinds.append(("pump", derive(params, Manoeuvre(gripper=g, reach="pump")),
+                          pump_spacings(spacings)))
+        for kind, robot, grid in kinds:
+            for a in inclines:
+                check_out(verification_study(robot, a, samples, seed, grid),
+                          out / "studies" / study_name(g, kind, a))
 
 
 def _verify(robot, incline, solved, samples, seed, spacings, where, pool):
@@ -249,5 +277,7 @@ def _save(result: CommissionResult, out: Path, grippers, figure) -> None:
             (out / "plans").mkdir(exist_ok=True)
             with atomic_path(out / "plans" / lib.name) as tmp:
                 shutil.copyfile(lib, tmp)
+    out.mkdir(parents=True, exist_ok=True)
+    save_toml(result.params, out / "robot.toml")
     write_json_atomic(out / "commission.json", result.to_dict())
     write_report(result, out, *figure)

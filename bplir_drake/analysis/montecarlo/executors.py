@@ -88,6 +88,24 @@ def _quiet_dask_logs():
         log.setLevel(level)
 
 
+@contextlib.contextmanager
+def _abandoned_if_stopped():
+    """A local cluster a signal stops while it starts is closed here, its
+    errors kept quiet, and forgotten: Dask's own exit handler would close
+    it again and print the traceback of a cluster still starting."""
+    try:
+        yield
+    except BaseException:
+        from distributed.deploy.spec import SpecCluster
+
+        for cluster in list(SpecCluster._instances):
+            if cluster.status.name != "closed":
+                with contextlib.suppress(BaseException), _quiet_dask_logs():
+                    cluster.close(timeout=5)
+            SpecCluster._instances.discard(cluster)
+        raise
+
+
 def _dask_map(fn: Callable, args: list[tuple], scheduler: str | None, workers: int) -> Iterable:
     """Yield fn(*a) as they finish on a Dask cluster: an existing one at
     ``scheduler`` or a LocalCluster of ``workers`` single-threaded processes."""
@@ -107,7 +125,7 @@ def _dask_map(fn: Callable, args: list[tuple], scheduler: str | None, workers: i
                 raise StudyError(f"cannot reach the Dask scheduler at {scheduler}: {msg}; "
                                  "expected an address like tcp://HOST:8786") from None
         else:
-            with _silent_children():
+            with _silent_children(), _abandoned_if_stopped():
                 cluster = LocalCluster(n_workers=max(1, workers), threads_per_worker=1,
                                        processes=True, dashboard_address=None,
                                        silence_logs=logging.CRITICAL)

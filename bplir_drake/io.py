@@ -16,10 +16,13 @@ import os
 import tempfile
 import threading
 import time
+import zipfile
 from pathlib import Path
 from typing import Iterator
 import numpy as np
 from importlib.metadata import PackageNotFoundError, version
+
+from .leftovers import sweep_unfinished
 
 UTF8_BOM = b"\xef\xbb\xbf"
 
@@ -175,6 +178,9 @@ class WallClockLimit(RuntimeError):
 
 #: what most likely ran past a wall-clock limit (the default of its message)
 HUNG_PLUGIN = "a hung controller or plug-in?"
+#: ... and what keeps a swing's plan solve within it
+PLANNING = ("commission the robot first (bplir commission), so its plans are solved once, "
+            "or raise the limit")
 
 
 @contextlib.contextmanager
@@ -194,15 +200,22 @@ def wall_clock_limit(seconds: float | None, what: str = "the simulation",
         yield
         return
 
+    hit = []
+
     def on_alarm(signum, frame):
-        raise WallClockLimit(f"{what} ran past its wall-clock limit of {seconds:g} s "
-                             f"(scenario.wall_limit; {hint})")
+        hit.append(WallClockLimit(f"{what} ran past its wall-clock limit of {seconds:g} s "
+                                  f"(scenario.wall_limit; {hint})"))
+        raise hit[0]
 
     start = time.monotonic()
     previous = signal.signal(signal.SIGALRM, on_alarm)
     signal.setitimer(signal.ITIMER_REAL, seconds)
     try:
         yield
+    except RuntimeError as exc:   # a solver calling back into Python wraps the limit in its
+        if hit and not isinstance(exc, WallClockLimit):   # own error (SNOPT through Drake)
+            raise hit[0] from None
+        raise
     finally:
         signal.setitimer(signal.ITIMER_REAL, 0.0)
         signal.signal(signal.SIGALRM, previous)
@@ -236,7 +249,7 @@ def atomic_path(path):
     tmp = None
     try:
         with _signals_held():
-            fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}-",
+            fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}-{os.getpid()}-",
                                        suffix=path.suffix)
             _UNFINISHED.add(tmp)
             os.close(fd)
@@ -256,6 +269,20 @@ def atomic_path(path):
             # a full disk while writing: name the file the user asked for
             raise OSError(exc.errno, exc.strerror, str(path)) from exc
         raise
+
+
+def write_npz(fh, arrays: dict, compressed: bool = False) -> None:
+    """``arrays`` as NumPy's ``.npz`` into the open binary file ``fh``, as
+    ``np.savez`` (``compressed``: ``np.savez_compressed``) would, but the
+    same arrays give the same bytes: every member's time stamp is the zip
+    format's first (1980-01-01), not the moment it was written."""
+    how = zipfile.ZIP_DEFLATED if compressed else zipfile.ZIP_STORED
+    with zipfile.ZipFile(fh, "w", compression=how, allowZip64=True) as z:
+        for name, value in arrays.items():
+            info = zipfile.ZipInfo(f"{name}.npy", date_time=(1980, 1, 1, 0, 0, 0))
+            info.compress_type = how
+            with z.open(info, "w", force_zip64=True) as member:
+                np.lib.format.write_array(member, np.asanyarray(value), allow_pickle=False)
 
 
 def write_text_atomic(path, text: str) -> Path:
@@ -282,6 +309,7 @@ def check_output_dir(path, error=ValueError) -> Path:
         _probe(path)
     except OSError as exc:
         raise error(f"cannot write to output directory {path}: {exc.strerror or exc}") from None
+    sweep_unfinished(path)
     return path
 
 

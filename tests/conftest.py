@@ -119,16 +119,25 @@ def ends_cleanly(argv) -> int | None:
     return rc
 
 
-def quick_plan(params, *a, **k):
+def quick_plan(params, q0, qT, tau_max, power, tmax, knots, time_weight, guess_duration,
+               tolerance, *a, **k):
     """A stand-in for the plan solver (``planning.solve._solve_plan``): a 1 s
-    plan at rest, not SNOPT's minute."""
+    plan at rest at the start pose, with the limits it was asked to keep, not
+    SNOPT's minute."""
     import numpy as np
 
     from bplir_drake.planning.solve import SwingPlan
+    from bplir_drake.planning.swing_plan import plan_envelope
 
     t = np.linspace(0.0, 1.0, 5)
-    return SwingPlan(t, np.zeros((5, 4)), np.zeros(5), np.zeros((5, 2)), True, True, "stub",
-                     params.scenario.incline_deg, 20.0, 220.0, 1e-4)
+    states = np.tile(np.r_[np.asarray(q0, dtype=float), 0.0, 0.0], (5, 1))
+    env = plan_envelope(params)
+    electric = {} if env is None else dict(
+        voltage_limit=env["voltage"], voltage_share=env["share"],
+        resistance=env["resistance"], emf_per_rate=env["emf_per_rate"],
+        torque_per_amp=env["torque_per_amp"])
+    return SwingPlan(t, states, np.zeros(5), np.zeros((5, 2)), True, True, "stub",
+                     params.scenario.incline_deg, tau_max, power, tolerance, **electric)
 
 
 def pytest_configure(config):

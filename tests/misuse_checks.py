@@ -490,7 +490,7 @@ CHECKS = {f.__name__: f for f in (
 
 
 #: the modules of further checks (each with its CHECKS), run with these
-MORE = ("process_checks",)
+MORE = ("process_checks", "cache_checks", "input_checks")
 
 
 def every_check() -> dict:

@@ -18,7 +18,7 @@ def _cut_after_half(write):
 
 
 def _cut_producer(produce):
-    """``produce(obj, target, ...)`` (``np.savez``, ``Figure.savefig``) that
+    """``produce(obj, target, ...)`` (``io.write_npz``, ``Figure.savefig``) that
     writes half of its bytes to ``target`` (a path or a binary file) and
     is then interrupted."""
     def half(*a, **k):
@@ -48,6 +48,7 @@ def _writers(tmp_path):
     from matplotlib.figure import Figure
 
     from bplir_drake import io
+    from bplir_drake.planning import cache as plan_cache
     from bplir_drake.planning.cache import _write_npz
     from bplir_drake.plotting import save_figure
 
@@ -62,7 +63,7 @@ def _writers(tmp_path):
         "json": (tmp_path / "a.json", lambda p: io.write_json_atomic(p, {"x": list(range(5000))}),
                  (Path, "write_text", _cut_after_half)),
         "binary": (tmp_path / "a.npz", lambda p: _write_npz(p, {"x": np.arange(50000.0)}),
-                   (np, "savez", _cut_producer)),
+                   (plan_cache, "write_npz", _cut_producer)),
         "figure": (tmp_path / "a.png", lambda p: save_figure(figure(), p),
                    (Figure, "savefig", _cut_producer)),
     }

@@ -108,7 +108,7 @@ def test_bplir_plan_pumps_from_either_gripper(monkeypatch, tmp_path, capsys):
 
     def solver(params, q0, qT, tau_max, power, tmax, knots, *a, **k):
         seen.append((params.plant.l1, knots, tmax))
-        return quick_plan(params)
+        return quick_plan(params, q0, qT, tau_max, power, tmax, knots, *a, **k)
 
     monkeypatch.setattr(P, "_solve_plan", solver)
     monkeypatch.setenv("BPLIR_CACHE_DIR", str(tmp_path / "cache"))

@@ -32,6 +32,22 @@ def _parser_of(builder):
     return builder()
 
 
+#: the longest error line's message (characters): a value echoed in it
+#: (a 20 MB string from a file) is cut in its middle, keeping the line's
+#: start, which names what is wrong, and its end, which says what is allowed
+MAX_MESSAGE = 600
+
+
+def shortened(text: str) -> str:
+    """``text`` on one line, at most :data:`MAX_MESSAGE` characters and a
+    note of how many were cut from its middle."""
+    text = " ".join(text.split())
+    if len(text) <= MAX_MESSAGE:
+        return text
+    head, tail = MAX_MESSAGE * 2 // 3, MAX_MESSAGE // 3
+    return f"{text[:head]} ... ({len(text) - head - tail} characters cut) ... {text[-tail:]}"
+
+
 def _run(args) -> int:
     """The command; a stop a solver turned into its own error (SNOPT through
     Drake wraps the ``Terminated`` its Python callback raised in a
@@ -80,6 +96,9 @@ def _stdout_for(json: bool):
 #: the exit status of a command a signal stopped, once its line is written
 _STOPPED: list = [None]
 
+#: whether main() has finished its command and is tidying up
+_FINISHING: list = [False]
+
 
 def _after_the_command(signum, frame) -> None:
     """A signal while the finished command's process exits (the
@@ -104,6 +123,7 @@ def main(argv=None) -> int:
     """Run the command line; returns the exit status (2 with a one-line ``bplir: error:`` on bad
     input).  ``argv`` None: the console's command (``sys.argv``), whose process
     answers a signal with one line until it has exited."""
+    _FINISHING[0] = False
     args = _parser_of(build_parser).parse_args(argv)
     _STOPPED[0] = None
     import signal
@@ -123,7 +143,7 @@ def main(argv=None) -> int:
             _OUT[0] = out
             return _run(args)
     except (ParameterError, InputError, LogError, QftError, CalibrationError) as exc:
-        sys.stderr.write(f"bplir: error: {exc}\n")
+        sys.stderr.write(f"bplir: error: {shortened(str(exc))}\n")
         return 2
     except OSError as exc:   # a full disk, a vanished directory: the path and the reason
         if args.debug:
@@ -150,11 +170,11 @@ def main(argv=None) -> int:
             sys.stderr.write("bplir: interrupted; no output file was left half-written\n")
             _STOPPED[0] = 130
             return 130
-        text = " ".join(str(exc).split()) or "no message"
         sys.stderr.write(f"bplir: error: {args.command} failed: {type(exc).__name__}: "
-                         f"{text[:400]}\n")
+                         f"{shortened(str(exc)) or 'no message'}\n")
         return 1
     finally:
+        _FINISHING[0] = True
         remove_unfinished()   # a signal between a temporary file and its with-block
         forget_stop()
         _OUT[0] = None
@@ -177,7 +197,27 @@ def console() -> None:
         if isinstance(code, str):
             sys.stderr.write(code + "\n")
             code = 1
+    except KeyboardInterrupt as exc:   # a signal in main's last steps, the command done
+        code = _late_signal(exc)
     except BaseException:   # noqa: BLE001 - the process's top level (--debug)
         traceback.print_exc()
         code = 1
     exit_now(code)
+
+
+def _late_signal(exc: KeyboardInterrupt) -> int:
+    """The exit status (and line) of a signal that reached :func:`main`
+    outside its command: after a stop, the stop's; once the command has
+    finished, the line that its outputs are complete; before it began
+    (while the command line was parsed), the stop's line."""
+    import signal
+
+    signum = exc.signum if isinstance(exc, Terminated) else signal.SIGINT
+    if _STOPPED[0] is not None:
+        return _STOPPED[0]
+    if _FINISHING[0]:
+        sys.stderr.write(f"bplir: {signal.Signals(signum).name} after the command had "
+                         "finished; its outputs are complete\n")
+    else:
+        sys.stderr.write("bplir: interrupted before the command began; nothing was written\n")
+    return 128 + signum

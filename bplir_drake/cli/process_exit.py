@@ -45,6 +45,9 @@ def exit_now(code) -> None:
     import threading
 
     code = code if isinstance(code, int) else (0 if code is None else 1)
+    # the command has said its last line: an exit handler's error that Python
+    # would print as "Exception ignored in ..." (a half-started cluster's) is not
+    sys.unraisablehook = lambda unraisable: None
     try:
         threading._shutdown()   # what the interpreter's own exit does first
         atexit._run_exitfuncs()

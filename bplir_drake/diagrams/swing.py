@@ -37,7 +37,7 @@ import numpy as np
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import LogVectorOutput, ZeroOrderHold
 
-from ..params import BplirParams, ParameterError, ScenarioParams, to_dict
+from ..params import BplirParams, ParameterError, ScenarioParams, checked_seed, to_dict
 from ..systems.disturbance import (CommandDelay, DisturbanceSource, delay_steps,
                                    disturbance_schedule, has_disturbance)
 from ..systems.ekf import KinematicEkf
@@ -111,7 +111,9 @@ def set_swing_sample(built: Built, context, params: BplirParams, seed: int,
     links' inertial parameters, its friction, the IMUs' error model and noise
     seed, and the disturbance schedule.  Raises ``ValueError`` when
     ``params`` differ from the built ones outside :data:`SAMPLE_FIELDS`
-    (``structure``: their :func:`swing_structure`, when the caller has it)."""
+    (``structure``: their :func:`swing_structure`, when the caller has it),
+    and ``ParameterError`` unless ``seed`` is a whole number in [0, 2^32)."""
+    seed = checked_seed(seed)
     if structure is None:
         structure = swing_structure(params, json.loads(built.structure)["use_estimator"])
     if structure != built.structure:

@@ -10,17 +10,29 @@ from importlib.metadata import entry_points
 
 INF = math.inf
 
+#: the largest magnitude any field without a bound of its own may take, in
+#: its SI unit: far above any robot's value, far below where the model's
+#: products of masses, lengths and rates overflow
+MAX_MAGNITUDE = 1e9
+
+#: the heaviest link a line carries (kg): far above any brachiator built
+#: (AcroMonk's 0.6 kg free link, the BPLIR's 3.2 kg gripper link)
+MAX_MASS = 1000.0
+
+#: the largest winding resistance of a motor (ohm; small motors' are ohms)
+MAX_RESISTANCE = 1000.0
+
 
 class ParameterError(ValueError):
     """A parameter, preset or parameter file is invalid (one-line message)."""
 
 
-def _p(default, unit: str, lo: float = -INF, hi: float = INF, *, lo_open=False,
-       hi_open=False, doc: str = "", integer: bool = False, off: str = ""):
-    """A numeric field with unit and allowed range ``[lo, hi]`` (or open);
-    ``integer``: a whole number; ``off``: the name of the choice that turns
-    what the number does off (the field then holds that name; a 0, its
-    former spelling, reads as it)."""
+def _p(default, unit: str, lo: float = -MAX_MAGNITUDE, hi: float = MAX_MAGNITUDE, *,
+       lo_open=False, hi_open=False, doc: str = "", integer: bool = False, off: str = ""):
+    """A numeric field with unit and allowed range ``[lo, hi]`` (or open;
+    by default within :data:`MAX_MAGNITUDE`); ``integer``: a whole number;
+    ``off``: the name of the choice that turns what the number does off
+    (the field then holds that name; a 0, its former spelling, reads as it)."""
     return field(default=default, metadata=dict(unit=unit, lo=lo, hi=hi,
                                                 lo_open=lo_open, hi_open=hi_open,
                                                 doc=doc, integer=integer, off=off))
@@ -32,7 +44,8 @@ def number_or(value, off_value: float = 0.0) -> float:
     return off_value if isinstance(value, str) else value
 
 
-def _count(default: int, unit: str, lo: float = 0, hi: float = INF, *, doc: str = ""):
+def _count(default: int, unit: str, lo: float = 0, hi: float = MAX_MAGNITUDE, *,
+           doc: str = ""):
     """A whole number (samples, ticks) in ``[lo, hi]``; a float with no
     fraction (``500.0`` from a file) is taken as the whole number."""
     return _p(default, unit, lo, hi, doc=doc, integer=True)

@@ -122,9 +122,33 @@ def read_toml(path: str | Path, what: str = "parameter file", error=ParameterErr
     path = Path(path)
     text = read_text(path, what, error)
     try:
-        return tomllib.loads(text)
+        doc = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise error(f"malformed TOML in {path}: {exc}") from None
+    except RecursionError:   # the parser recurses once a level
+        doc = None
+    if doc is None or _depth(doc) > MAX_TOML_DEPTH:
+        raise error(f"{what} {path} nests its tables and arrays deeper than "
+                    f"{MAX_TOML_DEPTH} levels; allowed at most {MAX_TOML_DEPTH}")
+    return doc
+
+
+#: the deepest nesting of tables and arrays a file the package reads may
+#: have (its files are tables of tables, a few levels deep)
+MAX_TOML_DEPTH = 32
+
+
+def _depth(doc) -> int:
+    """How deep ``doc``'s tables and arrays nest (without recursing)."""
+    deepest, todo = 0, [(doc, 1)]
+    while todo:
+        value, level = todo.pop()
+        deepest = max(deepest, level)
+        if deepest > MAX_TOML_DEPTH:
+            break
+        items = value.values() if isinstance(value, dict) else value
+        todo += [(v, level + 1) for v in items if isinstance(v, (dict, list))]
+    return deepest
 
 
 def load_toml(path: str | Path) -> BplirParams:

@@ -3,7 +3,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
-from .blocks import MAX_LENGTH, ParameterError, _Block, _fraction, _length, _p, _positive
+from .blocks import (MAX_LENGTH, MAX_MASS, MAX_RESISTANCE, ParameterError, _Block, _fraction,
+                     _length, _p, _positive)
+
+#: the largest inertia of a link about its centre of mass (kg m^2): the
+#: heaviest link spread over the longest
+MAX_INERTIA = MAX_MASS * MAX_LENGTH ** 2
 
 
 # ---------------------------------------------------------------- plant
@@ -12,8 +17,8 @@ class PlantParams(_Block):
     """Rigid-body parameters of the two-link acrobot (Table 4.3)."""
 
     _name = "plant"
-    m1: float = _positive(3.2287, "kg", doc="mass of link 1 (gripper-side link)")
-    m2: float = _positive(1.5155, "kg", doc="mass of link 2 (free link)")
+    m1: float = _p(3.2287, "kg", 0, MAX_MASS, lo_open=True, doc="mass of link 1 (gripper-side link)")
+    m2: float = _p(1.5155, "kg", 0, MAX_MASS, lo_open=True, doc="mass of link 2 (free link)")
     l1: float = _length(0.9091, doc="length of link 1 (pivot to elbow)")
     l2: float = _length(1.2451, doc="length of link 2 (elbow to free gripper)")
     lc1: float = _p(0.2167, "m", 0, MAX_LENGTH, doc="pivot to centre of mass of link 1")
@@ -24,8 +29,8 @@ class PlantParams(_Block):
     oc2: float = _p(0.0, "m", -MAX_LENGTH, MAX_LENGTH,
                     doc="centre of mass of link 2 off its axis (elbow to free gripper), "
                         "positive counter-clockwise of it")
-    I1: float = _positive(0.1539, "kg m^2", doc="inertia of link 1 about its CoM")
-    I2: float = _positive(0.2191, "kg m^2", doc="inertia of link 2 about its CoM")
+    I1: float = _p(0.1539, "kg m^2", 0, MAX_INERTIA, lo_open=True, doc="inertia of link 1 about its CoM")
+    I2: float = _p(0.2191, "kg m^2", 0, MAX_INERTIA, lo_open=True, doc="inertia of link 2 about its CoM")
     g: float = _p(9.81, "m/s^2", 0, 30, lo_open=True, doc="gravitational acceleration")
 
     @property
@@ -147,7 +152,7 @@ class MotorParams(_Block):
                               doc="update period of the driver's i^2 t interlock")
     supply_voltage: float = _p(30.0, "V", 1, 100,
                                doc="supply voltage (Table 4.2: 30 V as built, 48 V nominal)")
-    resistance: float = _positive(48.0 / 124.0, "ohm",
+    resistance: float = _p(48.0 / 124.0, "ohm", 0, MAX_RESISTANCE, lo_open=True,
                                   doc="winding resistance (Table 4.2: 48 V / 124 A stall)")
     voltage_fraction: float = _fraction(
         0.98, doc="largest driver output voltage / supply (ESCON 50/5 datasheet: 0.98)")

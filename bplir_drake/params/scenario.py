@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numbers
 from dataclasses import dataclass, field
-from .blocks import MAX_LENGTH, ParameterError, _Block, _count, _fraction, _p, _positive
+from .blocks import MAX_LENGTH, ParameterError, _Block, _count, _fraction, _length, _p, _positive
 from .plan import MAX_LANDING_BIAS
 
 
@@ -77,7 +77,7 @@ class GripperParams(_Block):
     to the speed it withstands.  Both grippers are alike."""
 
     _name = "gripper"
-    capture_distance: float = _positive(0.02, "m", doc="gripper-to-line distance at which the gripper takes the line (the capture band)")
+    capture_distance: float = _length(0.02, doc="gripper-to-line distance at which the gripper takes the line (the capture band)")
     capture_speed: float = _positive(0.5, "m/s", doc="largest gripper speed at which it takes the line (faster is a crash)")
     width: float = _p(0.08, "m", 0, 0.5, doc="length of line a clasped gripper covers")
 

@@ -35,7 +35,7 @@ import warnings
 from pathlib import Path
 
 import numpy as np
-from ..io import atomic_path
+from ..io import atomic_path, write_npz
 from ..systems.plan_tracker import TrackingGains
 
 #: bump when the planner's formulation changes (old cache files are ignored)
@@ -110,7 +110,7 @@ def _write_npz(path: Path, arrays: dict) -> None:
     """``arrays`` as ``.npz`` at ``path``, atomically (:func:`~bplir_drake.io.atomic_path`)."""
 
     with atomic_path(path) as tmp, open(tmp, "wb") as fh:
-        np.savez(fh, **arrays)
+        write_npz(fh, arrays)
 
 
 def _save(plan, path: Path) -> None:
@@ -151,14 +151,20 @@ def load_gains(path: Path):
 GAIN_FIELDS = ("K", "x0", "u0", "k0")
 
 
-def _loader(make):
-    """A reader of :func:`_save`'s files building the plan with ``make(**fields)``."""
+def _loader(make, fits=None):
+    """A reader of :func:`_save`'s files building the plan with
+    ``make(**fields)``, checked (its ``check()``, then ``fits(plan)``:
+    that it is the plan of the key it is filed under)."""
     def load(path: Path):
         with np.load(path, allow_pickle=False) as data:
             meta = json.loads(str(data["meta"]))
             arrays = {k: np.array(data[k]) for k in data.files if k != "meta"}
+        if not isinstance(meta, dict):
+            raise ValueError("its meta is not a table of fields")
         plan = make(**arrays, **meta)
         plan.check()
+        if fits is not None:
+            fits(plan)
         return plan
     return load
 
@@ -219,16 +225,18 @@ def _used(path: Path) -> None:
         USED.add(Path(path))
 
 
-def cached(inputs: dict, solve, kind: str = "plan", make=None):
+def cached(inputs: dict, solve, kind: str = "plan", make=None, fits=None):
     """The plan (``kind="gains"``: the tracking gains) for ``inputs``: the
     shipped one when the package has it (whatever state the cache is in),
     else from the cache, else ``solve()`` once (stored when the cache is
     usable; a damaged cache file is moved aside and re-solved).  A plan is
     rebuilt from its file by ``make(**fields)`` (the plan's class,
-    :class:`~bplir_drake.planning.solve.SwingPlan`)."""
+    :class:`~bplir_drake.planning.solve.SwingPlan`) and must pass
+    ``fits(plan)`` (a ``ValueError`` saying why it is not the plan of
+    ``inputs``), or it is damaged."""
     if kind == "plan" and make is None:
         raise TypeError("cached(kind='plan') needs make=, the plan's class")
-    load, save = (_loader(make), _save) if kind == "plan" else (load_gains, save_gains)
+    load, save = (_loader(make, fits), _save) if kind == "plan" else (load_gains, save_gains)
     packaged = packaged_plan_path(inputs, kind)
     shipped = _read(load, packaged)
     if shipped is not None:

@@ -19,7 +19,7 @@ import numpy as np
 from ..csvfile import numeric_columns
 from ..params import BplirParams, ParameterError
 from ..params.robot_file import describe_robot
-from .swing_plan import SwingPlan
+from .swing_plan import MIN_PLAN_STEP, SwingPlan
 
 #: the fewest rows a plan file may have, and the plausible magnitudes of its
 #: angles (rad), rates (rad/s) and torques (N m)
@@ -47,6 +47,10 @@ def _check(path: str, data: np.ndarray) -> None:
         k = int(np.argmax(np.diff(data[:, 0]) <= 0))
         raise ParameterError(f"plan.file {path}: time is not increasing at row {k + 2}")
     span, gaps = data[-1, 0] - data[0, 0], np.diff(data[:, 0])
+    if gaps.min() < MIN_PLAN_STEP:
+        k = int(np.argmin(gaps))
+        raise ParameterError(f"plan.file {path}: rows {k + 1} and {k + 2} are {gaps[k]:.3g} s "
+                             f"apart; allowed at least {MIN_PLAN_STEP:g} s between rows")
     if span > MAX_PLAN_DURATION:
         raise ParameterError(f"plan.file {path} spans {span:g} s; allowed at most "
                              f"{MAX_PLAN_DURATION:g} s (one swing)")

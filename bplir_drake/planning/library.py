@@ -22,9 +22,11 @@ solve there, and the tracking feedback absorbs the difference.
 """
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import functools
 import json
+import os
 import warnings
 import math
 from dataclasses import dataclass
@@ -37,7 +39,7 @@ from ..params.blocks import number_or
 from ..systems.friction import friction_torques_along
 from ..systems.plan_tracker import RICCATI_ACCURACY, TrackerWeights, TrackingGains, plan_gains
 from ..systems.plant import start_configuration
-from ..io import atomic_path
+from ..io import atomic_path, write_npz
 from .cache import PACKAGED, cache_dir, damage, plan_key
 from .swing_plan import (
     HANGING_GUESSES, HANGING_KNOTS, HANGING_MINOR_ITERATIONS, PLAN_FRICTION_SMOOTHING, PUMP_KNOTS, UNBALANCED_SHARE, SwingPlan, plan_envelope, plan_friction, plan_time_weight, plan_torque_limit, planned_target, pump_guesses, shifted_angles)
@@ -194,7 +196,7 @@ def save_library(lib: PlanLibrary, path: Path) -> None:
     if lib.robot:
         arrays["robot"] = np.array(lib.robot)
     with atomic_path(path) as tmp, open(tmp, "wb") as fh:
-        np.savez_compressed(fh, key=np.array(lib.key), **arrays)
+        write_npz(fh, {"key": np.array(lib.key), **arrays}, compressed=True)
     load_library.cache_clear()   # a lookup before it was written found none
 
 
@@ -208,8 +210,17 @@ def load_library(path: Path) -> PlanLibrary | None:
         lib = _load(path)
         _check_library(lib)
     except Exception as exc:   # truncated, not a zip, wrong fields, non-finite plans
-        warnings.warn(f"the plan library {path} is damaged ({damage(exc)}); plans it holds are "
-                      "solved instead (reinstall the package to restore it)", stacklevel=2)
+        if path.parent == PACKAGED:
+            warnings.warn(f"the shipped plan library {path} is damaged ({damage(exc)}); plans "
+                          "it holds are solved instead (reinstall the package to restore it)",
+                          stacklevel=2)
+            return None
+        aside = path.with_suffix(".damaged")
+        with contextlib.suppress(OSError):
+            os.replace(path, aside)
+        warnings.warn(f"the plan library {path} is damaged ({damage(exc)}); moved aside to "
+                      f"{aside.name}: plans it held are solved instead, and commissioning "
+                      "the robot again rebuilds it", stacklevel=2)
         return None
     return lib
 

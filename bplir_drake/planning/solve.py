@@ -26,7 +26,7 @@ import numpy as np
 
 from ..params import BplirParams, ParameterError, around
 from .swing_plan import (
-    HANGING_GUESSES, HANGING_KNOTS, HANGING_MINOR_ITERATIONS, PLAN_FRICTION_SMOOTHING, PUMP_KNOTS, UNBALANCED_SHARE, SwingPlan, energy_balance, plan_envelope, plan_friction, plan_time_weight, plan_torque_limit, planned_target, pump_guesses, shifted_angles)
+    HANGING_GUESSES, HANGING_KNOTS, HANGING_MINOR_ITERATIONS, PLAN_FRICTION_SMOOTHING, PUMP_KNOTS, UNBALANCED_SHARE, SwingPlan, energy_balance, planned_for, plan_envelope, plan_friction, plan_time_weight, plan_torque_limit, planned_target, pump_guesses, shifted_angles)
 from ..params.derive import planned_from_hanging
 from .library import library_plan
 from .file import read_plan_file
@@ -119,7 +119,7 @@ def plan_swing(params: BplirParams, *, power_limit: float | None = None, knots: 
     if not cache:
         return solve()
 
-    return cached(inputs, solve, make=SwingPlan)
+    return cached(inputs, solve, make=SwingPlan, fits=lambda plan: planned_for(plan, inputs))
 
 
 def warm_guess(plan: SwingPlan, q0, qT) -> tuple:
@@ -197,8 +197,8 @@ def _solve_plan(params, q0, qT, tau_max, power, tmax, knots, time_weight, guess_
         options.SetOption(snopt, "Iterations limit", int(minor_iterations))
 
     with progress_bar(progress, desc="plan (SNOPT)", unit="evaluations") as bar:
-        if progress:  # Drake calls it at every evaluation of the costs and constraints
-            prog.AddVisualizationCallback(lambda z: bar.update(), prog.decision_variables())
+        # at every evaluation: the count, and a moment a signal or wall limit can stop it
+        prog.AddVisualizationCallback(lambda z: bar.update(), prog.decision_variables())
         result = Solve(prog, None, options)
         share = None if env is None else env["share"]
         for _ in range(PLAN_VOLTAGE_REFINEMENTS):   # the voltage between the knots

@@ -42,6 +42,21 @@ def plan_time_weight(plant) -> float:
 #: the solver's constraint tolerance and the dense samples between knots)
 PLAN_TORQUE_SLACK = 1e-3
 
+#: how far beyond its power limit a stored plan's dense samples may reach
+#: (relative): the limit holds at the knots, the cubic between them swings
+#: past it (by up to 6 % in the shipped plans)
+PLAN_POWER_SLACK = 0.25
+
+#: the shortest time between two samples of a plan (s): finer than any
+#: simulator step, and the least time Drake's trajectories can tell apart
+#: by many orders of magnitude
+MIN_PLAN_STEP = 1e-6
+
+#: the plan's fields that are flags, words and numbers, in its stored meta
+PLAN_FLAGS, PLAN_WORDS = ("solved", "feasible"), ("solver", "status")
+PLAN_NUMBERS = ("incline_deg", "torque_limit", "power_limit", "tolerance", "voltage_limit",
+                "voltage_share", "resistance", "emf_per_rate", "torque_per_amp")
+
 
 @dataclass
 class SwingPlan(Result):
@@ -134,9 +149,53 @@ class SwingPlan(Result):
                 raise ValueError(f"its {name} have a missing or non-finite value")
         if np.any(np.diff(t) <= 0):
             raise ValueError(f"its times do not increase at sample {int(np.argmax(np.diff(t) <= 0)) + 2}")
-        if self.feasible and self.peak_torque > self.torque_limit * (1 + PLAN_TORQUE_SLACK):
+        if t[0] != 0.0:
+            raise ValueError(f"it starts at {t[0]:g} s; a plan starts at 0")
+        if np.diff(t).min() < MIN_PLAN_STEP:
+            raise ValueError(f"two of its samples are {np.diff(t).min():.3g} s apart; allowed "
+                             f"at least {MIN_PLAN_STEP:g} s")
+        self._check_meta()
+        if self.feasible:
+            self._check_limits()
+
+    def _check_meta(self) -> None:
+        """Raise ``ValueError`` unless the flags are booleans, the words
+        strings and the numbers real numbers in their ranges."""
+        for name in PLAN_FLAGS:
+            if not isinstance(getattr(self, name), (bool, np.bool_)):
+                raise ValueError(f"its {name} is {getattr(self, name)!r}, not true or false")
+        for name in PLAN_WORDS:
+            if not isinstance(getattr(self, name), str):
+                raise ValueError(f"its {name} is {getattr(self, name)!r}, not a word")
+        for name in PLAN_NUMBERS:
+            v = getattr(self, name)
+            if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, float, np.floating)):
+                raise ValueError(f"its {name} is {v!r}, not a number")
+        ranges = {"incline_deg": (-90.0, 90.0), "voltage_share": (1e-9, 1.0)}
+        for name, (lo, hi) in ranges.items():
+            if not lo <= getattr(self, name) <= hi:
+                raise ValueError(f"its {name} is {getattr(self, name)!r}; allowed [{lo:g}, {hi:g}]")
+        for name in ("torque_limit", "power_limit", "voltage_limit", "torque_per_amp"):
+            if not getattr(self, name) > 0:   # NaN fails too; inf is "no limit"
+                raise ValueError(f"its {name} is {getattr(self, name)!r}; allowed (0, inf]")
+        for name in ("resistance", "emf_per_rate"):
+            if not 0 <= getattr(self, name) < math.inf:
+                raise ValueError(f"its {name} is {getattr(self, name)!r}; allowed [0, inf)")
+        if not (self.tolerance > 0 or (math.isnan(self.tolerance) and self.status == "external")):
+            raise ValueError(f"its tolerance is {self.tolerance!r}; allowed (0, inf)")
+
+    def _check_limits(self) -> None:
+        """Raise ``ValueError`` when a feasible plan breaks its own torque,
+        power or voltage limit."""
+        if self.peak_torque > self.torque_limit * (1 + PLAN_TORQUE_SLACK):
             raise ValueError(f"its torque reaches {self.peak_torque:g} N m, beyond its limit "
                              f"{self.torque_limit:g} N m")
+        if self.peak_power > self.power_limit * (1 + PLAN_POWER_SLACK):
+            raise ValueError(f"its power reaches {self.peak_power:g} W, beyond its limit "
+                             f"{self.power_limit:g} W")
+        if self.peak_voltage > self.voltage_limit * (1 + PLAN_TORQUE_SLACK):
+            raise ValueError(f"its winding voltage reaches {self.peak_voltage:g} V, beyond "
+                             f"the driver's {self.voltage_limit:g} V")
 
     def objective(self, time_weight: float = 1.0) -> float:
         """The planner's cost ``int tau^2 dt + time_weight T`` on the dense
@@ -265,3 +324,32 @@ def pump_guesses(plant) -> tuple[float, ...]:
     """:data:`PUMP_GUESSES` in seconds for the robot ``plant``."""
     t0 = robot_scales(plant)[0]
     return tuple(round(k * t0, 2) for k in PUMP_GUESSES)
+
+
+def planned_for(plan: SwingPlan, inputs: dict) -> None:
+    """Raise ``ValueError`` saying what differs when the stored ``plan``
+    is not a plan of the planner's ``inputs`` (the key it is filed under):
+    its incline, limits and tolerance, its duration within the longest
+    allowed, its start at the start pose at rest within ten times the
+    solver's tolerance, and the motor's envelope (its voltage share at
+    most the one asked for)."""
+    said = {"incline_deg": inputs["incline_deg"], "torque_limit": inputs["tau_max"],
+            "power_limit": inputs["power"], "tolerance": inputs["tolerance"]}
+    env = inputs.get("envelope")
+    if env is not None:   # the share may be tighter: the planner tightens it where the
+        if plan.voltage_share > env["share"] * (1 + 1e-12):   # voltage between knots is high
+            raise ValueError(f"its voltage_share is {plan.voltage_share!r}, above the "
+                             f"{env['share']!r} it is filed under")
+        said |= {"voltage_limit": env["voltage"], "resistance": env["resistance"],
+                 "emf_per_rate": env["emf_per_rate"], "torque_per_amp": env["torque_per_amp"]}
+    for name, want in said.items():
+        got = getattr(plan, name)
+        if not math.isclose(got, want, rel_tol=1e-12, abs_tol=1e-12):
+            raise ValueError(f"its {name} is {got!r}, but it is filed under {want!r}")
+    if plan.duration > inputs["tmax"] * (1 + 1e-9):
+        raise ValueError(f"it lasts {plan.duration:g} s; it was planned within "
+                         f"{inputs['tmax']:g} s")
+    start = np.r_[np.asarray(inputs["q0"], dtype=float), 0.0, 0.0]   # at rest
+    off = float(np.max(np.abs(plan.states[0] - start)))
+    if off > 10 * inputs["tolerance"]:
+        raise ValueError(f"it starts {off:.3g} away from the start it is filed under")

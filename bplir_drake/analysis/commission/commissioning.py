@@ -8,18 +8,18 @@ import tempfile
 import time
 from pathlib import Path
 
-from ...planning.library import robot_library_path
+from ...planning.library import load_library, robot_library_path
 from ...io import atomic_path, write_json_atomic
 from ...planning.retry import retry
 from ...params import BplirParams, Manoeuvre, derive, on_line, save_toml
 from ..montecarlo.runner import check_out, run_study
 from ..montecarlo.study import StudyError
-from .grid import solve_library
+from .grid import guess_sources, solve_library
 from .margins import (assumptions, binding_line, electric_margins, landing_impact,
                       motor_figures)
 from .commission_result import CommissionResult
 from .rows import PlanPoint, StudyVerdict
-from .similarity import commissioned_references, shipped_references, similar_guesses
+from .similarity import Reference, plan_kind, similar_guesses
 from .commission_report import write_report
 from .verdict import (DEFAULT_SAMPLES, READY_RATE, miss_reasons, no_plan_reason,
                       study_verdict, verification_study)
@@ -93,8 +93,9 @@ def commission(params: BplirParams, *, inclines=(0.0,), spacings=None,
         check_commission_out(params, out, grippers=grippers, inclines=inclines,
                              spacings=spacings, samples=samples, seed=seed, pumps=pumps)
     pool = dict(workers=workers, dask=dask, scheduler=scheduler, progress=progress)
+    refs = []   # the libraries solved so far, in order: later ones start from them
     grid = dict(inclines=inclines, spacings=spacings, samples=samples, seed=seed, out=out,
-                pool=pool)
+                pool=pool, refs=refs)
     found = Found()
     for g in grippers:
         robot, tries = held_by(params, g)
@@ -107,11 +108,11 @@ def commission(params: BplirParams, *, inclines=(0.0,), spacings=None,
             found.add(pump, chosen=False)
         found.add(chosen, chosen=True)
         if hanging and any(p is not None for p in chosen.plans):
-            from_hanging = solve_library(tries, inclines, spacings, **pool)
+            from_hanging = _solved(tries, inclines, spacings, pool, refs)
             found.plans += [r.plan for r in from_hanging.values()]
             found.points += [PlanPoint(r.row(), holding=g, start="hanging")
                              for r in from_hanging.values()]
-            found.limits += [f"gripper {g}, from hanging: {_no_plan(tries, r)}"
+            found.limits += [f"gripper {g}, from hanging: {_no_plan(tries, r, refs)}"
                              for r in from_hanging.values() if r.plan is None]
     result = CommissionResult(name=name, params=params, points=found.points,
                               studies=found.studies, limits=found.limits, unshown=found.unshown,
@@ -156,19 +157,31 @@ class Found:
             self.binding |= other.binding
 
 
-def _manoeuvre(robot, g: int, *, inclines, spacings, samples, seed, out, pool) -> Found:
+def _solved(robot, inclines, spacings, pool: dict, refs: list) -> dict:
+    """The library of ``robot`` on the grid (:func:`~.grid.solve_library`),
+    started from the libraries ``refs`` this commission solved before; the
+    new library is added to them."""
+    solved = solve_library(robot, inclines, spacings, references=tuple(refs), **pool)
+    lib = load_library(robot_library_path(robot))
+    if lib is not None:
+        refs.append(Reference(lib, robot.plant, plan_kind(robot)))
+    return solved
+
+
+def _manoeuvre(robot, g: int, *, inclines, spacings, samples, seed, out, pool,
+               refs) -> Found:
     """The robot ``robot`` held by gripper ``g`` reaching the line by its
     manoeuvre (``scenario.manoeuvre``): its library on the grid, the limit
     line of every point without a plan, and a verification study at each
     incline with a plan."""
     kind = robot.scenario.manoeuvre
-    solved = solve_library(robot, inclines, spacings, **pool)
+    solved = _solved(robot, inclines, spacings, pool, refs)
     f = Found(plans=[r.plan for r in solved.values()])
     f.binding[g] = binding_line(robot, f.plans)
     f.points = [PlanPoint(r.row(), holding=g, start="line", manoeuvre=kind)
                 for r in solved.values()]
     head = f"gripper {g}: " + ("" if kind == "swing" else "pumping: ")
-    f.limits = [head + _no_plan(robot, r) for r in solved.values() if r.plan is None]
+    f.limits = [head + _no_plan(robot, r, refs) for r in solved.values() if r.plan is None]
     for a in inclines:
         if all(solved[a, d].plan is None for d in spacings):
             continue
@@ -241,10 +254,10 @@ def _run(study, where, pool: dict) -> tuple[dict, list]:
         return dict(done), list(done.result.rows)
 
 
-def _no_plan(params, res) -> str:
+def _no_plan(params, res, refs) -> str:
     """The limit line of a grid point without a plan."""
     q = on_line(params, res.incline, res.spacing)
-    guesses = similar_guesses(q, shipped_references() + commissioned_references(), count=1)
+    guesses = similar_guesses(q, guess_sources(refs), count=1)
     return no_plan_reason(params, res.incline, res.spacing, guesses[0] if guesses else None,
                           res.tried)
 

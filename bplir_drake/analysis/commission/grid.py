@@ -23,8 +23,7 @@ from ...systems.plan_tracker import TrackerWeights
 from ..montecarlo.executors import map_jobs
 from .margins import supply_energy
 from .refine import refined, solve_from
-from .similarity import (commissioned_references, plan_kind, shipped_references,
-                         similar_guesses)
+from .similarity import plan_kind, shipped_references, similar_guesses
 
 
 @dataclass(frozen=True)
@@ -59,15 +58,24 @@ class PointResult:
                     tried="; ".join(self.tried), energy_residual_share=self.energy_residual)
 
 
+def guess_sources(references=()) -> list:
+    """The libraries a commission's first guesses come from: the package's
+    shipped ones and ``references`` (libraries this commission solved
+    before), never whatever else the plan cache holds, so that the same
+    robot and options give the same plans however often and wherever they
+    run."""
+    return shipped_references() + list(references)
+
+
 def solve_point(params: BplirParams, incline: float, spacing: float,
-                neighbour=None, straight: bool = True) -> PointResult:
+                neighbour=None, straight: bool = True, references=()) -> PointResult:
     """The plan at one grid point with its library entry: from ``neighbour``
     (a solved SwingPlan next to it), else from similar robots' plans scaled
-    to this one, else (with ``straight``) from the straight-line guesses."""
+    to this one (:func:`guess_sources`), else (with ``straight``) from the
+    straight-line guesses."""
     t0 = time.perf_counter()
     q = on_line(params, incline, spacing)
-    tries = [("similarity", g) for g in similar_guesses(
-        q, shipped_references() + commissioned_references())]
+    tries = [("similarity", g) for g in similar_guesses(q, guess_sources(references))]
     if neighbour is not None:
         tries.insert(0, ("continuation", neighbour))
     plan, how, tried = None, "none", []
@@ -127,7 +135,7 @@ def _neighbour(point, solved: dict):
 
 def solve_library(params: BplirParams, inclines, spacings, *, workers: int = 0,
                   progress: bool = False, dask: bool = False, scheduler=None,
-                  path=None, key: str | None = None) -> dict:
+                  path=None, key: str | None = None, references=()) -> dict:
     """``{(incline, spacing): PointResult}`` over the grid, the library
     saved for ``params``'s model: every point from similar robots first (in
     parallel: ``workers`` processes, or Dask), the point nearest a level
@@ -136,17 +144,23 @@ def solve_library(params: BplirParams, inclines, spacings, *, workers: int = 0,
     none has one), then the grid made fit to blend
     (:func:`~.refine.refined`; a replaced point's ``how`` says so).  Saved at
     ``path`` under ``key`` (default: the plan cache's commissioned library,
-    :func:`~bplir_drake.planning.library.robot_library_path`)."""
+    :func:`~bplir_drake.planning.library.robot_library_path`).  First
+    guesses come from :func:`guess_sources` with ``references``; the points
+    are taken in grid order whatever order they finish in, so the library
+    is a function of its inputs alone."""
     pool = dict(workers=workers, dask=dask, scheduler=scheduler, progress=progress)
     points = [(float(a), float(d)) for a in inclines for d in spacings]
     first = min(points, key=lambda p: (abs(p[0]), abs(p[1] - params.scenario.grip_spacing)))
+    refs = tuple(references)
     solved = {}
-    for res in map_jobs(solve_point, [(params, a, d, None, (a, d) == first) for a, d in points],
+    for res in map_jobs(solve_point, [(params, a, d, None, (a, d) == first, refs)
+                                      for a, d in points],
                         desc="plans", unit="plans", **pool):
         solved[res.incline, res.spacing] = res
+    solved = {p: solved[p] for p in points}
     missing = [p for p in points if solved[p].plan is None]
     if missing:
-        args = [(params, a, d, _neighbour((a, d), solved)) for a, d in missing]
+        args = [(params, a, d, _neighbour((a, d), solved), True, refs) for a, d in missing]
         for res in map_jobs(solve_point, args, desc="plans (continued)", unit="plans", **pool):
             solved[res.incline, res.spacing] = res
     plans, changed = refined(params, {p: r.plan for p, r in solved.items()})

@@ -16,20 +16,17 @@ plan is the scaled robot's optimum, not just a feasible swing.
 from __future__ import annotations
 
 import dataclasses as dc
-import json
 import math
 from dataclasses import dataclass
 
 import numpy as np
 
-from ...planning.cache import cache_dir
 from ...planning.library import (LIBRARY_SAMPLES, PlanLibrary, library_path,
                                       load_library)
 from ...planning.swing_plan import SwingPlan
 from ...planning.retry import retry
 from ...params import BplirParams, Manoeuvre, derive, preset, with_hardware
 from ...params.follow import robot_scales
-from ...params.robot import PlantParams
 
 
 @dataclass(frozen=True)
@@ -88,19 +85,6 @@ def shipped_references() -> list[Reference]:
         lib = load_library(library_path(p))
         if lib is not None:
             out.append(Reference(lib, p.plant, p.scenario.start))
-    return out
-
-
-def commissioned_references() -> list[Reference]:
-    """Libraries commissioned on this machine (in the plan cache), each with
-    the robot it records."""
-    out = []
-    for path in sorted(cache_dir().glob("library-*.npz")):
-        lib = load_library(path)
-        if lib is None or not lib.robot:
-            continue
-        robot = json.loads(lib.robot)
-        out.append(Reference(lib, PlantParams.from_dict(robot["plant"]), robot["start"]))
     return out
 
 

@@ -98,6 +98,8 @@ def _abandoned_if_stopped():
     except BaseException:
         from distributed.deploy.spec import SpecCluster
 
+        for name in ("distributed", "asyncio", "tornado"):   # its nannies' failures to start,
+            logging.getLogger(name).setLevel(logging.CRITICAL + 1)   # logged as they end
         for cluster in list(SpecCluster._instances):
             if cluster.status.name != "closed":
                 with contextlib.suppress(BaseException), _quiet_dask_logs():

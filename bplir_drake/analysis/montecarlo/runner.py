@@ -42,6 +42,7 @@ from __future__ import annotations
 import contextlib
 import os
 import time
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -50,6 +51,7 @@ from .executors import map_jobs
 from .sampling import run_sample, sample_params
 from .statistics import summarize
 from .store import ResultWriter, columns, read_results
+from .row_check import read_checked
 from .study import RESULTS_FILE, STUDY_FILE, SUMMARY_FILE, Study, StudyError, load_study, save_study
 from ..swing.swing_runner import run_swing
 from .study_plots import plot_success_vs_parameters, study_figures
@@ -72,7 +74,13 @@ def prepare_out(study: Study, out: Path) -> list[dict]:
     out.mkdir(parents=True, exist_ok=True)
     saved = out / STUDY_FILE
     save_study(study, saved)
-    return checked_rows(study, read_results(out / RESULTS_FILE, columns(study)), out)
+    rows, damaged = read_checked(study, out / RESULTS_FILE, columns(study))
+    if damaged:   # dropped here, so run again
+        more = f" (and {len(damaged) - 3} more)" if len(damaged) > 3 else ""
+        warnings.warn(f"{out / RESULTS_FILE}: {len(damaged)} damaged "
+                      f"row{'s' if len(damaged) > 1 else ''} run again: "
+                      + "; ".join(damaged[:3]) + more, stacklevel=2)
+    return checked_rows(study, rows, out)
 
 
 def checked_rows(study: Study, rows: list[dict], out: Path) -> list[dict]:

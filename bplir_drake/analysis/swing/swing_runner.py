@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ...io import Result, dumps_strict
+from ...io import PLANNING, Result, dumps_strict, wall_clock_limit
 
 from ...diagrams import build_swing, set_swing_sample, swing_geometry, swing_structure
 from ...params import BplirParams, checked_seed, plugin_name, to_dict
@@ -165,7 +165,8 @@ class SwingRunner:
         use_est = sc.use_estimator if use_estimator is None else use_estimator
         p = draw_true_friction(params, seed)
         structure = swing_structure(p, use_est)
-        built, fresh = self.diagram_for(p, seed, use_est, structure)
+        with wall_clock_limit(sc.wall_limit, f"planning the swing of seed {seed}", PLANNING):
+            built, fresh = self.diagram_for(p, seed, use_est, structure)
         # a fresh build's default context already holds this sample
         motor = built.systems["motor"]
 

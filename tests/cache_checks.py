@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from misuse_checks import bplir, one_error_line, plan_csv, quick_solver
+from misuse_checks import bplir, one_error_line, quick_solver
 
 
 def _plan(cache: Path, d: Path, incline: str, name: str):

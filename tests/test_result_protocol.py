@@ -80,8 +80,46 @@ def _observability(tmp):
     return res, ["t", "rank_gyro", "rank_full", "smin_gyro", "smin_full", "a31", "a42"], len(r.t)
 
 
+#: the time-series columns of a plan, a free swing and a replay
+PLAN_COLUMNS = ["t_s", "q1_rad", "q2_rad", "q1d_radps", "q2d_radps", "tau_Nm", "friction1_Nm",
+                "friction2_Nm", "power_W", "voltage_V"]
+FREE_SWING_COLUMNS = ["t_s", "q1_rad", "q2_rad", "q1d_radps", "q2d_radps", "tau_Nm",
+                      "friction1_Nm", "friction2_Nm", "kinetic_J", "potential_J", "total_J",
+                      "energy_rate_W"]
+REPLAY_COLUMNS = ["t_s", "q1_logged_rad", "q2_logged_rad", "q1_simulated_rad",
+                  "q2_simulated_rad"]
+
+
+def _plan(tmp):
+    from bplir_drake.params import BplirParams
+    from bplir_drake.planning.solve import tracking_plan
+
+    plan, _ = tracking_plan(BplirParams())
+    return plan, PLAN_COLUMNS, len(plan.times)
+
+
+def _free_swing(tmp):
+    from bplir_drake.analysis.model.freeswing import simulate_free_swing
+    from bplir_drake.params import BplirParams
+
+    res = simulate_free_swing(BplirParams(), (0.5, 0.2), 0.5)
+    return res, FREE_SWING_COLUMNS, len(res.t)
+
+
+def _replay(tmp):
+    from bplir_drake.analysis.identification.calibration import synthetic_log
+    from bplir_drake.analysis.identification.torque_replay import replay_torque
+    from bplir_drake.params import BplirParams
+
+    p = BplirParams()
+    log = synthetic_log(p, free_time=1.0, torque_time=1.0)
+    res = replay_torque(p, log)
+    return res, REPLAY_COLUMNS, len(log.t)
+
+
 MAKERS = {"swing": _swing, "study": _study, "traversal": _traversal, "benchmark": _benchmark,
-          "estimate": _estimate, "calibration": _calibration, "observability": _observability}
+          "estimate": _estimate, "calibration": _calibration, "observability": _observability,
+          "plan": _plan, "free swing": _free_swing, "replay": _replay}
 
 
 @pytest.mark.slow
@@ -96,7 +134,9 @@ def test_every_result_speaks_one_protocol(kind, tmp_path):
     summary = res.summary()
     assert isinstance(summary, dict) and summary
     assert json.loads(res.to_json()) == json.loads(dumps_strict(res.to_dict()))
-    assert isinstance(res.plot(), Figure)
+    drawn = {"params": __import__("bplir_drake.params").params.BplirParams()} \
+        if kind == "plan" else {}   # a plan is drawn with the robot it is for
+    assert isinstance(res.plot(**drawn), Figure)
     frame = res.to_pandas()
     assert len(frame) == rows
     if columns is not None:

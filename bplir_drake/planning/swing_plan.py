@@ -82,6 +82,16 @@ class SwingPlan(Result):
     #: (it proved the constraints cannot hold), "iteration limit", ...
     status: str = ""
 
+    def table(self) -> dict:
+        """The plan as time series: ``t_s``, the state, the elbow torque,
+        the planning model's friction, the power and the winding voltage,
+        a column each."""
+        return {"t_s": self.times, "q1_rad": self.states[:, 0], "q2_rad": self.states[:, 1],
+                "q1d_radps": self.states[:, 2], "q2d_radps": self.states[:, 3],
+                "tau_Nm": self.torque, "friction1_Nm": self.friction[:, 0],
+                "friction2_Nm": self.friction[:, 1], "power_W": self.power,
+                "voltage_V": self.voltage}
+
     @property
     def duration(self) -> float:
         """Duration of the plan (s)."""

@@ -99,6 +99,19 @@ class CommissionResult(Result):
         """The grid of plans, a row per point."""
         return [dict(p) for p in self.points]
 
+    def to_pandas(self, what: str = "plans"):
+        """The grid of plans (``what="plans"``, :meth:`table`) or the
+        verification studies (``"studies"``, a row each) as a
+        ``pandas.DataFrame``."""
+        if what not in ("plans", "studies"):
+            raise ValueError(f"what = {what!r}; allowed 'plans' or 'studies'")
+        frame = super().to_pandas()
+        if what == "plans":
+            return frame
+        return frame.__class__([{k: v for k, v in dict(st).items()
+                                 if not isinstance(v, (dict, list, tuple))}
+                                for st in self.studies])
+
     def plot(self, axes=None):
         """The grid's plans (duration, peak torque) and the studies'
         capture rates with their Wilson intervals."""

@@ -35,6 +35,16 @@ class TorqueReplay(Result):
     window: float
     acrobot: np.ndarray | None = None
 
+    def table(self) -> dict:
+        """The replay as time series: ``t_s``, the logged and simulated angles
+        (and Drake's AcrobotPlant's, when run), a column each."""
+        out = {"t_s": self.t, "q1_logged_rad": self.logged[:, 0],
+               "q2_logged_rad": self.logged[:, 1], "q1_simulated_rad": self.simulated[:, 0],
+               "q2_simulated_rad": self.simulated[:, 1]}
+        if self.acrobot is not None:
+            out |= {"q1_acrobot_rad": self.acrobot[:, 0], "q2_acrobot_rad": self.acrobot[:, 1]}
+        return out
+
     @property
     def error(self) -> np.ndarray:
         """Simulated less logged angles (N, 2), rad."""

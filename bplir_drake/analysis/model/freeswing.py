@@ -36,6 +36,16 @@ class FreeSwingResult(Result):
         """Total energy at the end (J)."""
         return float(self.total[-1])
 
+    def table(self) -> dict:
+        """The swing as time series: ``t_s``, the state, the elbow torque,
+        the friction and the energies, a column each."""
+        return {"t_s": self.t, "q1_rad": self.x[:, 0], "q2_rad": self.x[:, 1],
+                "q1d_radps": self.x[:, 2], "q2d_radps": self.x[:, 3], "tau_Nm": self.tau,
+                "friction1_Nm": self.friction_force[:, 0],
+                "friction2_Nm": self.friction_force[:, 1], "kinetic_J": self.kinetic,
+                "potential_J": self.potential, "total_J": self.total,
+                "energy_rate_W": self.energy_rate}
+
     def plot(self, axes=None):
         """Angles, rates and energies against time (three axes)."""
 

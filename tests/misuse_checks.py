@@ -223,8 +223,7 @@ def a_sigterm_during_a_traverse_rerun_is_one_line(d: Path):
         return f"first run: exit {rc} {err[-300:]!r}"
     before = {p.name: p.read_bytes() for p in out.iterdir()}
     proc = start("traverse", line, "--no-animation", "--no-plots", "--seed", "1", "--out", out)
-    if not wait_for(lambda: any(p.stat().st_size > 0 for p in out.glob(".motion-*"))
-                    or (out / "motion.f64").stat().st_size != len(before["motion.f64"])):
+    if not wait_for(lambda: any(p.stat().st_size > 0 for p in out.glob(".motion-*"))):
         proc.kill()
         return "the rerun never wrote its motion log"
     proc.send_signal(signal.SIGTERM)

@@ -145,7 +145,6 @@ def _no_solving():
 def _first_robots_out(d: Path) -> Path:
     """An --out holding a first robot's commission: its robot.toml and
     its gripper-1 study at 0 deg (a robot with l2 = 0.6 m)."""
-    from bplir_drake.analysis.commission.commissioning import study_name
     from bplir_drake.analysis.commission.verdict import DEFAULT_SAMPLES, verification_study
     from bplir_drake.analysis.montecarlo.study import save_study
     from bplir_drake.params import Manoeuvre, derive, preset
@@ -156,45 +155,57 @@ def _first_robots_out(d: Path) -> Path:
     out = d / "first"
     study = verification_study(derive(first_robot, Manoeuvre(gripper=1)), 0.0,
                                DEFAULT_SAMPLES, 1, (1.14, 1.2, 1.26))
-    (out / "studies" / study_name(1, "swing", 0.0)).mkdir(parents=True)
-    save_study(study, out / "studies" / study_name(1, "swing", 0.0) / "study.toml")
+    where = out / "studies" / "gripper1_incline_+00.0"   # gripper 1's swing at 0 deg
+    where.mkdir(parents=True)
+    save_study(study, where / "study.toml")
     (out / "robot.toml").write_text("# the first robot\n")
     return out
 
 
-def commission_checks_its_input_before_any_work(d: Path):
-    """``commission``: --workers outside [1, 256], a robot file naming a
-    missing plug-in, an --out holding another robot's studies, a link at
-    its plans/ or studies/, and an unreachable --scheduler are refused with
-    one line before a plan is solved, the first robot's files untouched."""
-    robot = Path(__file__).resolve().parents[1] / "examples" / "commission" / "bplir.toml"
+#: the default robot's commission file
+BPLIR = Path(__file__).resolve().parents[1] / "examples" / "commission" / "bplir.toml"
+
+
+def commission_workers_are_ranged(d: Path):
+    """``commission --workers`` -1 or 100000: one line naming [1, 256], exit 2."""
     for workers in ("-1", "100000"):
-        rc, _, err = bplir("commission", robot, "--workers", workers, "--out", d / "w")
+        rc, _, err = bplir("commission", BPLIR, "--workers", workers, "--out", d / "w",
+                           before=_no_solving)
         problem = one_error_line(rc, err, 2, "--workers", "[1, 256]")
         if problem:
             return f"--workers {workers}: {problem}"
+    return None
+
+
+def a_commission_naming_a_missing_plugin_is_refused_at_once(d: Path):
+    """A robot file whose controller plug-in does not exist: refused with one
+    line naming it before a plan is solved, its --out not made."""
     (d / "plug.toml").write_text('[robot]\nfile = "bplir"\n'
                                  f'[controller]\nplugin = "{d / "missing.py"}:make"\n')
     rc, _, err = bplir("commission", d / "plug.toml", "--out", d / "p", before=_no_solving)
     problem = one_error_line(rc, err, 2, "missing.py")
-    if problem or (d / "p").exists():
-        return f"a missing plug-in: {problem or 'its --out was written'}"
+    return problem or ("its --out was written" if (d / "p").exists() else None)
+
+
+def a_commission_refuses_before_it_writes(d: Path):
+    """An --out holding another robot's studies (with or without an
+    unreachable --scheduler), or a link at its studies/: refused with one
+    line before a plan is solved, the first robot's robot.toml untouched;
+    an unreachable --scheduler into a new --out leaves no robot.toml."""
     out = _first_robots_out(d)
-    for argv, words in ((["--out", out], "holds results of a different study"),
-                        (["--out", out, "--scheduler", "tcp://127.0.0.1:9"],
-                         "holds results of a different study")):
-        rc, _, err = bplir("commission", robot, *argv, before=_no_solving)
-        problem = one_error_line(rc, err, 2, words)
+    for extra in ([], ["--scheduler", "tcp://127.0.0.1:9"]):
+        rc, _, err = bplir("commission", BPLIR, "--out", out, *extra, before=_no_solving)
+        problem = one_error_line(rc, err, 2, "holds results of a different study")
         if problem or (out / "robot.toml").read_text() != "# the first robot\n":
-            return f"{argv}: {problem or 'robot.toml replaced'}"
+            return f"{extra}: {problem or 'robot.toml replaced'}"
     (d / "elsewhere").mkdir()
     (d / "linked").mkdir()
     (d / "linked" / "studies").symlink_to(d / "elsewhere")
-    rc, _, err = bplir("commission", robot, "--out", d / "linked", before=_no_solving)
+    rc, _, err = bplir("commission", BPLIR, "--out", d / "linked", before=_no_solving)
     problem = one_error_line(rc, err, 2, "is a symbolic link")
     if problem:
         return f"a link at studies/: {problem}"
-    rc, _, err = bplir("commission", robot, "--out", d / "s", "--scheduler",
+    rc, _, err = bplir("commission", BPLIR, "--out", d / "s", "--scheduler",
                        "tcp://127.0.0.1:9", timeout=120)
     problem = one_error_line(rc, err, 2, "cannot reach the Dask scheduler")
     return f"--scheduler: {problem}" if problem else \
@@ -206,5 +217,7 @@ CHECKS = {f.__name__: f for f in (
     fortran_output_stays_off_json_stdout,
     a_signal_in_the_teardown_gets_its_line,
     a_signal_while_a_dask_cluster_starts_is_one_line,
-    commission_checks_its_input_before_any_work,
+    commission_workers_are_ranged,
+    a_commission_naming_a_missing_plugin_is_refused_at_once,
+    a_commission_refuses_before_it_writes,
 )}

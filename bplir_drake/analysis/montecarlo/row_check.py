@@ -12,7 +12,7 @@ from pathlib import Path
 
 from ...systems.gripper import OUTCOMES as SWING_OUTCOMES
 from ..traverse.traverse_result import OUTCOMES as TRAVERSE_OUTCOMES
-from .sampling import draw_values
+from .sampling import draw_values, sample_seed
 from .store import _parse
 from .study import Study, StudyError, StudyRow
 
@@ -59,7 +59,10 @@ def row_damage(study: Study, header: list[str], cells: list[str]) -> str | None:
         return f"its outcome {row['outcome'][:40]!r} is not one a sample can have"
     if (row["success"] == "true") != (row["outcome"] == good):
         return f"its success {row['success']} disagrees with its outcome {row['outcome']!r}"
-    drawn = draw_values(study, int(row["index"])) if int(row["index"]) >= 0 else {}
+    k = int(row["index"])
+    if k < 0 or int(row["seed"]) != sample_seed(study.seed, k):
+        return None   # not this study's row: the resume refuses the table (checked_rows)
+    drawn = draw_values(study, k)
     for name in study.names:
         problem = _drawn(row[name], drawn.get(name))
         if problem:

@@ -212,6 +212,40 @@ def a_commission_refuses_before_it_writes(d: Path):
         ("--scheduler: robot.toml written" if (d / "s" / "robot.toml").exists() else None)
 
 
+
+
+def _slow_plans():
+    """Make every plan solve take a minute (a solver at work)."""
+    from bplir_drake.planning import solve as P
+
+    def slow(*a, **k):
+        time.sleep(60)
+        raise RuntimeError("the slow solve was not stopped")
+    P._solve_plan = slow
+
+
+def a_sigterm_in_the_commissions_plan_pool_is_one_line(d: Path):
+    """SIGTERM while two worker processes solve a commission's plans: the
+    stop's one line (no chained tracebacks of the workers), exit 143, and
+    no worker left."""
+    import tempfile as _tempfile
+
+    from forked import start_forked
+
+    cache = _tempfile.mkdtemp(dir=d)
+    proc = start_forked("commission", BPLIR, "--workers", "2", "--no-hanging", "--out",
+                        d / "c", env={"BPLIR_CACHE_DIR": cache}, before=_slow_plans,
+                        new_session=True)
+    time.sleep(8)
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(60)
+    lines = err.strip().splitlines()
+    if proc.returncode != 143 or len(lines) != 1 or "Traceback" in err \
+            or not lines[0].startswith("bplir: terminated by SIGTERM"):
+        return f"exit {proc.returncode}, {len(lines)} lines: {err[-400:]!r}"
+    return None if _group_gone(proc.pid) else "a plan worker is left"
+
+
 #: every check, by what it guards
 CHECKS = {f.__name__: f for f in (
     fortran_output_stays_off_json_stdout,
@@ -220,4 +254,5 @@ CHECKS = {f.__name__: f for f in (
     commission_workers_are_ranged,
     a_commission_naming_a_missing_plugin_is_refused_at_once,
     a_commission_refuses_before_it_writes,
+    a_sigterm_in_the_commissions_plan_pool_is_one_line,
 )}

@@ -77,3 +77,27 @@ def plot_envelope(result, axes=None):
     ax.grid(True, alpha=0.3)
     ax.legend(loc="upper left", bbox_to_anchor=(0.0, 0.93), fontsize=8, framealpha=0.9)
     return finish(fig)
+
+
+def plot_closed_loop_poles(result, axes=None):
+    """The frozen-time poles of the tracker's loop along its plan: their
+    real parts (1/s; symmetric log scale, the fast pole and the slow ones
+    on one axis) and their frequencies (rad/s), against the plan's time."""
+    fig, axes = figure_axes(axes, 2, 1, figsize=(8, 6), sharex=True)
+    t, lam = result.times, result.poles   # each time's poles from the fastest to the slowest
+    names = ["fastest", "second", "third", "slowest"]
+    for i in range(lam.shape[1]):
+        name = names[i] if lam.shape[1] == 4 else f"pole {i + 1}"
+        axes[0].plot(t, lam[:, i].real, ".-", ms=3, label=name)
+        axes[1].plot(t, np.abs(lam[:, i].imag), ".-", ms=3, label=name)
+    axes[0].set_yscale("symlog", linthresh=1.0)
+    axes[0].axhline(0.0, color="k", lw=0.8)
+    axes[0].set_ylabel("real part [1/s]")
+    axes[0].legend(loc="lower right", fontsize="small", ncol=2)
+    axes[1].set_ylabel("frequency |imag| [rad/s]")
+    axes[1].set_xlabel("time along the plan [s]")
+    for ax in axes:
+        ax.grid(True, alpha=0.3)
+    return finish(fig, "The tracker's loop: frozen-time poles along the plan",
+                  caption=f"plan of {result.duration:.2f} s; A - B K(t) of the nominal plant "
+                          "with friction, the LQR's model")

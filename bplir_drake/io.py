@@ -22,6 +22,7 @@ from typing import Iterator
 import numpy as np
 from importlib.metadata import PackageNotFoundError, version
 
+from .labelled import table_dataset
 from .leftovers import sweep_unfinished
 
 UTF8_BOM = b"\xef\xbb\xbf"
@@ -379,6 +380,11 @@ class Result:
         columns); here one row of the summary's plain numbers and words."""
         return [{k: v for k, v in self.to_dict().items()
                  if isinstance(v, (int, float, str, bool, np.number, np.bool_)) or v is None}]
+
+    def to_xarray(self):
+        """:meth:`table` as an ``xarray.Dataset`` (time series over
+        ``time``, rows over ``row``; xarray is the ``xarray`` extra)."""
+        return table_dataset(self.table())
 
     def to_pandas(self):
         """:meth:`table` as a ``pandas.DataFrame``."""

@@ -131,14 +131,14 @@ def test_every_public_definition_has_a_docstring():
 
 
 # what each layer may import from the package (ARCHITECTURE.md): imports only go down
-LAYERS = {"leftovers": set(), "io": {"leftovers"}, "progress": set(), "csvfile": {"io"}, "plotting": {"io"},
+LAYERS = {"leftovers": set(), "labelled": set(), "io": {"leftovers", "labelled"}, "progress": set(), "csvfile": {"io"}, "plotting": {"io"},
           "params": {"io"},
           "systems": {"params", "io"},
           "planning": {"params", "io", "csvfile", "progress", "plotting", "systems"},
           "diagrams": {"params", "io", "csvfile", "progress", "plotting", "systems", "planning"},
           "simulate": {"params", "io", "systems"},
           "estimation": {"params", "io", "csvfile", "progress", "plotting", "systems"},
-          "analysis": {"params", "io", "csvfile", "progress", "plotting", "systems", "planning",
+          "analysis": {"params", "io", "labelled", "csvfile", "progress", "plotting", "systems", "planning",
                        "diagrams", "simulate", "estimation"},
           "cli": {"params", "io", "csvfile", "progress", "plotting", "systems", "planning",
                   "diagrams", "simulate", "estimation", "analysis"}}
@@ -269,7 +269,7 @@ def test_modules_and_functions_stay_small():
 #: what a function may import locally, and why (ARCHITECTURE.md): heavy or
 #: optional third-party modules loaded only by the functions that use them,
 #: pydrake's binding modules on first use, and platform-specific modules
-LAZY_IMPORTS = {"matplotlib", "scipy", "control", "pydrake", "tqdm", "dask", "distributed", "tomli_w", "PIL", "pandas",
+LAZY_IMPORTS = {"matplotlib", "scipy", "control", "pydrake", "tqdm", "dask", "distributed", "xarray", "tomli_w", "PIL", "pandas",
                 "fcntl", "ctypes", "multiprocessing", "concurrent", "signal"}
 
 

@@ -47,6 +47,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ...io import DictResult, Result, write_json_atomic
+from ...labelled import study_dataset
 from .executors import map_jobs
 from .sampling import run_sample, sample_params
 from .statistics import summarize
@@ -235,6 +236,12 @@ class StudyResult(Result):
         """The result rows, one per sample."""
         return self.rows
 
+    def to_xarray(self):
+        """The rows as an ``xarray.Dataset`` over ``sample``, the drawn
+        quantities and the seeds its coordinates (the ``xarray`` extra)."""
+        return study_dataset(self.rows, self.study.names,
+                             attrs={"root_seed": self.study.seed, "samples": self.study.samples})
+
 
 class StudySummary(DictResult):
     """What :func:`run_study` returns: the dict ``summary.json`` holds and a
@@ -255,3 +262,7 @@ class StudySummary(DictResult):
     def table(self) -> list:
         """The study's rows, one per sample."""
         return self.result.rows
+
+    def to_xarray(self):
+        """The study's rows over ``sample`` (:meth:`StudyResult.to_xarray`)."""
+        return self.result.to_xarray()

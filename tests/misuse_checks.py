@@ -74,10 +74,16 @@ def wait_for(check, limit=90.0, step=0.05) -> bool:
     return False
 
 
+def said(err: str) -> list[str]:
+    """The lines of ``err`` but progress lines (``bplir: progress:``, which a
+    command run long in a log adds before its result or its one line)."""
+    return [x for x in err.strip().splitlines() if not x.startswith("bplir: progress:")]
+
+
 def one_error_line(rc, err, status, *words) -> str | None:
     """None when ``err`` is one ``bplir: error:`` line holding ``words`` and
     the exit status is ``status``; else what differs."""
-    lines = err.strip().splitlines()
+    lines = said(err)
     if "Traceback" in err or len(lines) != 1 or not lines[0].startswith("bplir: error: "):
         return f"not one error line (exit {rc}): {err[-600:]!r}"
     missing = [w for w in words if w not in lines[0]]
@@ -235,7 +241,7 @@ def a_sigterm_during_a_traverse_rerun_is_one_line(d: Path):
 
 
 def one_line_stop(rc, err, status, words) -> str | None:
-    lines = err.strip().splitlines()
+    lines = said(err)
     if "Traceback" in err or len(lines) != 1 or words not in lines[0] or rc != status:
         return f"exit {rc} (wanted {status}), stderr {err[-800:]!r}"
     return None

@@ -13,7 +13,7 @@ import sys
 import time
 from pathlib import Path
 
-from misuse_checks import bplir, one_error_line
+from misuse_checks import bplir, one_error_line, said
 
 #: a script that runs ``bplir params plant --json`` as ``python -m
 #: bplir_drake.cli`` does, its command first writing a line through Drake's
@@ -120,7 +120,7 @@ def a_signal_while_a_dask_cluster_starts_is_one_line(d: Path):
         else:
             p.send_signal(sig)
         _, err = p.communicate(timeout=120)
-        lines = err.strip().splitlines()
+        lines = said(err)
         ended = p.returncode == 0 and not lines   # finished before the signal
         stopped = p.returncode == 128 + sig and len(lines) == 1 and \
             lines[0].startswith(("bplir: terminated by SIGTERM", "bplir: interrupted"))
@@ -239,7 +239,7 @@ def a_sigterm_in_the_commissions_plan_pool_is_one_line(d: Path):
     time.sleep(8)
     proc.send_signal(signal.SIGTERM)
     _, err = proc.communicate(60)
-    lines = err.strip().splitlines()
+    lines = said(err)
     if proc.returncode != 143 or len(lines) != 1 or "Traceback" in err \
             or not lines[0].startswith("bplir: terminated by SIGTERM"):
         return f"exit {proc.returncode}, {len(lines)} lines: {err[-400:]!r}"

@@ -1,7 +1,9 @@
 """Progress on standard error (issue 19): the long computations count their
 steps (SNOPT evaluations, calibration simulations, QFT generations, EKF
 samples), the bars report the counts the results report, and the command
-line shows them only on a terminal without ``--json``."""
+line shows them as bars on a terminal without ``--json`` and, elsewhere
+(a log, a pipe), as plain lines once a command has run long, at least
+every 20 s while a phase runs."""
 import fcntl
 import os
 import pty
@@ -10,6 +12,8 @@ import struct
 import termios
 
 import numpy as np
+import pytest
+from pathlib import Path
 
 from bplir_drake.analysis.control.qft import QftSpecs, design_qft
 from bplir_drake.analysis.control.plants import dissertation_family
@@ -19,6 +23,8 @@ from bplir_drake.planning.solve import plan_swing
 from bplir_drake.params import preset
 from bplir_drake.progress import progress_bar
 from forked import bplir_forked, start_forked
+
+ROOT = Path(__file__).resolve().parents[1]
 
 
 def _last_count(err: str, desc: str) -> int:
@@ -103,4 +109,46 @@ def test_cli_progress_only_on_a_terminal_without_json(tmp_path):
     code, err = _run_on_terminal(mc + ["--json", "--out", str(tmp_path / "b")])
     assert code == 0 and "samples:" not in err
     code, _, err = bplir_forked(*mc, "--out", tmp_path / "c")
-    assert code == 0 and err == ""  # a pipe is not a terminal
+    assert code == 0 and err == ""  # a pipe: lines, none in a short command's first 20 s
+
+
+def _slow_solves():
+    """Every plan solve takes 2.5 s (the stand-in solver, asleep)."""
+    import time
+
+    from conftest import quick_plan
+
+    from bplir_drake.planning import solve as P
+
+    def slow(*a, **k):
+        time.sleep(2.5)
+        return quick_plan(*a, **k)
+    P._solve_plan = slow
+
+
+#: lines every second from the start (the tests' stand-ins for 20 s and 20 s)
+LINES_NOW = {"BPLIR_PROGRESS_QUIET": "0", "BPLIR_PROGRESS_EVERY": "1"}
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("argv", [
+    ["model", "--config", "{robot}", "--out", "{out}"],
+    ["commission", "{robot}", "--gripper", "1", "--no-hanging", "--no-pump", "--samples", "2",
+     "--out", "{out}"],
+    ["traverse", str(ROOT / "examples" / "line_flat.toml"), "--config", "{robot}",
+     "--no-animation", "--no-plots", "--out", "{out}"]])
+def test_a_new_robots_commands_say_they_run_in_a_log(tmp_path, argv):
+    """``model``, ``commission`` and ``traverse`` of a robot whose plans
+    nobody solved, standard error a pipe: progress lines name the plan being
+    solved and come at least every second (the stand-in period) while it
+    runs, from its beginning to its end."""
+    (tmp_path / "new.toml").write_text('[robot]\nfile = "bplir"\n[plant]\nl2 = 1.1\n')
+    args = [a.format(robot=tmp_path / "new.toml", out=tmp_path / "out") for a in argv]
+    _, _, err = bplir_forked(*args, before=_slow_solves, timeout=300,
+                             env=LINES_NOW | {"BPLIR_CACHE_DIR": tmp_path / "cache"})
+    said = [x for x in err.splitlines() if x.startswith("bplir: progress: solving a plan")]
+    kinds = [x.split(": ")[3].split(",")[0] for x in said]
+    assert said and kinds[0] == "begins", err
+    solves = kinds.count("begins")   # each solve: its beginning, its end, and between them
+    assert kinds.count("done") == solves and kinds.count("running") >= solves, said
+    assert all(int(re.search(r", (\d+) s", x).group(1)) <= 4 for x in said), said   # 2.5 s each

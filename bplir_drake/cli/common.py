@@ -161,9 +161,11 @@ def _write_json(path, obj) -> str:
     return str(write_json_atomic(path, obj))
 
 
-def _progress(args) -> bool:
-    """Show progress bars: standard error is a terminal and ``--json`` is off."""
-    return not getattr(args, "json", False) and sys.stderr.isatty()
+def _progress(args):
+    """How to show progress: bars (True) where standard error is a terminal
+    and ``--json`` is off, else plain lines once a command runs long
+    (``"lines"``, :mod:`~bplir_drake.progress`)."""
+    return True if not getattr(args, "json", False) and sys.stderr.isatty() else "lines"
 
 
 def _out_dir(path) -> Path:

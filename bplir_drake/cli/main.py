@@ -14,7 +14,8 @@ from ..analysis.identification.calibration_error import CalibrationError
 from ..csvfile import LogError
 from ..io import forget_stop, raise_stop, remove_unfinished
 from ..params import ParameterError
-from .common import _OUT, InputError, Terminated, _interrupt, _terminate
+from ..progress import command_started
+from .common import _OUT, InputError, Terminated, _interrupt, _progress, _terminate
 from .parser import build_parser
 from .process_exit import exit_now, flush_native_output
 
@@ -124,7 +125,9 @@ def main(argv=None) -> int:
     input).  ``argv`` None: the console's command (``sys.argv``), whose process
     answers a signal with one line until it has exited."""
     _FINISHING[0] = False
+    command_started()
     args = _parser_of(build_parser).parse_args(argv)
+    command_started(_progress(args))
     _STOPPED[0] = None
     import signal
 

@@ -35,7 +35,7 @@ from ..systems.plant import start_configuration
 from .cache import cached
 from ..systems.friction import friction_torques_along
 from ..systems.motor import i2t_trace, interlock_budget
-from ..progress import progress_bar
+from ..progress import ambient, progress_bar
 from ..systems.plan_tracker import RICCATI_ACCURACY, TrackerWeights, plan_gains
 from .status import (
     SOLVER_STATUS, no_plan_message)
@@ -111,10 +111,14 @@ def plan_swing(params: BplirParams, *, power_limit: float | None = None, knots: 
         inputs["initial"] = hashlib.sha256(b"".join(
             np.ascontiguousarray(a, dtype=float).tobytes() for a in guess)).hexdigest()
 
-    def solve():
-        return _solve_plan(params, q0, qT, tau_max, power, tmax, knots, time_weight,
-                           guess_duration, tolerance, iterations, progress, guess,
-                           minor_iterations, rate_limit)
+    def solve():   # in a log, a long solve says it runs (a terminal's bar is progress's)
+        with progress_bar(False if progress else ambient(), unit="plans", total=1,
+                          desc=f"solving a plan for this robot ({knots} knots)") as said:
+            plan = _solve_plan(params, q0, qT, tau_max, power, tmax, knots, time_weight,
+                               guess_duration, tolerance, iterations, progress, guess,
+                               minor_iterations, rate_limit)
+            said.update()
+            return plan
 
     if not cache:
         return solve()

@@ -13,7 +13,7 @@ def test_the_python_guide_runs(tmp_path, monkeypatch, capsys):
     blocks = re.findall(r"```python\n(.*?)```", DOC.read_text(), re.S)
     assert len(blocks) >= 7
     (tmp_path / "examples").mkdir()  # the guide runs from the project's root
-    for example in ("my_estimator.py",):
+    for example in ("my_estimator.py", "line_flat.toml"):
         (tmp_path / "examples" / example).write_text(
             (DOC.parents[1] / "examples" / example).read_text())
     monkeypatch.chdir(tmp_path)
@@ -22,6 +22,10 @@ def test_the_python_guide_runs(tmp_path, monkeypatch, capsys):
         exec(compile(code, f"{DOC.name} block {i + 1}", "exec"), namespace)
     out = capsys.readouterr().out
     assert (tmp_path / "swing.png").stat().st_size > 30_000
+    pdf = (tmp_path / "swing.pdf").read_bytes()   # TrueType text, no Type 3 fonts
+    assert b"/FontFile2" in pdf and b"/Type3" not in pdf   # an embedded TrueType program
+    assert namespace["trip"].summary()["totals"]["outcome"] == "passed"
+    assert namespace["poles"].summary()["samples"] == 41
     assert "plant.m1" in out and "timeout" in out
     assert namespace["obs"].summary()["min_rank_full"] == 4
     assert namespace["summary"]["samples"] == 4

@@ -624,3 +624,25 @@ def test_the_tower_span_passes_at_48v():
     assert len(swings) == 20 and res.totals["obstacles_passed"] == 10
     assert max(r["peak_voltage_V"] for r in swings) > 30.0   # it needs the supply
     assert max(r["capture_speed_mps"] for r in swings) < 0.5
+
+
+def test_a_failed_traversal_names_the_swing_that_ended_it():
+    """The totals' first line of a traversal that did not pass: which
+    manoeuvre, past which obstacle, holding with which gripper, from where
+    and how it started; none for a traversal that passed."""
+    from types import SimpleNamespace
+
+    from bplir_drake.analysis.traverse.tables import failed_swing_line
+
+    def row(**k):
+        base = dict(kind="swing", index=4, obstacle="spacer damper", holding_gripper=2,
+                    from_m=1.5, to_m=float("nan"), attempt=2, incline_deg=-5.0,
+                    outcome="swing timeout")
+        return SimpleNamespace(**(base | k))
+    failed = SimpleNamespace(totals={"outcome": "swing timeout"},
+                             rows=[row(kind="ride", index=3), row()])
+    assert failed_swing_line(failed) == (
+        "the swing that ended it: manoeuvre 4, past the spacer damper, holding with gripper 2, "
+        "from 1.500 m (reaching for the next grip), from hanging (try 2), on a -5.0 deg line: "
+        "swing timeout")
+    assert failed_swing_line(SimpleNamespace(totals={"outcome": "passed"}, rows=[row()])) is None

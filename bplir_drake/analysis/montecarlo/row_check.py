@@ -114,7 +114,7 @@ def read_checked(study: Study, path: Path, cols: list[str]) -> tuple[list[StudyR
         if header is None:
             return [], []
         if header != cols:
-            raise StudyError(f"{path}: its columns do not match this study; use another --out")
+            raise StudyError(f"{path}: its columns do not match this study; use another output directory (--out)")
         for line, cells in enumerate(reader, 2):
             why = row_damage(study, header, cells)
             if why is None:

@@ -64,8 +64,8 @@ def check_out(study: Study, out) -> None:
     ones.  Nothing is written; callers check before any work."""
     saved = Path(out) / STUDY_FILE
     if saved.exists() and load_study(saved).identity() != study.identity():
-        raise StudyError(f"{out} holds results of a different study; use another --out "
-                         "or remove the directory")
+        raise StudyError(f"{out} holds results of a different study; use another output "
+                         "directory (--out) or remove this one")
 
 
 def prepare_out(study: Study, out: Path) -> list[dict]:

@@ -51,7 +51,7 @@ def read_results(path, cols: list[str] | None = None) -> list[StudyRow]:
         if header is None:
             return []
         if cols is not None and header != cols:
-            raise StudyError(f"{path}: its columns do not match this study; use another --out")
+            raise StudyError(f"{path}: its columns do not match this study; use another output directory (--out)")
         for rec in reader:
             if len(rec) != len(header):
                 continue  # a row cut short by an interruption

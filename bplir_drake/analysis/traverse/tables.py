@@ -46,10 +46,29 @@ def manoeuvre_table(result: TraverseResult) -> str:
     return "\n".join([head, rule] + body)
 
 
+def failed_swing_line(result: TraverseResult) -> str | None:
+    """Which swing ended a traversal that did not pass, in words: where it
+    was (the obstacle, the holding gripper, from and to), how far it
+    reached, how it started and what it tried (None: the line was passed)."""
+    swings = [r for r in result.rows if r.kind == "swing"]
+    if result.totals["outcome"] == "passed" or not swings:
+        return None
+    r = swings[-1]
+    start = "from the line" if r.attempt == 1 else f"from hanging (try {r.attempt})"
+    def known(v):
+        return isinstance(v, (int, float)) and math.isfinite(v)
+    span = f", from {r.from_m:.3f} m" if known(r.from_m) else ""
+    span += f" to {r.to_m:.3f} m" if known(r.to_m) else " (reaching for the next grip)"
+    return (f"the swing that ended it: manoeuvre {r.index}, past the {r.obstacle}, holding "
+            f"with gripper {r.holding_gripper}{span}, {start}, on a {r.incline_deg:+.1f} deg "
+            f"line: {r.outcome}")
+
+
 def totals_lines(result: TraverseResult) -> list[str]:
-    """The totals as text lines."""
+    """The totals as text lines (and which swing ended it, when it did not pass)."""
     t = result.totals
-    return [
+    failed = failed_swing_line(result)
+    return ([failed] if failed else []) + [
         f"{t['outcome']}: {t['obstacles_passed']}/{t['obstacles']} obstacles passed in "
         f"{t['swings']} swings" + (f" ({t['retries']} tried again after a timeout, "
                                    f"{t['recover_time_s']:.0f} s damping)"

@@ -82,7 +82,7 @@ def test_results_plot_on_the_callers_axes_and_serialise(tmp_path):
 
     res = simulate_free_swing(BplirParams(), (0.5, 0.2), 1.0)
     own = res.plot()
-    assert len(own.axes) == 3 and own._suptitle.get_text() == "BPLIR free swing"
+    assert len(own.axes) == 3 and own._suptitle.get_text() == "Free swing"
     np.testing.assert_array_equal(own.axes[0].lines[0].get_xdata(), res.t)
     np.testing.assert_array_equal(own.axes[2].lines[0].get_ydata(), res.total)
     mine = Figure()

@@ -77,6 +77,10 @@ def test_the_worked_example_commissions_a_similar_robot_end_to_end(own_cache, mo
     assert "## How hard it lands" in report and "## Assumed" in report
     assert s["plans"] == dict(points=4, solved=4, from_similarity=4, from_continuation=0,
                               from_straight_line=0)
+    fig = r.plot()   # plans, the limits' shares (the voltage binds gripper 2), studies, landing
+    assert len(fig.axes) == 4 and "voltage" in fig.axes[1].get_title()
+    assert max(max(line.get_ydata()) for line in fig.axes[1].lines[:-1]) > 0.9
+    assert "landing" in fig.axes[3].get_title()
     for name in ("report.md", "commission.json", "commission.png", "robot.toml"):
         assert (out / name).stat().st_size > 0
     assert len(list((out / "plans").glob("library-*.npz"))) == 4   # from the line, hanging

@@ -5,6 +5,7 @@ import json
 import math
 
 import numpy as np
+from types import SimpleNamespace
 import pytest
 
 from bplir_drake.analysis import montecarlo as mc
@@ -282,3 +283,43 @@ def test_true_state_and_an_estimator_exclude_each_other(tmp_path, capsys):
                  "--out", str(tmp_path)]) == 2
     err = capsys.readouterr().err
     assert err.startswith("bplir: error: --true-state and --estimator") and err.count("\n") == 1
+
+
+def test_figures_a_reviewer_would_not_send_back(tmp_path):
+    """A study of 25 quantities draws the 9 most correlated with the result
+    and says so; histogram counts are whole numbers; 4 samples rank nothing
+    (the influence figure says so); a line sensor's errors are not ranked on
+    a robot without one; another robot's swing figure carries its name."""
+    import dataclasses
+
+    from bplir_drake.analysis.montecarlo.statistics import MIN_INFLUENCE_SAMPLES, influence
+    from bplir_drake.analysis.montecarlo.study_plots import (MAX_PANELS, plot_histograms,
+                                                             plot_influence,
+                                                             plot_success_vs_parameters)
+    from bplir_drake.params import BplirParams
+    from bplir_drake.params.robot import robot_label
+
+    def study_of(names):
+        return SimpleNamespace(names=names, seed=3, line=None, params=BplirParams())
+
+    def rows_of(names, n=MIN_INFLUENCE_SAMPLES):
+        rng = np.random.default_rng(0)
+        return [dict({q: float(rng.normal()) for q in names}, index=k, outcome="captured",
+                     success=True, capture_speed_mps=float(rng.uniform(0.1, 0.4)),
+                     swing_time_s=1.3, peak_torque_Nm=10.0, peak_motor_power_W=100.0)
+                for k in range(n)]
+    names = [f"imu.q{k}" for k in range(25)]
+    study, rows = study_of(names), rows_of(names)
+    fig = plot_success_vs_parameters(study, rows)
+    assert len(fig.axes) == 2 * MAX_PANELS   # each panel and its success band
+    assert f"the {MAX_PANELS} of 25 drawn quantities most correlated" in fig.bplir_caption
+    assert influence(study, rows[:MIN_INFLUENCE_SAMPLES - 1]) == {}
+    sensed = ["true_friction.fv1", "line_sensor.bias"]
+    assert set(influence(study_of(sensed), rows_of(sensed))) == {"true_friction.fv1"}
+    counts = plot_histograms(study, rows).axes[0].get_yticks()
+    assert np.all(counts == np.round(counts))
+    few = plot_influence(study, rows[:4])
+    assert "too few to rank" in few.axes[0].texts[0].get_text()
+    other = dataclasses.replace(BplirParams().plant, l2=1.0)
+    assert robot_label(BplirParams()) == "BPLIR"
+    assert robot_label(BplirParams().with_(plant=other)) == "two-link robot"

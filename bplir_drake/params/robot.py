@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
 from dataclasses import dataclass, field, replace
 from .blocks import (MAX_LENGTH, MAX_MASS, MAX_RESISTANCE, ParameterError, _Block, _fraction,
                      _length, _p, _positive)
@@ -223,3 +224,15 @@ def line_pose(grip_spacing: float, p: PlantParams) -> tuple[float, float]:
     cos_b = (l1 ** 2 + D ** 2 - l2 ** 2) / (2 * l1 * D)
     beta = math.acos(max(-1.0, min(1.0, cos_b)))  # angle at the pivot
     return -(math.pi / 2 - beta), q2
+
+
+def robot_label(params) -> str:
+    """What a figure calls the robot of ``params``: "BPLIR" for the
+    dissertation's links, else its description file's name (or "two-link
+    robot" for one given by its ``[plant]`` table alone)."""
+    if params.plant == PlantParams():
+        return "BPLIR"
+    file = params.robot.file
+    if file and file != "bplir":
+        return Path(file).stem
+    return "two-link robot"

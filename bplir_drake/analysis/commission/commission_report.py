@@ -16,60 +16,62 @@ FIGURE = "commission"
 
 
 def plot_commission(result, axes=None):
-    """Three panels: each grid point's plan duration and peak torque in the
-    robot's own units (over sqrt(L/g) and m g L) against the grip spacing
-    over the reach, a line per holding gripper and incline, beside the
-    default robot's shipped single-swing plans (grey, dotted) and the
-    motor's torque limit (dash-dotted); and each study's capture rate with
-    its Wilson 95 % interval (the bar dotted)."""
-    fig, ax = figure_axes(axes, 1, 3, figsize=(11, 3.6))
+    """Four panels: each grid point's plan duration in the robot's own
+    units (over sqrt(L/g)) against the grip spacing over the reach, a line
+    per holding gripper, incline and manoeuvre, beside the default robot's
+    shipped single-swing plans (grey, dotted); the share of the elbow's
+    torque limit (filled) and of the driver's voltage (open) each plan
+    uses, so the one that binds shows; each study's capture rate with its
+    Wilson 95 % interval (the bar dotted); and how hard it lands: each
+    study's capture speed p95 against the gripper's limit."""
+    fig, ax = figure_axes(axes, 1, 4, figsize=(15, 3.8))
     own = Scales.of(result.params.plant)
     refs = [r for r in shipped_references() if r.start == "line"][:1]
     line = [p for p in result.points if p.start == "line"]
-    for g, a, kind in sorted({(p.holding, p.incline_deg, p.manoeuvre)
-                              for p in line}):
+    torque, volts = result.params.controller.torque_limit, result.params.motor.max_voltage
+    for g, a, kind in sorted({(p.holding, p.incline_deg, p.manoeuvre) for p in line}):
         rows = sorted((p for p in line if p.incline_deg == a and p.holding == g
                        and p.manoeuvre == kind), key=lambda p: p.spacing_m)
         d = [p.spacing_m / own.length for p in rows]
         style = ("o" if g == 1 else "s") + ("-" if kind == "swing" else ":")
         label = f"gripper {g}, {a:+g} deg" + ("" if kind == "swing" else f", {kind}")
         ax[0].plot(d, [p.duration_s / own.time for p in rows], style, label=label)
-        ax[1].plot(d, [p.peak_torque_Nm / own.torque for p in rows], style, label=label)
+        shown = ax[1].plot(d, [p.peak_torque_Nm / torque for p in rows], style)[0]
+        ax[1].plot(d, [p.peak_voltage_V / volts for p in rows], style, mfc="none",
+                   color=shown.get_color())
     for a in sorted({p.incline_deg for p in result.points}):
         for ref in refs:
             lib, sc = ref.library, Scales.of(ref.plant)
             i = int(np.argmin(np.abs(lib.inclines - a)))
-            x = lib.spacings / sc.length
-            ax[0].plot(x, lib.durations[i] / sc.time, ":", color="0.6", lw=1,
-                       label=f"default robot, {lib.inclines[i]:+g} deg")
-            ax[1].plot(x, np.max(np.abs(lib.torque[i]), axis=1) / sc.torque, ":",
-                       color="0.6", lw=1, label=f"default robot, {lib.inclines[i]:+g} deg")
-    ax[1].axhline(result.params.controller.torque_limit / own.torque, ls="-.", color="0.3",
-                  lw=1)
+            ax[0].plot(lib.spacings / sc.length, lib.durations[i] / sc.time, ":", color="0.6",
+                       lw=1, label=f"default robot, {lib.inclines[i]:+g} deg")
     ax[0].set(xlabel="grip spacing / reach  D / L", ylabel="plan duration / sqrt(L/g)",
               title="plans, in the robot's units")
-    ax[1].set(xlabel="grip spacing / reach  D / L", ylabel="peak elbow torque / (m g L)",
-              title="torque of the plans")
-    ax[1].set_ylim(bottom=0)
     ax[0].legend(fontsize=6, loc="center right")
-    limit = result.params.controller.torque_limit / own.torque   # the lines: panel 1's legend
-    ax[1].annotate("torque limit", (1.0, limit), xycoords=("axes fraction", "data"),
-                   xytext=(-4, -9), textcoords="offset points", ha="right", fontsize=6,
-                   color="0.3")
+    ax[1].axhline(1.0, ls="-.", color="0.3", lw=1)
+    ax[1].set(xlabel="grip spacing / reach  D / L", ylabel="share of the limit",
+              title=f"filled: torque of {torque:g} N m\nopen: voltage of {volts:.1f} V",
+              ylim=(0, 1.1))
     studies = sorted(result.studies, key=lambda s: (s.incline_deg, s.holding))
+    names = [f"gripper {st.holding}\n{st.manoeuvre}" + ("" if st.chosen else "\n(not chosen)")
+             + f"\n{st.incline_deg:+g} deg" for st in studies]
     for k, st in enumerate(studies):
         y, (lo, hi) = 100 * st.rate, st.wilson95
-        ax[2].errorbar([k], [y], yerr=[[y - 100 * lo], [100 * hi - y]], fmt="o" if
-                       st.holding == 1 else "s", capsize=4, color=f"C{st.holding - 1}")
+        mark, colour = ("o" if st.holding == 1 else "s"), f"C{st.holding - 1}"
+        ax[2].errorbar([k], [y], yerr=[[y - 100 * lo], [100 * hi - y]], fmt=mark, capsize=4,
+                       color=colour)
         ax[2].annotate(f"{st.captured}/{st.samples}", (k, y), textcoords="offset points",
                        xytext=(0, 6), ha="center", fontsize=8)
-    ax[2].set_xticks(range(len(studies)), [
-        f"gripper {st.holding}\n{st.manoeuvre}"
-        + ("" if st.chosen else "\n(not chosen)") + f"\n{st.incline_deg:+g} deg"
-        for st in studies], fontsize=7)
-    ax[2].set_xlim(-0.6, max(len(studies), 1) - 0.4)
+        ax[3].plot([k], [st.capture_speed_p95_mps], mark, color=colour)
+    for a in ax[2:]:
+        a.set_xticks(range(len(studies)), names, fontsize=7)
+        a.set_xlim(-0.6, max(len(studies), 1) - 0.4)
     ax[2].axhline(100 * READY_RATE, ls=":", color="0.4", lw=1)
     ax[2].set(ylabel="captured (%)", ylim=(0, 108), title="verification studies")
+    limit = result.params.gripper.capture_speed
+    ax[3].axhline(limit, ls="-.", color="0.3", lw=1)
+    ax[3].set(ylabel="capture speed p95 [m/s]", ylim=(0, 1.15 * limit),
+              title=f"landing (the gripper takes {limit:g} m/s)")
     caption = (f"{result.name}: reach L {own.length:.3f} m, mass m "
                f"{result.params.plant.m1 + result.params.plant.m2:.3f} kg, sqrt(L/g) "
                f"{own.time:.3f} s, m g L {own.torque:.2f} N m; studies' root seed "

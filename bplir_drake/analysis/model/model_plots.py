@@ -25,7 +25,7 @@ def plot_free_swing(result, axes=None):
     axes[2].legend(loc="upper right")
     for ax in axes:
         ax.grid(True, alpha=0.3)
-    return finish(fig, "BPLIR free swing")
+    return finish(fig, "Free swing")
 
 
 

@@ -123,18 +123,31 @@ def _traverse_summary(study: Study, ran: list[dict]) -> dict:
                          "percentiles": pct}}
 
 
+#: the fewest samples that rank the drawn quantities by their correlation
+#: with the result (below it, |r| of unrelated quantities reaches 0.4 by chance)
+MIN_INFLUENCE_SAMPLES = 20
+
+
 def influence(study: Study, rows: list[dict]) -> dict[str, float]:
     """How strongly each uncertain quantity drives the result: |correlation|
-    with success when both outcomes occur, else with the capture speed."""
+    with success when both outcomes occur, else with the capture speed;
+    empty with fewer than :data:`MIN_INFLUENCE_SAMPLES` samples run, and
+    without the quantities of hardware the robot does not have (a line
+    sensor's errors on a robot with the IMUs alone)."""
     rows = study_rows(rows)
     ran = [r for r in rows if r.outcome != "error"]
+    if len(ran) < MIN_INFLUENCE_SAMPLES:
+        return {}
     succ = np.array([float(r.success) for r in ran])
     if 0 < succ.sum() < len(succ):
         target = succ
     else:
         target = np.array([r.capture_speed_mps for r in ran], dtype=float)
     out = {}
+    fitted = study.params.line_sensor.fitted
     for name in study.names:
+        if name.startswith("line_sensor.") and not fitted:
+            continue
         x = np.array([r[name] for r in ran], dtype=float)
         ok = np.isfinite(x) & np.isfinite(target)
         if ok.sum() > 2 and np.std(x[ok]) > 0 and np.std(target[ok]) > 0:

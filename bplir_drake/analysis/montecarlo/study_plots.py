@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 
-from .statistics import influence
+from .statistics import MIN_INFLUENCE_SAMPLES, influence
 from .study import Study, study_rows
 from ...plotting import figure_axes, finish
 from dataclasses import fields
@@ -63,7 +63,7 @@ def plot_success_vs_parameters(study: Study, rows: list[dict], axes=None):
     from matplotlib.ticker import MaxNLocator
 
     rows = study_rows(rows)
-    names = study.names or ["index"]
+    names, shown = _panel_quantities(study, rows)
     ncol = _grid_columns(len(names))
     nrow = math.ceil(len(names) / ncol)
     fig, axes = figure_axes(axes, nrow, ncol, figsize=(4.6 * ncol, 3.4 * nrow), squeeze=False)
@@ -86,8 +86,30 @@ def plot_success_vs_parameters(study: Study, rows: list[dict], axes=None):
     for ax in list(axes.flat)[len(names):]:
         ax.remove()
     return finish(fig, "Capture speed and success rate against each drawn quantity",
-                  f"{len(rows)} samples, root seed {study.seed}; dots: green captured, red "
-                  "crash, orange timeout, black error; blue: success rate per sixth of the range")
+                  f"{len(rows)} samples, root seed {study.seed}; {shown}; dots: green captured, "
+                  "red crash, orange timeout, purple fault, black error; blue: success rate per sixth of the "
+                  "range")
+
+
+#: the most panels :func:`plot_success_vs_parameters` draws (a grid of 3 x 3
+#: stays legible at a page's width)
+MAX_PANELS = 9
+
+
+def _panel_quantities(study: Study, rows) -> tuple[list[str], str]:
+    """(the quantities to draw, what the caption says of the choice): all of
+    them up to :data:`MAX_PANELS`, else the most influential ones (or, with
+    too few samples to rank them, the first)."""
+    names = study.names or ["index"]
+    if len(names) <= MAX_PANELS:
+        return names, "every drawn quantity"
+    inf = influence(study, rows)
+    if inf:
+        top = sorted(inf, key=inf.get, reverse=True)[:MAX_PANELS]
+        return [n for n in names if n in top], (f"the {len(top)} of {len(names)} drawn "
+                                                "quantities most correlated with the result")
+    return names[:MAX_PANELS], (f"the first {MAX_PANELS} of {len(names)} drawn quantities "
+                                f"(fewer than {MIN_INFLUENCE_SAMPLES} samples rank none)")
 
 
 def _success_band(ax, x, succ) -> None:
@@ -124,6 +146,8 @@ def _hist_range(v: np.ndarray) -> tuple[float, float]:
 def plot_histograms(study: Study, rows: list[dict], axes=None):
     """Histograms of capture speed, swing time, peak torque and peak power (2 x 2 axes); returns
     the figure."""
+    from matplotlib.ticker import MaxNLocator
+
     rows = study_rows(rows)
     every = study.line is not None   # a traversal's figures: its worst swing, its swings' sum
     fields = [("capture_speed_mps", "capture speed [m/s]", study.params.gripper.capture_speed,
@@ -144,6 +168,7 @@ def plot_histograms(study: Study, rows: list[dict], axes=None):
             ax.axvline(limit, color="tab:red", ls="--", label=name)
             ax.legend(loc="upper right", fontsize=8)
         ax.ticklabel_format(axis="x", useOffset=False)   # values at a limit: no "+1.989e1"
+        ax.yaxis.set_major_locator(MaxNLocator(integer=True))   # counts are whole
         ax.set_xlabel(label)
         ax.set_ylabel("samples")
     return finish(fig, "Monte Carlo distributions")
@@ -167,8 +192,13 @@ def plot_influence(study: Study, rows: list[dict], axes=None):
                    c=_colour(rows), s=12)
         ax.set_xlabel(quantity_label(a))
         ax.set_ylabel("capture speed [m/s]")
+    else:   # too few samples to rank: say so rather than rank noise
+        ax.text(0.5, 0.5, f"{len(rows)} samples: too few to rank the drawn quantities\n"
+                f"(at least {MIN_INFLUENCE_SAMPLES})", ha="center", va="center",
+                transform=ax.transAxes)
+        ax.set_axis_off()
     return finish(fig, "The two most influential quantities",
-                  "green captured, red crash, orange timeout, black error")
+                  "green captured, red crash, orange timeout, purple fault, black error")
 
 
 def study_figures(study: Study, rows: list[dict]) -> dict:

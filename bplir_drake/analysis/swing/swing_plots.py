@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from ...io import atomic_path
+from ...params.robot import robot_label
 from ...plotting import figure_axes, finish
 from .logs import log_table
 from ..replay import ReplayScene, replay_html, write_replay_html
@@ -65,7 +66,7 @@ def plot_swing(result, axes=None, title=None, panel: str | None = None):
                f"seed {s.seed}, incline {s.incline_deg:g} deg, grip spacing "
                f"{s.grip_spacing_m:g} m, controller {s.controller}, supply "
                f"{result.params.motor.supply_voltage:g} V; dashed red line: the interlock's decision")
-    return finish(fig, title or "BPLIR swing", caption)
+    return finish(fig, title or f"{robot_label(result.params)} swing", caption)
 
 
 def _draw_panel(a, c, spec, result, index):
@@ -128,7 +129,7 @@ def animate_swing(result, path, fps: int = 25, max_frames: int = 120) -> Path:
     (trail,) = ax.plot([], [], "C1", lw=1, alpha=0.7)
     text = ax.text(0.02, 0.95, "", transform=ax.transAxes, fontsize=9, va="top")
     ax.legend(loc="lower right", fontsize=8)
-    ax.set_title("BPLIR brachiation")
+    ax.set_title(f"{robot_label(p)} brachiation")
     elbow = np.column_stack([tp.l1 * np.sin(x[:, 0]), -tp.l1 * np.cos(x[:, 0])])
     grip = elbow + np.column_stack([tp.l2 * np.sin(x[:, 0] + x[:, 1]),
                                     -tp.l2 * np.cos(x[:, 0] + x[:, 1])])
@@ -190,7 +191,7 @@ def replay_swing_html(result, path, fps: float = 30.0) -> Path:
 
     st = result.logs["state"]
     s = result.summary
-    title = (f"BPLIR swing: {s.outcome} (seed {s.seed}, incline "
+    title = (f"{robot_label(result.params)} swing: {s.outcome} (seed {s.seed}, incline "
              f"{s.incline_deg:g} deg)")
     html = replay_html(result.params.simulated_plant, st.t, st.data[:, :2],
                        swing_replay_scene(result), fps=fps, title=title)

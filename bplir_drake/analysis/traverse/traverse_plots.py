@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ...params.robot import robot_label
 from ...plotting import figure_axes, finish
 from ..replay import ReplayScene, replay_html, write_replay_html
 
@@ -140,7 +141,8 @@ def traverse_replay_html(result, path, fps: float = 20.0) -> Path:
     t, keep = np.unique(tl["t"], return_index=True)
     html = replay_html(result.params.simulated_plant, t, tl["q"][keep],
                        traverse_replay_scene(result), fps=fps, base=tl["base"][keep],
-                       title=f"BPLIR traversal: {result.totals['outcome']} (seed {result.seed})")
+                       title=f"{robot_label(result.params)} traversal: {result.totals['outcome']} "
+                             f"(seed {result.seed})")
     return write_replay_html(path, html)
 
 

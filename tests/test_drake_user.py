@@ -170,3 +170,34 @@ def test_a_traversal_drawn_live_in_meshcat_is_the_same_traversal():
     swinging = sum(r["duration_s"] for r in plain.rows if r["kind"] == "swing")
     assert live.totals == plain.totals and live.success
     assert abs(view.frames - 30 * swinging) <= 2 * len(plain.rows)
+
+
+@pytest.mark.slow
+def test_meshcat_waits_for_a_browser_until_ctrl_c(tmp_path):
+    """``swing --meshcat --wait``: once the swing's outputs are written the
+    server still answers a browser; Ctrl-C then ends the command as done
+    (exit 0). ``--wait`` alone is refused."""
+    import re
+    import signal
+    import subprocess
+    import sys
+    import urllib.request
+
+    from forked import bplir_forked
+
+    rc, _, err = bplir_forked("swing", "--wait", "--out", tmp_path / "x")
+    assert rc == 2 and "allowed only with --meshcat" in err
+    proc = subprocess.Popen([sys.executable, "-m", "bplir_drake.cli", "swing", "--meshcat",
+                             "--wait", "--no-animation", "--no-plots", "--out", tmp_path / "s"],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    said = []
+    for line in proc.stderr:   # until the swing is done and the server waits
+        said.append(line)
+        if "Ctrl-C ends the command" in line:
+            break
+    url = re.search(r"stays at (\S+);", said[-1]).group(1)
+    assert (tmp_path / "s" / "summary.json").exists() and proc.poll() is None
+    assert b"meshcat" in urllib.request.urlopen(url, timeout=10).read().lower()
+    proc.send_signal(signal.SIGINT)
+    assert proc.wait(60) == 0, proc.stderr.read()

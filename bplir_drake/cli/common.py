@@ -249,10 +249,16 @@ def _plugin_args_need_a_plugin(args) -> None:
                              f"(module:factory or a registered name)")
 
 
+#: live views kept serving after their run (``--meshcat --wait``) until the
+#: command has written its outputs and the user stops it
+_LINGERING: list = []
+
+
 @contextlib.contextmanager
-def _live_view(params, what: str, pace: str):
+def _live_view(params, what: str, pace: str, wait: bool = False):
     """A Meshcat view of the robot of ``params`` (``--meshcat``), its address
-    said on standard error; the server stops when the block ends."""
+    said on standard error; the server stops when the block ends, or with
+    ``wait`` (a run that ends well) once :func:`_serve_lingering` is stopped."""
     from ..analysis.live import LiveView
 
     view = LiveView(params.plant)
@@ -260,5 +266,34 @@ def _live_view(params, what: str, pace: str):
         sys.stderr.write(f"bplir: the {what} is shown at {view.url} (Meshcat, {pace})\n")
         sys.stderr.flush()
         yield view
-    finally:
+    except BaseException:
         view.close()
+        raise
+    if wait:
+        _LINGERING.append((what, view))
+    else:
+        view.close()
+
+
+def _serve_lingering() -> None:
+    """Keep the ``--wait`` live views serving, their outputs written, until
+    Ctrl-C or SIGTERM, which then end the command as done (exit 0)."""
+    import time
+
+    from ..io import forget_stop
+
+    if not _LINGERING:
+        return
+    try:
+        for what, view in _LINGERING:
+            sys.stderr.write(f"bplir: the {what} stays at {view.url}; its outputs are written; "
+                             "Ctrl-C ends the command\n")
+        sys.stderr.flush()
+        while True:
+            time.sleep(3600)
+    except KeyboardInterrupt:   # Ctrl-C, or SIGTERM (Terminated): the wait is over
+        forget_stop()
+    finally:
+        for _, view in _LINGERING:
+            view.close()
+        _LINGERING.clear()

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from pathlib import Path
 from ..io import write_text_atomic
-from .common import _live_view, _plugin_args_need_a_plugin, InputError, _check_plugin, _emit, _load_params, _out_dir, _same, _save, _study_of, _with_path_mode, _write_json
+from .common import _live_view, _serve_lingering, _plugin_args_need_a_plugin, InputError, _check_plugin, _emit, _load_params, _out_dir, _same, _save, _study_of, _with_path_mode, _write_json
 from .log_options import add_log_options, read_logs
 from .options import command, option, shared
 
@@ -45,6 +45,9 @@ def cmd_swing(args) -> int:
     from ..analysis.swing.logs import write_log_csv
     from ..analysis.swing.swing_plots import animate_swing, replay_swing_html
 
+    if args.wait and not args.meshcat:
+        raise InputError("--wait keeps the live Meshcat view serving; allowed only with "
+                         "--meshcat")
     replay_info = None
     replaying = args.replay is not None or args.sample is not None
     params = None if replaying else _swing_params(args)   # bad options: nothing written
@@ -70,7 +73,7 @@ def cmd_swing(args) -> int:
         _emit({"comparison": data, "figure": str(fig)}, args.json, [table, f"figure: {fig}"])
         return 0
     if replay_info is None:
-        res = _run_live(params, run_swing) if args.meshcat else run_swing(params)
+        res = _run_live(params, run_swing, args.wait) if args.meshcat else run_swing(params)
     files = ({} if args.no_plots else {"figure": str(_save(args, res.plot(), out_dir / "swing.png"))})
     files["log_csv"] = str(write_log_csv(res, out_dir / "swing_log.csv"))
     if not args.no_animation:
@@ -108,14 +111,15 @@ def cmd_swing(args) -> int:
         _motor_line(res),
         f"files in {out_dir}: " + ", ".join([Path(f).name for f in files.values()]
                                             + ["summary.json"])])
+    _serve_lingering()   # --meshcat --wait: until Ctrl-C
     return 0
 
 
-def _run_live(params, run_swing):
+def _run_live(params, run_swing, wait: bool = False):
     """The swing shown live in Meshcat (:func:`~.common._live_view`) with its scene."""
     from ..analysis.swing.swing_plots import swing_scene
 
-    with _live_view(params, "swing", "real time") as view:
+    with _live_view(params, "swing", "real time", wait) as view:
         view.scene(swing_scene(params))
         return run_swing(params, live=view)
 
@@ -189,6 +193,8 @@ def add_parser(sub) -> None:
            "browser (self-contained, works offline)")
     option(p, "--meshcat", bool, help="show the swing in Drake's Meshcat on this machine while "
            "it is simulated, at real time (the address is printed on standard error)")
+    option(p, "--wait", bool, help="with --meshcat: keep Meshcat serving after the swing, its "
+           "outputs written, until Ctrl-C")
     option(p, "--compare", bool, help="run the swing with each controller preset and the true state")
     option(p, "--replay", None, None, "re-run one sample of a Monte Carlo study (with --sample)",
            metavar="STUDY_DIR")

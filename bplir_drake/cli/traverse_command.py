@@ -5,7 +5,7 @@ import contextlib
 from pathlib import Path
 
 from ..io import atomic_path, write_text_atomic
-from .common import InputError, _emit, _live_view, _in_range, _load_params, _out_dir, _progress, _same, _save, _study_of, _write_json
+from .common import InputError, _emit, _live_view, _serve_lingering, _in_range, _load_params, _out_dir, _progress, _same, _save, _study_of, _write_json
 from .options import command, option
 
 
@@ -18,6 +18,9 @@ def cmd_traverse(args) -> int:
     from ..analysis.traverse.traversal import run_traverse
     from ..analysis.traverse.tables import manoeuvre_table, totals_lines, write_rows_csv
 
+    if args.wait and not args.meshcat:
+        raise InputError("--wait keeps the live Meshcat view serving; allowed only with "
+                         "--meshcat")
     replay_info = None
     if args.replay is not None or args.sample is not None:
         if args.replay is None or args.sample is None:
@@ -50,7 +53,8 @@ def cmd_traverse(args) -> int:
             replay_info = {"study": str(args.replay), "sample": args.sample,
                            "matches_recorded": matches}
         else:   # the motion log is written beside its file and renamed when whole
-            live = (stack.enter_context(_live_view(params, "traversal", "swings at real time"))
+            live = (stack.enter_context(_live_view(params, "traversal", "swings at real time",
+                                                   args.wait))
                     if args.meshcat else None)
             res = run_traverse(line, params, seed=args.seed or 0, progress=_progress(args),
                                motion=stack.enter_context(atomic_path(out / "motion.f64")),
@@ -78,6 +82,7 @@ def cmd_traverse(args) -> int:
                    if replay_info else [])
     _emit(data, args.json, replay_line + [table, ""] + totals_lines(res) + [
         f"files in {out}: " + ", ".join(Path(f).name for f in files.values())])
+    _serve_lingering()   # --meshcat --wait: until Ctrl-C
     return 0 if res.success else 1
 
 
@@ -93,6 +98,8 @@ def add_parser(sub) -> None:
     option(p, "--no-plots", bool, help="skip the figures (line.png, timeline.png)")
     option(p, "--meshcat", bool, help="show the traversal in Drake's Meshcat on this machine "
            "while it is simulated, its swings at real time (the address on standard error)")
+    option(p, "--wait", bool, help="with --meshcat: keep Meshcat serving after the traversal, "
+           "its outputs written, until Ctrl-C")
     option(p, "--replay", None, None, "re-run one sample of a traversal study (with --sample)",
            metavar="STUDY_DIR")
     option(p, "--sample", int, None, "sample index to replay", metavar="K")

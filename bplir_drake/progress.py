@@ -69,9 +69,10 @@ class _Lines:
         of = f"/{self.total}" if self.total is not None else ""
         return f"{self.n}{of} {self.unit}"
 
-    def _say(self, what: str, force: bool = False) -> None:
+    def _say(self, what: str) -> None:
+        """One line, once the command's quiet start is over."""
         now = time.monotonic()
-        if now - _STARTED[0] < _quiet_for() and not force:
+        if now - _STARTED[0] < _quiet_for():
             return
         if what != "begins" and not self._said_begin:
             what = f"{what} (began {now - self.t0:.0f} s ago)"
@@ -106,8 +107,7 @@ class _Lines:
         self._done.set()
         if self in _OPEN:
             _OPEN.remove(self)
-        if self._said_begin or time.monotonic() - _STARTED[0] >= _quiet_for():
-            self._say("done")
+        self._say("done")
 
     def __enter__(self):
         return self

@@ -41,6 +41,9 @@ def wrong_plans(good: dict, meta: dict, other: tuple) -> dict:
     shift = good["states"].copy()
     shift[:, 0] += 0.3
     return {
+        "NaN torque": (good | {"torque": np.full_like(good["torque"], np.nan)}, meta),
+        "times reversed": (good | {"times": good["times"][::-1].copy()}, meta),
+        "short states": (good | {"states": good["states"][:2]}, meta),
         "times x 1e-300": (good | {"times": good["times"] * 1e-300}, meta),
         "times x 1e6": (good | {"times": good["times"] * 1e6}, meta),
         "times from 5 s": (good | {"times": good["times"] + 5.0}, meta),
@@ -58,8 +61,10 @@ def wrong_plans(good: dict, meta: dict, other: tuple) -> dict:
 
 
 def a_wrong_cached_plan_is_moved_aside(d: Path):
-    """Each of :func:`wrong_plans` under a plan's key: moved aside, named
-    in one note, solved again (the stand-in's 1 s plan at rest), exit 0."""
+    """Each of :func:`wrong_plans` under a plan's key (NaN torque, times
+    reversed, a short states array, and the well-formed but wrong): moved
+    aside, named in one note, solved again (the stand-in's 1 s plan at
+    rest, no torque), exit 0."""
     cache = d / "cache"
     for incline in ("9", "45"):
         rc, got, err = _plan(cache, d, incline, f"first{incline}")
@@ -79,7 +84,8 @@ def a_wrong_cached_plan_is_moved_aside(d: Path):
         aside = stored.with_suffix(".damaged")
         note = f"bplir: note: the cached plan file {stored} is damaged"
         if rc != 0 or got is None or note not in err or not aside.exists() \
-                or got["duration_s"] != 1.0 or not got["feasible"]:
+                or got["duration_s"] != 1.0 or not got["feasible"] \
+                or got["peak_torque_Nm"] != 0.0:
             return f"{what}: exit {rc}, moved aside {aside.exists()}, {err[-300:]!r}"
         aside.unlink()
     return None

@@ -192,6 +192,15 @@ def damage(exc: BaseException) -> str:
     return " ".join(str(exc).split())[:160] or type(exc).__name__
 
 
+def move_aside(path: Path) -> Path:
+    """Rename a damaged file of the cache to ``.damaged`` beside it (kept
+    for a look, never read again); returns where it went."""
+    aside = path.with_suffix(".damaged")
+    with contextlib.suppress(OSError):
+        os.replace(path, aside)
+    return aside
+
+
 def _read(load, path: Path):
     """``load(path)``, or None when the file is missing or damaged; a
     damaged file in the cache is moved aside (``.damaged``) to be re-solved,
@@ -206,9 +215,7 @@ def _read(load, path: Path):
             warnings.warn(f"the shipped plan file {path} is damaged ({why}); it is solved "
                           "instead (reinstall the package to restore it)", stacklevel=2)
             return None
-        aside = path.with_suffix(".damaged")
-        with contextlib.suppress(OSError):
-            os.replace(path, aside)
+        aside = move_aside(path)
         warnings.warn(f"the cached plan file {path} is damaged ({why}); moved aside to "
                       f"{aside.name} and solved again", stacklevel=2)
         return None

@@ -22,11 +22,9 @@ solve there, and the tracking feedback absorbs the difference.
 """
 from __future__ import annotations
 
-import contextlib
 import dataclasses
 import functools
 import json
-import os
 import warnings
 import math
 from dataclasses import dataclass
@@ -40,7 +38,7 @@ from ..systems.friction import friction_torques_along
 from ..systems.plan_tracker import RICCATI_ACCURACY, TrackerWeights, TrackingGains, plan_gains
 from ..systems.plant import start_configuration
 from ..io import atomic_path, write_npz
-from .cache import PACKAGED, cache_dir, damage, plan_key
+from .cache import PACKAGED, cache_dir, damage, move_aside, plan_key
 from .swing_plan import (
     HANGING_GUESSES, HANGING_KNOTS, HANGING_MINOR_ITERATIONS, PLAN_FRICTION_SMOOTHING, PUMP_KNOTS, UNBALANCED_SHARE, SwingPlan, plan_envelope, plan_friction, plan_time_weight, plan_torque_limit, planned_target, pump_guesses, shifted_angles)
 from ..params.derive import as_planned
@@ -215,9 +213,7 @@ def load_library(path: Path) -> PlanLibrary | None:
                           "it holds are solved instead (reinstall the package to restore it)",
                           stacklevel=2)
             return None
-        aside = path.with_suffix(".damaged")
-        with contextlib.suppress(OSError):
-            os.replace(path, aside)
+        aside = move_aside(path)
         warnings.warn(f"the plan library {path} is damaged ({damage(exc)}); moved aside to "
                       f"{aside.name}: plans it held are solved instead, and commissioning "
                       "the robot again rebuilds it", stacklevel=2)

@@ -13,8 +13,8 @@ from pathlib import Path
 from ...systems.gripper import OUTCOMES as SWING_OUTCOMES
 from ..traverse.traverse_result import OUTCOMES as TRAVERSE_OUTCOMES
 from .sampling import draw_values, sample_seed
-from .store import _parse
-from .study import Study, StudyError, StudyRow
+from .store import _parse, check_header
+from .study import Study, StudyRow
 
 #: the outcomes a swing sample and a traversal sample can end with, and the
 #: one each calls a success
@@ -113,8 +113,7 @@ def read_checked(study: Study, path: Path, cols: list[str]) -> tuple[list[StudyR
         header = next(reader, None)
         if header is None:
             return [], []
-        if header != cols:
-            raise StudyError(f"{path}: its columns do not match this study; use another output directory (--out)")
+        check_header(path, header, cols)
         for line, cells in enumerate(reader, 2):
             why = row_damage(study, header, cells)
             if why is None:

@@ -39,6 +39,14 @@ def _parse(col: str, text: str):
     return float(text) if text not in ("", "None") else math.nan
 
 
+def check_header(path, header: list[str], cols: list[str]) -> None:
+    """Refuse (``StudyError``) a results table whose header is not ``cols``:
+    it is another study's."""
+    if header != cols:
+        raise StudyError(f"{path}: its columns do not match this study; use another output "
+                         "directory (--out)")
+
+
 def read_results(path, cols: list[str] | None = None) -> list[StudyRow]:
     """Rows of a results CSV (complete rows only), parsed."""
     path = Path(path)
@@ -50,8 +58,8 @@ def read_results(path, cols: list[str] | None = None) -> list[StudyRow]:
         header = next(reader, None)
         if header is None:
             return []
-        if cols is not None and header != cols:
-            raise StudyError(f"{path}: its columns do not match this study; use another output directory (--out)")
+        if cols is not None:
+            check_header(path, header, cols)
         for rec in reader:
             if len(rec) != len(header):
                 continue  # a row cut short by an interruption

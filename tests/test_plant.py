@@ -167,3 +167,41 @@ def test_swapped_off_axis_robot_has_the_same_centres_of_mass():
     seen = K.link_centres_of_mass(K.swapped_state(q), ps) + grip
     assert np.allclose(seen[::-1], own, atol=1e-12)
     assert swapped_plant(ps) == p
+
+
+def test_the_planners_closed_form_is_the_multibody_plants_dynamics():
+    """The planner's ``SymbolicVectorSystem`` and the ``MultibodyPlant`` with
+    its friction system give the same derivatives and the same Jacobians
+    (AutoDiffXd) at random states and torques, on the default robot held by
+    either gripper and on one whose centres of mass sit off the links' axes."""
+    import dataclasses
+
+    import numpy as np
+    from pydrake.autodiffutils import ExtractGradient, ExtractValue, InitializeAutoDiff
+
+    from bplir_drake.params import BplirParams, swapped
+    from bplir_drake.planning.swing_plan import plan_friction
+    from bplir_drake.systems.frictional_plant import frictional_plant
+    from bplir_drake.systems.symbolic_plant import symbolic_plant
+
+    p = BplirParams()
+    off = dataclasses.replace(p.plant, oc1=0.03, oc2=-0.05)
+    rng = np.random.default_rng(7)
+    for plant, friction in ((p.plant, p.friction), (swapped(p).plant, swapped(p).friction),
+                            (off, p.friction)):
+        friction = plan_friction(friction)
+        pair = [s.ToAutoDiffXd() for s in (frictional_plant(plant, friction),
+                                           symbolic_plant(plant, friction))]
+        for _ in range(5):
+            z = InitializeAutoDiff(np.r_[rng.uniform(-3, 3, 2), rng.uniform(-6, 6, 2),
+                                         rng.uniform(-20, 20)])
+            out = []
+            for s in pair:
+                c = s.CreateDefaultContext()
+                c.SetContinuousState(z[:4, 0])
+                s.get_input_port(0).FixValue(c, z[4:, 0])
+                d = s.EvalTimeDerivatives(c).CopyToVector()
+                out.append((ExtractValue(d).ravel(), ExtractGradient(d)))
+            assert np.allclose(out[0][0], out[1][0], rtol=1e-10, atol=1e-10)
+            assert np.allclose(out[0][1], out[1][1], rtol=1e-9, atol=1e-9)
+            assert np.abs(out[0][0][2:]).max() > 1.0   # the accelerations are not trivial

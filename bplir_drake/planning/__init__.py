@@ -13,6 +13,6 @@ plan caches and libraries.
 * :mod:`.status` -- how a solve ended; :mod:`.figure` -- a plan's figure.
 
 It plans on the nominal model only
-(:func:`~bplir_drake.systems.frictional_plant.frictional_plant`) and sits
+(:func:`~bplir_drake.systems.symbolic_plant.symbolic_plant`) and sits
 below :mod:`bplir_drake.diagrams`, whose swing diagram tracks its plans.
 """

@@ -30,7 +30,7 @@ from .swing_plan import (
 from ..params.derive import planned_from_hanging
 from .library import library_plan
 from .file import read_plan_file
-from ..systems.frictional_plant import frictional_plant
+from ..systems.symbolic_plant import symbolic_plant
 from ..systems.plant import start_configuration
 from .cache import cached
 from ..systems.friction import friction_torques_along
@@ -43,11 +43,12 @@ from .status import (
 
 def plan_model(params: BplirParams):
     """(model, friction): the nominal plant with its friction (Coulomb
-    smoothing widened to ``PLAN_FRICTION_SMOOTHING``) as a diagram with the
-    elbow torque as input and the state as output."""
+    smoothing widened to ``PLAN_FRICTION_SMOOTHING``), elbow torque in and
+    state out, in closed form (:func:`~bplir_drake.systems.symbolic_plant.
+    symbolic_plant`: the ``MultibodyPlant``'s dynamics, cheaper to evaluate)."""
 
     friction = plan_friction(params.friction)
-    return frictional_plant(params.plant, friction), friction
+    return symbolic_plant(params.plant, friction), friction
 
 
 def plan_swing(params: BplirParams, *, power_limit: float | None = None, knots: int = 41,

@@ -44,8 +44,8 @@ from .status import (
 def plan_model(params: BplirParams):
     """(model, friction): the nominal plant with its friction (Coulomb
     smoothing widened to ``PLAN_FRICTION_SMOOTHING``), elbow torque in and
-    state out, in closed form (:func:`~bplir_drake.systems.symbolic_plant.
-    symbolic_plant`: the ``MultibodyPlant``'s dynamics, cheaper to evaluate)."""
+    state out, in closed form
+    (:func:`~bplir_drake.systems.symbolic_plant.symbolic_plant`)."""
 
     friction = plan_friction(params.friction)
     return symbolic_plant(params.plant, friction), friction

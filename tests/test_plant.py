@@ -173,7 +173,8 @@ def test_the_planners_closed_form_is_the_multibody_plants_dynamics():
     """The planner's ``SymbolicVectorSystem`` and the ``MultibodyPlant`` with
     its friction system give the same derivatives and the same Jacobians
     (AutoDiffXd) at random states and torques, on the default robot held by
-    either gripper and on one whose centres of mass sit off the links' axes."""
+    either gripper, on one whose centres of mass sit off the links' axes and
+    with air drag on both links."""
     import dataclasses
 
     import numpy as np
@@ -186,9 +187,10 @@ def test_the_planners_closed_form_is_the_multibody_plants_dynamics():
 
     p = BplirParams()
     off = dataclasses.replace(p.plant, oc1=0.03, oc2=-0.05)
+    drag = dataclasses.replace(p.friction, area1=0.02, area2=0.03)   # qd |qd| air drag
     rng = np.random.default_rng(7)
     for plant, friction in ((p.plant, p.friction), (swapped(p).plant, swapped(p).friction),
-                            (off, p.friction)):
+                            (off, p.friction), (p.plant, drag)):
         friction = plan_friction(friction)
         pair = [s.ToAutoDiffXd() for s in (frictional_plant(plant, friction),
                                            symbolic_plant(plant, friction))]

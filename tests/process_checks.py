@@ -206,7 +206,7 @@ def a_commission_refuses_before_it_writes(d: Path):
     if problem:
         return f"a link at studies/: {problem}"
     rc, _, err = bplir("commission", BPLIR, "--out", d / "s", "--scheduler",
-                       "tcp://127.0.0.1:9", timeout=120)
+                       "tcp://127.0.0.1:9", timeout=120, before=_quick_scheduler_timeout)
     problem = one_error_line(rc, err, 2, "cannot reach the Dask scheduler")
     return f"--scheduler: {problem}" if problem else \
         ("--scheduler: robot.toml written" if (d / "s" / "robot.toml").exists() else None)
@@ -214,11 +214,21 @@ def a_commission_refuses_before_it_writes(d: Path):
 
 
 
+def _quick_scheduler_timeout():
+    """Give up on an unreachable Dask scheduler after 1 s, not 10 s
+    (nothing listens on port 9: the wait only idles a test worker)."""
+    from bplir_drake.analysis.montecarlo import executors
+
+    executors.SCHEDULER_TIMEOUT = 1.0
+
+
 def _slow_plans():
-    """Make every plan solve take a minute (a solver at work)."""
+    """Make every plan solve take a minute (a solver at work), each solve
+    leaving a ``solving-PID`` file in the cache directory as it starts."""
     from bplir_drake.planning import solve as P
 
     def slow(*a, **k):
+        Path(os.environ["BPLIR_CACHE_DIR"], f"solving-{os.getpid()}").touch()
         time.sleep(60)
         raise RuntimeError("the slow solve was not stopped")
     P._solve_plan = slow
@@ -236,7 +246,9 @@ def a_sigterm_in_the_commissions_plan_pool_is_one_line(d: Path):
     proc = start_forked("commission", BPLIR, "--workers", "2", "--no-hanging", "--out",
                         d / "c", env={"BPLIR_CACHE_DIR": cache}, before=_slow_plans,
                         new_session=True)
-    time.sleep(8)
+    end = time.monotonic() + 60
+    while len(list(Path(cache).glob("solving-*"))) < 2 and time.monotonic() < end:
+        time.sleep(0.1)   # until both workers solve
     proc.send_signal(signal.SIGTERM)
     _, err = proc.communicate(60)
     lines = said(err)

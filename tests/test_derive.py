@@ -241,3 +241,35 @@ def test_a_switch_is_a_named_choice_beside_its_number(tmp_path):
     assert load_toml(tmp_path / "q.toml") == q
     ref = {(r["block"], r["name"]): r["range"] for r in parameter_reference()}
     assert ref["landing", "shoot_rate_cap"] == "(0, 5] or 'none'"   # the unit in its own column
+
+
+def test_a_robot_names_its_manoeuvre_for_each_gripper(tmp_path):
+    """``scenario.manoeuvre = "swing,pump"`` (what commissioning chose for
+    the default robot at 30 V): held by gripper 1 it swings, by gripper 2
+    it pumps (20 sqrt(L/g) to arrive, 9.37 s), a try from hanging is a swing
+    from hanging either way; a traversal's pump comes to rest where the
+    robot's own pump does (1.5 of the band's 2 cm, not the traversal swing's
+    1.3), so its plans are the library commissioning verified (the same
+    key).  A third entry or an unknown one is refused, naming the allowed."""
+    from bplir_drake.planning.library import robot_library_key
+
+    base = BplirParams()
+    robot = base.with_(scenario=dc.replace(base.scenario, manoeuvre="swing,pump"))
+    assert from_dict({"scenario": {"manoeuvre": "swing,pump"}}) == robot
+    first, second = derive(robot, Manoeuvre(gripper=1)), derive(robot, Manoeuvre(gripper=2))
+    assert (first.scenario.manoeuvre, first.scenario.max_time) == ("swing", 3.0)
+    assert (second.scenario.manoeuvre, second.scenario.max_time) == ("pump", 9.37)
+    assert derive(base, Manoeuvre(gripper=1)) == first
+    for g in (1, 2):
+        tried = derive(robot, Manoeuvre(gripper=g, context="retry"))
+        assert (tried.scenario.manoeuvre, tried.scenario.start) == ("swing", "hanging")
+    step = derive(robot, Manoeuvre(gripper=2, spacing=1.2, incline_deg=0.0, context="traverse"))
+    assert step.plan.end_depth == second.plan.end_depth == 0.015
+    assert derive(robot, Manoeuvre(gripper=1, context="traverse")).plan.end_depth == 0.013
+    assert robot_library_key(step) == robot_library_key(derive(base, Manoeuvre(gripper=2,
+                                                                              reach="pump")))
+    for bad in ("swing,pump,swing", "hop", "swing,hop"):
+        with pytest.raises(ParameterError, match="allowed: swing, pump, or one per gripper"):
+            from_dict({"scenario": {"manoeuvre": bad}})
+    with pytest.raises(ParameterError, match="starts on the line"):
+        derive(robot, Manoeuvre(gripper=2, start="hanging", reach="pump"))

@@ -61,7 +61,8 @@ def test_a_pump_whose_plan_does_not_keep_the_robots_energy_is_not_feasible(monke
 
 def test_commissioning_keeps_the_manoeuvre_whose_studies_do_better(monkeypatch):
     """A swing below the bar and a pump shown ready: the pump is the robot's,
-    its limits none; the swing's rows and study are kept, not chosen."""
+    its limits none; the swing's rows and study are kept, not chosen; the
+    report names the ``scenario.manoeuvre`` a traversal does the same with."""
     from bplir_drake.analysis.commission import commissioning as run
     from bplir_drake.analysis.commission.rows import PlanPoint, StudyVerdict
 
@@ -92,8 +93,15 @@ def test_commissioning_keeps_the_manoeuvre_whose_studies_do_better(monkeypatch):
     chosen = {(st.manoeuvre, st.chosen) for st in r.studies}
     assert chosen == {("pump", True), ("swing", False)}
     assert math.isnan(r.rate(0.0, 1)) and r.rate(0.0, 2) == 0.967
+    from bplir_drake.analysis.commission.commission_report import report_markdown
+
+    assert r.manoeuvre == r.summary()["manoeuvre"] == "swing,pump"   # what a traversal runs
+    assert '`manoeuvre = "swing,pump"` in the robot\'s `[scenario]`' in \
+        report_markdown(dataclasses.replace(r, points=[]))
     without = run.commission(preset(), grippers=(2,), hanging=False, pumps=False)
     assert without.limits == ["gripper 2: below"] and len(without.studies) == 1
+    assert without.manoeuvre == "swing" and "`manoeuvre = " not in \
+        report_markdown(dataclasses.replace(without, points=[]))
 
 
 def test_bplir_plan_pumps_from_either_gripper(monkeypatch, tmp_path, capsys):

@@ -51,6 +51,9 @@ def cmd_commission(args) -> int:
                      f"capture speed p95 {st['capture_speed_p95_mps']:.2f} m/s")
     lines += [f"  limit: {x}" for x in s["limits"]]
     lines += [f"  not shown: {x}" for x in s["unshown"]]
+    if s["manoeuvre"] != params.scenario.manoeuvre:
+        lines.append(f"  traversals: [scenario] manoeuvre = \"{s['manoeuvre']}\" does what "
+                     "this commission chose")
     lines.append(f"  wrote {out}/report.md, commission.json, robot.toml, plans/, studies/")
     _emit(s, args.json, lines)
     return 0 if s["ready"] else 1

@@ -24,7 +24,7 @@ def cmd_plan(args) -> int:
     out = _out_dir(args.out)
     # plan_swing validates the scenario, the power limit and the knots
     given = {} if args.knots is None else {"knots": args.knots}   # else each planner's own
-    if params.scenario.manoeuvre == "pump":
+    if params.scenario.manoeuvre_of() == "pump":
         plan = pump_plan(params, progress=_progress(args), strict=False)
     elif params.scenario.start == "hanging":   # the pump a swing from hanging tracks
         plan = hanging_plan(params, power_limit=args.power, progress=_progress(args),
@@ -34,7 +34,7 @@ def cmd_plan(args) -> int:
     figure = None if args.no_plots else _save(args, plot_plan(plan, params), out / "plan.png")
     heat = planned_i2t(plan, params.motor) / interlock_budget(params.motor)
     balance = energy_balance(plan, params.plant)
-    summary = plan.summary() | {"i2t_share": heat, "manoeuvre": params.scenario.manoeuvre,
+    summary = plan.summary() | {"i2t_share": heat, "manoeuvre": params.scenario.manoeuvre_of(),
                                 "energy_residual_share": balance["residual_share"],
                                 "figure": None if figure is None else str(figure)}
     _write_json(out / "plan.json", summary)

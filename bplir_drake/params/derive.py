@@ -103,21 +103,26 @@ def derive(robot: BplirParams, manoeuvre: Manoeuvre | None = None,
         p = swapped(p)
     sc = p.scenario
     start = m.start or ("hanging" if m.context == "retry" else sc.start)
+    reach = m.reach or ("swing" if start == "hanging" else sc.manoeuvre_of(m.gripper))
+    if reach == "pump" and start != "line":
+        raise ParameterError(f"a pumping manoeuvre starts on the line; start = '{start}' is "
+                             "not allowed with it (a swing from hanging pumps by its own plan)")
     spacing = sc.grip_spacing if m.spacing is None else float(m.spacing)
     incline = sc.incline_deg if m.incline_deg is None else float(m.incline_deg)
     if m.context != "single":
         spacing, incline = round(spacing, 3), round(incline, 1)
-    p = p.with_(scenario=replace(sc, grip_spacing=spacing, incline_deg=incline, start=start))
+    p = p.with_(scenario=replace(sc, grip_spacing=spacing, incline_deg=incline, start=start,
+                                 manoeuvre="swing"))
     if m.context != "single":
-        p = _traverse_swing(p, m)
-    if (m.reach or sc.manoeuvre) == "pump":
+        p = _traverse_swing(p, m, pumps=reach == "pump")
+    if reach == "pump":
         p = _pumping(p)
     if m.context == "retry":
         p = _retry(p, m)
     return p
 
 
-def _traverse_swing(p: BplirParams, m: Manoeuvre) -> BplirParams:
+def _traverse_swing(p: BplirParams, m: Manoeuvre, pumps: bool = False) -> BplirParams:
     """A traversal's swing (``traverse.swing_mode = "plan"``): tracked
     without the terminal reach (it lands where the gripper first moves
     slowly, sliding along the line if it must, where a traversal has to land
@@ -127,11 +132,14 @@ def _traverse_swing(p: BplirParams, m: Manoeuvre) -> BplirParams:
     its shot braking at
     ``traverse.shoot_brake_ratio`` where that is set, and aiming
     ``traverse.landing_learning`` of the mean landing height error it
-    learnt (:attr:`Manoeuvre.learnt`) higher."""
+    learnt (:attr:`Manoeuvre.learnt`) higher.  A traversal's pump (``pumps``)
+    comes to rest where the robot's own pump does: its plans are the ones
+    commissioning verified."""
     tp = p.traverse
     if tp.swing_mode != "plan":
         return p
-    plan = replace(p.plan, end_depth=round(TRAVERSE_END_SHARE * p.gripper.capture_distance, 6))
+    plan = p.plan if pumps else replace(
+        p.plan, end_depth=round(TRAVERSE_END_SHARE * p.gripper.capture_distance, 6))
     landing = p.landing
     if landing.landing_law == "reach":   # a traversal's swing lands by the apex laws or none
         landing = replace(landing, landing_law="none")

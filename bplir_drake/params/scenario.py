@@ -37,12 +37,21 @@ class ScenarioParams(_Block):
     wall_limit: float = _p(300.0, "s", 0, 86400, lo_open=True, doc="wall-clock time one swing may take before it is stopped as a fault (a hung plug-in); not physics")
     start: str = field(default="line", metadata=dict(doc="where the swing starts: line (both grippers on the line), hanging (at rest below the holding gripper; plan tracking only) or plan (the first state of plan.file, rates included)", allowed="line, hanging, plan"))
 
-    manoeuvre: str = field(default="swing", metadata=dict(doc="how a plan-tracked swing from the line reaches the next grip: swing (one swing of link 1 at most) or pump (link 1 swings back and forth as often as its plan needs, planned on more knots)", allowed="swing, pump"))
+    manoeuvre: str = field(default="swing", metadata=dict(doc="how a plan-tracked swing from the line reaches the next grip: swing (one swing of link 1 at most) or pump (link 1 swings back and forth as often as its plan needs, planned on more knots); two, comma-separated, for the robot holding with gripper 1 and with gripper 2 (what its commissioning chose)", allowed="swing, pump, or one per gripper: swing,pump"))
+
+    def manoeuvre_of(self, gripper: int = 1) -> str:
+        """How the robot holding with ``gripper`` reaches the next grip from
+        the line (``manoeuvre``'s entry for it)."""
+        parts = self.manoeuvre.split(",")
+        return parts[min(gripper, len(parts)) - 1].strip()
 
     def _check(self):
         self._one_of("start", SWING_STARTS)
-        self._one_of("manoeuvre", MANOEUVRES)
-        if self.manoeuvre == "pump" and self.start != "line":
+        parts = [m.strip() for m in self.manoeuvre.split(",")]
+        if len(parts) > 2 or any(m not in MANOEUVRES for m in parts):
+            raise ParameterError(f"scenario.manoeuvre = '{self.manoeuvre}' is unknown; allowed: "
+                                 "swing, pump, or one per gripper: swing,pump")
+        if "pump" in parts and self.start != "line":
             raise ParameterError(f"scenario.manoeuvre = 'pump' starts on the line; "
                                  f"scenario.start = '{self.start}' is not allowed with it "
                                  "(a swing from hanging pumps by its own plan)")

@@ -98,7 +98,7 @@ def model_inputs(params: BplirParams) -> dict:
         out.update(rate_limit=0.0, guesses=list(HANGING_GUESSES),
                    minor_iterations=HANGING_MINOR_ITERATIONS,
                    i2t_share=number_or(params.hanging.i2t_share))   # none: 0, as shipped
-    elif params.scenario.manoeuvre == "pump":
+    elif params.scenario.manoeuvre_of() == "pump":
         out.update(manoeuvre="pump", knots=PUMP_KNOTS, guesses=list(pump_guesses(params.plant)),
                    minor_iterations=HANGING_MINOR_ITERATIONS, balance=UNBALANCED_SHARE)
     return out
@@ -307,7 +307,7 @@ def library_plan(params: BplirParams):
         return None
     if same_manoeuvre(lib, sc.incline_deg, sc.grip_spacing):
         b = _blend(lib, sc.incline_deg, sc.grip_spacing)
-    elif sc.manoeuvre == "pump":   # pumps of other phases do not blend: the nearest's
+    elif sc.manoeuvre_of() == "pump":   # pumps of other phases do not blend: the nearest's
         b = _nearest(lib, sc.incline_deg, sc.grip_spacing)
         if b is None:
             return None

@@ -283,7 +283,7 @@ def scenario_plan(params: BplirParams) -> SwingPlan:
     hanging = params.scenario.start == "hanging"
     if hanging:
         return hanging_plan(params)
-    if params.scenario.manoeuvre == "pump":
+    if params.scenario.manoeuvre_of() == "pump":
         return pump_plan(params)
     for guess in PLAN_GUESSES:   # SNOPT sometimes stops just outside the tolerance
         plan = plan_swing(params, end_depth=depth, guess_duration=guess)

@@ -100,6 +100,10 @@ def report_markdown(result, fmt: str = "png") -> str:
              f"{s['plans']['solved']} of {s['plans']['points']} plans solved "
              f"({s['plans']['from_similarity']} from similar robots' plans), "
              f"{s['wall_s']:.0f} s.", ""]
+    if s["manoeuvre"] != result.params.scenario.manoeuvre:
+        lines += [f"A traversal does what this commission chose (and uses its plans) with "
+                  f"`manoeuvre = \"{s['manoeuvre']}\"` in the robot's `[scenario]` (holding "
+                  "with gripper 1, with gripper 2).", ""]
     if s["limits"]:
         lines += ["## Limits", ""] + [f"- {x}" for x in s["limits"]] + [""]
     if s["unshown"]:

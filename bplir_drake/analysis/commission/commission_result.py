@@ -54,12 +54,21 @@ class CommissionResult(Result):
             return "ready"
         return "not shown" if self.unshown and not self.limits else "not ready"
 
+    @property
+    def manoeuvre(self) -> str:
+        """The ``scenario.manoeuvre`` that does what this commission chose
+        for each gripper (``"swing,pump"``: a swing held by gripper 1, a pump
+        by gripper 2), with which a traversal uses the verified plans."""
+        chosen = {st.holding: st.manoeuvre for st in self.studies if st.chosen}
+        kinds = [chosen.get(g, "swing") for g in (1, 2)]
+        return kinds[0] if kinds[0] == kinds[1] else ",".join(kinds)
+
     def summary(self) -> dict:
         """The ``--json`` object: ``ready``, ``studies``, ``limits``,
         ``plans`` (solved, from similarity), ``wall_s`` and the details."""
         how = [p.how for p in self.points]
         return dict(
-            robot=self.name, ready=self.ready, verdict=self.verdict,
+            robot=self.name, ready=self.ready, verdict=self.verdict, manoeuvre=self.manoeuvre,
             studies=[dict(holding=s.holding, incline_deg=s.incline_deg, captured=s.captured,
                           samples=s.samples, capture_speed_p95_mps=s.capture_speed_p95_mps,
                           capture_speed_p50_mps=s.capture_speed_p50_mps,

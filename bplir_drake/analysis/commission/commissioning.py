@@ -174,7 +174,7 @@ def _manoeuvre(robot, g: int, *, inclines, spacings, samples, seed, out, pool,
     manoeuvre (``scenario.manoeuvre``): its library on the grid, the limit
     line of every point without a plan, and a verification study at each
     incline with a plan."""
-    kind = robot.scenario.manoeuvre
+    kind = robot.scenario.manoeuvre_of()
     solved = _solved(robot, inclines, spacings, pool, refs)
     f = Found(plans=[r.plan for r in solved.values()])
     f.binding[g] = binding_line(robot, f.plans)

@@ -105,7 +105,7 @@ def straight_guesses(q: BplirParams) -> tuple[float, ...]:
     """The planner's straight-line guess durations for ``q``'s manoeuvre (s)."""
     if q.scenario.start == "hanging":
         return P.HANGING_GUESSES
-    return P.pump_guesses(q.plant) if q.scenario.manoeuvre == "pump" else P.PLAN_GUESSES
+    return P.pump_guesses(q.plant) if q.scenario.manoeuvre_of() == "pump" else P.PLAN_GUESSES
 
 
 def _ended(plan) -> str:

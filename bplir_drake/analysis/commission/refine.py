@@ -37,7 +37,7 @@ def solve_from(q: BplirParams, initial=None, guess_duration: float | None = None
     energy)."""
     start = {"initial": initial} if initial is not None else {
         "guess_duration": guess_duration or 1.5}
-    if q.scenario.manoeuvre == "pump":
+    if q.scenario.manoeuvre_of() == "pump":
         return P.pump_solve(q, **start)
     if q.scenario.start != "hanging":
         return P.plan_swing(q, end_depth=q.plan.end_depth, **start)

@@ -108,7 +108,7 @@ def plan_kind(params: BplirParams) -> str:
     """What kind of plan a reference must be to start ``params``'s from:
     "hanging", "pump" (a pumping manoeuvre from the line) or "line"."""
     sc = params.scenario
-    return "pump" if sc.manoeuvre == "pump" else sc.start
+    return "pump" if sc.manoeuvre_of() == "pump" else sc.start
 
 
 def similar_guesses(params: BplirParams, references: list[Reference], count: int = 2):

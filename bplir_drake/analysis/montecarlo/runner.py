@@ -157,7 +157,8 @@ def _run_study(study: Study, out: Path, workers: int, dask: bool, scheduler,
     t0 = time.perf_counter()
     try:
         for row in map_jobs(run_sample, todo, workers=workers, dask=dask, scheduler=scheduler,
-                            progress=progress):
+                            progress=progress,
+                            unit="swings" if study.line is None else "traversals"):
             writer.write(row)
     finally:
         writer.close()

@@ -226,3 +226,32 @@ def test_a_pumps_grid_halves_each_gap_of_the_swings():
     assert PUMP_GRID_DIVISIONS == 2
     assert pump_spacings((1.308, 1.092, 1.2)) == (1.092, 1.146, 1.2, 1.254, 1.308)
     assert pump_spacings((1.2,)) == (1.2,)
+
+
+def test_a_traversal_pumps_where_commissioning_verified_the_pump(tmp_path, monkeypatch):
+    """The default robot at 30 V given ``manoeuvre = "swing,pump"`` with the
+    pump library of its stored commission in the cache (grid 1.092-1.308 m
+    at 0 deg): a traversal step held by gripper 2 pumps at 1.2 m and at the
+    grid's edges, and makes one swing at 0.95 m, at 1.35 m and on a +5 deg
+    chord (outside the grid: no verified pump); held by gripper 1 it swings."""
+    import shutil
+
+    from bplir_drake.analysis.traverse.step_setup import step_manoeuvre
+    from bplir_drake.planning.library import robot_library_path
+
+    base = preset()
+    pump = derive(base, Manoeuvre(gripper=2, reach="pump"))
+    stored = Path(__file__).parents[1] / "results" / "commission" / "bplir" / "plans"
+    monkeypatch.setenv("BPLIR_CACHE_DIR", str(tmp_path))
+    shutil.copy(stored / robot_library_path(pump).name, tmp_path)
+    robot = base.with_(scenario=dataclasses.replace(base.scenario, manoeuvre="swing,pump"))
+
+    def kind(g, spacing, incline=0.0):
+        m, p = step_manoeuvre(robot, Manoeuvre(gripper=g, spacing=spacing, incline_deg=incline,
+                                               context="traverse"))
+        assert m.reach in (None, p.scenario.manoeuvre)
+        return p.scenario.manoeuvre
+
+    assert [kind(2, d) for d in (1.092, 1.2, 1.308)] == ["pump"] * 3
+    assert [kind(2, 0.95), kind(2, 1.35), kind(2, 1.2, 5.0)] == ["swing"] * 3
+    assert kind(1, 1.2) == "swing"

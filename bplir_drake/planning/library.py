@@ -131,6 +131,15 @@ def find_library(params: BplirParams) -> PlanLibrary | None:
     return load_library(library_path(params)) or load_library(robot_library_path(params))
 
 
+def library_covers(params: BplirParams) -> bool:
+    """Whether a library for ``params``'s model (:func:`find_library`:
+    shipped, or commissioned for the robot) covers its line's incline and
+    grip spacing: a manoeuvre verified there."""
+    lib = find_library(params)
+    return lib is not None and lib.covers(params.scenario.incline_deg,
+                                          params.scenario.grip_spacing)
+
+
 def _resample(times, values, n: int = LIBRARY_SAMPLES) -> np.ndarray:
     """``values`` (rows at ``times``) at ``n`` equal fractions of the span."""
     s = np.linspace(times[0], times[-1], n)

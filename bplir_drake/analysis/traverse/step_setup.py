@@ -3,7 +3,10 @@ from __future__ import annotations
 
 import math
 import numpy as np
-from ...params import BplirParams
+from dataclasses import replace
+
+from ...params import BplirParams, Manoeuvre, derive
+from ...planning.library import library_covers
 from ...systems.delay_id import planned_probe
 from ...systems.motor import max_torque
 from ...systems.landing import height_rates, landing_law
@@ -18,6 +21,18 @@ def swing_chord(line, start: float, hold: float, reach: float) -> tuple[float, f
     spacing, _ = line.chord(start, hold)
     _, incline = line.chord(start, min(hold + reach, line.length))
     return spacing, incline
+
+
+def step_manoeuvre(robot: BplirParams, m: Manoeuvre) -> tuple[Manoeuvre, BplirParams]:
+    """The traversal step ``m`` of ``robot`` and what it runs with: held by
+    a gripper the robot pumps with (``scenario.manoeuvre``) a pump where
+    the robot's pump library covers the step's incline and spacing (where
+    commissioning verified it), else one swing."""
+    p = derive(robot, m)
+    if p.scenario.manoeuvre == "pump" and not library_covers(p):
+        m = replace(m, reach="swing")
+        p = derive(robot, m)
+    return m, p
 
 
 def budgeted_currents(plan, p: BplirParams) -> np.ndarray:

@@ -27,7 +27,7 @@ import math
 
 import numpy as np
 
-from ...params import BplirParams, Manoeuvre, derive
+from ...params import BplirParams, Manoeuvre
 from ...params.derive import raises_aim
 from ...planning import retry as retry_plan
 from ...systems.drive import ride
@@ -36,7 +36,7 @@ from ...systems.plant import initial_configuration, swapped_state, target_config
 from .line import Line
 from .route import hold_position, plan_route
 from .recovery import can_retry, damp, damping_drive
-from .step_setup import swing_chord, budgeted_currents, capture_impulse
+from .step_setup import swing_chord, budgeted_currents, capture_impulse, step_manoeuvre
 from .traverse_result import TraverseRow, OUTCOMES, ROW_FIELDS, MotionLog, Segment, TraverseResult
 from .tables import traverse_totals
 from ..swing.swing_runner import SwingRunner, draw_true_friction
@@ -239,8 +239,8 @@ class _Traversal:
 
     def swing(self, obstacle: str, reach: float) -> bool:
         """The rear gripper swings past the front one to land about ``reach``
-        ahead of it (the planned spacing); True when it landed clear.  A
-        swing that times out or trips the driver's i^2 t interlock is tried
+        ahead of it (the planned spacing); True when it landed clear; a pump
+        or one swing (:func:`~.step_setup.step_manoeuvre`).  A swing that times out or trips the driver's i^2 t interlock is tried
         again from hanging, after the robot has damped its swing
         (:mod:`.recovery`) and rested until the driver allows the new try, up
         to ``traverse.retries`` times; a crash ends the traversal."""
@@ -250,7 +250,7 @@ class _Traversal:
         spacing, inc = swing_chord(self.line, start, hold, reach)
         m = Manoeuvre(gripper=hold_g, spacing=spacing, incline_deg=math.degrees(inc),
                       context="traverse", learnt=tuple(self.landing_errors[hold_g]))
-        p = derive(self.params, m)
+        m, p = step_manoeuvre(self.params, m)
         self._rest_before(p, obstacle)
         x_start, attempt = None, 1
         while True:

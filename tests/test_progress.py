@@ -113,7 +113,7 @@ def test_cli_progress_only_on_a_terminal_without_json(tmp_path):
 
 
 def _slow_solves():
-    """Every plan solve takes 2.5 s (the stand-in solver, asleep)."""
+    """Every plan solve takes 1.25 s (the stand-in solver, asleep)."""
     import time
 
     from conftest import quick_plan
@@ -121,13 +121,13 @@ def _slow_solves():
     from bplir_drake.planning import solve as P
 
     def slow(*a, **k):
-        time.sleep(2.5)
+        time.sleep(1.25)
         return quick_plan(*a, **k)
     P._solve_plan = slow
 
 
-#: lines every second from the start (the tests' stand-ins for 20 s and 20 s)
-LINES_NOW = {"BPLIR_PROGRESS_QUIET": "0", "BPLIR_PROGRESS_EVERY": "1"}
+#: lines every half second from the start (the tests' stand-ins for 20 s and 20 s)
+LINES_NOW = {"BPLIR_PROGRESS_QUIET": "0", "BPLIR_PROGRESS_EVERY": "0.5"}
 
 
 @pytest.mark.slow
@@ -140,7 +140,7 @@ LINES_NOW = {"BPLIR_PROGRESS_QUIET": "0", "BPLIR_PROGRESS_EVERY": "1"}
 def test_a_new_robots_commands_say_they_run_in_a_log(tmp_path, argv):
     """``model``, ``commission`` and ``traverse`` of a robot whose plans
     nobody solved, standard error a pipe: progress lines name the plan being
-    solved and come at least every second (the stand-in period) while it
+    solved and come at least every half second (the stand-in period) while it
     runs, from its beginning to its end."""
     (tmp_path / "new.toml").write_text('[robot]\nfile = "bplir"\n[plant]\nl2 = 1.1\n')
     args = [a.format(robot=tmp_path / "new.toml", out=tmp_path / "out") for a in argv]
@@ -151,4 +151,4 @@ def test_a_new_robots_commands_say_they_run_in_a_log(tmp_path, argv):
     assert said and kinds[0] == "begins", err
     solves = kinds.count("begins")   # each solve: its beginning, its end, and between them
     assert kinds.count("done") == solves and kinds.count("running") >= solves, said
-    assert all(int(re.search(r", (\d+) s", x).group(1)) <= 4 for x in said), said   # 2.5 s each
+    assert all(int(re.search(r", (\d+) s", x).group(1)) <= 2 for x in said), said   # 1.25 s each

@@ -240,8 +240,9 @@ class _Traversal:
     def swing(self, obstacle: str, reach: float) -> bool:
         """The rear gripper swings past the front one to land about ``reach``
         ahead of it (the planned spacing); True when it landed clear; a pump
-        or one swing (:func:`~.step_setup.step_manoeuvre`).  A swing that times out or trips the driver's i^2 t interlock is tried
-        again from hanging, after the robot has damped its swing
+        or one swing (:func:`~.step_setup.step_manoeuvre`).  A swing that
+        times out or trips the driver's i^2 t interlock is tried again from
+        hanging, after the robot has damped its swing
         (:mod:`.recovery`) and rested until the driver allows the new try, up
         to ``traverse.retries`` times; a crash ends the traversal."""
         tp = self.params.traverse

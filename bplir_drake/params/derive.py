@@ -161,7 +161,7 @@ def _pumping(p: BplirParams) -> BplirParams:
     at least :data:`PUMP_TIME` of the robot's time unit."""
     sc = p.scenario
     timeout = max(sc.max_time, round(PUMP_TIME * robot_scales(p.plant)[0], 2))
-    return p.with_(scenario=replace(sc, manoeuvre="pump", start="line", max_time=timeout))
+    return p.with_(scenario=replace(sc, manoeuvre="pump", max_time=timeout))
 
 
 def _retry(p: BplirParams, m: Manoeuvre) -> BplirParams:

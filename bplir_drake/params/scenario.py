@@ -39,15 +39,19 @@ class ScenarioParams(_Block):
 
     manoeuvre: str = field(default="swing", metadata=dict(doc="how a plan-tracked swing from the line reaches the next grip: swing (one swing of link 1 at most) or pump (link 1 swings back and forth as often as its plan needs, planned on more knots); two, comma-separated, for the robot holding with gripper 1 and with gripper 2 (what its commissioning chose)", allowed="swing, pump, or one per gripper: swing,pump"))
 
+    def manoeuvres(self) -> list[str]:
+        """``manoeuvre``'s entries (one, or one per gripper)."""
+        return [m.strip() for m in self.manoeuvre.split(",")]
+
     def manoeuvre_of(self, gripper: int = 1) -> str:
         """How the robot holding with ``gripper`` reaches the next grip from
         the line (``manoeuvre``'s entry for it)."""
-        parts = self.manoeuvre.split(",")
-        return parts[min(gripper, len(parts)) - 1].strip()
+        parts = self.manoeuvres()
+        return parts[min(gripper, len(parts)) - 1]
 
     def _check(self):
         self._one_of("start", SWING_STARTS)
-        parts = [m.strip() for m in self.manoeuvre.split(",")]
+        parts = self.manoeuvres()
         if len(parts) > 2 or any(m not in MANOEUVRES for m in parts):
             raise ParameterError(f"scenario.manoeuvre = '{self.manoeuvre}' is unknown; allowed: "
                                  "swing, pump, or one per gripper: swing,pump")

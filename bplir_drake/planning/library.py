@@ -131,13 +131,19 @@ def find_library(params: BplirParams) -> PlanLibrary | None:
     return load_library(library_path(params)) or load_library(robot_library_path(params))
 
 
-def library_covers(params: BplirParams) -> bool:
-    """Whether a library for ``params``'s model (:func:`find_library`:
-    shipped, or commissioned for the robot) covers its line's incline and
-    grip spacing: a manoeuvre verified there."""
+def covering_library(params: BplirParams) -> PlanLibrary | None:
+    """The library for ``params``'s model (:func:`find_library`) where its
+    grid covers the scenario's incline and grip spacing, else None."""
     lib = find_library(params)
-    return lib is not None and lib.covers(params.scenario.incline_deg,
-                                          params.scenario.grip_spacing)
+    sc = params.scenario
+    return lib if lib is not None and lib.covers(sc.incline_deg, sc.grip_spacing) else None
+
+
+def library_covers(params: BplirParams) -> bool:
+    """Whether a library for ``params``'s model (shipped, or commissioned
+    for the robot) covers its line's incline and grip spacing: a manoeuvre
+    verified there."""
+    return covering_library(params) is not None
 
 
 def _resample(times, values, n: int = LIBRARY_SAMPLES) -> np.ndarray:
@@ -311,8 +317,8 @@ def library_plan(params: BplirParams):
     sc = params.scenario
     if not params.plan.library:
         return None
-    lib = find_library(params)
-    if lib is None or not lib.covers(sc.incline_deg, sc.grip_spacing):
+    lib = covering_library(params)
+    if lib is None:
         return None
     if same_manoeuvre(lib, sc.incline_deg, sc.grip_spacing):
         b = _blend(lib, sc.incline_deg, sc.grip_spacing)

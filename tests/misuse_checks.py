@@ -221,8 +221,8 @@ def a_constant_study_column_draws_its_histogram(d: Path):
 def a_sigterm_during_a_traverse_rerun_is_one_line(d: Path):
     """SIGTERM during a rerun of ``traverse`` into a finished --out: the
     motion log and the summary are the finished run's, whole; no temporary
-    file is left.  Six obstacles: the rerun's swings last long enough
-    (about 4 s) for the signal to land while they run."""
+    file is left.  Six obstacles: a rerun long enough for the signal to land
+    while its swings run, not after it has finished."""
     out = d / "trv"
     line = long_line(d, obstacles=6)
     rc, _, err = bplir("traverse", line, "--no-animation", "--no-plots", "--out", out)

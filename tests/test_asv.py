@@ -1,10 +1,10 @@
 """The asv suite (``benchmarks/asv``, ``asv.conf.json``) runs from a
 checkout: ``asv check`` finds its four benchmarks well formed, and ``asv run
---python=same --quick`` measures the swing's two figures (the machine described first,
-as a fresh machine needs).  The 200-swing study's body is ``run_study`` on
-the default study, which the Monte Carlo tests run, and the commission's is
-``commission`` of the scaled example, which the commissioning tests run;
-here those two are checked for form only."""
+--python=same --quick`` measures the swing's two figures (the machine
+described first, as a fresh machine needs).  The 200-swing study's body is
+``run_study`` on the default study, which the Monte Carlo tests run, and
+the commission's is ``commission`` of the scaled example, which the
+commissioning tests run; here those two are checked for form only."""
 import os
 import re
 import subprocess

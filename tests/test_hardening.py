@@ -808,19 +808,36 @@ def test_a_chatty_plugin_leaves_json_output_json(tmp_path, capsys):
     assert "hello from the plug-in" in captured.err
 
 
+def _slow_renames():
+    """In the child: every atomic write's rename onto its output waits
+    30 s first, so a signal sent while a temporary file exists finds the
+    command inside the write."""
+    import os
+
+    replace = os.replace
+
+    def slow(src, dst, *a, **k):
+        if Path(src).name.startswith("."):
+            time.sleep(30.0)
+        return replace(src, dst, *a, **k)
+
+    os.replace = slow
+
+
 @pytest.mark.parametrize("sig, code", [(signal.SIGTERM, 143), (signal.SIGHUP, 129)])
 def test_sigterm_and_sighup_end_a_swing_like_ctrl_c(sig, code, tmp_path):
-    """SIGTERM and SIGHUP while ``bplir swing`` writes its outputs: one line
-    naming the signal, exit 128 + signal, no temporary file left."""
+    """SIGTERM and SIGHUP while ``bplir swing`` writes an output (its
+    temporary file made, not yet renamed): one line naming the signal,
+    exit 128 + signal, no temporary file left."""
     out = tmp_path / "swing"
-    proc = start_forked("swing", "--html", "--out", out)
+    proc = start_forked("swing", "--html", "--out", out, before=_slow_renames)
     deadline = time.time() + 60
-    while time.time() < deadline and not (out.exists() and any(out.iterdir())):
+    while time.time() < deadline and not (
+            out.exists() and any(p.name.startswith(".") for p in out.iterdir())):
         time.sleep(0.05)
+    assert proc.poll() is None, "the swing ended before writing its first output"
     proc.send_signal(sig)
     _, err = proc.communicate(timeout=60)
-    if proc.returncode == 0:   # it finished before the signal: nothing to test
-        pytest.skip("the swing finished before the signal")
     assert proc.returncode == code
     assert err.strip() == (f"bplir: terminated by {signal.Signals(sig).name}; no output file "
                            "was left half-written")

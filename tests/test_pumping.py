@@ -237,7 +237,7 @@ def test_a_traversal_pumps_where_commissioning_verified_the_pump(tmp_path, monke
     import shutil
 
     from bplir_drake.analysis.traverse.step_setup import step_manoeuvre
-    from bplir_drake.planning.library import robot_library_path
+    from bplir_drake.planning.library import load_library, robot_library_path, save_library
 
     base = preset()
     pump = derive(base, Manoeuvre(gripper=2, reach="pump"))
@@ -255,3 +255,11 @@ def test_a_traversal_pumps_where_commissioning_verified_the_pump(tmp_path, monke
     assert [kind(2, d) for d in (1.092, 1.2, 1.308)] == ["pump"] * 3
     assert [kind(2, 0.95), kind(2, 1.35), kind(2, 1.2, 5.0)] == ["swing"] * 3
     assert kind(1, 1.2) == "swing"
+    # the same grid with no plan at 1.146 and 1.2 m: a step between them has
+    # nothing verified to pump with (one swing); one beside them still pumps
+    path = robot_library_path(pump)
+    lib = load_library(path)
+    holes = lib.reversals.copy()
+    holes[0, 1:3] = -1
+    save_library(dataclasses.replace(lib, reversals=holes), path)
+    assert [kind(2, 1.17), kind(2, 1.28)] == ["swing", "pump"]

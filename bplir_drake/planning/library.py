@@ -141,9 +141,11 @@ def covering_library(params: BplirParams) -> PlanLibrary | None:
 
 def library_covers(params: BplirParams) -> bool:
     """Whether a library for ``params``'s model (shipped, or commissioned
-    for the robot) covers its line's incline and grip spacing: a manoeuvre
-    verified there."""
-    return covering_library(params) is not None
+    for the robot) covers its line's incline and grip spacing with plans
+    around it that give the scenario's (:func:`_rows_of`): a manoeuvre
+    verified there, not one a grid of holes would leave to be solved."""
+    lib = covering_library(params)
+    return lib is not None and _rows_of(lib, params.scenario) is not None
 
 
 def _resample(times, values, n: int = LIBRARY_SAMPLES) -> np.ndarray:
@@ -305,6 +307,18 @@ def _nearest(lib: PlanLibrary, incline: float, spacing: float) -> dict | None:
             ("durations", "states", "torque", "gain", "offset")}
 
 
+def _rows_of(lib: PlanLibrary, sc) -> dict | None:
+    """The rows of the scenario ``sc``'s plan in ``lib``: the blend of the
+    plans around it where they are one manoeuvre (:func:`same_manoeuvre`),
+    for a pumping manoeuvre the nearest of them that has a plan (pumps of
+    other phases do not blend), else None."""
+    if same_manoeuvre(lib, sc.incline_deg, sc.grip_spacing):
+        return _blend(lib, sc.incline_deg, sc.grip_spacing)
+    if sc.manoeuvre_of() == "pump":
+        return _nearest(lib, sc.incline_deg, sc.grip_spacing)
+    return None
+
+
 def library_plan(params: BplirParams):
     """(plan, tracking gains) of the scenario of ``params`` interpolated
     from the shipped library for its model, or None when ``plan.library``
@@ -318,15 +332,8 @@ def library_plan(params: BplirParams):
     if not params.plan.library:
         return None
     lib = covering_library(params)
-    if lib is None:
-        return None
-    if same_manoeuvre(lib, sc.incline_deg, sc.grip_spacing):
-        b = _blend(lib, sc.incline_deg, sc.grip_spacing)
-    elif sc.manoeuvre_of() == "pump":   # pumps of other phases do not blend: the nearest's
-        b = _nearest(lib, sc.incline_deg, sc.grip_spacing)
-        if b is None:
-            return None
-    else:
+    b = None if lib is None else _rows_of(lib, sc)
+    if b is None:
         return None
     s = np.linspace(0.0, 1.0, LIBRARY_SAMPLES)
     times = s * b["durations"]

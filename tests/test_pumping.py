@@ -66,12 +66,13 @@ def test_commissioning_keeps_the_manoeuvre_whose_studies_do_better(monkeypatch):
     from bplir_drake.analysis.commission import commissioning as run
     from bplir_drake.analysis.commission.rows import PlanPoint, StudyVerdict
 
-    grids = {}
+    grids, calls = {}, []
 
     def manoeuvre(robot, g, **grid):
         kind = robot.scenario.manoeuvre
         ok = kind == "pump"
         grids[kind] = grid["spacings"]
+        calls.append(kind)
         study = StudyVerdict(
             incline_deg=0.0, captured=290 if ok else 72, samples=300 if ok else 100,
             rate=0.967 if ok else 0.72, verdict="not shown" if ok else "below",
@@ -98,6 +99,13 @@ def test_commissioning_keeps_the_manoeuvre_whose_studies_do_better(monkeypatch):
     assert r.manoeuvre == r.summary()["manoeuvre"] == "swing,pump"   # what a traversal runs
     assert '`manoeuvre = "swing,pump"` in the robot\'s `[scenario]`' in \
         report_markdown(dataclasses.replace(r, points=[]))
+    # a robot whose file already pumps with gripper 2: the swing is still
+    # tried first, each manoeuvre studied once, the same choice
+    calls.clear()
+    says = preset().with_(scenario=dataclasses.replace(preset().scenario, manoeuvre="swing,pump"))
+    again = run.commission(says, grippers=(2,), hanging=False)
+    assert calls == ["swing", "pump"] and again.manoeuvre == "swing,pump"
+    assert {(st.manoeuvre, st.chosen) for st in again.studies} == chosen
     without = run.commission(preset(), grippers=(2,), hanging=False, pumps=False)
     assert without.limits == ["gripper 2: below"] and len(without.studies) == 1
     assert without.manoeuvre == "swing" and "`manoeuvre = " not in \

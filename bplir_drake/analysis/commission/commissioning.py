@@ -52,9 +52,10 @@ def pump_spacings(spacings) -> tuple[float, ...]:
 
 def held_by(params: BplirParams, gripper: int) -> tuple[BplirParams, BplirParams]:
     """The robot ``params`` holding with ``gripper`` (2: seen from its other
-    gripper), as its swing from the line and as that swing tried again from
-    hanging (a traversal's recovery) are commissioned."""
-    robot = derive(params, Manoeuvre(gripper=gripper))
+    gripper), as its single swing from the line and as that swing tried
+    again from hanging (a traversal's recovery) are commissioned, whatever
+    manoeuvre its ``scenario.manoeuvre`` names: commissioning chooses it."""
+    robot = derive(params, Manoeuvre(gripper=gripper, reach="swing"))
     tries = retry(params, Manoeuvre(gripper=gripper, incline_deg=0.0, context="retry"))
     return robot, tries
 
@@ -214,7 +215,7 @@ def check_commission_out(params, out: Path, *, grippers, inclines, spacings, sam
             raise StudyError(f"{out / part} is a symbolic link; a commission writes its "
                              "own files there: remove the link or choose another --out")
     for g in grippers:
-        kinds = [("swing", derive(params, Manoeuvre(gripper=g)), spacings)]
+        kinds = [("swing", held_by(params, g)[0], spacings)]
         if pumps:
             kinds.append(("pump", derive(params, Manoeuvre(gripper=g, reach="pump")),
                           pump_spacings(spacings)))

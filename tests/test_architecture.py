@@ -140,6 +140,8 @@ LAYERS = {"leftovers": set(), "labelled": set(), "io": {"leftovers", "labelled"}
           "estimation": {"params", "io", "csvfile", "progress", "plotting", "systems"},
           "analysis": {"params", "io", "labelled", "csvfile", "progress", "plotting", "systems", "planning",
                        "diagrams", "simulate", "estimation"},
+          "gym": {"params", "io", "labelled", "csvfile", "progress", "plotting", "systems",
+                  "planning", "diagrams", "simulate", "estimation", "analysis"},
           "cli": {"params", "io", "csvfile", "progress", "plotting", "systems", "planning",
                   "diagrams", "simulate", "estimation", "analysis"}}
 

@@ -195,3 +195,7 @@ def pulse_source(builder, knock):
     return builder.AddSystem(TrajectorySource(PiecewisePolynomial.ZeroOrderHold(times, vals)))
 
 
+def torque_limit(params: BplirParams) -> float:
+    """The elbow's torque limit (N m): the smaller of the motor's and the
+    controller's, as the driver applies it."""
+    return min(params.motor.torque_limit, params.controller.torque_limit)

@@ -20,6 +20,8 @@ The factory receives the parameters with the **nominal** model only
   ``--true-state``;
 * optional input port ``torque_available`` (1): the torque (N m) the
   driver can deliver now (for anti-windup);
+* optional input port ``imu`` (6): the IMU sample of the tick, as the
+  estimator reads it (below);
 * output port ``torque`` (1): the elbow torque command (N m).
 
 The command is sampled by a zero-order hold at ``t_k + compute_latency``
@@ -72,7 +74,9 @@ class PortContract:
 
 #: the contract of a controller plugin
 CONTROLLER = PortContract("controller", (("state", 4, True, "q1, q2, q1d, q2d"),
-                                         ("torque_available", 1, False, "N m")),
+                                         ("torque_available", 1, False, "N m"),
+                                         ("imu", 6, False, "gyro1, gyro2, acc1_x, acc1_y, "
+                                          "acc2_x, acc2_y")),
                           ("torque", 1, "the elbow torque command, N m"))
 #: the contract of an estimator plugin
 ESTIMATOR = PortContract("estimator", (("imu", 6, True,

@@ -40,16 +40,17 @@ from pydrake.systems.primitives import LogVectorOutput, ZeroOrderHold
 from ..params import BplirParams, ParameterError, ScenarioParams, checked_seed, to_dict
 from ..systems.disturbance import (CommandDelay, DisturbanceSource, delay_steps,
                                    disturbance_schedule, has_disturbance)
+from ..systems.action import ActionTorque
 from ..systems.ekf import KinematicEkf
 from ..systems.friction import FRICTION_PARAMETERS, set_friction
 from ..systems.motor import MotorDriver
 from ..systems.plant import INERTIAL_FIELDS, set_inertial_parameters
 from ..systems.schedule import TickColumns, TickLogger
-from .parts import Built, Robot, add_plant_with_friction, sampled
+from .parts import Built, Robot, add_plant_with_friction, sampled, torque_limit
 from .swing_controller import (
     add_swing_controller)
 from ..systems.gripper import GripperInterlock
-from .swing_ports import add_external_torque, export_swing_ports
+from .swing_ports import add_action_input, add_external_torque, export_swing_ports
 from ..planning.solve import tracking_plan
 from .onboard_chain import add_onboard, fuses
 from .sensors import add_sensing
@@ -138,6 +139,38 @@ def _disturbance_torques(sc: ScenarioParams, seed: int, period: float) -> np.nda
     return disturbance_schedule(sc, seed, period)[1]
 
 
+def _swing_inputs(params, controller, estimator, plan_gains, action_input):
+    """(parameters, controller, estimator, plan gains) a swing is built
+    from: plug-in specs moved into the parameters, ``path.mode`` made
+    concrete (a user's controller: "adaptive"), a start off the line
+    refused without plan tracking, the plan's gains where it tracks one."""
+    if action_input:
+        controller = _no_controller(params, controller)
+    if isinstance(controller, str):  # a spec travels in the parameters
+        params, controller = params.with_controller(controller), None
+    if isinstance(estimator, str):
+        params, estimator = params.with_estimator(estimator), None
+    if controller is not None and params.path.mode == "auto":   # a user's controller
+        params = params.with_(path=replace(params.path, mode="adaptive"))
+    params = params.resolved()   # path.mode "auto" made concrete
+    if params.scenario.start != "line" and (controller is not None or params.path.mode != "plan"):
+        raise ParameterError(f"scenario.start = '{params.scenario.start}' needs plan tracking "
+                             "(path.mode = 'plan'): the other controllers start on the line")
+    if plan_gains is None and controller is None and params.path.mode == "plan":
+        plan_gains = tracking_plan(params)[1]   # the nominal model and the scenario only
+    return params, controller, estimator, plan_gains
+
+
+def _no_controller(params: BplirParams, controller):
+    """What stands for the controller of a diagram with an ``action``
+    input (never built: it takes a user's controller's place), or
+    ``ParameterError`` where a controller is given too."""
+    if controller is not None or params.controller.plugin:
+        raise ParameterError("action_input replaces the controller; give no controller "
+                             "plug-in with it")
+    return ActionTorque
+
+
 def add_robot(builder, params: BplirParams, seed: int, external_torque: bool = False) -> Robot:
     """The simulated (true) plant with friction, the external forces of the
     scenario (a :class:`DisturbanceSource`, when it has wind, gusts or torque
@@ -155,7 +188,7 @@ def add_robot(builder, params: BplirParams, seed: int, external_torque: bool = F
     plant, friction = add_plant_with_friction(builder, params.simulated_plant,
                                               params.simulated_friction, disturbance=forces,
                                               friction_in_context=True)
-    limit = min(params.motor.torque_limit, params.controller.torque_limit)
+    limit = torque_limit(params)
     motor = builder.AddNamedSystem("motor", MotorDriver(replace(params.motor, torque_limit=limit)))
     builder.Connect(plant.get_state_output_port(), motor.GetInputPort("state"))
     builder.Connect(motor.GetOutputPort("torque"), plant.get_actuation_input_port())
@@ -234,7 +267,8 @@ def add_swing_loggers(builder, params: BplirParams, robot: Robot, sampler, estim
 def build_swing(params: BplirParams, *, seed: int | None = None, use_estimator: bool | None = None,
                 log_period: float = 0.005, plan_gains=None, controller=None,
                 estimator=None, external_torque: bool = False,
-                estimate_input: bool = False, onboard: bool = True) -> Built:
+                estimate_input: bool = False, onboard: bool = True,
+                action_input: bool = False) -> Built:
     """The full closed loop of one swing (see the module docstring).
 
     ``seed`` (default ``scenario.seed``) seeds the IMU noise and the
@@ -248,26 +282,19 @@ def build_swing(params: BplirParams, *, seed: int | None = None, use_estimator: 
     instead of the parameters' ones.  ``external_torque`` and
     ``estimate_input`` give the diagram those input ports (:mod:`.swing_ports`:
     a disturbance added to the joints, the estimate the controller reads);
-    its outputs are always :data:`~.swing_ports.SWING_SIGNALS`.  With
+    its outputs are always :data:`~.swing_ports.SWING_SIGNALS`.
+    ``action_input``: no controller but the diagram's ``action`` input, the
+    elbow command as a share of the torque limit
+    (:class:`~bplir_drake.systems.action.ActionTorque`: a learning
+    environment's action).  With
     ``onboard`` (the default) the EKF-and-plan-tracker chain runs as one
     system (:mod:`~bplir_drake.diagrams.onboard_chain`: the same numbers as its
     parts wired one by one, ``onboard=False``, in less time).  The
     returned record carries the start configuration ``q0`` and the
     ``structure`` a context cannot change (:func:`set_swing_sample`).
     """
-    if isinstance(controller, str):  # a spec travels in the parameters
-        params, controller = params.with_controller(controller), None
-    if isinstance(estimator, str):
-        params, estimator = params.with_estimator(estimator), None
-    if controller is not None and params.path.mode == "auto":   # a user's controller
-        params = params.with_(path=replace(params.path, mode="adaptive"))
-    params = params.resolved()   # path.mode "auto" made concrete
-    if params.scenario.start != "line" and (controller is not None or params.path.mode != "plan"):
-        raise ParameterError(f"scenario.start = '{params.scenario.start}' needs plan tracking "
-                             "(path.mode = 'plan'): the other controllers start on the line")
-    if plan_gains is None and controller is None and params.path.mode == "plan":
-
-        plan_gains = tracking_plan(params)[1]   # the nominal model and the scenario only
+    params, controller, estimator, plan_gains = _swing_inputs(
+        params, controller, estimator, plan_gains, action_input)
     sc = params.scenario
     seed = sc.seed if seed is None else seed
     use_est = sc.use_estimator if use_estimator is None else use_estimator
@@ -286,10 +313,11 @@ def build_swing(params: BplirParams, *, seed: int | None = None, use_estimator: 
         state_port = (estimate_port if use_est
                       else sampled(builder, robot.plant.get_state_output_port(),
                                    params.controller.period))
-        control = add_swing_controller(builder, params, state_port, robot, setup.path,
-                                       plan_gains, controller,
-                                       imu_port=sampler.GetOutputPort("imu"),
-                                       q0=setup.believed[:2])
+        control = (add_action_input(builder, params, state_port) if action_input else
+                   add_swing_controller(builder, params, state_port, robot, setup.path,
+                                        plan_gains, controller,
+                                        imu_port=sampler.GetOutputPort("imu"),
+                                        q0=setup.believed[:2]))
     add_actuation(builder, params, control["controller"].GetOutputPort("torque"), robot.motor)
     lock = add_interlock(builder, params, robot, estimate_port, setup.line)
     loggers = add_swing_loggers(builder, params, robot, sampler, estimate_port, control,

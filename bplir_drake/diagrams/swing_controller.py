@@ -38,7 +38,7 @@ def add_swing_controller(builder, params: BplirParams, state_port, robot: Robot,
     compensate the identified delay.  Every system uses the nominal
     model."""
     if controller is not None or params.controller.plugin:
-        return _add_plugin(builder, params, state_port, robot, controller)
+        return _add_plugin(builder, params, state_port, robot, controller, imu_port)
     comp = _add_delay_compensation(builder, params, state_port, imu_port, q0)
     if params.path.mode == "plan":
         out = _add_plan_tracker(builder, params, comp, path_geometry, plan_gains)
@@ -55,12 +55,14 @@ def add_swing_controller(builder, params: BplirParams, state_port, robot: Robot,
     return out
 
 
-def _add_plugin(builder, params, state_port, robot, controller) -> dict[str, Any]:
+def _add_plugin(builder, params, state_port, robot, controller, imu_port) -> dict[str, Any]:
     """A user's controller (:mod:`.plugin`) reading the state, and the torque
-    the motor can give when it asks for it."""
+    the motor can give and the IMU sample when it asks for them."""
 
     ctrl = builder.AddNamedSystem("controller", make_plugin(params, "controller", controller))
     builder.Connect(state_port, ctrl.GetInputPort("state"))
+    if ctrl.HasInputPort("imu"):
+        builder.Connect(imu_port, ctrl.GetInputPort("imu"))
     if ctrl.HasInputPort("torque_available"):
         builder.Connect(robot.motor.GetOutputPort("available"),
                         ctrl.GetInputPort("torque_available"))

@@ -8,7 +8,9 @@ draws), ``command`` (the controller's torque before the actuation delay),
 ``torque`` (delivered by the driver) and ``voltage`` (the winding's).
 
 Inputs (on request, :func:`~bplir_drake.diagrams.build_swing`'s
-``external_torque`` and ``estimate_input``): ``external_torque``, two
+``external_torque``, ``estimate_input`` and ``action_input``): ``action``,
+the elbow command as a share of the torque limit in [-1, 1], in the
+controller's place (a learning environment's action); ``external_torque``, two
 generalized forces (N m on q1 and q2) added to friction and the
 scenario's wind and gusts -- a disturbance, a knock, a fault -- and
 ``estimate``, the state (q1, q2, q1', q2') the controller and the
@@ -28,6 +30,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..systems.action import ActionTorque
+from .parts import torque_limit
+
 #: the signal names of each output port of a swing diagram, by port
 SWING_SIGNALS = {
     "true_state": ("q1", "q2", "q1d", "q2d"),
@@ -42,7 +47,8 @@ SWING_SIGNALS = {
 SWING_PORTS = tuple(SWING_SIGNALS)
 
 #: the input ports a swing diagram may have, with their signal names
-SWING_INPUTS = {"external_torque": ("tau1", "tau2"), "estimate": ("q1", "q2", "q1d", "q2d")}
+SWING_INPUTS = {"external_torque": ("tau1", "tau2"), "estimate": ("q1", "q2", "q1d", "q2d"),
+                "action": ("torque_share",)}
 
 
 def add_external_torque(builder, other=None):
@@ -70,6 +76,16 @@ def add_estimate_input(builder):
     through = builder.AddNamedSystem("estimate_input", PassThrough(4))
     builder.ExportInput(through.get_input_port(), "estimate")
     return through, through.get_output_port()
+
+
+def add_action_input(builder, params, state_port) -> dict:
+    """The controller's place taken by an ``action`` input exported from the
+    diagram (:class:`~bplir_drake.systems.action.ActionTorque`, its
+    ``state`` input fed from ``state_port``); returns ``{"controller": it}``."""
+    ctrl = builder.AddNamedSystem("controller", ActionTorque(torque_limit(params)))
+    builder.Connect(state_port, ctrl.GetInputPort("state"))
+    builder.ExportInput(ctrl.GetInputPort("action"), "action")
+    return {"controller": ctrl}
 
 
 def export_swing_ports(builder, robot, estimate_port, controller, imu_port) -> None:

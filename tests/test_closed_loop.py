@@ -60,3 +60,34 @@ def test_mid_plan_poles_and_their_course_along_the_plan(plan_and_gains, tmp_path
 def test_a_time_outside_the_plan_is_refused():
     with pytest.raises(ValueError, match="outside the plan"):
         linearize_closed_loop(BplirParams(), 99.0)
+
+
+def test_drakes_linearize_on_the_swing_diagram_is_one_line_not_an_abort():
+    """In a process of its own (Drake's check would stop it with SIGABRT):
+    ``pydrake.systems.primitives.Linearize`` on the hybrid swing diagram
+    raises one line naming what to use; on the plant with friction, which
+    has continuous state only, it still linearises."""
+    import subprocess
+    import sys
+
+    script = (
+        "import numpy as np\n"
+        "from bplir_drake.params import preset\n"
+        "from bplir_drake.diagrams import build_plant_with_friction, build_swing\n"
+        "from pydrake.systems.primitives import Linearize\n"
+        "p = preset()\n"
+        "b = build_plant_with_friction(p)\n"
+        "ctx = b.diagram.CreateDefaultContext()\n"
+        "b.diagram.get_input_port(0).FixValue(ctx, [0.0])\n"
+        "print(Linearize(b.diagram, ctx, equilibrium_check_tolerance=1e9).A().shape)\n"
+        "s = build_swing(p)\n"
+        "Linearize(s.diagram, s.diagram.CreateDefaultContext())\n")
+    run = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
+                         timeout=120)
+    assert run.returncode == 1, (run.returncode, run.stderr[-500:])
+    assert run.stdout.strip() == "(4, 4)"
+    last = run.stderr.strip().splitlines()[-1]
+    assert last.startswith("bplir_drake.diagrams.linearize_guard.HybridLinearizeError: "
+                           "Linearize cannot take brachiation_swing: it is hybrid (10 "
+                           "continuous states, 7 discrete state groups")
+    assert "linearize_closed_loop(params, t)" in last

@@ -14,7 +14,9 @@ estimators only ever see the nominal blocks.
 * :mod:`.swing` -- the full closed loop of one swing, composed from named
   builders, and the Monte Carlo sample a context can carry
   (:func:`set_swing_sample`); :mod:`.swing_ports` -- its input and output
-  ports, their signal names and the estimate's timing.
+  ports, their signal names and the estimate's timing;
+  :mod:`.linearize_guard` -- Drake's ``Linearize`` on a hybrid diagram
+  answered in one line.
 """
 from .cpfl_loop import build_control_loop, build_cpfl_plant, build_cpfl_step
 from .open_loop import build_free_swing, build_plant_with_friction, build_sensor_swing
@@ -23,10 +25,14 @@ from .swing import (
     SAMPLE_FIELDS, add_actuation, add_interlock, add_robot, add_sensing, add_swing_controller, add_swing_loggers, build_swing, set_swing_sample, swing_structure)
 from .swing_setup import swing_geometry
 from .swing_ports import SWING_INPUTS, SWING_PORTS, SWING_SIGNALS, estimate_times
+from .linearize_guard import HybridLinearizeError, guard
+
+guard()   # Drake's Linearize on a hybrid swing diagram: one line, not an abort
 
 __all__ = ["Built", "sampled", "add_plant_with_friction", "add_imus", "build_free_swing",
            "build_plant_with_friction", "build_sensor_swing", "build_cpfl_plant",
            "build_control_loop", "build_cpfl_step", "swing_geometry", "build_swing",
            "SAMPLE_FIELDS", "swing_structure", "set_swing_sample", "add_robot", "add_sensing",
            "add_swing_controller", "add_actuation", "add_interlock", "add_swing_loggers",
-           "SWING_PORTS", "SWING_SIGNALS", "SWING_INPUTS", "estimate_times"]
+           "SWING_PORTS", "SWING_SIGNALS", "SWING_INPUTS", "estimate_times",
+           "HybridLinearizeError"]

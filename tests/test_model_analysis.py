@@ -61,3 +61,24 @@ def test_a_linearisation_is_a_named_python_control_state_space(params):
     np.testing.assert_array_equal(sys.A, lin.A)
     np.testing.assert_allclose(np.sort_complex(control.poles(sys)),
                                np.sort_complex(lin.eigenvalues), rtol=1e-9)
+
+
+def test_the_hanging_linearisation_without_coulomb_friction_is_the_closed_form(params):
+    """``linearize_plant(coulomb=False)`` at rest: the double pendulum with
+    its viscous joint friction, ``M s^2 + F s + K = 0`` (F = diag(fv1,
+    fv2)), to 1e-8; without the Coulomb slope no pole is left faster than
+    ten times sqrt(g/l1) (with it, the elbow's -382 /s)."""
+    from bplir_drake.analysis.model.linearization import friction_poles, linearize_plant
+    from bplir_drake.systems.plant import mass_matrix
+
+    p, f = params.simulated_plant, params.simulated_friction
+    lin = linearize_plant(params, coulomb=False)
+    M = mass_matrix([0, 0], p)
+    K = np.array([[p.m1 * p.g * p.lc1 + p.m2 * p.g * (p.l1 + p.lc2), p.m2 * p.g * p.lc2],
+                  [p.m2 * p.g * p.lc2, p.m2 * p.g * p.lc2]])
+    F = np.diag([f.fv1, f.fv2])
+    A = np.block([[np.zeros((2, 2)), np.eye(2)],
+                  [-np.linalg.solve(M, K), -np.linalg.solve(M, F)]])
+    np.testing.assert_allclose(lin.A, A, rtol=1e-8, atol=1e-10)
+    assert friction_poles(params, lin) is None
+    assert friction_poles(params, linearize_plant(params)).startswith("the real pole(s) -382.4")

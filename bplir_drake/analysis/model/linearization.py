@@ -1,7 +1,7 @@
 """Linearisation of diagrams with Drake's ``Linearize``."""
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -44,15 +44,20 @@ class Linearization:
 
 
 def linearize_plant(params: BplirParams, x0=(0.0, 0.0, 0.0, 0.0), u0=0.0, *,
-                    nominal: bool = False) -> Linearization:
+                    nominal: bool = False, coulomb: bool = True) -> Linearization:
     """Linearise plant + friction (templated, so AutoDiff works) at the state
     ``x0`` (q1, q2, q1d, q2d) and elbow torque ``u0`` (N m): Drake's
     first-order Taylor approximation, so (x0, u0) need not be an equilibrium
     (a point of a swing); at an equilibrium it is ``Linearize``'s system.
     ``nominal`` linearises the controller's model instead of the simulated
-    robot."""
+    robot.  ``coulomb=False`` leaves the Coulomb friction out: at rest its
+    smoothed slope ``2 fc/(pi b)`` locks a joint in the linear model
+    (:func:`friction_poles`), which the real friction's stick does not
+    linearise to; the viscous friction and the drag stay."""
     from pydrake.systems.primitives import FirstOrderTaylorApproximation
 
+    if not coulomb:
+        params = without_coulomb(params)
     built = build_plant_with_friction(params, nominal=nominal)
     ctx = built.diagram.CreateDefaultContext()
     built.diagram.get_input_port(0).FixValue(ctx, [float(u0)])
@@ -61,6 +66,15 @@ def linearize_plant(params: BplirParams, x0=(0.0, 0.0, 0.0, 0.0), u0=0.0, *,
     A = np.array(lin.A())
     return Linearization(A, np.array(lin.B()), np.array(lin.C()), np.array(lin.D()),
                          np.linalg.eigvals(A))
+
+
+def without_coulomb(params: BplirParams) -> BplirParams:
+    """``params`` with the Coulomb friction of both joints (``fc1``, ``fc2``)
+    zero, in the model and in the simulated robot."""
+    def off(f):
+        return None if f is None else replace(f, fc1=0.0, fc2=0.0)
+
+    return params.with_(friction=off(params.friction), true_friction=off(params.true_friction))
 
 
 def friction_poles(params: BplirParams, lin: Linearization) -> str | None:

@@ -124,7 +124,7 @@ def study_lock(out: Path):
         except BlockingIOError:
             holder = os.read(fd, 32).decode(errors="replace").strip() or "another process"
             raise StudyError(f"study directory {out} is in use by process {holder}; wait for "
-                             "it to finish or choose another --out") from None
+                             "it to finish or choose another output directory (--out)") from None
         os.ftruncate(fd, 0)
         os.write(fd, str(os.getpid()).encode())
         try:

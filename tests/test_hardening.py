@@ -964,7 +964,7 @@ def test_a_second_study_into_the_same_directory_is_refused_with_the_holders_pid(
     assert second[0] == 2
     assert second[2].strip() == (f"bplir: error: study directory {out} is in use by "
                                      f"process {first.pid}; wait for it to finish or choose "
-                                     "another --out")
+                                     "another output directory (--out)")
     rows = mc.read_results(out / "results.csv")
     assert sorted(r["index"] for r in rows) == list(range(n))
     assert (out / ".lock").read_text() == ""   # released and emptied, kept as a file

@@ -808,20 +808,21 @@ def test_a_chatty_plugin_leaves_json_output_json(tmp_path, capsys):
     assert "hello from the plug-in" in captured.err
 
 
-def _slow_renames():
-    """In the child: every atomic write's rename onto its output waits
-    30 s first, so a signal sent while a temporary file exists finds the
-    command inside the write."""
+def _slow_renames(out):
+    """In the child: every atomic write's rename onto an output in ``out``
+    waits 30 s first, so a signal sent while a temporary file exists there
+    finds the command inside the write (writes elsewhere, a cache's, go
+    at once)."""
     import os
 
     replace = os.replace
 
     def slow(src, dst, *a, **k):
-        if Path(src).name.startswith("."):
+        if Path(src).name.startswith(".") and Path(src).parent == out:
             time.sleep(30.0)
         return replace(src, dst, *a, **k)
 
-    os.replace = slow
+    return lambda: setattr(os, "replace", slow)
 
 
 @pytest.mark.parametrize("sig, code", [(signal.SIGTERM, 143), (signal.SIGHUP, 129)])
@@ -830,7 +831,7 @@ def test_sigterm_and_sighup_end_a_swing_like_ctrl_c(sig, code, tmp_path):
     temporary file made, not yet renamed): one line naming the signal,
     exit 128 + signal, no temporary file left."""
     out = tmp_path / "swing"
-    proc = start_forked("swing", "--html", "--out", out, before=_slow_renames)
+    proc = start_forked("swing", "--html", "--out", out, before=_slow_renames(out))
     deadline = time.time() + 60
     while time.time() < deadline and not (
             out.exists() and any(p.name.startswith(".") for p in out.iterdir())):

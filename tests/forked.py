@@ -7,6 +7,7 @@ imports (Drake, numba, the package) a fresh interpreter pays.  The tests of
 the console script itself start real processes."""
 from __future__ import annotations
 
+import gc
 import io
 import os
 import selectors
@@ -47,7 +48,10 @@ def start_forked(*argv, env=None, preexec=None, before=None, new_session=False,
              for want in (stdout, stderr)]
     sys.stdout.flush()
     sys.stderr.flush()
-    pid = os.fork()
+    gc.freeze()   # the child never finalises this process's garbage (a Dask Client's
+    pid = os.fork()   # __del__ would wait 20 s for an event loop the fork did not copy)
+    if pid:
+        gc.unfreeze()
     if pid == 0:   # the child: never returns
         _child([str(a) for a in argv], env, preexec, before, main, pipes, new_session)
     for pipe in pipes:

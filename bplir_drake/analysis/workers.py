@@ -1,10 +1,28 @@
 """The worker processes the package forks (a study's pool, a long
 traversal's swing runner): they end with their parent and leave signals
 to it, so a Ctrl-C, a SIGTERM or a ``kill -9`` of the command prints no
-worker's traceback and leaves no worker running."""
+worker's traceback and leaves no worker running; and they never
+finalise the parent's garbage (:func:`frozen_heap`)."""
 from __future__ import annotations
 
+import contextlib
+import gc
 import os
+
+
+@contextlib.contextmanager
+def frozen_heap():
+    """Fork workers inside this block: the parent's objects are moved out of
+    the collector's reach (``gc.freeze``) while it forks, so a worker's
+    collections never finalise what the parent left as garbage -- a Dask
+    ``Client`` whose ``__del__`` waits about 20 s for an event loop thread
+    the fork did not copy, say.  The parent's collector takes them back
+    after the block."""
+    gc.freeze()
+    try:
+        yield
+    finally:
+        gc.unfreeze()
 
 
 def quiet_worker(parent: int) -> None:

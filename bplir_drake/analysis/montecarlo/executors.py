@@ -10,7 +10,7 @@ from typing import Callable, Iterable
 
 from .study import StudyError
 from ...progress import progress_bar
-from ..workers import quiet_worker
+from ..workers import frozen_heap, quiet_worker
 from ...systems.kernels import warm_up
 
 #: how long to try to reach a Dask scheduler before giving up (s)
@@ -36,7 +36,8 @@ def _pool_map(fn: Callable, args: list[tuple], workers: int) -> Iterable:
         warm_up()   # the workers inherit the compiled kernels
     ex = ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context(method),
                              initializer=quiet_worker, initargs=(os.getpid(),))
-    futures = [ex.submit(fn, *a) for a in args]
+    with frozen_heap():   # the first submit forks every worker
+        futures = [ex.submit(fn, *a) for a in args]
     finished = False
     try:
         for fut in as_completed(futures):

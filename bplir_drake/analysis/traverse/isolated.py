@@ -23,7 +23,7 @@ import multiprocessing as mp
 import os
 
 from ..swing.swing_runner import SwingRunner
-from ..workers import quiet_worker
+from ..workers import frozen_heap, quiet_worker
 from ...systems.kernels import warm_up
 
 #: swings a worker runs before a fresh one replaces it (about 3 MB each)
@@ -65,7 +65,8 @@ class IsolatedRunners:
         if self._pool is None:
             warm_up()   # the worker inherits the compiled kernels
             ctx = mp.get_context("fork")
-            self._pool = ctx.Pool(1, initializer=quiet_worker, initargs=(os.getpid(),))
+            with frozen_heap():
+                self._pool = ctx.Pool(1, initializer=quiet_worker, initargs=(os.getpid(),))
             self._ran = 0
         self._ran += 1
         return self._pool.apply(fn, args)

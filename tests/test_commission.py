@@ -2,6 +2,7 @@
 plans, rules in the robot's own units, a verification study and a verdict."""
 from __future__ import annotations
 
+import dataclasses
 import json
 import re
 from pathlib import Path
@@ -132,6 +133,12 @@ def test_no_plan_is_a_bound_or_says_it_was_not_found():
     assert f"asks {need:.2f} N m (effective peak torque: 1 N m)" in line
     assert "tried 1 solves: similarity: not feasible (iteration limit)" in line
     assert "x the elbow torque" not in line and " would" not in line
+    assert "similar robot's single swing scaled" in line
+    # the hint names the manoeuvre whose plan it scaled
+    pump = weak.with_(scenario=dataclasses.replace(weak.scenario, manoeuvre="pump"))
+    assert "similar robot's pump scaled" in no_plan_reason(pump, 0.0, 1.2, guess)
+    hanging = weak.with_(scenario=dataclasses.replace(weak.scenario, start="hanging"))
+    assert "similar robot's swing from hanging scaled" in no_plan_reason(hanging, 0.0, 1.2, guess)
     stuck = params.with_(controller=params.controller.__class__(
         **(params.controller.as_dict() | {"torque_limit": 0.8})))   # dead-band 0.823 N m
     line = no_plan_reason(stuck, 0.0, 1.2, guess)

@@ -131,13 +131,20 @@ def no_plan_reason(params, incline: float, spacing: float, guess, tried=()) -> s
     if guess is not None:
         tau = float(np.max(np.abs(guess.torque)))
         rate = float(np.max(np.abs(guess.states[:, 3])))
-        line += (f"; the nearest similar robot's single swing scaled to this one asks "
+        line += (f"; the nearest similar robot's {_kind(params)} scaled to this one asks "
                  f"{tau:.2f} N m (effective peak torque: {peak:.3g} N m)")
         if m.envelope:
             free = m.max_voltage / (m.back_emf_constant * m.gear_ratio)
             line += (f" and {rate:.1f} rad/s at the elbow (no-load rate at "
                      f"{m.supply_voltage:g} V: {free:.1f} rad/s)")
     return line
+
+
+def _kind(params) -> str:
+    """The manoeuvre of ``params`` as a verdict names it."""
+    if params.scenario.start == "hanging":
+        return "swing from hanging"
+    return "pump" if params.scenario.manoeuvre_of() == "pump" else "single swing"
 
 
 def _short_of_the_grip(params, rows, misses) -> list[str]:

@@ -75,7 +75,8 @@ class BrachiationEnv(gym.Env):
     "imu"; ``render_mode`` "rgb_array" (a picture of the robot on the line)
     or "human" (Meshcat).  See the module docstring."""
 
-    metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 25}
+    #: a frame per step of the default 10 ms tick plays at real time
+    metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 100}
 
     def __init__(self, params: BplirParams | None = None, *, observation: str = "estimate",
                  study=None, render_mode: str | None = None):

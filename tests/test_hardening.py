@@ -809,17 +809,21 @@ def test_a_chatty_plugin_leaves_json_output_json(tmp_path, capsys):
 
 
 def _slow_renames(out):
-    """In the child: every atomic write's rename onto an output in ``out``
-    waits 30 s first, so a signal sent while a temporary file exists there
-    finds the command inside the write (writes elsewhere, a cache's, go
-    at once)."""
+    """In the child: the first atomic write's rename onto an output in
+    ``out`` waits up to 30 s first, in short sleeps (a signal another
+    thread takes is handled between them), so a signal sent while its
+    temporary file exists finds the command inside the write (writes
+    elsewhere, a cache's, go at once)."""
     import os
 
-    replace = os.replace
+    replace, first = os.replace, []
 
     def slow(src, dst, *a, **k):
-        if Path(src).name.startswith(".") and Path(src).parent == out:
-            time.sleep(30.0)
+        if Path(src).name.startswith(".") and Path(src).parent == out and not first:
+            first.append(src)
+            end = time.monotonic() + 30.0
+            while time.monotonic() < end:
+                time.sleep(0.05)
         return replace(src, dst, *a, **k)
 
     return lambda: setattr(os, "replace", slow)

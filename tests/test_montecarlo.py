@@ -323,3 +323,31 @@ def test_figures_a_reviewer_would_not_send_back(tmp_path):
     other = dataclasses.replace(BplirParams().plant, l2=1.0)
     assert robot_label(BplirParams()) == "BPLIR"
     assert robot_label(BplirParams().with_(plant=other)) == "two-link robot"
+
+
+def test_a_local_dask_cluster_beside_another_says_nothing_of_its_port():
+    """With port 8787 taken (as by another cluster on the machine), a study's
+    local Dask cluster runs and warns nothing: its scheduler has no
+    dashboard and serves HTTP on a free port."""
+    import math
+    import socket
+    import warnings
+
+    pytest.importorskip("dask.distributed")
+    from bplir_drake.analysis.montecarlo.executors import map_jobs
+
+    taken = socket.socket()
+    try:
+        taken.bind(("", 8787))
+        taken.listen()
+    except OSError:   # another process holds it already
+        pass
+    try:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            got = sorted(map_jobs(math.factorial, [(k,) for k in range(4)], workers=2,
+                                  dask=True))
+    finally:
+        taken.close()
+    assert got == [1, 1, 2, 6]
+    assert [str(w.message) for w in caught if "8787" in str(w.message)] == []

@@ -15,6 +15,10 @@ from ...systems.kernels import warm_up
 
 #: how long to try to reach a Dask scheduler before giving up (s)
 SCHEDULER_TIMEOUT = 10.0
+#: a local cluster's scheduler without a dashboard, its HTTP server on a
+#: free port (it always starts one, on 8787 by default: a second cluster on
+#: the machine warned that the port was taken)
+NO_DASHBOARD = {"dashboard": False, "dashboard_address": ":0"}
 
 # ------------------------------------------------------------ execution
 
@@ -131,7 +135,8 @@ def _dask_map(fn: Callable, args: list[tuple], scheduler: str | None, workers: i
             with _silent_children(), _abandoned_if_stopped():
                 cluster = LocalCluster(n_workers=max(1, workers), threads_per_worker=1,
                                        processes=True, dashboard_address=None,
-                                       silence_logs=logging.CRITICAL)
+                                       silence_logs=logging.CRITICAL,
+                                       scheduler_kwargs=NO_DASHBOARD)
             client = Client(cluster)
         with client, _quiet_dask_logs():
             futures = [client.submit(fn, *a, pure=False) for a in args]

@@ -146,8 +146,7 @@ class BrachiationEnv(gym.Env):
             outcome = self._lock.outcome(self._ctx)
         except (RuntimeError, SimulationError):   # the integrator gave up: a fault
             outcome = "fault"
-        x = np.asarray(self._state_port.Eval(self._ctx))
-        normal, along, _, _ = line_metrics(x, self._lock.geometry)
+        normal, along, _, _ = line_metrics(self.true_state(), self._lock.geometry)
         d = math.hypot(normal, along - self._target)
         reward = -(d / self._reach) * (self._period / self._max_time)
         reward += TERMINAL_REWARD.get(outcome, 0.0)

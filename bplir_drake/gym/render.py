@@ -8,6 +8,7 @@ import numpy as np
 
 from ..analysis.replay import quiet_meshcat, stand_upright
 from ..diagrams.visual import build_replay_visualizer
+from ..systems.plant import elbow_position, gripper_position
 
 
 class LineRenderer:
@@ -52,9 +53,7 @@ class LineRenderer:
         """The picture of ``p``'s robot at state ``x`` and time ``t`` (s)."""
         self._scene(p)
         tp = p.simulated_plant
-        q1, q2 = float(x[0]), float(x[1])
-        ex, ey = tp.l1 * math.sin(q1), -tp.l1 * math.cos(q1)
-        gx, gy = ex + tp.l2 * math.sin(q1 + q2), ey - tp.l2 * math.cos(q1 + q2)
+        (ex, ey), (gx, gy) = elbow_position(x, tp.l1), gripper_position(x, tp.l1, tp.l2)
         self.links.set_data([0.0, ex, gx], [0.0, ey, gy])
         self.text.set_text(f"t = {t:.2f} s")
         self.fig.canvas.draw()

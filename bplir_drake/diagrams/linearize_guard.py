@@ -17,12 +17,13 @@ class HybridLinearizeError(ValueError):
 
 
 def hybrid_reason(context) -> str | None:
-    """Why Drake cannot linearise at ``context`` (both continuous and
-    discrete state, several discrete groups, or abstract state), or None."""
+    """Why Drake cannot linearise at ``context``, or None where it can: its
+    own test, stateless, continuous state only, or one group of discrete
+    state only."""
     n_c = context.num_continuous_states()
     n_d = context.num_discrete_state_groups()
     n_a = context.num_abstract_states()
-    if (n_c and (n_d or n_a)) or n_d > 1 or (n_a and not n_c and not n_d):
+    if n_a or (n_d and (n_c or n_d > 1)):
         return (f"{n_c} continuous states, {n_d} discrete state groups, "
                 f"{n_a} abstract states")
     return None

@@ -50,6 +50,13 @@ def _study(args):
         line = load_line(args.traverse, max_incline_deg=study.params.traverse.max_incline_deg)
         plan_route(line, study.params)   # crossable on paper
         study = study.with_(line=line.data)
+    if args.knocks is not None:
+        from ..params.knocks import parse_knocks
+
+        if not args.traverse and study.line is None:
+            raise InputError("--knocks knocks traversals; allowed only with --traverse LINE.toml "
+                             "(or a study with a [line])")
+        study = study.with_(knocks=parse_knocks(args.knocks).as_dict())
     from ..diagrams import swing_geometry
 
     swing_geometry(study.params)  # the nominal scenario must be possible
@@ -77,7 +84,13 @@ def cmd_montecarlo(args) -> int:
     lo, hi = summary["success_rate_ci95"]
     pc = summary["percentiles"].get("capture_speed_mps", {})
     what = "traversals passed" if summary.get("traverse") else "swings captured"
-    _emit(summary, args.json, [
+    kd = summary.get("knockdown")
+    knock_lines = [] if kd is None else [
+        f"knocked {kd['knocks']['rate']:g} a minute at severity {kd['knocks']['severity']:g}: "
+        f"mean uptime {kd['mean_uptime']:.3f}; no fall in {kd['no_fall']}/{kd['runs']} "
+        f"(95 % Wilson interval {kd['no_fall_ci95'][0]:.3f}..{kd['no_fall_ci95'][1]:.3f}); "
+        f"falls the interlock caused: {kd['interlock_falls']}; {kd['knocks_met']} knocks"]
+    _emit(summary, args.json, knock_lines + [
         f"{summary['successes']}/{summary['samples'] - len(summary['failed_samples'])} {what}"
         f": success rate {summary['success_rate']:.3f} (95 % Wilson interval "
         f"{lo:.3f}..{hi:.3f}), root seed {summary['seed']}",
@@ -102,6 +115,10 @@ def add_parser(sub) -> None:
            "estimation costs the study")
     option(p, "--traverse", None, None, "a traversal study: each sample crosses this line "
            "(success: every obstacle passed, no driver trip, no fall)", metavar="LINE.toml")
+    option(p, "--knocks", None, None, "with --traverse: knock every traversal RATE times a "
+           "minute at SEVERITY (default 1: a knock that alone would swing the free link 30 deg "
+           "from rest), on JOINTS (either, elbow, hold, both; default either); scored by uptime "
+           "and falls", metavar="RATE[:SEVERITY[:JOINTS]]")
     g = p.add_mutually_exclusive_group()
     g.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="run on an existing Dask cluster")

@@ -10,18 +10,15 @@ from .options import command, option
 
 
 # ------------------------------------------------------------------ traverse
-def cmd_traverse(args) -> int:
-    """``bplir traverse``: cross a stretch of line with obstacles."""
+def _inputs(args):
+    """(parameters, line, knocks, study) of ``bplir traverse``'s options
+    (the study of ``--replay``, which holds the rest; else None)."""
     from ..analysis.traverse.line import load_line
-    from ..analysis.traverse.traverse_plots import plot_timeline, traverse_replay_html
-    from ..analysis.traverse.traverse_result import MOTION_FORMAT
-    from ..analysis.traverse.traversal import run_traverse
-    from ..analysis.traverse.tables import manoeuvre_table, totals_lines, write_rows_csv
 
+    params = line = knocks = study = None
     if args.wait and not args.meshcat:
         raise InputError("--wait keeps the live Meshcat view serving; allowed only with "
                          "--meshcat")
-    replay_info = None
     if args.replay is not None or args.sample is not None:
         if args.replay is None or args.sample is None:
             raise InputError("--replay STUDY_DIR and --sample K go together")
@@ -37,10 +34,28 @@ def cmd_traverse(args) -> int:
         if args.seed is not None:
             _in_range("--seed", args.seed, 0, 2 ** 32 - 1)
         line = load_line(args.line, max_incline_deg=params.traverse.max_incline_deg)
+    if args.knocks is not None:
+        from ..params.knocks import parse_knocks
+
+        if args.replay is not None:
+            raise InputError("--replay takes the knocks from the study; drop --knocks")
+        knocks = parse_knocks(args.knocks)
     if args.replay is not None:
         study = _study_of(args.replay)
         if study.line is None:
             raise InputError(f"{args.replay} is a swing study; replay it with bplir swing --replay")
+    return params, line, knocks, study
+
+
+def cmd_traverse(args) -> int:
+    """``bplir traverse``: cross a stretch of line with obstacles."""
+    from ..analysis.traverse.traverse_plots import plot_timeline, traverse_replay_html
+    from ..analysis.traverse.traverse_result import MOTION_FORMAT
+    from ..analysis.traverse.traversal import run_traverse
+    from ..analysis.traverse.tables import manoeuvre_table, totals_lines, write_rows_csv
+
+    params, line, knocks, study = _inputs(args)
+    replay_info = None
     out = _out_dir(args.out)
     with contextlib.ExitStack() as stack:
         if args.replay is not None:
@@ -58,7 +73,7 @@ def cmd_traverse(args) -> int:
                     if args.meshcat else None)
             res = run_traverse(line, params, seed=args.seed or 0, progress=_progress(args),
                                motion=stack.enter_context(atomic_path(out / "motion.f64")),
-                               live=live)
+                               live=live, knocks=knocks)
         files = ({} if args.no_plots else
                  {"figure_line": str(_save(args, res.plot(), out / "line.png")),
                   "figure_timeline": str(_save(args, plot_timeline(res),
@@ -100,6 +115,10 @@ def add_parser(sub) -> None:
            "while it is simulated, its swings at real time (the address on standard error)")
     option(p, "--wait", bool, help="with --meshcat: keep Meshcat serving after the traversal, "
            "its outputs written, until Ctrl-C")
+    option(p, "--knocks", None, None, "knock the robot RATE times a minute at SEVERITY "
+           "(default 1: a knock that alone would swing the free link 30 deg from rest), on "
+           "JOINTS (either, elbow, hold, both; default either); the totals give the uptime and "
+           "whether it fell", metavar="RATE[:SEVERITY[:JOINTS]]")
     option(p, "--replay", None, None, "re-run one sample of a traversal study (with --sample)",
            metavar="STUDY_DIR")
     option(p, "--sample", int, None, "sample index to replay", metavar="K")

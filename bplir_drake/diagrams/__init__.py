@@ -22,7 +22,7 @@ from .cpfl_loop import build_control_loop, build_cpfl_plant, build_cpfl_step
 from .open_loop import build_free_swing, build_plant_with_friction, build_sensor_swing
 from .parts import Built, add_imus, add_plant_with_friction, sampled
 from .swing import (
-    SAMPLE_FIELDS, add_actuation, add_interlock, add_robot, add_sensing, add_swing_controller, add_swing_loggers, build_swing, set_swing_sample, swing_structure)
+    SAMPLE_FIELDS, add_actuation, add_interlock, add_robot, add_sensing, add_swing_controller, add_swing_loggers, build_swing, set_pulses, set_swing_sample, swing_structure)
 from .swing_setup import swing_geometry
 from .swing_ports import SWING_INPUTS, SWING_PORTS, SWING_SIGNALS, estimate_times
 from .linearize_guard import HybridLinearizeError, guard
@@ -32,7 +32,7 @@ guard()   # Drake's Linearize on a hybrid swing diagram: one line, not an abort
 __all__ = ["Built", "sampled", "add_plant_with_friction", "add_imus", "build_free_swing",
            "build_plant_with_friction", "build_sensor_swing", "build_cpfl_plant",
            "build_control_loop", "build_cpfl_step", "swing_geometry", "build_swing",
-           "SAMPLE_FIELDS", "swing_structure", "set_swing_sample", "add_robot", "add_sensing",
+           "SAMPLE_FIELDS", "swing_structure", "set_swing_sample", "set_pulses", "add_robot", "add_sensing",
            "add_swing_controller", "add_actuation", "add_interlock", "add_swing_loggers",
            "SWING_PORTS", "SWING_SIGNALS", "SWING_INPUTS", "estimate_times",
            "HybridLinearizeError"]

@@ -11,7 +11,7 @@ from ..systems.ekf import KinematicEkf
 from ..systems.frictional_plant import frictional_plant
 from ..systems.motor import MotorDriver
 from ..systems.schedule import TickLogger
-from .parts import Built, add_imus, add_plant_with_friction, pulse_source, torque_source
+from .parts import Built, add_imus, add_plant_with_friction, pulse_source, pulses_source, torque_source
 from dataclasses import replace
 
 
@@ -109,7 +109,7 @@ def build_sensor_swing(params: BplirParams, x0_estimate=(0.0, 0.0, 0.0, 0.0), *,
 
 
 def build_damping(params: BplirParams, kp: float, kd: float, lean: float = 0.0, *,
-                  log_period: float = 0.01) -> Built:
+                  log_period: float = 0.01, pulses=()) -> Built:
     """The robot hanging from its holding gripper after a swing that did not
     arrive, its elbow draining the swing: ``tau = kp (lean q1' - q2) - kd
     q2'`` (Drake's ``PidController`` on the elbow encoder's angle and rate,
@@ -119,13 +119,15 @@ def build_damping(params: BplirParams, kp: float, kd: float, lean: float = 0.0, 
     driver's continuous current (a ``Saturation``: the law's torques stay
     small and slow, so the dead-band, the current loop and the voltage
     envelope are left out).  The simulated plant with its friction; only
-    C++ systems.  Loggers ``state`` and ``torque``."""
+    C++ systems; ``pulses``: torque pulses on the joints while it damps
+    (knocks, :func:`~.parts.pulses_source`).  Loggers ``state`` and ``torque``."""
     from pydrake.systems.controllers import PidController
     from pydrake.systems.primitives import MatrixGain, Saturation, WrapToSystem
 
     builder = DiagramBuilder()
+    knocks = pulses_source(builder, pulses).get_output_port(0) if pulses else None
     plant, fr = add_plant_with_friction(builder, params.simulated_plant,
-                                        params.simulated_friction)
+                                        params.simulated_friction, disturbance=knocks)
     encoder = builder.AddNamedSystem("elbow_encoder", MatrixGain(
         [[0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0]]))
     aim = builder.AddNamedSystem("aim", MatrixGain([[0.0, 0.0, lean, 0.0], [0.0] * 4]))

@@ -195,6 +195,23 @@ def pulse_source(builder, knock):
     return builder.AddSystem(TrajectorySource(PiecewisePolynomial.ZeroOrderHold(times, vals)))
 
 
+def pulses_source(builder, pulses):
+    """Generalized forces on joints 1 and 2 of the torque ``pulses``
+    ``[(start s, (tau1, tau2) N m, duration s)]`` (knocks; overlapping ones
+    add), zero elsewhere: a zero-order-hold ``TrajectorySource``."""
+    from pydrake.trajectories import PiecewisePolynomial
+
+    edges = sorted({0.0} | {max(float(t), 0.0) for t, _, _ in pulses}
+                   | {max(float(t + d), 0.0) for t, _, d in pulses})
+    edges.append(edges[-1] + 1.0)
+    vals = np.zeros((2, len(edges)))
+    for t, amp, d in pulses:
+        on = [(t - 1e-12 <= e < t + d - 1e-12) for e in edges]
+        vals[:, on] += np.asarray(amp, dtype=float)[:, None]
+    return builder.AddSystem(TrajectorySource(
+        PiecewisePolynomial.ZeroOrderHold(np.array(edges), vals)))
+
+
 def torque_limit(params: BplirParams) -> float:
     """The elbow's torque limit (N m): the smaller of the motor's and the
     controller's, as the driver applies it."""

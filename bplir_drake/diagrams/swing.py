@@ -38,7 +38,7 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import LogVectorOutput, ZeroOrderHold
 
 from ..params import BplirParams, ParameterError, ScenarioParams, checked_seed, to_dict
-from ..systems.disturbance import (CommandDelay, DisturbanceSource, delay_steps,
+from ..systems.disturbance import (CommandDelay, DisturbanceSource, add_pulses, delay_steps,
                                    disturbance_schedule, has_disturbance)
 from ..systems.action import ActionTorque
 from ..systems.ekf import KinematicEkf
@@ -70,16 +70,17 @@ SAMPLE_FIELDS: dict[str, tuple[str, ...]] = {
 }
 
 
-def swing_structure(params: BplirParams, use_estimator: bool) -> str:
+def swing_structure(params: BplirParams, use_estimator: bool, forces: bool = False) -> str:
     """What a context cannot change on a swing built from ``params``: a
     canonical JSON text of every parameter outside :data:`SAMPLE_FIELDS`
     (and whether the estimator is in the loop), with ``path.mode``
-    resolved.  Two parameter sets with the same structure run through one
-    built diagram."""
-    return json.dumps(_structure(params, use_estimator), sort_keys=True)
+    resolved; ``forces``: a disturbance source whatever the scenario's
+    (knocks are added to its schedule).  Two parameter sets with the same
+    structure run through one built diagram."""
+    return json.dumps(_structure(params, use_estimator, forces), sort_keys=True)
 
 
-def _structure(params: BplirParams, use_estimator: bool) -> dict:
+def _structure(params: BplirParams, use_estimator: bool, forces: bool = False) -> dict:
     params = params.resolved()
     d = to_dict(params.with_(true_plant=params.simulated_plant,
                              true_friction=params.simulated_friction))
@@ -87,13 +88,20 @@ def _structure(params: BplirParams, use_estimator: bool) -> dict:
         for name in fields:
             d[block].pop(name, None)
     return {"params": d, "use_estimator": bool(use_estimator),
-            "disturbance": has_disturbance(params.scenario)}
+            "disturbance": bool(forces or has_disturbance(params.scenario))}
+
+
+def _built_flags(built: Built) -> tuple[bool, bool]:
+    """(use_estimator, forced disturbance source) of a built swing."""
+    d = json.loads(built.structure)
+    return d["use_estimator"], d["disturbance"]
 
 
 def _changed(built: Built, params: BplirParams, use_estimator: bool) -> list[str]:
     """The fields (``block.field``) in which ``params`` differ from the ones
     ``built`` was built from, outside :data:`SAMPLE_FIELDS`."""
-    ours, theirs = _structure(params, use_estimator), json.loads(built.structure)
+    ours = _structure(params, use_estimator, _built_flags(built)[1])
+    theirs = json.loads(built.structure)
     out = [k for k in ("use_estimator", "disturbance") if ours[k] != theirs[k]]
     a, b = json.loads(json.dumps(ours["params"])), theirs["params"]
     for block in sorted(set(a) | set(b)):
@@ -106,19 +114,20 @@ def _changed(built: Built, params: BplirParams, use_estimator: bool) -> list[str
 
 
 def set_swing_sample(built: Built, context, params: BplirParams, seed: int,
-                     structure: str | None = None) -> None:
+                     structure: str | None = None, pulses=()) -> None:
     """Write the sample ``(params, seed)`` into ``context``, a root context
     of ``built.diagram`` (a :func:`build_swing` diagram): the simulated
     links' inertial parameters, its friction, the IMUs' error model and noise
     seed, and the disturbance schedule.  Raises ``ValueError`` when
     ``params`` differ from the built ones outside :data:`SAMPLE_FIELDS`
     (``structure``: their :func:`swing_structure`, when the caller has it),
-    and ``ParameterError`` unless ``seed`` is a whole number in [0, 2^32)."""
+    and ``ParameterError`` unless ``seed`` is a whole number in [0, 2^32).
+    ``pulses``: torque pulses added to the disturbance (:func:`set_pulses`)."""
     seed = checked_seed(seed)
     if structure is None:
-        structure = swing_structure(params, json.loads(built.structure)["use_estimator"])
+        structure = swing_structure(params, *_built_flags(built))
     if structure != built.structure:
-        changed = _changed(built, params, json.loads(built.structure)["use_estimator"])
+        changed = _changed(built, params, _built_flags(built)[0])
         raise ValueError(f"this sample changes {', '.join(changed[:4]) or 'the structure'}, "
                          "more than the context carries (its fields of "
                          f"{', '.join(SAMPLE_FIELDS)}); build its own swing diagram")
@@ -131,8 +140,19 @@ def set_swing_sample(built: Built, context, params: BplirParams, seed: int,
         built.systems["ekf"].set_calibration(context,
                                              standstill_calibration(params, built.q0, seed))
     if "disturbance" in built.systems:
-        built.systems["disturbance"].set_schedule(
-            context, _disturbance_torques(params.scenario, seed, params.controller.period))
+        set_pulses(built, context, params, seed, pulses)
+
+
+def set_pulses(built: Built, context, params: BplirParams, seed: int, pulses) -> None:
+    """The disturbance of the sample ``(params, seed)`` with the torque
+    ``pulses`` ``[(start s, (tau1, tau2) N m, duration s)]`` added (knocks,
+    :func:`~bplir_drake.systems.disturbance.add_pulses`) in ``context`` of a
+    swing built with a disturbance source (``disturbance=True``)."""
+    if "disturbance" not in built.systems:
+        raise ValueError("this swing has no disturbance source; build it with disturbance=True")
+    period = params.controller.period
+    torques = add_pulses(_disturbance_torques(params.scenario, seed, period), period, pulses)
+    built.systems["disturbance"].set_schedule(context, torques)
 
 
 def _disturbance_torques(sc: ScenarioParams, seed: int, period: float) -> np.ndarray:
@@ -171,15 +191,16 @@ def _no_controller(params: BplirParams, controller):
     return ActionTorque
 
 
-def add_robot(builder, params: BplirParams, seed: int, external_torque: bool = False) -> Robot:
+def add_robot(builder, params: BplirParams, seed: int, external_torque: bool = False,
+              disturbance: bool = False) -> Robot:
     """The simulated (true) plant with friction, the external forces of the
     scenario (a :class:`DisturbanceSource`, when it has wind, gusts or torque
-    noise) and, with ``external_torque``, of the diagram's ``external_torque``
+    noise, or with ``disturbance``) and, with ``external_torque``, of the diagram's ``external_torque``
     input (:mod:`.swing_ports`), and the motor and driver (its limit the
     smaller of the motor's and the controller's) driving the elbow."""
     period = params.controller.period
     dist = None
-    if has_disturbance(params.scenario):
+    if disturbance or has_disturbance(params.scenario):
         dist = builder.AddNamedSystem("disturbance", DisturbanceSource(
             _disturbance_torques(params.scenario, seed, period), period))
     forces = dist.force_port if dist else None
@@ -268,7 +289,7 @@ def build_swing(params: BplirParams, *, seed: int | None = None, use_estimator: 
                 log_period: float = 0.005, plan_gains=None, controller=None,
                 estimator=None, external_torque: bool = False,
                 estimate_input: bool = False, onboard: bool = True,
-                action_input: bool = False) -> Built:
+                action_input: bool = False, disturbance: bool = False) -> Built:
     """The full closed loop of one swing (see the module docstring).
 
     ``seed`` (default ``scenario.seed``) seeds the IMU noise and the
@@ -286,7 +307,8 @@ def build_swing(params: BplirParams, *, seed: int | None = None, use_estimator: 
     ``action_input``: no controller but the diagram's ``action`` input, the
     elbow command as a share of the torque limit
     (:class:`~bplir_drake.systems.action.ActionTorque`: a learning
-    environment's action).  With
+    environment's action).  ``disturbance``: a disturbance source even
+    where the scenario has none (knocks: :func:`set_pulses`).  With
     ``onboard`` (the default) the EKF-and-plan-tracker chain runs as one
     system (:mod:`~bplir_drake.diagrams.onboard_chain`: the same numbers as its
     parts wired one by one, ``onboard=False``, in less time).  The
@@ -301,7 +323,7 @@ def build_swing(params: BplirParams, *, seed: int | None = None, use_estimator: 
     setup = swing_setup(params)   # poses, geometry: computed once for every builder
     q0 = setup.q0
     builder = DiagramBuilder()
-    robot = add_robot(builder, params, seed, external_torque)
+    robot = add_robot(builder, params, seed, external_torque, disturbance)
     custom = (controller is not None or estimator is not None or estimate_input
               or bool(params.controller.plugin or params.estimator.plugin))
     if onboard and fuses(params, use_est, custom):
@@ -337,4 +359,4 @@ def build_swing(params: BplirParams, *, seed: int | None = None, use_estimator: 
     if diagram.HasSubsystemNamed("line_sensor"):
         systems["line_sensor"] = diagram.GetSubsystemByName("line_sensor")
     return Built(diagram, robot.plant, systems, loggers, params, q0,
-                 swing_structure(params, use_est))
+                 swing_structure(params, use_est, disturbance))

@@ -62,6 +62,23 @@ def disturbance_schedule(sc: ScenarioParams, seed: int, period: float,
     return times, torque
 
 
+def add_pulses(torques, period: float, pulses) -> np.ndarray:
+    """``torques`` (N, 2), one row per tick of ``period``, with the
+    rectangular ``pulses`` ``[(start s, (tau1, tau2) N m, duration s)]``
+    added on the ticks from their start to their end (a pulse shorter than
+    a tick acts for one tick; pulses before 0 or after the last tick are
+    left out)."""
+    out = np.array(torques, dtype=float).reshape(-1, 2)
+    n = len(out)
+    for start, amp, duration in pulses:
+        first = int(math.ceil(start / period - 1e-9))
+        end = max(int(math.ceil((start + duration) / period - 1e-9)), first + 1)
+        if end <= 0 or first >= n:
+            continue
+        out[max(first, 0):min(end, n)] += np.asarray(amp, dtype=float)
+    return out
+
+
 class DisturbanceSource(PySystem):
     """The generalized forces of a :func:`disturbance_schedule`, held over
     each tick (output ``generalized_force`` (2), N m on joint 1 and 2).

@@ -14,7 +14,7 @@ from ...systems.gripper import OUTCOMES as SWING_OUTCOMES
 from ..traverse.traverse_result import OUTCOMES as TRAVERSE_OUTCOMES
 from .sampling import draw_values, sample_seed
 from .store import _parse, check_header
-from .study import Study, StudyRow
+from .study import KNOCK_FIELDS, Study, StudyRow
 
 #: the outcomes a swing sample and a traversal sample can end with, and the
 #: one each calls a success
@@ -29,9 +29,10 @@ FIGURE_RANGES = {"_mps": (0.0, 1e3), "_s": (0.0, 1e5), "_m": (-1e4, 1e4), "_Nm":
                  "_A2s": (0.0, 1e9), "_Ns": (0.0, 1e5), "_m_per_min": (-1e4, 1e4)}
 
 #: whole-number figures of a traversal sample (nan where none)
-COUNTS = ("obstacles_passed", "swings", "retries", "failed_swing")
+COUNTS = ("obstacles_passed", "swings", "retries", "failed_swing") + tuple(
+    f for f in KNOCK_FIELDS if f.startswith("knocks"))
 
-FLAGS = ("success", "fixed_gripper_open")
+FLAGS = ("success", "fixed_gripper_open", "fall", "interlock_fall")
 
 
 def _figure_range(column: str) -> tuple[float, float]:
@@ -67,8 +68,10 @@ def row_damage(study: Study, header: list[str], cells: list[str]) -> str | None:
         problem = _drawn(row[name], drawn.get(name))
         if problem:
             return f"its {name} {problem}"
+    if "fall_cause" in row and row["fall_cause"] not in allowed | {""}:
+        return f"its fall_cause {row['fall_cause'][:40]!r} is not an outcome a traversal has"
     for name in study.result_fields:
-        if name in FLAGS or name == "outcome":
+        if name in FLAGS or name in ("outcome", "fall_cause"):
             continue
         problem = _figure(name, row[name])
         if problem:

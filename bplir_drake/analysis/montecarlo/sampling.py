@@ -103,7 +103,8 @@ def run_traverse_sample(study: Study, params: BplirParams, seed: int, motion=Fal
         _TRAVERSE_RUNNERS.update({1: SwingRunner(), 2: SwingRunner()})
     line = line_from_dict(study.line, "study line",
                           max_incline_deg=params.traverse.max_incline_deg)
-    return run_traverse(line, params, seed=seed, runners=_TRAVERSE_RUNNERS, motion=motion)
+    return run_traverse(line, params, seed=seed, runners=_TRAVERSE_RUNNERS, motion=motion,
+                        knocks=study.knocking)
 
 
 def error_text(exc: BaseException) -> str:

@@ -8,7 +8,7 @@ from statistics import NormalDist
 import numpy as np
 
 from ...io import package_version
-from .study import Study, study_rows
+from .study import KNOCK_FIELDS, Study, study_rows
 
 # ------------------------------------------------------------ statistics
 
@@ -120,7 +120,29 @@ def _traverse_summary(study: Study, ran: list[dict]) -> dict:
     pct = percentiles(ran, ("time_s", "energy_per_m_J", "speed_m_per_min",
                             "peak_capture_impulse_Ns", "peak_i2t_A2s", "obstacles_passed"))
     return {"traverse": {"line": study.line.get("name", "line"), "miss_classes": misses,
-                         "percentiles": pct}}
+                         "percentiles": pct}} | (
+        {"knockdown": knockdown_summary(study, ran)} if study.knocks is not None else {})
+
+
+def knockdown_summary(study: Study, ran: list[dict]) -> dict:
+    """A knocked traversal study's score: the knocks, the mean uptime, runs
+    without a fall with the 95 % Wilson interval, falls by cause and those
+    the interlock caused, knocks met by phase."""
+    n = len(ran)
+    clean = sum(not r.fall for r in ran)
+    causes: dict[str, int] = {}
+    for r in ran:
+        if r.fall:
+            causes[r.fall_cause] = causes.get(r.fall_cause, 0) + 1
+    phases = [f for f in KNOCK_FIELDS if f.startswith("knocks_")]
+    return {"knocks": study.knocks, "runs": n,
+            "mean_uptime": float(np.mean([r.uptime for r in ran])) if n else math.nan,
+            "no_fall": clean, "no_fall_rate": clean / n if n else math.nan,
+            "no_fall_ci95": list(wilson_interval(clean, n)),
+            "falls_by_cause": causes,
+            "interlock_falls": sum(bool(r.interlock_fall) for r in ran),
+            "knocks_met": sum(int(r.knocks) for r in ran),
+            "knocks_by_phase": {f[len("knocks_"):]: sum(int(r[f]) for r in ran) for f in phases}}
 
 
 #: the fewest samples that rank the drawn quantities by their correlation

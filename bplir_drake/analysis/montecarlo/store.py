@@ -32,9 +32,9 @@ def _fmt(v) -> str:
 def _parse(col: str, text: str):
     if col in ("index", "seed"):
         return int(text)
-    if col in ("outcome", "error"):
+    if col in ("outcome", "error", "fall_cause"):
         return text
-    if col in ("success", "fixed_gripper_open"):
+    if col in ("success", "fixed_gripper_open", "fall", "interlock_fall"):
         return text == "true"
     return float(text) if text not in ("", "None") else math.nan
 

@@ -13,6 +13,7 @@ from ...io import Record, write_text_atomic
 from ...params import (BLOCKS, BplirParams, ParameterError, from_dict, read_toml,
                       relative_files, to_dict)
 from ..traverse.line import line_from_dict
+from ...params.knocks import Knocks
 
 
 class StudyRow(Record):
@@ -45,6 +46,10 @@ TRAVERSE_FIELDS = ("outcome", "success", "obstacles_passed", "swings", "retries"
                    "rest_time_s", "capture_speed_mps", "peak_capture_impulse_Ns",
                    "swing_time_s", "peak_torque_Nm", "peak_motor_power_W", "energy_in_J",
                    "peak_voltage_V", "peak_i2t_A2s", "max_estimation_error_rad", "fixed_gripper_open")
+#: the fields a knocked traversal study keeps per sample beside those
+#: (:func:`~..traverse.knocked.knock_totals`)
+KNOCK_FIELDS = ("knocks", "fall", "fall_cause", "interlock_fall", "uptime", "knocks_swing",
+                "knocks_pump", "knocks_catch", "knocks_retry", "knocks_damp", "knocks_hanging")
 #: what a traversal sets itself from the line (a study may not draw it)
 TRAVERSE_FIXED = ("scenario.grip_spacing", "scenario.incline_deg")
 STUDY_FILE, RESULTS_FILE, SUMMARY_FILE = "study.toml", "results.csv", "summary.json"
@@ -156,6 +161,7 @@ class Study:
     samples: int = 100
     seed: int = 0
     line: dict | None = None   # a traversal study: the line file's tables (``bplir traverse``)
+    knocks: dict | None = None  # a knocked traversal study: its [knocks] table (params.knocks)
 
     def __post_init__(self):
         if isinstance(self.samples, bool) or not isinstance(self.samples, int) or self.samples < 1:
@@ -165,6 +171,13 @@ class Study:
         names = [d.name for d in self.distributions]
         if len(set(names)) != len(names):
             raise StudyError("an uncertain parameter is listed twice")
+        if self.knocks is not None:
+            if self.line is None:
+                raise StudyError("[knocks] knock traversals; a study with them needs a [line]")
+            try:
+                Knocks.from_dict(self.knocks)
+            except ParameterError as exc:
+                raise StudyError(f"[knocks]: {exc}") from None
         if self.line is not None:
             fixed = [n for n in names if n in TRAVERSE_FIXED]
             if fixed:
@@ -176,7 +189,14 @@ class Study:
     @property
     def result_fields(self) -> tuple[str, ...]:
         """The summary fields each sample's row keeps."""
-        return TRAVERSE_FIELDS if self.line is not None else RESULT_FIELDS
+        if self.line is None:
+            return RESULT_FIELDS
+        return TRAVERSE_FIELDS + (KNOCK_FIELDS if self.knocks is not None else ())
+
+    @property
+    def knocking(self) -> Knocks | None:
+        """The study's knocks (None: not knocked)."""
+        return None if self.knocks is None else Knocks.from_dict(self.knocks)
     @property
     def names(self) -> list[str]:
         """The uncertain quantities' names, in order."""
@@ -193,6 +213,8 @@ class Study:
              "uncertain": {d.name: d.as_dict() for d in self.distributions}}
         if self.line is not None:
             d["line"] = self.line
+        if self.knocks is not None:
+            d["knocks"] = self.knocks
         return d
 
     def identity(self) -> dict:
@@ -207,7 +229,7 @@ def study_from_dict(data: dict, source: str = "study", base_dir=None) -> Study:
     its parameters' relative files are read from ``base_dir``."""
     if not isinstance(data, dict):
         raise StudyError(f"{source}: a study must be a table")
-    allowed = {"samples", "seed", "parameters", "uncertain", "line"}
+    allowed = {"samples", "seed", "parameters", "uncertain", "line", "knocks"}
     unknown = set(data) - allowed
     if unknown:
         raise StudyError(f"{source}: unknown key '{sorted(unknown)[0]}'; allowed: "
@@ -238,7 +260,10 @@ def study_from_dict(data: dict, source: str = "study", base_dir=None) -> Study:
 
         line_from_dict(line, f"{source} [line]",
                        max_incline_deg=params.traverse.max_incline_deg)  # validates
-    return Study(params, dists, data.get("samples", 100), data.get("seed", 0), line)
+    knocks = data.get("knocks")
+    if knocks is not None and not isinstance(knocks, dict):
+        raise StudyError(f"{source}: [knocks] must be a table (rate, severity, joints)")
+    return Study(params, dists, data.get("samples", 100), data.get("seed", 0), line, knocks)
 
 
 def load_study(path) -> Study:

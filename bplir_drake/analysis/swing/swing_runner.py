@@ -17,7 +17,7 @@ import numpy as np
 
 from ...io import PLANNING, Result, dumps_strict, wall_clock_limit
 
-from ...diagrams import build_swing, set_swing_sample, swing_geometry, swing_structure
+from ...diagrams import build_swing, set_pulses, set_swing_sample, swing_geometry, swing_structure
 from ...params import BplirParams, checked_seed, plugin_name, to_dict
 from ...simulate import Log, logs, make_simulator, run_until_outcome
 from .logs import log_table
@@ -137,16 +137,17 @@ class SwingRunner:
             self.built = None
 
     def diagram_for(self, params: BplirParams, seed: int, use_estimator: bool,
-                    structure: str | None = None):
+                    structure: str | None = None, forces: bool = False):
         """``(built swing, fresh)`` for ``params``: reused when the structure
         matches (``fresh`` False: the sample must be set in the context;
-        ``structure``: their :func:`swing_structure`, when worked out)."""
+        ``structure``: their :func:`swing_structure`, when worked out;
+        ``forces``: with a disturbance source whatever the scenario's)."""
         if structure is None:
-            structure = swing_structure(params, use_estimator)
+            structure = swing_structure(params, use_estimator, forces)
         if self.built is None or self.built.structure != structure:
             self.release()
             self.built = swing_diagram(params, seed=seed, use_estimator=use_estimator,
-                                       onboard=self.onboard)
+                                       onboard=self.onboard, disturbance=forces)
             self.builds += 1
             return self.built, True
         return self.built, False
@@ -154,25 +155,32 @@ class SwingRunner:
     def run(self, params: BplirParams, *, seed: int | None = None,
             use_estimator: bool | None = None, accuracy: float = SWING_ACCURACY,
             integrator: str = SWING_INTEGRATOR, driver_state=None,
-            start_state=None, live=None) -> SwingResult:
+            start_state=None, live=None, pulses=None) -> SwingResult:
         """One swing; the arguments are those of :func:`run_swing`;
         ``start_state`` (q1, q2, q1', q2'): the simulated robot starts there
         instead of at rest in its start pose (the robot still believes it
-        starts at rest in :func:`~bplir_drake.diagrams.swing.believed_start`)."""
+        starts at rest in :func:`~bplir_drake.diagrams.swing.believed_start`);
+        ``pulses``: torque pulses on the joints ``[(start s, (tau1, tau2)
+        N m, duration s)]`` added to the scenario's disturbance (knocks; a
+        runner given pulses, even none, keeps a diagram with a disturbance
+        source for them)."""
         params = params.resolved()   # path.mode "auto" made concrete
         sc = params.scenario
         seed = sc.seed if seed is None else checked_seed(seed)
         use_est = sc.use_estimator if use_estimator is None else use_estimator
         p = draw_true_friction(params, seed)
-        structure = swing_structure(p, use_est)
+        forces = pulses is not None
+        structure = swing_structure(p, use_est, forces)
         with wall_clock_limit(sc.wall_limit, f"planning the swing of seed {seed}", PLANNING):
-            built, fresh = self.diagram_for(p, seed, use_est, structure)
+            built, fresh = self.diagram_for(p, seed, use_est, structure, forces)
         # a fresh build's default context already holds this sample
         motor = built.systems["motor"]
 
         def set_context(ctx):
             if not fresh:
-                set_swing_sample(built, ctx, p, seed, structure)
+                set_swing_sample(built, ctx, p, seed, structure, pulses or ())
+            elif pulses:
+                set_pulses(built, ctx, p, seed, pulses)
             if driver_state is not None:
                 motor.set_interlock_state(ctx, *driver_state)
 

@@ -49,23 +49,31 @@ def swing_energy(x, p) -> float:
                  - potential_energy(np.zeros(2), p))
 
 
-def damp(params: BplirParams, x0) -> Damping:
+def damp(params: BplirParams, x0, pulses=()) -> Damping:
     """Drain the swing of the robot of ``params`` (its simulated plant),
     hanging from the holding gripper in state ``x0``, with the elbow's
-    damping law (:mod:`module docs <.recovery>`)."""
+    damping law (:mod:`module docs <.recovery>`); ``pulses``: knocks while
+    it damps (``[(start s, (tau1, tau2) N m, duration s)]``; the energy
+    they bring is drained too: the law gives up only on growth after them)."""
     tp = params.traverse
-    built = build_damping(params, tp.recover_kp, tp.recover_kd, tp.recover_lean)
+    built = build_damping(params, tp.recover_kp, tp.recover_kd, tp.recover_lean,
+                          pulses=pulses)
     x0 = np.asarray(x0, dtype=float)
     sim = make_simulator(built, x0[:2], x0[2:], accuracy=1e-6)
     plant = built.plant
     pctx = plant.GetMyContextFromRoot(sim.get_context())
     true_p = params.simulated_plant
     e0 = energy = swing_energy(x0, true_p)
+    grown = e0   # what the law must not grow beyond: the start's, or a knock's
     t = 0.0
-    while energy > tp.recover_energy and t < tp.recover_limit and energy <= 1.1 * e0 + 0.1:
+    while ((energy > tp.recover_energy or t < _knocked_until(pulses, t))
+           and t < tp.recover_limit and energy <= 1.1 * grown + 0.1):
+        t_prev = t
         run(sim, min(1.0, tp.recover_limit - t))
         t = sim.get_context().get_time()
         energy = swing_energy(plant.GetPositionsAndVelocities(pctx), true_p)
+        if any(t_prev - 1.0 <= s < t for s, _, _ in pulses):   # a knock's energy, to drain
+            grown = max(grown, energy)
     ctx = sim.get_context()
     st = built.loggers["state"].FindLog(ctx)
     tq = built.loggers["torque"].FindLog(ctx)
@@ -73,6 +81,11 @@ def damp(params: BplirParams, x0) -> Damping:
     end[:2] = (end[:2] + np.pi) % (2.0 * np.pi) - np.pi
     return Damping(energy <= tp.recover_energy, t, e0, energy, end,
                    st.sample_times(), st.data().T, tq.data()[0])
+
+
+def _knocked_until(pulses, t: float) -> float:
+    """The end of the last pulse that has begun by ``t`` (0: none)."""
+    return max((s + d for s, _, d in pulses if s <= t + 1e-12), default=0.0)
 
 
 def damping_drive(d: Damping, motor):

@@ -8,6 +8,7 @@ from ...io import write_text_atomic
 import csv
 
 from ...systems.motor import interlock_budget
+from .knocked import PHASES, knock_totals
 
 
 #: columns of the per-manoeuvre table: (row key, header, format), the
@@ -82,7 +83,18 @@ def totals_lines(result: TraverseResult) -> list[str]:
         f"{t['energy_standby_J']:.1f} J; peak capture impulse {t['peak_capture_impulse_Ns']:.2f} "
         f"N s; peak i2t {t['peak_i2t_A2s']:.0f} of {t['i2t_budget_A2s']:.0f} A2 s; seed "
         f"{t['seed']}",
-    ]
+    ] + knock_lines(t)
+
+
+def knock_lines(t) -> list[str]:
+    """A knocked traversal's knocks, uptime and fall as a text line (none
+    for a traversal nobody knocked)."""
+    if "uptime" not in t:
+        return []
+    met = ", ".join(f"{p} {t[f'knocks_{p}']}" for p in PHASES if t[f"knocks_{p}"])
+    fell = (f"fell ({t['fall_cause']}{', the interlock' if t['interlock_fall'] else ''})"
+            if t["fall"] else "no fall")
+    return [f"knocks: {t['knocks']} ({met or 'none'}); uptime {t['uptime']:.3f}; {fell}"]
 
 
 def write_rows_csv(result: TraverseResult, path):
@@ -100,7 +112,8 @@ def write_rows_csv(result: TraverseResult, path):
 def traverse_totals(tr) -> TraverseTotals:
     """The totals of the traversal ``tr`` (the state :func:`~.run.run_traverse`
     carried): outcome, the first failed swing (swings counted, not their
-    tries), the worst figures of its swings, times, energies, i^2 t."""
+    tries), the worst figures of its swings, times, energies, i^2 t; a
+    knocked traversal's knocks, falls and uptime (:func:`~.knocked.knock_totals`)."""
     swings = [r for r in tr.rows if r.kind == "swing"]
     rides = [r for r in tr.rows if r.kind in ("ride", "adjust")]
     energy = sum(tr.energy.values())
@@ -137,4 +150,4 @@ def traverse_totals(tr) -> TraverseTotals:
                                         if not math.isnan(r.capture_impulse_Ns)] + [0.0]),
         "peak_i2t_A2s": peak_i2t, "i2t_budget_A2s": interlock_budget(tr.params.motor),
         "seed": tr.seed,
-    })
+    } | (knock_totals(tr) if getattr(tr, "knocks", None) is not None else {}))

@@ -31,13 +31,14 @@ from ...params import BplirParams, Manoeuvre
 from ...params.derive import raises_aim
 from ...planning import retry as retry_plan
 from ...systems.drive import ride
-from ...systems.motor import i2t_after_rest, i2t_trace, rest_for
-from ...systems.plant import initial_configuration, swapped_state, target_configuration
+from ...systems.motor import i2t_after_rest, rest_for
 from .line import Line
 from .route import hold_position, plan_route
 from .recovery import can_retry, damp, damping_drive
 from .step_setup import swing_chord, budgeted_currents, capture_impulse, step_manoeuvre
-from .traverse_result import TraverseRow, OUTCOMES, ROW_FIELDS, MotionLog, Segment, TraverseResult
+from .traverse_result import OUTCOMES, ROW_FIELDS, MotionLog, Segment, TraverseResult
+from .ledger import Ledger, _seg
+from .knocked import KnockLog, knocks_or_none
 from .tables import traverse_totals
 from ..swing.swing_runner import SwingRunner, draw_true_friction
 from .isolated import IsolatedRunners
@@ -45,14 +46,13 @@ from ..live import Following
 from .traverse_plots import line_scene
 from ...planning.solve import tracking_plan
 from ...progress import progress_bar
-from ...systems.plant import gripper_position
 
 
-class _Traversal:
+class _Traversal(Ledger):
     """The state carried from manoeuvre to manoeuvre."""
 
     def __init__(self, line: Line, params: BplirParams, seed: int, runners=None, adjust=None,
-                 motion=None, live=None):
+                 motion=None, live=None, knocks=None):
 
         self.line, self.params, self.seed = line, params, seed
         self.adjust = adjust
@@ -78,44 +78,9 @@ class _Traversal:
         self.est_err, self.fixed_open = math.nan, False
         self.robot = params.simulated_plant
         self.mass = self.robot.m1 + self.robot.m2
-
-    # -------------------------------------------------------------- rows
-    def _row(self, kind: str, duration: float, **kw) -> TraverseRow:
-        row = TraverseRow({k: math.nan for k in ROW_FIELDS} | {
-            "index": len(self.rows), "kind": kind, "t_start_s": self.t, "duration_s": duration,
-            "obstacle": "", "holding_gripper": "both", "robot": "", "outcome": "",
-            "i2t_start_A2s": self.h, "seed": ""})
-        row.update(kw)
-        self.rows.append(row)
-        return row
-
-    def _still(self, t0: float, t1: float, q, base0, base1, h0: float) -> None:
-        """A segment without elbow torque: ride (base moves) or rest."""
-        n = max(2, int(math.ceil((t1 - t0) / 0.05)) + 1)
-        t = np.linspace(t0, t1, n)
-        w = (t - t0) / max(t1 - t0, 1e-12)
-        base = np.outer(1 - w, base0) + np.outer(w, base1)
-        qq = np.repeat(np.atleast_2d(q), n, axis=0)
-        h = np.array([i2t_after_rest(h0, tk - t0, self.params.motor) for tk in t])
-        self.motion.append(_seg(t, qq, base, np.zeros(n), np.zeros(n), h))
-
-    def _pose_both(self, spacing: float, incline: float):
-        """Joint angles of the original robot with both grippers on the line."""
-        if self.pos[1] >= self.pos[2]:   # gripper 1 in front: gripper 2 behind it
-            return initial_configuration(spacing, self.robot, incline)
-        return target_configuration(spacing, self.robot, incline)
-
-    def _unclamp(self, g: int, t: float) -> None:
-        """Gripper ``g`` leaves its place at ``t`` (rides, swings or the end)."""
-        if self.clamp.get(g) is not None:
-            s, since = self.clamp[g]
-            if t > since:
-                self.clamps.append((g, s, since, t))
-            self.clamp[g] = None
-
-    def _base(self, s: float) -> np.ndarray:
-        x, y = self.line.point(s)
-        return np.array([x, y, 0.0])
+        # the knocks the run meets (drawn on the nominal robot: the world's, not the plant's)
+        self.knocks = None if knocks is None else KnockLog(knocks, params.plant, seed)
+        self.hung_still = 0.0   # standstill samples gathered hanging before a knock (s)
 
     # -------------------------------------------------------------- steps
     def move(self, kind: str, new_front: float, new_rear: float, obstacle: str = "") -> None:
@@ -151,15 +116,25 @@ class _Traversal:
                   hold_m=math.nan, incline_deg=math.degrees(inc), peak_power_W=peak,
                   energy_J=energy + standby, i2t_start_A2s=h0, i2t_end_A2s=self.h,
                   outcome="done")
+        if self.knocks is not None:
+            self.knocks.absorb(self.t + time, kind)
         self.t += time
 
     def rest(self, duration: float, obstacle: str, kind: str = "rest", pose=None,
-             holding: str = "both") -> None:
+             holding: str = "both"):
         """Stay still while the driver's i^2 t falls (``kind``: ``rest``, or
-        ``calibrate`` for the IMUs' standstill): clamped with both grippers,
-        or in ``pose`` = (q, gripper 1's pose) holding with ``holding``."""
+        ``calibrate`` for the IMUs' standstill): clamped with both grippers
+        (a knock is absorbed), or in ``pose`` = (q, gripper 1's pose)
+        holding with ``holding``, until a knock sets the robot swinging (the
+        knock, returned; else None)."""
         if duration <= 0.0:
-            return
+            return None
+        knock = None
+        if self.knocks is not None and pose is not None:
+            knock = self.knocks.first(self.t, self.t + duration)
+            duration = duration if knock is None else knock.t - self.t
+        elif self.knocks is not None:
+            self.knocks.absorb(self.t + duration, kind)
         if pose is None:
             spacing, inc = self.line.chord(self.rear, self.front)
             pose = (self._pose_both(spacing, inc), self._base(self.pos[1]))
@@ -170,14 +145,18 @@ class _Traversal:
         standby = self.params.drive.standby_power * duration
         self.energy["standby"] += standby
         self._row(kind, duration, obstacle=obstacle, holding_gripper=holding, energy_J=standby,
-                  i2t_start_A2s=h0, i2t_end_A2s=self.h, outcome="done")
+                  i2t_start_A2s=h0, i2t_end_A2s=self.h,
+                  outcome="done" if knock is None else "knocked")
         self.t += duration
+        return knock
 
-    def _rest_before(self, p, obstacle: str, pose=None, holding: str = "both") -> None:
+    def _rest_before(self, p, obstacle: str, pose=None, holding: str = "both"):
         """Rest before a swing when the planned swing would eat into the i^2 t
         margin (nominal plan only; a tripped driver first resets), then
         calibrate the IMUs standing still: clamped with both grippers, or in
-        ``pose`` holding with ``holding`` (as :meth:`rest`)."""
+        ``pose`` holding with ``holding`` (as :meth:`rest`: the knock that set
+        the hanging robot swinging, or None; the standstill samples gathered
+        hanging before it, ``hung_still`` s, are kept)."""
 
         tp = self.params.traverse
         # the standstill calibration of the IMUs (estimator.standstill_samples)
@@ -191,51 +170,13 @@ class _Traversal:
                             tp.i2t_margin)
         elif tp.rest and self.tripped:
             need = self.h / motor.i_cont ** 2
-        self.rest(need - calib, obstacle, pose=pose, holding=holding)
-        self.rest(calib, obstacle, kind="calibrate", pose=pose, holding=holding)
-
-    def _pose_track(self, states, hold: float, hold_g: int, sim_p):
-        """(q, base) for the figures of a motion of the robot holding with
-        gripper ``hold_g`` at ``hold``: the original robot's angles and
-        gripper 1's pose."""
-        hb = self._base(hold)
-        states = np.atleast_2d(states)
-        if hold_g == 1:
-            return states[:, :2], np.repeat(hb[None, :], len(states), axis=0)
-        q = np.array([swapped_state(x[:2]) for x in states])
-        gp = np.array([gripper_position(x[:2], sim_p.l1, sim_p.l2) for x in states])
-        return q, hb[None, :] + np.column_stack([gp, np.zeros(len(states))])
-
-    def _i2t_along(self, t, current):
-        """The driver's rule (:func:`i2t_trace`) on its own ticks from the
-        carried state, for the current ``current`` (A) logged at ``t`` (s):
-        (i^2 t at ``t``, i^2 t and trip flag at the end)."""
-        motor = self.params.motor
-        ticks = np.arange(0.0, t[-1] + 1e-12, motor.driver_period)
-        h, tripped = i2t_trace(self.h, np.interp(ticks, t, current), motor, self.tripped)
-        h_log = np.interp(t, np.r_[0.0, ticks + motor.driver_period], np.r_[self.h, h])
-        return h_log, float(h[-1]), bool(tripped[-1])
-
-    def _record_motion(self, res, p, hold: float, hold_g: int):
-        """Add a swing's motion (in the original robot's angles), current and
-        i^2 t trace to the figures' segments and its energy to the totals;
-        (times, electrical energy J, standby energy J, duration s)."""
-        st = res.logs["state"]
-        motor = self.params.motor
-        t = self.t + st.t
-        q, base = self._pose_track(st.data, hold, hold_g, p.simulated_plant)
-        cur = res.logs["current"].at(st.t)[:, 0]
-        # for the figures (the swing's own driver state is what the traversal carries)
-        h_log = self._i2t_along(st.t, cur)[0]
-        self.motion.append(_seg(t, q, base, res.logs["torque"].at(st.t)[:, 0], cur, h_log))
-        power = res.logs["power"].data[:, 0]
-        work = float(np.trapezoid(np.maximum(power, 0.0), res.logs["power"].t))
-        elec = work / (motor.eta_g * motor.eta_m)
-        duration = float(st.t[-1])
-        standby = self.params.drive.standby_power * duration
-        self.energy["swing"] += elec
-        self.energy["standby"] += standby
-        return t, elec, standby, duration
+        calib -= self.hung_still if pose is not None else 0.0
+        knock = self.rest(need - calib, obstacle, pose=pose, holding=holding)
+        if knock is None:
+            t0 = self.t
+            knock = self.rest(calib, obstacle, kind="calibrate", pose=pose, holding=holding)
+            self.hung_still = self.hung_still + self.t - t0 if knock is not None else 0.0
+        return knock
 
     def swing(self, obstacle: str, reach: float) -> bool:
         """The rear gripper swings past the front one to land about ``reach``
@@ -280,8 +221,10 @@ class _Traversal:
         self.swings += 1
         follow = None if self.live is None else Following(
             self.live, lambda x: self._pose_track(x, hold, hold_g, run_p.simulated_plant), self.t)
+        pulses = None if self.knocks is None else self.knocks.pulses(
+            self.t, run_p.scenario.max_time + 1.0)
         res = self.runners[hold_g].run(run_p, seed=seed, driver_state=(self.h, self.tripped),
-                                       start_state=x_start, live=follow)
+                                       start_state=x_start, live=follow, pulses=pulses)
         s = res.summary
         x_end = res.logs["state"].data[-1]
         sim_p = run_p.simulated_plant
@@ -305,6 +248,11 @@ class _Traversal:
                   landing_bias_m=p.landing.landing_bias,
                   landing_height_error_m=s.landing_height_error_m, seed=seed,
                   attempt=attempt)
+        if self.knocks is not None:
+            phase = "retry" if attempt > 1 else (
+                "pump" if run_p.scenario.manoeuvre == "pump" else "swing")
+            self.knocks.met(self.t, duration, phase, s.outcome,
+                            arrived=s.outcome in ("captured", "crash"))
         self.t += duration
         if attempt == 1:   # the swinging gripper opened at the start, closes at capture
             self.holds.append((3 - hold_g, self.closed[3 - hold_g], t[0]))
@@ -314,10 +262,31 @@ class _Traversal:
     def _recover(self, p, obstacle: str, x_end):
         """Damp the swing hanging from the holding gripper, rest until the
         driver's i^2 t allows the try ``p`` (a tripped driver first resets),
-        then calibrate the IMUs hanging at rest; the state to try again from
-        (None: the swing could not be damped)."""
+        then calibrate the IMUs hanging at rest; a knock meanwhile sets it
+        swinging, and it damps again; the state to try again from (None: the
+        swing could not be damped)."""
         hold_g, hold = self.front_gripper, self.front
-        d = damp(p, x_end)
+        phase, self.hung_still = "damp", 0.0
+        while True:
+            state = self._damp(p, obstacle, x_end, phase)
+            if state is None:
+                return None
+            qh, bh = self._pose_track(state, hold, hold_g, p.simulated_plant)
+            knock = self._rest_before(p, obstacle, pose=(qh[0], bh[0]),
+                                      holding=str(hold_g))   # hanging at rest
+            if knock is None:
+                return state
+            x_end, phase = state, "hanging"
+
+    def _damp(self, p, obstacle: str, x_end, phase: str):
+        """One damping from ``x_end`` (knocked in ``phase`` when it starts
+        at a knock); the state it came to rest in, or None."""
+        hold_g, hold = self.front_gripper, self.front
+        pulses = None if self.knocks is None else self.knocks.pulses(
+            self.t, p.traverse.recover_limit)
+        if phase == "hanging":   # the knock at its start met the robot hanging at rest
+            self.knocks.met(self.t, 1e-9, "hanging", "damped again")
+        d = damp(p, x_end, pulses or ())
         motor = self.params.motor
         q, base = self._pose_track(d.states, hold, hold_g, p.simulated_plant)
         h0 = self.h
@@ -330,13 +299,10 @@ class _Traversal:
         self._row("recover", d.duration, obstacle=obstacle, holding_gripper=str(hold_g),
                   hold_m=hold, outcome="damped" if d.damped else "not damped",
                   energy_J=elec + standby, i2t_start_A2s=h0, i2t_end_A2s=self.h)
+        if self.knocks is not None:
+            self.knocks.met(self.t, d.duration, "damp", "damped" if d.damped else "not damped")
         self.t += d.duration
-        if not d.damped:
-            return None
-        qh, bh = self._pose_track(d.state, hold, hold_g, p.simulated_plant)
-        self._rest_before(p, obstacle, pose=(qh[0], bh[0]),
-                          holding=str(hold_g))   # hanging at rest
-        return d.state
+        return d.state if d.damped else None
 
     def _land(self, s, obstacle: str, hold: float, spacing: float) -> bool:
         """After the last try: stop the traversal, or clamp the landed gripper."""
@@ -373,11 +339,6 @@ class _Traversal:
         return traverse_totals(self)
 
 
-def _seg(t, q, base, torque, current, i2t) -> Segment:
-    return Segment(np.asarray(t, float), np.asarray(q, float), np.asarray(base, float),
-                   np.asarray(torque, float), np.asarray(current, float), np.asarray(i2t, float))
-
-
 #: a traversal of more obstacles than this runs its swings in a worker
 #: process replaced as it goes (:mod:`.isolated`: bounded memory)
 ISOLATE_OBSTACLES = 20
@@ -385,7 +346,7 @@ ISOLATE_OBSTACLES = 20
 
 def run_traverse(line: Line, params: BplirParams, *, seed: int = 0, progress: bool = False,
                  runners=None, adjust=None, motion=None, isolate=None,
-                 live=None) -> TraverseResult:
+                 live=None, knocks=None) -> TraverseResult:
     """Cross ``line`` with the robot of ``params``; stops at the first
     failure.  ``seed``: the simulated robot's friction (drawn once, within
     ``scenario.friction_uncertainty``, unless ``true_friction`` is set) and
@@ -401,7 +362,10 @@ def run_traverse(line: Line, params: BplirParams, *, seed: int = 0, progress: bo
     worker process replaced every 50 swings (:class:`~.isolated.IsolatedRunners`;
     default: on a line of more than :data:`ISOLATE_OBSTACLES` obstacles
     without ``runners``).  Raises :class:`~.line.LineError` when the line
-    cannot be crossed (checked before any simulation)."""
+    cannot be crossed (checked before any simulation).  ``knocks``: a
+    :class:`~bplir_drake.params.knocks.Knocks` that knock the robot at
+    random moments drawn from ``seed`` (:mod:`.knocked`; the totals score
+    the run's uptime and falls)."""
 
     plan_route(line, params)   # the whole line is crossable on paper
     params = draw_true_friction(params, seed)   # one robot for the whole traversal
@@ -409,7 +373,7 @@ def run_traverse(line: Line, params: BplirParams, *, seed: int = 0, progress: bo
         isolate = runners is None and live is None and len(line.obstacles) > ISOLATE_OBSTACLES
     if isolate:
         runners = IsolatedRunners()
-    tr = _Traversal(line, params, seed, runners, adjust, motion, live)
+    tr = _Traversal(line, params, seed, runners, adjust, motion, live, knocks_or_none(knocks))
     if live is not None:
         live.scene(line_scene(line, params))
     tp = params.traverse
@@ -437,7 +401,8 @@ def run_traverse(line: Line, params: BplirParams, *, seed: int = 0, progress: bo
         if live is not None:   # the swings drawn so far become the view's animation
             live.finish()
     totals = tr.finish()
-    return TraverseResult(line, params, seed, tr.rows, totals, tr.motion, tr.clamps, tr.holds)
+    return TraverseResult(line, params, seed, tr.rows, totals, tr.motion, tr.clamps, tr.holds,
+                          None if tr.knocks is None else tr.knocks.record())
 
 
 __all__ = ["TraverseResult", "run_traverse", "budgeted_currents",

@@ -124,6 +124,7 @@ class TraverseResult(Result):
     motion: MotionLog = field(default_factory=MotionLog)
     clamps: list = field(default_factory=list)   # (gripper, s, t_on, t_off): clamped in place
     holds: list = field(default_factory=list)    # (gripper, t_closed, t_opened): on the line
+    knocks: dict | None = None   # a knocked run's knocks: their rule and one row each
 
     @property
     def success(self) -> bool:
@@ -148,7 +149,8 @@ class TraverseResult(Result):
                           for g, t_on, t_off in self.holds],
                 "clamps": [{"gripper": g, "at_m": at, "from_s": t_on, "to_s": t_off}
                            for g, at, t_on, t_off in self.clamps],
-                "line": self.line.data, "seed": self.seed}
+                "line": self.line.data, "seed": self.seed} | (
+                    {"knocks": self.knocks} if self.knocks is not None else {})
 
     def timeline(self, max_samples: int | None = None) -> dict:
         """The whole traversal's motion (:meth:`MotionLog.arrays`): ``t``,

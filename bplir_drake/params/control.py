@@ -34,8 +34,8 @@ LINE_SENSOR_OPTION = {"range": 0.2, "shoot_height": -0.018, "shoot_min_time": 0.
 #: to spare, and the tries read the 30 V robot's plan libraries), and a
 #: traversal's landing shot that brakes the elbow when it asks for more than
 #: 1.6 times the torque the motor gives to lift the gripper (link 1 stopped
-#: short, and chasing the line flings the elbow into it; a timed-out swing is
-#: tried again, a crash ends the traversal)
+#: short, and chasing the line flings the elbow into it: a timed-out swing
+#: is tried again from hanging at rest, a crash from its arrival's speed)
 SUPPLY_48V_OPTION = {"supply_voltage": 48.0, "hanging_supply_voltage": 30.0, "shoot_brake_ratio": 1.6}
 
 

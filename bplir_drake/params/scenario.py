@@ -133,7 +133,7 @@ class TraverseParams(_Block):
     i2t_margin: float = _p(0.2, "", 0, 0.9, doc="share of the driver's i^2 t budget a swing may not use: the planner rests until the planned swing keeps this share free")
     max_incline_deg: float = _p(25.0, "deg", 0, 60, doc="steepest line incline accepted in a line file")
     retries: int = _count(2, "", 0, 5, doc="swings tried again after a timeout, each from hanging at rest (0: a timeout ends the traversal)")
-    shoot_brake_ratio: float = _p("landing", "", 0, 10, lo_open=True, off="landing", doc="landing.shoot_brake_ratio of the traversal's swings, where a timed-out swing is tried again and a crash ends the run (landing: the landing's own)")
+    shoot_brake_ratio: float = _p("landing", "", 0, 10, lo_open=True, off="landing", doc="landing.shoot_brake_ratio of the traversal's swings (landing: the landing's own)")
     retry_aim_raise: float = _p(0.005, "m", 0, MAX_LANDING_BIAS, doc="after a try from hanging that timed out with the robot's estimate of the gripper within the capture band (the estimate ran above the truth), the next try aims this much higher")
     recover_limit: float = _p(240.0, "s", 1, 3600, doc="longest the robot damps its swing after a timeout before it gives up")
     recover_energy: float = _p(0.05, "J", 0, 10, lo_open=True, doc="the swing counts as damped when its energy above hanging at rest is below this")

@@ -1,11 +1,11 @@
-"""After a swing that did not arrive (a timeout, a driver trip): the robot hangs from its
+"""After a swing that did not catch (a timeout, a crash, a driver trip): the robot hangs from its
 holding gripper, drains the swing with the elbow until it hangs at rest,
 and swings again from there.
 
 :func:`damp` simulates the hanging robot (the true plant and friction)
 under the elbow's damping law of :func:`~bplir_drake.diagrams.open_loop.
 build_damping` (``traverse.recover_kp``, ``recover_kd``, ``recover_lean``)
-from the state the timed-out swing ended in, in steps of a second, until
+from the state the swing ended in, in steps of a second, until
 the energy above hanging at rest falls below ``traverse.recover_energy``
 (damped) or ``traverse.recover_limit`` has passed, or the energy grows
 beyond where it began (the law pumping instead of draining: given up).

@@ -182,10 +182,11 @@ class _Traversal(Ledger):
         """The rear gripper swings past the front one to land about ``reach``
         ahead of it (the planned spacing); True when it landed clear; a pump
         or one swing (:func:`~.step_setup.step_manoeuvre`).  A swing that
-        times out or trips the driver's i^2 t interlock is tried again from
+        times out, crashes (arrives too fast for the interlock to close the
+        gripper) or trips the driver's i^2 t interlock is tried again from
         hanging, after the robot has damped its swing
         (:mod:`.recovery`) and rested until the driver allows the new try, up
-        to ``traverse.retries`` times; a crash ends the traversal."""
+        to ``traverse.retries`` times."""
         tp = self.params.traverse
         hold_g = self.front_gripper
         hold, start = self.front, self.rear
@@ -197,7 +198,7 @@ class _Traversal(Ledger):
         x_start, attempt = None, 1
         while True:
             s, x_end = self._attempt(p, obstacle, attempt, x_start)
-            if s.outcome not in ("timeout", "fault") or attempt > tp.retries:
+            if s.outcome not in ("timeout", "fault", "crash") or attempt > tp.retries:
                 break
             m = dc.replace(m, raised=m.raised + raises_aim(p, s))
             retry = retry_plan.retry(self.params, m)

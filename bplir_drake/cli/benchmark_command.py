@@ -9,8 +9,8 @@ from .options import command, option, shared
 # ------------------------------------------------------------------ benchmark
 def cmd_benchmark(args) -> int:
     """``bplir benchmark``: score controller presets by category."""
-    from ..analysis.montecarlo.benchmark import (benchmark_table, leaderboard, leaderboard_table,
-                                                plot_benchmark, run_benchmark)
+    from ..analysis.montecarlo.benchmark import (CATEGORIES, benchmark_table, leaderboard,
+                                                leaderboard_table, plot_benchmark, run_benchmark)
 
     from ..params import CONTROLLER_PRESETS, _is_plugin, current_preset_name
 
@@ -44,7 +44,8 @@ def cmd_benchmark(args) -> int:
         _realistic_studies(args, base, presets, out, run=False)  # resumable or refused now
     result = run_benchmark(params, presets, quick=args.quick, workers=args.workers or 0,
                            seed=args.seed, progress=_progress(args), out=out,
-                           controller_args=args.controller_arg)
+                           controller_args=args.controller_arg,
+                           categories=tuple(args.category) or CATEGORIES)
     realistic = _realistic_studies(args, base, presets, out, run=True) \
         if base is not None else None
     fig = _save(args, plot_benchmark(result), out / "benchmark.png")
@@ -95,6 +96,10 @@ def add_parser(sub) -> None:
     p.add_argument("--controller-arg", action="append", default=[], metavar="KEY=VALUE",
                    help="keyword argument of the factories of the plug-ins among "
                         "--controllers (repeatable): a number, true/false or text")
+    p.add_argument("--category", action="append", default=[], metavar="NAME",
+                   help="score only this category (repeatable; default every one): model "
+                        "parameters, sensor noise, torque noise, delay, gusts, incline, link-2 "
+                        "parameters, IMU bias and misalignment, grip spacing, knockdown")
     shared(p, "workers", "estimator")
     option(p, "--seed", int, 0, "root seed of the benchmark")
     option(p, "--realistic", None, None,

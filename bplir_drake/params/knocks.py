@@ -34,6 +34,11 @@ GAP_SPREAD = 1.0 / 3.75
 #: gripper's joint, or both at once
 KNOCK_JOINTS = ("either", "elbow", "hold", "both")
 
+#: a benchmark swing's one knock falls this many of the robot's time units
+#: sqrt(L/g) from its start at most: within the swing (the default robot's
+#: swing from the line arrives after 2.9 of them)
+SWING_KNOCK_WINDOW = 2.5
+
 #: the severity of ``--knocks RATE`` without one: a knock that alone would
 #: swing the free link 30 deg
 STANDARD_SEVERITY = 1.0
@@ -83,4 +88,4 @@ def parse_knocks(text: str) -> Knocks:
 
 
 __all__ = ["Knocks", "parse_knocks", "SEVERITY_SWING_DEG", "DURATION_SHARE", "GAP_SPREAD",
-           "KNOCK_JOINTS", "STANDARD_SEVERITY"]
+           "KNOCK_JOINTS", "STANDARD_SEVERITY", "SWING_KNOCK_WINDOW"]

@@ -3,7 +3,7 @@
 :func:`knock_torque` is the torque of a knock of a given severity on one
 joint (:mod:`bplir_drake.params.knocks`: the pulse that alone would swing
 the free link of the robot hanging at rest from gripper 1, motor off and
-without friction, ``severity`` x 30 deg from hanging at its peak), found by
+without friction, ``severity`` x 30 deg from where it hangs at its peak), found by
 simulating the closed-form model of the robot's description.
 :class:`KnockClock` draws a run's knocks from its seed, in the run's time,
 and hands each phase of the run the knocks that fall in it.
@@ -18,8 +18,9 @@ import numpy as np
 
 from ...params import PlantParams
 from ...params.follow import robot_scales
-from ...params.knocks import DURATION_SHARE, GAP_SPREAD, SEVERITY_SWING_DEG, Knocks
-from ...systems.plant import forward_dynamics
+from ...params.knocks import (DURATION_SHARE, GAP_SPREAD, SEVERITY_SWING_DEG,
+                              SWING_KNOCK_WINDOW, Knocks)
+from ...systems.plant import forward_dynamics, gravity_vector
 
 #: the joints of a knock by name: index 0 the holding gripper's, 1 the elbow
 JOINT_INDEX = {"hold": 0, "elbow": 1}
@@ -35,10 +36,22 @@ def knock_duration(plant: PlantParams) -> float:
 WATCH = 3.0 * math.pi
 
 
+def hanging_rest(plant: PlantParams) -> np.ndarray:
+    """The joint angles (rad) at which ``plant`` hangs at rest from gripper
+    1 (0, 0 unless a centre of mass lies off its link's axis)."""
+    from scipy.optimize import fsolve
+
+    q, _, ok, msg = fsolve(lambda q: gravity_vector(q, plant), np.zeros(2), full_output=True,
+                           xtol=1e-12)
+    if ok != 1:
+        raise ValueError(f"no pose at which the robot hangs at rest: {msg}")
+    return np.asarray(q, dtype=float)
+
+
 def free_link_peak(plant: PlantParams, torque: float, joint: int) -> float:
-    """The free link's largest angle from hanging (rad) after a pulse of
-    ``torque`` N m on ``joint`` (0, 1) for :func:`knock_duration` on the
-    robot hanging at rest, motor off, without friction, within
+    """The free link's largest angle (rad) from where it hangs after a
+    pulse of ``torque`` N m on ``joint`` (0, 1) for :func:`knock_duration`
+    on the robot hanging at rest, motor off, without friction, within
     :data:`WATCH` of its time unit (longer than the slowest period of a
     two-link pendulum, ``2 pi sqrt(L/g)``)."""
     from scipy.integrate import solve_ivp
@@ -53,13 +66,14 @@ def free_link_peak(plant: PlantParams, torque: float, joint: int) -> float:
         qdd = forward_dynamics(x[:2], x[2:], tau[1], -np.array([tau[0], 0.0]), plant)
         return np.r_[x[2:], qdd]
 
-    x0 = np.zeros(4)
+    q0 = hanging_rest(plant)
+    x0 = np.r_[q0, 0.0, 0.0]
     pulse = solve_ivp(rhs, (0.0, d), x0, rtol=1e-9, atol=1e-12, max_step=d / 20)
     after = solve_ivp(rhs, (d, d + WATCH * t_unit), pulse.y[:, -1], rtol=1e-8,
                       atol=1e-10, dense_output=True)
     t = np.linspace(d, d + WATCH * t_unit, 2000)
     after.y = after.sol(t)
-    theta2 = np.r_[pulse.y[0] + pulse.y[1], after.y[0] + after.y[1]]
+    theta2 = np.r_[pulse.y[0] + pulse.y[1], after.y[0] + after.y[1]] - (q0[0] + q0[1])
     return float(np.max(np.abs(theta2)))
 
 
@@ -153,3 +167,16 @@ def pulses_from(knocks: list[Knock], t0: float):
     time of a simulation that starts at the run's ``t0`` (on whichever
     gripper holds: a knock's direction is drawn)."""
     return [(k.t - t0, k.torque, k.duration) for k in knocks]
+
+
+def swing_knock(plant: PlantParams, severity: float, seed: int):
+    """The one knock of a benchmark's knocked swing, as pulses
+    (:func:`pulses_from`): at a time drawn uniformly within
+    ``SWING_KNOCK_WINDOW`` sqrt(L/g) of the start, on one joint drawn, its
+    direction drawn, from ``numpy.random.default_rng([seed, 7, 1])``."""
+    rng = np.random.default_rng([int(seed), 7, 1])
+    t = float(rng.uniform(0.0, SWING_KNOCK_WINDOW * robot_scales(plant)[0]))
+    joint = int(rng.integers(2))
+    torque = [0.0, 0.0]
+    torque[joint] = float(rng.choice((-1.0, 1.0)) * knock_torque(plant, severity, joint))
+    return [(t, (torque[0], torque[1]), knock_duration(plant))]

@@ -14,7 +14,12 @@ thing at a time is made worse, in categories
 * ``link-2 parameters``: m2, I2 or lc2 of the real robot off by 10-20 %;
 * ``IMU bias and misalignment``: gyro biases of 0.03 rad/s, accelerometers
   mounted 2.5 deg off;
-* ``grip spacing``: the grippers 1.1-1.3 m apart.
+* ``grip spacing``: the grippers 1.1-1.3 m apart;
+* ``knockdown``: one knock of severity 0.5-2 (a knock of severity 1 alone
+  would swing the free link 30 deg from rest, motor off) at a random
+  moment of the swing's first 2.5 sqrt(L/g), on a joint drawn
+  (:func:`~bplir_drake.analysis.model.knock.swing_knock`); whole traversals
+  knocked at random are ``bplir traverse --knocks``.
 
 Each category scores the fraction of successful swings over its cases (and
 ``repeats`` noise seeds per case); the overall score is the mean of the
@@ -33,6 +38,7 @@ from .executors import map_jobs
 from .study_plots import quantity_label
 from .sampling import apply_values, base_value, error_text, pinned
 from ..swing.swing_runner import run_swing
+from ..model.knock import swing_knock
 from ...io import DictResult, Record, atomic_path
 from ...plotting import figure_axes, finish
 
@@ -79,11 +85,14 @@ def cases(quick: bool = False) -> list[dict]:
         add("IMU bias and misalignment", label, **{k: ("set", v) for k, v in values.items()})
     for v in ((1.1, 1.3) if quick else (1.1, 1.15, 1.25, 1.3)):
         add("grip spacing", f"{v:g} m", **{"scenario.grip_spacing": ("set", v)})
+    for v in ((1.0, 2.0) if quick else (0.5, 1.0, 1.5, 2.0)):
+        out.append({"category": "knockdown", "label": f"severity {v:g}", "changes": {},
+                    "knock": v})
     return out
 
 
 CATEGORIES = ("model parameters", "sensor noise", "torque noise", "delay", "gusts", "incline",
-              "link-2 parameters", "IMU bias and misalignment", "grip spacing")
+              "link-2 parameters", "IMU bias and misalignment", "grip spacing", "knockdown")
 
 
 def case_params(params: BplirParams, controller: str, changes: dict,
@@ -114,7 +123,9 @@ def _run_case(params: BplirParams, job: dict) -> BenchmarkRow:
                                             "seed")})
     try:
         p = case_params(params, job["controller"], job["changes"], job["controller_args"])
-        s = run_swing(p, seed=job["seed"]).summary
+        pulses = (swing_knock(p.plant, job["knock"], job["seed"]) if job.get("knock")
+                  else None)
+        s = run_swing(p, seed=job["seed"], pulses=pulses).summary
         row |= {"outcome": s.outcome, "success": bool(s.success),
                 "capture_speed_mps": s.capture_speed_mps, "swing_time_s": s.swing_time_s,
                 "peak_torque_Nm": s.peak_torque_Nm, "peak_motor_power_W": s.peak_motor_power_W,

@@ -208,7 +208,7 @@ class SwingRunner:
 
 def run_swing(params: BplirParams, *, seed: int | None = None, use_estimator: bool | None = None,
               accuracy: float = SWING_ACCURACY, integrator: str = SWING_INTEGRATOR,
-              driver_state=None, live=None) -> SwingResult:
+              driver_state=None, live=None, pulses=None) -> SwingResult:
     """One swing of ``params`` on a freshly built diagram, until the
     interlock decides (or the timeout).
 
@@ -221,12 +221,14 @@ def run_swing(params: BplirParams, *, seed: int | None = None, use_estimator: bo
     whether it tripped).  ``driver_state = (h A^2 s, tripped)`` starts the
     driver's i^2 t interlock there (work carried over; default fresh).
     ``live``: a :class:`~bplir_drake.analysis.live.LiveView` that shows the
-    swing in Meshcat as it is simulated, at real time.  Many swings:
+    swing in Meshcat as it is simulated, at real time.  ``pulses``: torque
+    pulses on the joints (knocks, :meth:`SwingRunner.run`).  Many swings:
     :class:`SwingRunner`."""
     runner = SwingRunner()
     try:
         return runner.run(params, seed=seed, use_estimator=use_estimator, accuracy=accuracy,
-                          integrator=integrator, driver_state=driver_state, live=live)
+                          integrator=integrator, driver_state=driver_state, live=live,
+                          pulses=pulses)
     finally:
         runner.release()
 

@@ -85,6 +85,21 @@ def traverse_row(item: dict) -> list[str]:
             num(_p(s, "peak_voltage_V", "max"), "{:.1f}"), misses(s)]
 
 
+def knockdown_row(item: dict) -> list[str]:
+    """A knocked traversal study: its uptime, runs without a fall and why the
+    others fell, the knocks it met by phase."""
+    s = item["summary"]
+    kd = s["knockdown"]
+    lo, hi = kd["no_fall_ci95"]
+    falls = ", ".join(f"{k} {v}" for k, v in sorted(kd["falls_by_cause"].items())) or "none"
+    met = ", ".join(f"{k} {v}" for k, v in kd["knocks_by_phase"].items() if v) or "none"
+    return [item["label"], f"{kd['knocks']['rate']:g} / min, {kd['knocks']['severity']:g}",
+            str(s["seed"]), item["role"], f"{kd['mean_uptime']:.3f}",
+            f"{kd['no_fall']} / {kd['runs']}", f"{100 * lo:.1f} % - {100 * hi:.1f} %", falls,
+            str(kd["interlock_falls"]), f"{kd['knocks_met']} ({met})",
+            num(_p(s["traverse"], "speed_m_per_min", "p50"), "{:.1f}")]
+
+
 def benchmark_rows(item: dict) -> list[list[str]]:
     """One row per controller of a stored benchmark: overall and per category."""
     from bplir_drake.params import plugin_name
@@ -156,6 +171,9 @@ HEADERS = {
               "on the envelope p95 (s)", "misses"],
     "traverse": ["line", "root seed", "seeds", "passed", "Wilson 95 %", "supply",
                  "peak voltage max (V)", "misses"],
+    "knockdown": ["robot, line", "knocks, severity", "root seed", "seeds", "mean uptime",
+                  "no fall", "Wilson 95 %", "falls", "the interlock's falls",
+                  "knocks met (in the simulation, by phase)", "m/min p50"],
     "commission": ["robot, holding with", "line", "root seed", "plans (both grippers)",
                    "wall time (s)", "captured", "Wilson 95 %", "capture speed p50 / p95 (m/s)",
                    "verdict"],
@@ -195,6 +213,8 @@ def page(items: list[dict]) -> str:
         elif kind == "commission":
             rows = [r for i in members for r in commission_rows(i)]
             out += table(HEADERS[kind], rows) + [""]
+        elif kind == "knockdown":
+            out += table(HEADERS[kind], [knockdown_row(i) for i in members]) + [""]
         elif kind == "accuracy":
             rows = [r for i in members for r in accuracy_rows(i)]
             out += table(HEADERS[kind], rows) + [""]

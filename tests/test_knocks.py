@@ -320,3 +320,29 @@ def test_the_benchmarks_knockdown_knocks_each_swing_once_within_it(tmp_path):
     plan_rows = [r for r in res["rows"] if r.controller == "plan"]
     assert all(swing_knock(p.plant, 1.0 + k, r.seed)[0][0] < r.swing_time_s
                for k, r in enumerate(plan_rows))
+
+
+def test_the_knockdown_curve_orders_its_points_and_draws_them_with_their_intervals(tmp_path):
+    """Three knocked studies of one robot given out of order make a curve
+    by severity; the figure (Agg, PNG) has the uptime and the no-fall
+    share with Wilson bars on two axes; an unknocked study is refused."""
+    from bplir_drake.analysis.montecarlo.knockdown import knockdown_curve, plot_knockdown
+    from bplir_drake.analysis.montecarlo.statistics import wilson_interval
+    from bplir_drake.plotting import save_figure
+
+    def summary(sev, clean, up):
+        return {"seed": 601, "knockdown": {
+            "knocks": {"rate": 15.0, "severity": sev, "joints": "either"}, "runs": 100,
+            "mean_uptime": up, "no_fall": clean, "no_fall_rate": clean / 100,
+            "no_fall_ci95": list(wilson_interval(clean, 100)), "falls_by_cause": {},
+            "interlock_falls": 0}}
+    curve = knockdown_curve([summary(2.0, 80, 0.9), summary(0.5, 100, 1.0), summary(1.0, 97, 0.99)])
+    assert [p["severity"] for p in curve] == [0.5, 1.0, 2.0]
+    assert curve[1]["no_fall_ci95"][0] == pytest.approx(0.9155, abs=2e-4)
+    fig = plot_knockdown({"default robot": curve, "AcroMonk": curve[:2]}, standard=1.0)
+    up, fall = fig.axes[:2]
+    assert len(up.lines) == 3 and up.get_ylim()[0] == 0.0   # two curves and the standard
+    assert fall.containers and "runs without a fall" in fall.get_ylabel()
+    assert save_figure(fig, tmp_path / "k.png").stat().st_size > 20_000
+    with pytest.raises(ValueError, match="not knocked"):
+        knockdown_curve([{"seed": 1}])

@@ -169,7 +169,7 @@ def _fallen(outcome: str, rear: float, fixed_open=False):
     line = SimpleNamespace(length=30.0, start=1.2)
     params = SimpleNamespace(traverse=SimpleNamespace(grip_spacing=1.2),
                              gripper=SimpleNamespace(width=0.08))
-    return SimpleNamespace(knocks=SimpleNamespace(rows=[{"phase": "swing"}, {"phase": "ride"}]),
+    return SimpleNamespace(knocks=SimpleNamespace(rows=[{"phase": "swing"}, {"phase": "ride"}]), rows=[],
                            outcome=outcome, params=params, line=line, rear=rear,
                            fixed_open=fixed_open)
 
@@ -346,3 +346,15 @@ def test_the_knockdown_curve_orders_its_points_and_draws_them_with_their_interva
     assert save_figure(fig, tmp_path / "k.png").stat().st_size > 20_000
     with pytest.raises(ValueError, match="not knocked"):
         knockdown_curve([{"seed": 1}])
+
+
+def test_a_fall_after_a_swing_that_could_not_be_damped_says_so():
+    """The cause of a fall whose last row is a recovery that did not come
+    to rest is that, not the timed-out swing before it."""
+    from bplir_drake.io import Record
+    tr = _fallen("swing timeout", 3.0)
+    tr.rows = [Record({"kind": "swing", "outcome": "timeout"}),
+               Record({"kind": "recover", "outcome": "not damped"})]
+    assert knock_totals(tr)["fall_cause"] == "not damped"
+    tr.rows = tr.rows[:1]
+    assert knock_totals(tr)["fall_cause"] == "swing timeout"

@@ -15,6 +15,7 @@ from ..traverse.traverse_result import OUTCOMES as TRAVERSE_OUTCOMES
 from .sampling import draw_values, sample_seed
 from .store import _parse, check_header
 from .study import KNOCK_FIELDS, Study, StudyRow
+from ..traverse.knocked import RECOVERY_ENDS
 
 #: the outcomes a swing sample and a traversal sample can end with, and the
 #: one each calls a success
@@ -68,7 +69,7 @@ def row_damage(study: Study, header: list[str], cells: list[str]) -> str | None:
         problem = _drawn(row[name], drawn.get(name))
         if problem:
             return f"its {name} {problem}"
-    if "fall_cause" in row and row["fall_cause"] not in allowed | {""}:
+    if "fall_cause" in row and row["fall_cause"] not in allowed | {""} | set(RECOVERY_ENDS):
         return f"its fall_cause {row['fall_cause'][:40]!r} is not an outcome a traversal has"
     for name in study.result_fields:
         if name in FLAGS or name in ("outcome", "fall_cause"):

@@ -13,8 +13,9 @@ robot damps again.
 
 :func:`knock_totals` scores a traversal: a **fall** is any end before the
 line's end (the retry budget spent, a crash, the driver tripped, a landing
-on an obstacle, or a gripper opened while the other did not hold -- the
-interlock's fault, counted apart); the **uptime** is the share of the run's
+on an obstacle, a swing that could not be damped, no plan from hanging, or
+a gripper opened while the other did not hold -- the interlock's fault,
+counted apart); the **uptime** is the share of the run's
 time the robot was on the line and making progress.  Riding, swinging,
 resting, calibrating and recovering within the retry budget are up; after
 a fall the robot is down for the time the rest of the line would have
@@ -34,6 +35,9 @@ CATCH_SHARE = 0.5
 #: the phases a knock can meet
 PHASES = ("ride", "adjust", "rest", "calibrate", "swing", "pump", "catch", "retry", "damp",
           "hanging")
+
+#: the recovery's ends that end a traversal (a fall's cause)
+RECOVERY_ENDS = ("not damped", "no plan from hanging")
 
 #: what became of a knock where both grippers hold
 ABSORBED = "absorbed (both grippers hold)"
@@ -97,12 +101,21 @@ def knock_totals(tr) -> dict:
     tp = tr.params.traverse
     whole = tr.line.length - tr.params.gripper.width / 2 - tr.line.start
     dist = max(tr.rear - (tr.line.start - tp.grip_spacing), 0.0)
-    out = {"knocks": len(rows), "fall": not passed, "fall_cause": "" if passed else tr.outcome,
+    out = {"knocks": len(rows), "fall": not passed, "fall_cause": "" if passed else _cause(tr),
            "interlock_fall": bool(tr.fixed_open),
            "uptime": 1.0 if passed else min(max(dist / whole, 0.0), 1.0) if whole > 0 else 0.0}
     for phase in PHASES:
         out[f"knocks_{phase}"] = sum(1 for r in rows if r["phase"] == phase)
     return out
+
+
+def _cause(tr) -> str:
+    """Why a traversal fell: its outcome, or what ended the recovery after
+    its last swing (the swing could not be damped, no plan from hanging)."""
+    last = tr.rows[-1] if tr.rows else None
+    if last is not None and last.kind == "recover" and last.outcome in RECOVERY_ENDS:
+        return last.outcome
+    return tr.outcome
 
 
 def knocks_or_none(knocks: Knocks | None) -> Knocks | None:

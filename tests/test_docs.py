@@ -139,7 +139,7 @@ def test_every_stored_output_can_be_run_again_beside_itself(tmp_path):
     rr = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(rr)
     items = rr.entries()
-    assert len(items) == 48
+    assert len(items) == 61
     for k, item in enumerate(items):
         target, stage, kept = rr.out_dir(item), tmp_path / f"s{k}", tmp_path / f"k{k}"
         command = rr.staged(item, stage, kept)

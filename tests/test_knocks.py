@@ -358,3 +358,27 @@ def test_a_fall_after_a_swing_that_could_not_be_damped_says_so():
     assert knock_totals(tr)["fall_cause"] == "not damped"
     tr.rows = tr.rows[:1]
     assert knock_totals(tr)["fall_cause"] == "swing timeout"
+
+
+def test_a_knocked_traversal_study_keeps_its_knocks_and_resumes(tmp_path, capsys):
+    """``bplir montecarlo --traverse LINE --knocks 30:1``: its study keeps the
+    knocks (a resume with other knocks is refused), its rows the uptime and
+    falls, its summary the knockdown score; three more samples resume."""
+    import json
+
+    line = tmp_path / "line.toml"
+    line.write_text('length = 4.2\nstart = 1.2\n[[obstacles]]\nname = "clamp"\n'
+                    'position = 2.6\nwidth = 0.1\n')
+    out = tmp_path / "kd"
+    args = ["montecarlo", "--traverse", str(line), "-n", "2", "--seed", "5", "--knocks", "30:1",
+            "--workers", "1", "--no-plots", "--out", str(out), "--json"]
+    assert main(args) == 0
+    s = json.loads(capsys.readouterr().out)
+    kd = s["knockdown"]
+    assert kd["knocks"] == {"rate": 30.0, "severity": 1.0, "joints": "either"} and kd["runs"] == 2
+    assert kd["knocks_met"] >= 2 and 0.0 <= kd["mean_uptime"] <= 1.0
+    assert "uptime" in (out / "results.csv").read_text().splitlines()[0]
+    assert main(args[:3] + ["-n", "3"] + args[5:]) == 0
+    assert json.loads(capsys.readouterr().out)["run"]["resumed_from"] == 2
+    assert main(args[:8] + ["30:2"] + args[9:]) == 2
+    assert "different study" in capsys.readouterr().err

@@ -89,6 +89,7 @@ def test_knocks_come_about_sixty_over_rate_seconds_apart_from_the_seed():
     knocks = clock.take(2000 * 3.75)
     gaps = np.diff([0.0] + [k.t for k in knocks])
     assert gaps.min() >= 3.75 - 1.0 - 1e-9 and gaps.max() <= 3.75 + 1.0 + 1e-9
+    assert gaps.min() < 2.8 and gaps.max() > 4.7   # the whole spread is used
     assert gaps.mean() == pytest.approx(3.75, rel=0.02)
     assert clock.take(2000 * 3.75) == []
     again = KnockClock(Knocks(rate=16.0), p, seed=3).take(50.0)
@@ -163,6 +164,11 @@ def test_the_knock_log_names_the_phase_a_knock_meets():
     assert log.first(0.0, 100.0) == k
     log.met(k.t - 0.5, 0.5 + catch + 0.01, "pump", "timeout", arrived=False)
     assert log.rows[-1]["phase"] == "pump"
+    t_unit = math.sqrt((p.l1 + p.l2) / p.g)   # the catch is the last 0.5 sqrt(L/g)
+    for before, phase in ((0.45, "catch"), (0.55, "retry")):
+        k = log.first(0.0, 1000.0)
+        log.met(k.t - 1.0, 1.0 + before * t_unit, "retry", "captured", arrived=True)
+        assert log.rows[-1]["phase"] == phase
 
 
 def _fallen(outcome: str, rear: float, fixed_open=False):

@@ -260,7 +260,7 @@ def test_knocks_at_every_phase_never_open_a_gripper_the_other_does_not_cover(tmp
                                                                             monkeypatch):
     """The default robot at 30 V pumping with gripper 2 as commissioned (the
     stored commission's pump library), on a 5 m line with one spacer,
-    knocked 20 times a minute at severity 2: over root seeds 0 and 1 the
+    knocked 20 times a minute at severity 2: over root seeds 13 and 14 the
     knocks meet it riding, setting the spacing, calibrating, swinging,
     pumping, catching, damping, hanging at rest and trying again from
     hanging.  At every moment of both runs a gripper holds the line (each
@@ -282,7 +282,7 @@ def test_knocks_at_every_phase_never_open_a_gripper_the_other_does_not_cover(tmp
     base = preset()
     p = base.with_(scenario=dc.replace(base.scenario, manoeuvre="swing,pump"))
     met = set()
-    for seed in (0, 1):
+    for seed in (13, 14):
         r = run_traverse(line, p, seed=seed, knocks=Knocks(rate=20.0, severity=2.0))
         t = r.totals
         assert not t["interlock_fall"] and t["outcome"] == "passed"

@@ -183,12 +183,12 @@ def _fallen(outcome: str, rear: float, fixed_open=False):
 def test_uptime_is_one_for_a_crossing_and_the_share_of_the_line_after_a_fall():
     """A fallen run is down for the time the rest of the line would have
     taken at its pace: its uptime is the share of the 28.76 m it crossed."""
-    t = knock_totals(_fallen("passed", 28.76))
+    t = knock_totals(_fallen("passed", 28.76), 28.76)
     assert t["uptime"] == 1.0 and not t["fall"] and t["knocks"] == 2 and t["knocks_swing"] == 1
-    t = knock_totals(_fallen("swing timeout", 8.39))   # rear gripper 8.39 m on from its start (0 m)
+    t = knock_totals(_fallen("swing timeout", 8.39), 8.39)   # the rear gripper 8.39 m on
     assert t["fall"] and t["fall_cause"] == "swing timeout"
     assert t["uptime"] == pytest.approx(8.39 / 28.76)
-    assert knock_totals(_fallen("swing crash", 0.0, fixed_open=True))["interlock_fall"]
+    assert knock_totals(_fallen("swing crash", 0.0, fixed_open=True), 0.0)["interlock_fall"]
 
 
 def test_the_knockdown_summary_gives_the_wilson_interval_on_no_fall():
@@ -361,9 +361,9 @@ def test_a_fall_after_a_swing_that_could_not_be_damped_says_so():
     tr = _fallen("swing timeout", 3.0)
     tr.rows = [Record({"kind": "swing", "outcome": "timeout"}),
                Record({"kind": "recover", "outcome": "not damped"})]
-    assert knock_totals(tr)["fall_cause"] == "not damped"
+    assert knock_totals(tr, 3.0)["fall_cause"] == "not damped"
     tr.rows = tr.rows[:1]
-    assert knock_totals(tr)["fall_cause"] == "swing timeout"
+    assert knock_totals(tr, 3.0)["fall_cause"] == "swing timeout"
 
 
 def test_a_knocked_traversal_study_keeps_its_knocks_and_resumes(tmp_path, capsys):

@@ -186,13 +186,10 @@ def add_imus(builder, plant, params: BplirParams, seed: int):
 
 
 def pulse_source(builder, knock):
-    """Generalized-force pulse on joint 1: ``knock = (t_start, duration, torque)``."""
-    from pydrake.trajectories import PiecewisePolynomial
-
+    """Generalized-force pulse on joint 1: ``knock = (t_start, duration, torque)``
+    (:func:`pulses_source` of that one pulse)."""
     t0, dur, tq = knock
-    times = np.array([0.0, t0, t0 + dur, t0 + dur + 1.0])
-    vals = np.array([[0.0, tq, 0.0, 0.0], [0.0, 0.0, 0.0, 0.0]])
-    return builder.AddSystem(TrajectorySource(PiecewisePolynomial.ZeroOrderHold(times, vals)))
+    return pulses_source(builder, [(t0, (tq, 0.0), dur)])
 
 
 def pulses_source(builder, pulses):

@@ -32,7 +32,8 @@ def knock_duration(plant: PlantParams) -> float:
 
 
 #: how long the free link is watched after a knock, in the robot's time
-#: unit: one and a half of a two-link pendulum's slowest period at most
+#: unit: at least one and a half of a two-link pendulum's slowest period
+#: (which is at most 2 pi sqrt(L/g))
 WATCH = 3.0 * math.pi
 
 
@@ -71,9 +72,8 @@ def free_link_peak(plant: PlantParams, torque: float, joint: int) -> float:
     pulse = solve_ivp(rhs, (0.0, d), x0, rtol=1e-9, atol=1e-12, max_step=d / 20)
     after = solve_ivp(rhs, (d, d + WATCH * t_unit), pulse.y[:, -1], rtol=1e-8,
                       atol=1e-10, dense_output=True)
-    t = np.linspace(d, d + WATCH * t_unit, 2000)
-    after.y = after.sol(t)
-    theta2 = np.r_[pulse.y[0] + pulse.y[1], after.y[0] + after.y[1]] - (q0[0] + q0[1])
+    later = after.sol(np.linspace(d, d + WATCH * t_unit, 2000))
+    theta2 = np.r_[pulse.y[0] + pulse.y[1], later[0] + later[1]] - (q0[0] + q0[1])
     return float(np.max(np.abs(theta2)))
 
 
@@ -88,9 +88,8 @@ def knock_torque(plant: PlantParams, severity: float, joint: int) -> float:
     if severity <= 0:
         return 0.0
     goal = math.radians(severity * SEVERITY_SWING_DEG)
-    # a first guess from the impulse's velocity on the linear model
-    t_unit, torque_unit = robot_scales(plant)
-    hi = 0.05 * torque_unit
+    torque_unit = robot_scales(plant)[1]
+    hi = 0.05 * torque_unit   # doubled until it swings the free link that far
     while free_link_peak(plant, hi, joint) < goal:
         hi *= 2.0
         if hi > 1e3 * torque_unit:

@@ -5,8 +5,8 @@
 keeps a row per knock: its time, the phase it met and what became of it.
 Where both grippers hold the line (riding, setting the spacing, resting,
 the IMUs' standstill on the line) the robot and the line are one rigid
-chain in the model and the knock is absorbed, except that the standstill
-calibration it disturbs starts again.  In a swing, a pump, a catch or a try
+chain in the model and the knock is absorbed (the IMUs' standstill average
+sees the links return to the same pose).  In a swing, a pump, a catch or a try
 again from hanging the knock is a torque pulse in the simulation; while the
 robot damps its swing or hangs at rest before a try it is one too, and the
 robot damps again.
@@ -93,14 +93,13 @@ class KnockLog:
             self._log(k, here, outcome)
 
 
-def knock_totals(tr) -> dict:
+def knock_totals(tr, dist: float) -> dict:
     """The knock columns of a traversal's totals: knocks met and by phase,
-    whether it fell and why, falls the interlock caused, the uptime."""
+    whether it fell and why, falls the interlock caused, the uptime
+    (``dist``: the distance it crossed, m)."""
     rows = tr.knocks.rows if tr.knocks is not None else []
     passed = tr.outcome == "passed"
-    tp = tr.params.traverse
     whole = tr.line.length - tr.params.gripper.width / 2 - tr.line.start
-    dist = max(tr.rear - (tr.line.start - tp.grip_spacing), 0.0)
     out = {"knocks": len(rows), "fall": not passed, "fall_cause": "" if passed else _cause(tr),
            "interlock_fall": bool(tr.fixed_open),
            "uptime": 1.0 if passed else min(max(dist / whole, 0.0), 1.0) if whole > 0 else 0.0}

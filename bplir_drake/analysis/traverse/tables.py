@@ -150,4 +150,4 @@ def traverse_totals(tr) -> TraverseTotals:
                                         if not math.isnan(r.capture_impulse_Ns)] + [0.0]),
         "peak_i2t_A2s": peak_i2t, "i2t_budget_A2s": interlock_budget(tr.params.motor),
         "seed": tr.seed,
-    } | (knock_totals(tr) if getattr(tr, "knocks", None) is not None else {}))
+    } | (knock_totals(tr, dist) if getattr(tr, "knocks", None) is not None else {}))
